@@ -1,0 +1,1 @@
+"""Command-line front end of sizefx (installed as ``sizefx_cli``)."""

@@ -1,0 +1,42 @@
+"""The ``sizefx`` command: a click group, one module per verb."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx import __version__
+from sizefx.errors import SizefxError
+
+
+class SizefxGroup(click.Group):
+    """Turns every user-facing error into one line on stderr and exit code 2 (no traceback)."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except SizefxError as exc:
+            message = " ".join(str(exc).split())
+            click.echo(f"sizefx: error: {message}", err=True)
+            ctx.exit(exc.exit_code)
+
+
+@click.group(cls=SizefxGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="sizefx")
+def main():
+    """sizefx: the accelerometer size effect in strapdown INS telemetry.
+
+    \b
+    Conventions: SI units and radians inside; body frame x forward, y right,
+    z down; navigation frame NED; quaternions scalar-first (Hamilton),
+    rotating body vectors into NED. Files follow the sizefx/telemetry/1
+    contract (see data-schemas/). Bad input exits with code 2 and one line.
+    """
+
+
+from . import demo as _demo  # noqa: E402  (commands register themselves on `main`)
+from . import inspect as _inspect  # noqa: E402,F401
+from . import simulate as _simulate  # noqa: E402,F401
+
+main.add_command(_demo.demo)
+main.add_command(_inspect.inspect)
+main.add_command(_simulate.simulate)

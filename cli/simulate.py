@@ -1,0 +1,141 @@
+"""``sizefx simulate turntable | sway | flight``."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx import scenarios
+from sizefx.effects import effects_template
+from sizefx.simulate import run
+
+from .options import Progress, force_option, parse_overrides, parse_vector, quiet_option
+
+
+def common_options(f):
+    """Options every scenario shares (applied bottom-up, shown top-down)."""
+    opts = [
+        click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+                     help="Telemetry file to write (HDF5, sizefx/telemetry/1)."),
+        click.option("--rate-hz", default=1600.0, show_default=True, type=click.FloatRange(min=1.0),
+                     help="IMU sample rate [Hz]."),
+        click.option("--form", type=click.Choice(["rates", "increments"]), default="rates", show_default=True,
+                     help="Output rates (gyro [rad/s], accel [m/s^2]) or increments (dtheta [rad], dvel [m/s])."),
+        click.option("--seed", default=0, show_default=True, type=int, help="Seed of every noise stream."),
+        click.option("--effects", "effects_path", type=click.Path(exists=True, dir_okay=False),
+                     help="Effect model (TOML, sizefx/effects/1); see 'sizefx simulate --print-effects'."),
+        click.option("--ideal", is_flag=True,
+                     help="Start from a point IMU with perfect, noiseless sensors (then --effects, --set)."),
+        click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
+                     help="Override one effect parameter, e.g. --set accel_delay.enabled=true "
+                          "--set accel_delay.tau_s=0.0005 (repeatable; units as in the key name)."),
+        click.option("--geometry", type=click.Choice(["high-precision", "compact", "none"]),
+                     help="Accelerometer arms d_i: a preset of the paper [default: from the effects, high-precision]."),
+        click.option("--offset-mm", metavar="X,Y,Z",
+                     help="Offset r from the rotation centre to the triad point, body axes [mm] "
+                          "(sets lever_arm.r_vehicle_m)."),
+        click.option("--reference-rate-hz", type=float,
+                     help="Rate of /reference [Hz]; must divide the IMU rate [default: IMU rate; flight 100]."),
+        click.option("--latitude-deg", default=scenarios.PAPER_AIRFIELD.latitude_deg, show_default=True,
+                     type=click.FloatRange(-89.9, 89.9), help="Site or start latitude [deg]."),
+        click.option("--longitude-deg", default=scenarios.PAPER_AIRFIELD.longitude_deg, show_default=True,
+                     type=click.FloatRange(-180.0, 360.0), help="Site or start longitude [deg]."),
+        click.option("--height-m", default=scenarios.PAPER_AIRFIELD.height_m, show_default=True, type=float,
+                     help="Site or start height above the WGS-84 ellipsoid [m]."),
+        force_option,
+        quiet_option,
+    ]
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
+def _run(scenario, plan, output, rate_hz, form, seed, effects_path, ideal, overrides, geometry, offset_mm,
+         reference_rate_hz, latitude_deg, longitude_deg, height_m, force, quiet):
+    sets = parse_overrides(overrides)
+    if geometry:
+        sets.setdefault("lever_arm", {})["preset"] = geometry
+        sets["lever_arm"].setdefault("enabled", True)
+    if offset_mm:
+        sets.setdefault("lever_arm", {})["r_vehicle_m"] = [v / 1000.0 for v in parse_vector(offset_mm, "--offset-mm")]
+        sets["lever_arm"].setdefault("enabled", True)
+    site = scenarios.SiteSpec(latitude_deg, longitude_deg, height_m)
+    summary = run(scenario, output, plan=plan, site=site, effects_path=effects_path, overrides=sets, ideal=ideal,
+                  rate_hz=rate_hz, form=form, seed=seed, reference_rate_hz=reference_rate_hz, force=force,
+                  progress=Progress(f"simulate {scenario}", quiet))
+    click.echo(f"wrote {summary['path']}: {summary['samples']} samples ({summary['duration_s']:.1f} s at "
+               f"{summary['rate_hz']:g} Hz, {summary['form']}), {summary['file_bytes'] / 2**20:.1f} MiB "
+               f"in {summary['wall_s']:.1f} s")
+
+
+@click.group(invoke_without_command=True)
+@click.option("--print-effects", is_flag=True, help="Print the full effect model (TOML, all defaults) and exit.")
+@click.pass_context
+def simulate(ctx, print_effects):
+    """Write telemetry with known truth and hidden effects (turntable, sway or flight).
+
+    Deterministic given --seed. /reference holds the true (for a turntable:
+    the reported) motion; /simulation the true value of every injected
+    effect. Default effects: the paper's high-precision lever arms and
+    navigation-grade noise (gyro ARW 0.00035 deg/sqrt(h)).
+    """
+    if print_effects:
+        click.echo(effects_template())
+        ctx.exit(0)
+    if ctx.invoked_subcommand is None:
+        click.echo(ctx.get_help())
+
+
+@simulate.command()
+@common_options
+@click.option("--axes", default="YXZ", show_default=True, help="Order of the vertical body axes, e.g. YXZ.")
+@click.option("--seconds-per-axis", default=120.0, show_default=True, type=float,
+              help="Duration of the rotations about each axis [s].")
+@click.option("--cycles", default=5, show_default=True, type=click.IntRange(min=1),
+              help="Positive-and-negative rotation cycles per axis.")
+@click.option("--peak-rate-dps", default=20.0, show_default=True, type=float, help="Peak table rate [deg/s].")
+@click.option("--accel-dps2", default=10.0, show_default=True, type=float,
+              help="Angular acceleration of the table [deg/s^2] (jerk-limited).")
+@click.option("--static-s", default=60.0, show_default=True, type=float, help="Static lead-in [s].")
+def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_s, **common):
+    """The paper's turntable calibration plan: rotations about body Y, X, then Z, each vertical.
+
+    Each axis: --cycles positive and negative rotations at --peak-rate-dps with
+    +-accel in --seconds-per-axis; smooth repositioning between axes.
+    """
+    plan = scenarios.TurntablePlan(axes=axes.upper(), static_s=static_s, seconds_per_axis=seconds_per_axis,
+                                   cycles=cycles, peak_rate_dps=peak_rate_dps, accel_dps2=accel_dps2)
+    _run("turntable", plan, **common)
+
+
+@simulate.command()
+@common_options
+@click.option("--axis", type=click.Choice(["heading", "roll", "pitch"]), default="heading", show_default=True,
+              help="Sway axis: heading (about the vertical), roll (body x) or pitch (body y).")
+@click.option("--amplitudes-dps", default="10,20,30", show_default=True,
+              help="Rate amplitude A of each segment [deg/s]; rate = A sin(2 pi f t).")
+@click.option("--frequency-hz", default=1.0, show_default=True, type=float, help="Sway frequency f [Hz].")
+@click.option("--static-s", default=600.0, show_default=True, type=float, help="Static lead-in [s].")
+@click.option("--segment-s", default=600.0, show_default=True, type=float, help="Duration of each amplitude [s].")
+def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
+    """The paper's sway test: static, then harmonic sway at each amplitude in turn."""
+    amps = tuple(float(a) for a in amplitudes_dps.split(","))
+    plan = scenarios.SwayPlan(axis=axis, amplitudes_dps=amps, frequency_hz=frequency_hz, static_s=static_s,
+                              segment_s=segment_s)
+    _run("sway", plan, **common)
+
+
+@simulate.command()
+@common_options
+@click.option("--duration-h", default=1.8, show_default=True, type=click.FloatRange(min=0.05),
+              help="Flight record length [h].")
+@click.option("--align-s", default=600.0, show_default=True, type=float, help="Static alignment before take-off [s].")
+@click.option("--speed-mps", default=40.0, show_default=True, type=float, help="Cruise ground speed [m/s].")
+@click.option("--altitude-m", default=300.0, show_default=True, type=float, help="Cruise height above the start [m].")
+@click.option("--heading-deg", default=45.0, show_default=True, type=float, help="Outbound track [deg].")
+@click.option("--rotor-hz", default=8.0, show_default=True, type=float,
+              help="Main rotor rate [Hz]; vibration at 1, 2 and 4 times it.")
+def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **common):
+    """A helicopter flight from the paper's airfield: align, take off, out, turn, back, land."""
+    plan = scenarios.FlightPlan(duration_s=duration_h * 3600.0, align_s=align_s, speed_mps=speed_mps,
+                                altitude_m=altitude_m, heading_deg=heading_deg, rotor_hz=rotor_hz)
+    _run("flight", plan, **common)

@@ -1,0 +1,38 @@
+"""Physical and numerical constants, each with its source or reason."""
+
+from __future__ import annotations
+
+import math
+
+# WGS-84 (NIMA TR8350.2, 3rd ed., Table 3.1).
+WGS84_A_M = 6378137.0  #: semi-major axis [m]
+WGS84_F = 1.0 / 298.257223563  #: flattening [-]
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)  #: first eccentricity squared [-]
+WGS84_B_M = WGS84_A_M * (1.0 - WGS84_F)  #: semi-minor axis [m]
+WGS84_GM_M3_S2 = 3.986004418e14  #: geocentric gravitational constant [m^3/s^2]
+OMEGA_EARTH_RAD_S = 7.292115e-5  #: Earth rotation rate [rad/s]
+
+# Somigliana normal gravity on the WGS-84 ellipsoid (NIMA TR8350.2 eq. 4-1;
+# Groves 2013, eq. 2.134).
+GAMMA_EQUATOR_MPS2 = 9.7803253359  #: normal gravity at the equator [m/s^2]
+SOMIGLIANA_K = 0.00193185265241  #: Somigliana constant [-]
+
+#: Standard gravity, used only to convert "g" units and ug figures [m/s^2].
+STANDARD_GRAVITY_MPS2 = 9.80665
+
+DEG = math.pi / 180.0  #: one degree [rad]
+ARCSEC = DEG / 3600.0  #: one arc second [rad]
+DEG_PER_H = DEG / 3600.0  #: one degree per hour [rad/s]
+DEG_PER_SQRT_H = DEG / 60.0  #: one deg/sqrt(h) [rad/sqrt(s)], angle random walk
+MICRO_G = 1e-6 * STANDARD_GRAVITY_MPS2  #: one ug [m/s^2]
+PPM = 1e-6  #: one part per million [-]
+
+#: Tolerance on |q| - 1 when reading quaternions from a file. float32 storage
+#: resolves about 6e-8; a recorder that normalises in float32 and rounds on
+#: output stays well inside 1e-5, while a quaternion that was never normalised
+#: (or is in another convention padded with zeros) misses it by far.
+QUATERNION_NORM_TOLERANCE = 1e-5
+
+#: A time step larger than this many nominal sample periods is a gap
+#: (issue 2: "gaps longer than 1.5 sample periods").
+GAP_FACTOR = 1.5

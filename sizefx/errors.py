@@ -1,0 +1,49 @@
+"""Exception classes of sizefx.
+
+Every error a user can cause (a bad file, a bad option, an unobservable
+calibration) is a :class:`SizefxError`. Its message is one line that says what
+was found, where, and how to fix it; the CLI prints it and exits with code 2.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "SizefxError",
+    "TelemetryError",
+    "ConfigError",
+    "OutputError",
+]
+
+
+class SizefxError(Exception):
+    """Base class of all user-facing errors of sizefx."""
+
+    exit_code = 2
+
+
+class TelemetryError(SizefxError):
+    """A telemetry file violates the ``sizefx/telemetry/1`` contract.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    dataset : str
+        The HDF5 object concerned (``"/imu/time"``, ``"/"`` for the root).
+    problem : str
+        What is wrong and, where possible, how to fix it.
+    """
+
+    def __init__(self, path, dataset: str, problem: str):
+        self.path = str(path)
+        self.dataset = dataset
+        self.problem = problem
+        super().__init__(f"{self.path}: {dataset}: {problem}")
+
+
+class ConfigError(SizefxError):
+    """A configuration (effects TOML, option value) is invalid."""
+
+
+class OutputError(SizefxError):
+    """An output cannot be written as asked (exists, is an input, ...)."""

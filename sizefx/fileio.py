@@ -1,0 +1,64 @@
+"""Atomic, non-destructive output files.
+
+Every output of sizefx is written to a temporary file in the destination
+directory and renamed into place only when complete, so a crash or Ctrl-C
+never leaves a half-written file under the final name. An output never
+replaces one of the inputs of the same run, and replaces an existing file
+only when the caller says ``force=True``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+from .errors import OutputError
+
+__all__ = ["atomic_output", "check_output_path"]
+
+
+def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
+    """Refuse an output path that is an input, or that exists without ``force``."""
+    out = Path(path)
+    for inp in inputs:
+        if inp is None:
+            continue
+        inp = Path(inp)
+        same = False
+        if out.exists() and inp.exists():
+            same = os.path.samefile(out, inp)
+        else:
+            same = out.resolve() == inp.resolve()
+        if same:
+            raise OutputError(f"{out}: output would overwrite the input {inp}; choose another output name")
+    if out.exists() and not force:
+        raise OutputError(f"{out}: output exists; pass --force to replace it, or choose another name")
+    if out.exists() and out.is_dir():
+        raise OutputError(f"{out}: output is a directory; give a file name")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"{out}: directory {parent} does not exist; create it first")
+    return out
+
+
+@contextlib.contextmanager
+def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp"):
+    """Yield a temporary path next to ``path``; rename it to ``path`` on success.
+
+    On any exception the temporary file is removed and ``path`` is untouched.
+    """
+    out = check_output_path(path, inputs=inputs, force=force)
+    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=suffix, dir=out.parent if str(out.parent) else ".")
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        with open(tmp_path, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp_path, out)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        raise

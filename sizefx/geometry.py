@@ -1,0 +1,31 @@
+"""Accelerometer geometry presets from Morozov & Bogdanov (2024).
+
+``d_i`` is the arm of accelerometer i from the triad point C (where the
+normals of the sensitive masses meet), body axes, metres, taken from the
+assembly drawings quoted in the paper (section "Analysis of the designs").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import ConfigError
+
+__all__ = ["PRESETS", "preset_arms_m"]
+
+PRESETS = {
+    # High-precision INS: each mass 24.9 mm out along its own axis.
+    "high-precision": np.array([[0.0249, 0.0, 0.0], [0.0, 0.0249, 0.0], [0.0, 0.0, 0.0249]]),
+    # Compact INS: arms with cross components; rows d_x, d_y, d_z.
+    "compact": np.array([[0.0060, 0.0010, 0.0242], [0.0, -0.0172, 0.0], [0.0, 0.0, -0.0212]]),
+    # A point IMU: all masses at the triad point.
+    "none": np.zeros((3, 3)),
+}
+
+
+def preset_arms_m(name: str) -> np.ndarray:
+    """Rows ``d_x, d_y, d_z`` [3, 3] of a named preset (a copy)."""
+    try:
+        return PRESETS[name].copy()
+    except KeyError:
+        raise ConfigError(f"unknown geometry preset '{name}'; use one of {', '.join(PRESETS)}") from None

@@ -1,0 +1,325 @@
+"""The three built-in motions: turntable calibration plan, sway, helicopter flight.
+
+Each builder returns a :class:`~sizefx.motion.Trajectory` of the reference
+point (the table's rotation centre, or the vehicle's navigation point) and a
+dict of the parameters used, which the simulator stores in ``/simulation``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .constants import DEG, STANDARD_GRAVITY_MPS2
+from .errors import ConfigError
+from .motion import (
+    ConstantProfile,
+    FlightPath,
+    ProfileBuilder,
+    RateOf,
+    RotationChain,
+    Scaled,
+    Sinusoids,
+    StaticSite,
+    SumProfile,
+    SwayProfile,
+    Trajectory,
+)
+
+__all__ = ["SiteSpec", "TurntablePlan", "SwayPlan", "FlightPlan", "turntable", "sway", "flight", "PAPER_AIRFIELD"]
+
+E_NORTH = np.array([1.0, 0.0, 0.0])
+E_EAST = np.array([0.0, 1.0, 0.0])
+E_DOWN = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass
+class SiteSpec:
+    """Site or start position in degrees and metres (CLI units)."""
+
+    latitude_deg: float = 57.9825
+    longitude_deg: float = 55.7089
+    height_m: float = 120.0
+
+    def radians(self):
+        return self.latitude_deg * DEG, self.longitude_deg * DEG, self.height_m
+
+
+#: The paper's airfield "Lugovskoe" (start of the flight test). The height is
+#: not given in the paper; 120 m is an assumption (the region's airfields lie
+#: at 100-170 m).
+PAPER_AIRFIELD = SiteSpec()
+
+
+# --------------------------------------------------------------------------- turntable
+
+#: Gimbal angles (middle about north, inner about east), in degrees, that put
+#: body axis X, Y or Z along the table's vertical (down) axis.
+TABLE_ORIENTATIONS_DEG = {"X": (0.0, -90.0), "Y": (90.0, 0.0), "Z": (0.0, 0.0)}
+
+
+@dataclass
+class TurntablePlan:
+    """The paper's calibration plan (Fig. 4, 5): rotations about Y, then X, then Z.
+
+    Each axis in turn is vertical; the outer (azimuth) axis swings it through
+    ``cycles`` positive and negative rotations in ``seconds_per_axis``: dwell,
+    jerk-limited acceleration to ``peak_rate_dps`` at ``accel_dps2``, cruise,
+    deceleration, dwell, then the same negative.
+    """
+
+    axes: str = "YXZ"
+    static_s: float = 60.0
+    seconds_per_axis: float = 120.0
+    cycles: int = 5
+    peak_rate_dps: float = 20.0
+    accel_dps2: float = 10.0
+    ramp_s: float = 0.5  #: duration of each jerk-limited acceleration transition
+    dwell_s: float = 0.5  #: rest at each end of a rotation
+    reposition_s: float = 10.0
+    settle_s: float = 10.0
+
+    def check(self):
+        if not self.axes or any(a not in TABLE_ORIENTATIONS_DEG for a in self.axes):
+            raise ConfigError(f"turntable axes '{self.axes}': use letters X, Y, Z (e.g. YXZ)")
+        half = self.seconds_per_axis / (2 * self.cycles)
+        spin = self.peak_rate_dps / self.accel_dps2 + self.ramp_s
+        cruise = half - 2 * spin - 2 * self.dwell_s
+        if cruise <= 0:
+            raise ConfigError(f"turntable: {self.cycles} cycles in {self.seconds_per_axis} s leave no time at "
+                              f"{self.peak_rate_dps} deg/s; allow more seconds per axis or fewer cycles")
+        return half, cruise
+
+
+def turntable(plan: TurntablePlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:
+    half, cruise = plan.check()
+    peak = plan.peak_rate_dps * DEG
+    acc = plan.accel_dps2 * DEG
+    outer = ProfileBuilder(0.0)
+    mid = ProfileBuilder(0.0)
+    inner = ProfileBuilder(0.0)
+    segments = [("static", 0.0, plan.static_s)]
+    t = plan.static_s
+    for b in (outer, mid, inner):
+        b.hold(plan.static_s)
+    first = TABLE_ORIENTATIONS_DEG[plan.axes[0]]
+    for k, axis in enumerate(plan.axes):
+        start = t
+        for _ in range(plan.cycles):
+            for sign in (1.0, -1.0):
+                outer.hold(plan.dwell_s).change_rate(sign * peak, accel=acc, ramp_s=plan.ramp_s)
+                outer.hold(cruise).change_rate(-sign * peak, accel=acc, ramp_s=plan.ramp_s).hold(plan.dwell_s)
+        t += plan.seconds_per_axis
+        for b in (mid, inner):
+            b.hold(plan.seconds_per_axis)
+        segments.append((f"rotate {axis}", start, t))
+        if k + 1 < len(plan.axes):
+            nxt = TABLE_ORIENTATIONS_DEG[plan.axes[k + 1]]
+            cur = TABLE_ORIENTATIONS_DEG[axis]
+            outer.hold(plan.reposition_s + plan.settle_s)
+            for b, c0, c1 in ((mid, cur[0], nxt[0]), (inner, cur[1], nxt[1])):
+                if c1 != c0:
+                    b.move(plan.reposition_s, (c1 - c0) * DEG)
+                else:
+                    b.hold(plan.reposition_s)
+                b.hold(plan.settle_s)
+            segments.append((f"reposition {axis}->{plan.axes[k + 1]}", t, t + plan.reposition_s))
+            segments.append(("static", t + plan.reposition_s, t + plan.reposition_s + plan.settle_s))
+            t += plan.reposition_s + plan.settle_s
+    for b in (outer, mid, inner):
+        b.hold(plan.settle_s)
+    segments.append(("static", t, t + plan.settle_s))
+    t += plan.settle_s
+    chain = RotationChain(
+        [E_DOWN, E_NORTH, E_EAST],
+        [outer.build(), mid.build(first[0] * DEG), inner.build(first[1] * DEG)],
+    )
+    lat, lon, h = site.radians()
+    traj = Trajectory(StaticSite(lat, lon, h), chain, t, name="turntable", segments=segments)
+    return traj, {"plan": asdict(plan), "site": asdict(site),
+                  "gimbals": "mat_nb = Rz(outer) Rx(middle) Ry(inner) (NED axes)"}
+
+
+# --------------------------------------------------------------------------- sway
+
+
+@dataclass
+class SwayPlan:
+    """The paper's sway test: static, then rate = A sin(2 pi f t) for each amplitude in turn."""
+
+    axis: str = "heading"  #: heading (about down), roll (about body x) or pitch (about body y)
+    amplitudes_dps: tuple = (10.0, 20.0, 30.0)
+    frequency_hz: float = 1.0
+    static_s: float = 600.0
+    segment_s: float = 600.0
+    heading_deg: float = 0.0
+
+    def check(self):
+        if self.axis not in ("heading", "roll", "pitch"):
+            raise ConfigError(f"sway axis '{self.axis}': use heading, roll or pitch")
+        cycles = self.segment_s * self.frequency_hz
+        if abs(cycles - round(cycles)) > 1e-9 or cycles < 1:
+            raise ConfigError(f"sway: {self.segment_s} s at {self.frequency_hz} Hz is not a whole number of "
+                              "periods; choose durations that are")
+
+
+def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:
+    plan.check()
+    n = len(plan.amplitudes_dps)
+    starts = plan.static_s + plan.segment_s * np.arange(n)
+    prof = SwayProfile(starts, [plan.segment_s] * n, np.asarray(plan.amplitudes_dps) * DEG, plan.frequency_hz)
+    heading = ConstantProfile(plan.heading_deg * DEG)
+    pitch = ConstantProfile(0.0)
+    roll = ConstantProfile(0.0)
+    if plan.axis == "heading":
+        heading = SumProfile(heading, prof)
+    elif plan.axis == "pitch":
+        pitch = prof
+    else:
+        roll = prof
+    chain = RotationChain([E_DOWN, E_EAST, E_NORTH], [heading, pitch, roll])  # z-y-x Euler angles
+    duration = plan.static_s + n * plan.segment_s
+    segments = [("static", 0.0, plan.static_s)] + [
+        (f"sway {a:g} deg/s", s, s + plan.segment_s) for a, s in zip(plan.amplitudes_dps, starts)]
+    lat, lon, h = site.radians()
+    traj = Trajectory(StaticSite(lat, lon, h), chain, duration, name="sway", segments=segments)
+    return traj, {"plan": {**asdict(plan), "amplitudes_dps": list(plan.amplitudes_dps)}, "site": asdict(site)}
+
+
+# --------------------------------------------------------------------------- flight
+
+
+@dataclass
+class FlightPlan:
+    """A helicopter-like flight: align, take off, out, turn, back to the start, land.
+
+    Rotor-induced vibration: angular (roll, pitch, yaw) and linear (N, E, D) at
+    the first, second and fourth harmonics of ``rotor_hz``, fading in 120 s
+    before take-off and out after landing.
+    """
+
+    duration_s: float = 1.8 * 3600.0
+    align_s: float = 600.0
+    speed_mps: float = 40.0
+    altitude_m: float = 300.0
+    heading_deg: float = 45.0
+    turn_rate_dps: float = 3.0
+    rotor_hz: float = 8.0
+    vib_rate_dps: tuple = (1.5, 1.0, 0.5)  #: roll, pitch, yaw rate amplitude at 1x rotor; halved at 2x, quartered at 4x
+    vib_accel_mps2: tuple = (0.3, 0.3, 1.0)  #: N, E, D acceleration amplitude at 2x rotor
+    cruise_pitch_deg: float = -3.0  #: nose-down attitude at cruise speed
+    weave_deg: float = 10.0  #: S-turn manoeuvre on the way out (0: none)
+    climb_step_m: float = 150.0  #: climb and descent manoeuvre on the way back (0: none)
+
+
+def _flat_plan(speed, track, t_end, dt=0.5):
+    """Flat-Earth north/east position from speed and track profiles (for planning only)."""
+    t = np.arange(0.0, t_end + dt, dt)
+    v, _, _ = speed.evaluate(t)
+    psi, _, _ = track.evaluate(t)
+    vn, ve = v * np.cos(psi), v * np.sin(psi)
+    n = np.concatenate([[0.0], np.cumsum(0.5 * (vn[1:] + vn[:-1]) * dt)])
+    e = np.concatenate([[0.0], np.cumsum(0.5 * (ve[1:] + ve[:-1]) * dt)])
+    return n[-1], e[-1]
+
+
+def flight(plan: FlightPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:
+    V = plan.speed_mps
+    psi0 = plan.heading_deg * DEG
+    accel_s = 60.0  # speed change 0 <-> V, smootherstep: peak 1.875 V / 60 s
+    climb_s = 120.0
+    t_to = plan.align_s
+    t_cruise = t_to + 20.0 + accel_s  # at speed
+    weave_T = 40.0
+    land_tail = climb_s + 60.0  # descend after stopping, then sit with the rotor running down
+
+    def build(t_out, turn_deg, weave):
+        speed = ProfileBuilder(0.0).hold(t_to + 20.0).move(accel_s, V)
+        track = ProfileBuilder(0.0).hold(t_cruise)
+        t = t_cruise
+        if weave:
+            track.hold(60.0).move(weave_T / 2, plan.weave_deg * DEG)
+            for _ in range(2):
+                track.move(weave_T, -2 * plan.weave_deg * DEG).move(weave_T, 2 * plan.weave_deg * DEG)
+            track.move(weave_T / 2, -plan.weave_deg * DEG)
+            t += 60.0 + 5 * weave_T
+        track.hold(t_out - (t - t_cruise))
+        t = t_cruise + t_out
+        turn_s = 1.875 * turn_deg / plan.turn_rate_dps
+        track.move(turn_s, turn_deg * DEG)
+        t_turn_end = t + turn_s
+        return speed, track, t_turn_end
+
+    weave = plan.weave_deg > 0.0
+
+    def plan_return(t_out):
+        turn = 180.0
+        for _ in range(8):
+            speed, track, t_turn_end = build(t_out, turn, weave)
+            track.hold(1.0)
+            n, e = _flat_plan(speed.build(), track.build(psi0), t_turn_end)
+            bearing = np.degrees(np.arctan2(-e, -n))
+            turn = (bearing - plan.heading_deg) % 360.0
+        dist = np.hypot(n, e)
+        t_return = (dist - V * accel_s / 2.0) / V
+        return turn, t_turn_end, t_return
+
+    def end_time(t_out):
+        _, t_turn_end, t_return = plan_return(t_out)
+        return t_turn_end + t_return + accel_s + land_tail
+
+    t_out_min = (60.0 + 5 * weave_T if weave else 0.0) + 30.0
+    if end_time(t_out_min) > plan.duration_s:
+        raise ConfigError(f"flight: {plan.duration_s:.0f} s is too short for alignment, take-off, a turn and "
+                          f"landing (at least {end_time(t_out_min):.0f} s); lengthen it")
+    t_out = brentq(lambda x: end_time(x) - plan.duration_s, t_out_min, plan.duration_s, xtol=1e-6)
+    turn_deg, t_turn_end, t_return = plan_return(t_out)
+    speed, track, _ = build(t_out, turn_deg, weave)
+    t_stop = t_turn_end + t_return
+    track.hold(plan.duration_s + 10.0 - t_turn_end)
+    speed.hold(t_stop - (t_to + 20.0 + accel_s)).move(accel_s, -V).hold(1.0)
+    height = ProfileBuilder(0.0).hold(t_to).move(climb_s, plan.altitude_m)
+    t_h = t_to + climb_s
+    if plan.climb_step_m and t_return > 4 * climb_s:
+        mid = t_turn_end + t_return / 2.0 - climb_s
+        height.hold(mid - t_h).move(climb_s, plan.climb_step_m).move(climb_s, -plan.climb_step_m)
+        t_h = mid + 2 * climb_s
+    t_land = t_stop + accel_s
+    height.hold(t_land - t_h).move(climb_s, -plan.altitude_m).hold(1.0)
+    lat, lon, h0 = site.radians()
+    speed_p, track_p, height_p = speed.build(), track.build(psi0), height.build(h0)
+
+    # Rotor envelope: fades in before take-off, out after touchdown.
+    env = ProfileBuilder(0.0).hold(max(t_to - 120.0, 1.0)).move(20.0, 1.0)
+    t_env = max(t_to - 120.0, 1.0) + 20.0
+    env.hold(t_land + climb_s + 10.0 - t_env).move(20.0, -1.0).hold(1.0)
+    env_p = env.build()
+    f1 = plan.rotor_hz
+    freqs = [f1, 2 * f1, 4 * f1]
+
+    def ang_vib(rate_amp_dps, phase):
+        amps = [rate_amp_dps * DEG / (2 * np.pi * f) * s for f, s in zip(freqs, (1.0, 0.5, 0.25))]
+        return Sinusoids(amps, freqs, [phase, 2 * phase + 0.5, 3 * phase + 1.0], envelope=env_p)
+
+    def lin_vib(acc_amp):
+        f = 2 * f1
+        return Sinusoids([acc_amp / (2 * np.pi * f) ** 2], [f], [0.3], envelope=env_p)
+
+    heading = SumProfile(track_p, ang_vib(plan.vib_rate_dps[2], 2.1))
+    pitch = SumProfile(Scaled(speed_p, plan.cruise_pitch_deg * DEG / V), ang_vib(plan.vib_rate_dps[1], 1.3))
+    roll = SumProfile(RateOf(track_p, V / STANDARD_GRAVITY_MPS2), ang_vib(plan.vib_rate_dps[0], 0.7))
+    chain = RotationChain([E_DOWN, E_EAST, E_NORTH], [heading, pitch, roll])
+    path = FlightPath(speed_p, track_p, height_p, lat, lon, plan.duration_s,
+                      vibration_n=[(k, lin_vib(a)) for k, a in enumerate(plan.vib_accel_mps2)])
+    segments = [("static alignment", 0.0, t_to), ("take-off", t_to, t_cruise),
+                ("outbound", t_cruise, t_cruise + t_out), ("turn", t_cruise + t_out, t_turn_end),
+                ("return", t_turn_end, t_stop), ("landing", t_stop, t_land + climb_s),
+                ("on ground", t_land + climb_s, plan.duration_s)]
+    traj = Trajectory(path, chain, plan.duration_s, name="flight", segments=segments)
+    info = {"plan": {**asdict(plan), "vib_rate_dps": list(plan.vib_rate_dps),
+                     "vib_accel_mps2": list(plan.vib_accel_mps2)},
+            "site": asdict(site), "turn_deg": float(turn_deg), "outbound_cruise_s": float(t_out),
+            "return_cruise_s": float(t_return)}
+    return traj, info

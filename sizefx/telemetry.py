@@ -1,0 +1,568 @@
+"""Read, validate and write ``sizefx/telemetry/1`` HDF5 files.
+
+Everything about names, shapes, dtypes and units comes from
+``data-schemas/telemetry-1.json`` via :mod:`sizefx.schema`. The reader converts
+to SI and refuses bad input with a :class:`~sizefx.errors.TelemetryError`
+whose message names the file, the dataset and the problem, and says how to fix
+it. The writer writes atomically (see :mod:`sizefx.fileio`) and in chunks, so
+a simulator or importer can stream a long record without holding it all.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from .constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
+from .errors import TelemetryError
+from .fileio import atomic_output
+from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
+
+__all__ = [
+    "Reference",
+    "Site",
+    "Telemetry",
+    "read_telemetry",
+    "TelemetryWriter",
+    "write_telemetry",
+    "Gap",
+]
+
+#: HDF5 chunk length (rows) of written datasets: 2^16 rows of 3 float64 is
+#: 1.5 MiB, large enough for fast sequential reads and small enough to stream.
+WRITE_CHUNK_ROWS = 1 << 16
+
+
+@dataclass
+class Site:
+    """Site or start position (root attributes), radians and metres."""
+
+    lat_rad: float
+    lon_rad: float
+    height_m: float
+
+
+@dataclass
+class Reference:
+    """True or commanded motion of the reference point, on the IMU clock."""
+
+    time_s: np.ndarray  #: [M] s
+    quat_nb: np.ndarray  #: [M, 4] scalar-first, body to NED
+    lat_rad: np.ndarray | None = None  #: [M] rad
+    lon_rad: np.ndarray | None = None  #: [M] rad
+    height_m: np.ndarray | None = None  #: [M] m
+    velocity_n_mps: np.ndarray | None = None  #: [M, 3] NED, m/s
+
+    @property
+    def has_position(self) -> bool:
+        return self.lat_rad is not None
+
+
+@dataclass
+class Gap:
+    """A time step longer than ``GAP_FACTOR`` nominal periods."""
+
+    dataset: str
+    index: int  #: sample k: the gap lies between time[k-1] and time[k]
+    time_s: float  #: time[k-1]
+    duration_s: float  #: time[k] - time[k-1]
+
+
+@dataclass
+class Telemetry:
+    """One IMU record in SI units, as read from (or to be written to) a file.
+
+    Exactly one of the two forms is present: ``"rates"`` (``gyro_rad_s``,
+    ``accel_mps2`` sampled at ``time_s``) or ``"increments"``
+    (``dtheta_rad``, ``dvel_mps`` over ``(time_s[k-1], time_s[k]]``).
+    All IMU arrays are ``[N, 3]`` float64 in body axes.
+    """
+
+    time_s: np.ndarray
+    form: str
+    gyro_rad_s: np.ndarray | None = None
+    accel_mps2: np.ndarray | None = None
+    dtheta_rad: np.ndarray | None = None
+    dvel_mps: np.ndarray | None = None
+    accel_time_s: np.ndarray | None = None
+    reference: Reference | None = None
+    site: Site | None = None
+    description: str = ""
+    simulation: dict | None = None
+    path: str | None = None
+    stored_units: dict = field(default_factory=dict)
+    stored_dtypes: dict = field(default_factory=dict)
+    gaps: list = field(default_factory=list)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.time_s.shape[0])
+
+    @property
+    def sample_period_s(self) -> float:
+        """Nominal sample period: the median time step."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def sample_rate_hz(self) -> float:
+        return 1.0 / self.sample_period_s
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.time_s[-1] - self.time_s[0])
+
+    def imu_arrays(self):
+        """The two IMU arrays of this record's form: (gyro-like, accel-like)."""
+        if self.form == "rates":
+            return self.gyro_rad_s, self.accel_mps2
+        return self.dtheta_rad, self.dvel_mps
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _attr_str(value) -> str:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray) and value.shape == ():
+        return _attr_str(value[()])
+    return str(value)
+
+
+class _Reader:
+    """One validation pass over an open file; raises on the first problem."""
+
+    def __init__(self, path: Path, h5: h5py.File, allow_gaps: bool, check_plausibility: bool):
+        self.path = path
+        self.h5 = h5
+        self.schema = load_schema(TELEMETRY_SCHEMA)
+        self.allow_gaps = allow_gaps
+        self.check_plausibility = check_plausibility
+        self.sizes: dict[str, int] = {}
+        self.units: dict[str, str] = {}
+        self.dtypes: dict[str, str] = {}
+        self.gaps: list[Gap] = []
+
+    def fail(self, dataset: str, problem: str):
+        raise TelemetryError(self.path, dataset, problem)
+
+    # -- structure ------------------------------------------------------------------
+    def refuse_links_to_other_files(self):
+        """Refuse external links, virtual datasets and external raw storage.
+
+        A telemetry file must not make the tool read other files (a path in a
+        link could point anywhere on the machine).
+        """
+
+        def walk(group: h5py.Group, prefix: str):
+            for name in group:
+                full = f"{prefix}/{name}" if prefix != "/" else f"/{name}"
+                link = group.get(name, getlink=True)
+                if isinstance(link, h5py.ExternalLink):
+                    self.fail(full, f"is an HDF5 external link to {link.filename}:{link.path}; "
+                                    "telemetry files must be self-contained (copy the data in with h5copy or h5py)")
+                if isinstance(link, h5py.SoftLink):
+                    continue  # resolved by name lookups inside this file; not followed here (no cycles)
+                try:
+                    obj = group[name]
+                except (KeyError, OSError) as exc:
+                    self.fail(full, f"cannot be opened ({exc}); the file may be truncated or corrupt")
+                if isinstance(obj, h5py.Group):
+                    walk(obj, full)
+                elif isinstance(obj, h5py.Dataset):
+                    if obj.is_virtual:
+                        self.fail(full, "is an HDF5 virtual dataset (its data lives in other files); "
+                                        "store the data in this file")
+                    if obj.external:
+                        self.fail(full, "stores its raw data in external files; store the data in this file")
+
+        walk(self.h5, "/")
+
+    def root_attributes(self):
+        spec = self.schema["root_attributes"]
+        attrs = self.h5.attrs
+        if "schema" not in attrs:
+            self.fail("/", f"root attribute 'schema' is missing; a telemetry file declares "
+                           f"schema = \"{TELEMETRY_SCHEMA}\" (sizefx import converts other formats)")
+        declared = _attr_str(attrs["schema"])
+        if declared != spec["schema"]["value"]:
+            self.fail("/", f"root attribute schema is '{declared}', expected '{TELEMETRY_SCHEMA}'")
+        values = {}
+        for key, rule in spec.items():
+            if key == "schema" or key not in attrs:
+                continue
+            raw = attrs[key]
+            if rule["type"] == "number":
+                try:
+                    val = float(np.asarray(raw).reshape(()))
+                except (TypeError, ValueError):
+                    self.fail("/", f"root attribute {key} = {raw!r} is not a number")
+                if not np.isfinite(val) or not rule["min"] <= val <= rule["max"]:
+                    self.fail("/", f"root attribute {key} = {val} is outside [{rule['min']}, {rule['max']}]")
+                values[key] = val
+            else:
+                values[key] = _attr_str(raw)
+        site_keys = ("latitude_deg", "longitude_deg", "height_m")
+        present = [k for k in site_keys if k in values]
+        if present and len(present) != 3:
+            missing = [k for k in site_keys if k not in values]
+            self.fail("/", f"root attributes give {', '.join(present)} but not {', '.join(missing)}; "
+                           "give all three site attributes or none")
+        return values
+
+    # -- datasets -------------------------------------------------------------------
+    def dataset(self, name: str, required: bool):
+        """Read, check and convert one dataset listed in the schema; None if absent and optional."""
+        spec = self.schema["datasets"][name]
+        group_name, _, leaf = name.rpartition("/")
+        if name not in self.h5:
+            if required:
+                self.fail(name, "dataset is missing")
+            return None
+        dset = self.h5[name]
+        if not isinstance(dset, h5py.Dataset):
+            self.fail(name, f"is a {type(dset).__name__}, expected a dataset")
+        shape = spec["shape"]
+        if dset.ndim != len(shape):
+            self.fail(name, f"has rank {dset.ndim} (shape {dset.shape}); expected shape "
+                            f"[{', '.join(map(str, shape))}]")
+        for axis, (want, got) in enumerate(zip(shape, dset.shape)):
+            if isinstance(want, int):
+                if got != want:
+                    self.fail(name, f"has shape {dset.shape}; axis {axis} must have length {want}")
+            else:
+                bound = self.sizes.setdefault(want, got)
+                if got != bound:
+                    self.fail(name, f"has {got} rows but its companions have {bound}; "
+                                    "all datasets of a group share the time axis")
+        if dset.dtype.name not in self.schema["dtypes"]:
+            self.fail(name, f"has dtype {dset.dtype}; expected one of {', '.join(self.schema['dtypes'])} "
+                            "(convert with numpy .astype(float))")
+        quantity = spec["quantity"]
+        units = dset.attrs.get("units")
+        if units is None:
+            if spec.get("units_required"):
+                self.fail(name, f"has no 'units' attribute; set it to one of {', '.join(allowed_units(quantity))}")
+            units = spec.get("default_units", next(iter(self.schema["units"][quantity])))
+        units = normalise_units(_attr_str(units))
+        factor = unit_factor(quantity, units)
+        if factor is None:
+            self.fail(name, f"units '{units}' are not known; use one of {', '.join(allowed_units(quantity))}")
+        try:
+            data = np.asarray(dset[()], dtype=np.float64)
+        except OSError as exc:
+            self.fail(name, f"cannot be read ({exc}); the file is truncated or corrupt")
+        if data.shape[0] == 0:
+            self.fail(name, "holds no samples")
+        bad = ~np.isfinite(data)
+        if bad.any():
+            first = int(np.argwhere(bad)[0][0])
+            self.fail(name, f"holds {int(bad.sum())} NaN/Inf values, the first at row {first}; "
+                            "remove or interpolate them (or cut the record) before processing")
+        data = data * np.asarray(factor, dtype=float)
+        self.units[name] = units
+        self.dtypes[name] = dset.dtype.name
+        return data
+
+    def check_time(self, name: str, t: np.ndarray):
+        if t.shape[0] < 2:
+            self.fail(name, f"holds {t.shape[0]} sample; at least 2 are needed to know the sample rate")
+        dt = np.diff(t)
+        dup = np.flatnonzero(dt == 0.0)
+        if dup.size:
+            k = int(dup[0]) + 1
+            self.fail(name, f"has {dup.size} duplicated time stamps, the first at row {k} (t = {t[k]:.6f} s); "
+                            "drop the repeated samples")
+        back = np.flatnonzero(dt < 0.0)
+        if back.size:
+            k = int(back[0]) + 1
+            self.fail(name, f"is not strictly increasing: time goes back at row {k} "
+                            f"({t[k - 1]:.6f} s -> {t[k]:.6f} s), {back.size} times in all; sort or split the record")
+        nominal = float(np.median(dt))
+        lo, hi = self.schema["plausibility"]["sample_rate_hz"]
+        if self.check_plausibility and not lo <= 1.0 / nominal <= hi:
+            self.fail(name, f"median time step is {nominal:g} s ({1.0 / nominal:g} Hz), outside "
+                            f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
+        gap_idx = np.flatnonzero(dt > GAP_FACTOR * nominal)
+        if gap_idx.size:
+            gaps = [Gap(name, int(k) + 1, float(t[k]), float(dt[k])) for k in gap_idx]
+            if not self.allow_gaps:
+                g = gaps[0]
+                self.fail(name, f"has {len(gaps)} gaps longer than {GAP_FACTOR} sample periods "
+                                f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
+                                f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway")
+            self.gaps.extend(gaps)
+
+    def check_unit_quaternions(self, name: str, q: np.ndarray):
+        err = np.abs(np.linalg.norm(q, axis=1) - 1.0)
+        k = int(np.argmax(err))
+        if err[k] > QUATERNION_NORM_TOLERANCE:
+            self.fail(name, f"row {k} has norm {np.linalg.norm(q[k]):.9g}; quaternions must be unit "
+                            f"(|q| - 1 within {QUATERNION_NORM_TOLERANCE:g}); normalise them, and check "
+                            "the order is scalar-first [w, x, y, z]")
+        return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+    def check_plausible(self, name: str, values: np.ndarray, key: str, what: str, units: str):
+        lo, hi = self.schema["plausibility"][key]
+        med = float(np.median(np.linalg.norm(values, axis=1)))
+        if not lo <= med <= hi:
+            self.fail(name, f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
+                            f"plausible {lo:g}..{hi:g}; the units attribute is probably wrong")
+
+
+def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True) -> Telemetry:
+    """Read and validate a ``sizefx/telemetry/1`` file; return SI arrays.
+
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 file.
+    allow_gaps : bool
+        Accept time steps longer than 1.5 nominal periods (they are listed in
+        ``Telemetry.gaps``) instead of refusing the file.
+    check_plausibility : bool
+        Refuse data whose magnitudes betray wrong units (see the schema's
+        ``plausibility`` section).
+
+    Raises
+    ------
+    TelemetryError
+        For every violation of the contract, with a one-line message.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise TelemetryError(path, "/", "file does not exist")
+    if path.is_dir():
+        raise TelemetryError(path, "/", "is a directory, not an HDF5 file")
+    if path.stat().st_size == 0:
+        raise TelemetryError(path, "/", "file is empty (0 bytes)")
+    try:
+        is_hdf5 = h5py.is_hdf5(path)
+    except OSError:
+        is_hdf5 = False
+    if not is_hdf5:
+        raise TelemetryError(path, "/", "is not an HDF5 file (no HDF5 signature); convert it with sizefx import")
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError as exc:
+        raise TelemetryError(path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); "
+                                        "the file is truncated or corrupt") from None
+    with h5:
+        r = _Reader(path, h5, allow_gaps, check_plausibility)
+        r.refuse_links_to_other_files()
+        attrs = r.root_attributes()
+        schema = r.schema
+        for gname, gspec in schema["groups"].items():
+            if gname in h5 and not isinstance(h5[gname], h5py.Group):
+                r.fail(gname, "must be a group")
+            if gspec["required"] and gname not in h5:
+                r.fail(gname, "group is missing; IMU samples belong in /imu")
+
+        # IMU: exactly one form.
+        present = {form: [d for d in spec["datasets"] if d in h5] for form, spec in schema["forms"].items()}
+        complete = [form for form, names in present.items() if len(names) == len(schema["forms"][form]["datasets"])]
+        if len(complete) == 2:
+            r.fail("/imu", "holds both gyro/accel and dtheta/dvel; keep one form")
+        if not complete:
+            partial = [d for names in present.values() for d in names]
+            if partial:
+                form = next(f for f, names in present.items() if names)
+                missing = [d for d in schema["forms"][form]["datasets"] if d not in h5]
+                r.fail(missing[0], f"dataset is missing ({partial[0]} is present; {form} need both)")
+            r.fail("/imu", "holds neither gyro+accel (rates) nor dtheta+dvel (increments)")
+        form = complete[0]
+        time_s = r.dataset("/imu/time", required=True)
+        r.check_time("/imu/time", time_s)
+        gyro_name, accel_name = schema["forms"][form]["datasets"]
+        gyro = r.dataset(gyro_name, required=True)
+        accel = r.dataset(accel_name, required=True)
+        accel_time = r.dataset("/imu/accel_time", required=False)
+        if accel_time is not None:
+            r.check_time("/imu/accel_time", accel_time)
+        if check_plausibility:
+            period = float(np.median(np.diff(time_s)))
+            f_est = accel if form == "rates" else accel / period
+            w_est = gyro if form == "rates" else gyro / period
+            r.check_plausible(accel_name, f_est, "median_specific_force_mps2", "specific force", r.units[accel_name])
+            r.check_plausible(gyro_name, w_est, "median_angular_rate_rad_s", "angular rate", r.units[gyro_name])
+
+        reference = None
+        if "/reference" in h5:
+            ref_t = r.dataset("/reference/time", required=True)
+            r.check_time("/reference/time", ref_t)
+            quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
+            pos = r.dataset("/reference/position", required=False)
+            vel = r.dataset("/reference/velocity", required=False)
+            reference = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
+            if pos is not None:
+                if np.any(np.abs(pos[:, 0]) > np.pi / 2):
+                    r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
+                reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
+
+        simulation = None
+        if "/simulation" in h5:
+            sim_attrs = h5["/simulation"].attrs
+            if "truth_json" not in sim_attrs:
+                r.fail("/simulation", "attribute truth_json is missing")
+            try:
+                simulation = json.loads(_attr_str(sim_attrs["truth_json"]))
+            except json.JSONDecodeError as exc:
+                r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
+
+    site = None
+    if "latitude_deg" in attrs:
+        site = Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])
+    tel = Telemetry(
+        time_s=time_s, form=form, accel_time_s=accel_time, reference=reference, site=site,
+        description=attrs.get("description", ""), simulation=simulation, path=str(path),
+        stored_units=r.units, stored_dtypes=r.dtypes, gaps=r.gaps,
+    )
+    if form == "rates":
+        tel.gyro_rad_s, tel.accel_mps2 = gyro, accel
+    else:
+        tel.dtheta_rad, tel.dvel_mps = gyro, accel
+    return tel
+
+
+# --------------------------------------------------------------------------- writing
+
+
+class TelemetryWriter:
+    """Stream a ``sizefx/telemetry/1`` file to disk, atomically.
+
+    The sizes are declared up front; rows are written in any number of calls
+    of :meth:`write_imu` and :meth:`write_reference` (in order). The file
+    appears under its final name only when the ``with`` block ends without an
+    exception and every declared row has been written.
+
+    Data are stored in SI units (the first units of each quantity in the
+    schema) as float64 unless ``dtype`` says otherwise.
+    """
+
+    def __init__(self, path, *, n_samples: int, form: str, n_reference: int = 0,
+                 reference_position: bool = False, reference_velocity: bool = False,
+                 accel_time: bool = False, site: Site | None = None, description: str = "",
+                 simulation: dict | None = None, inputs=(), force: bool = False, dtype=np.float64):
+        self.schema = load_schema(TELEMETRY_SCHEMA)
+        if form not in self.schema["forms"]:
+            raise ValueError(f"form must be one of {list(self.schema['forms'])}, got {form!r}")
+        self.path = Path(path)
+        self.n_samples = n_samples
+        self.form = form
+        self.n_reference = n_reference
+        self.site = site
+        self.description = description
+        self.simulation = simulation
+        self.inputs = inputs
+        self.force = force
+        self.dtype = np.dtype(dtype)
+        self._plan = {"/imu/time": n_samples}
+        for name in self.schema["forms"][form]["datasets"]:
+            self._plan[name] = n_samples
+        if accel_time:
+            self._plan["/imu/accel_time"] = n_samples
+        if n_reference:
+            self._plan["/reference/time"] = n_reference
+            self._plan["/reference/quaternion"] = n_reference
+            if reference_position:
+                self._plan["/reference/position"] = n_reference
+            if reference_velocity:
+                self._plan["/reference/velocity"] = n_reference
+        self._written = dict.fromkeys(self._plan, 0)
+
+    def __enter__(self):
+        self._ctx = atomic_output(self.path, inputs=self.inputs, force=self.force)
+        tmp = self._ctx.__enter__()
+        try:
+            self.h5 = h5py.File(tmp, "w")
+            self._create()
+        except BaseException as exc:
+            self._ctx.__exit__(type(exc), exc, exc.__traceback__)
+            raise
+        return self
+
+    def _create(self):
+        h5 = self.h5
+        h5.attrs["schema"] = TELEMETRY_SCHEMA
+        if self.site is not None:
+            h5.attrs["latitude_deg"] = float(np.degrees(self.site.lat_rad))
+            h5.attrs["longitude_deg"] = float(np.degrees(self.site.lon_rad))
+            h5.attrs["height_m"] = float(self.site.height_m)
+        if self.description:
+            h5.attrs["description"] = self.description
+        for name, rows in self._plan.items():
+            spec = self.schema["datasets"][name]
+            shape = tuple(rows if isinstance(s, str) else s for s in spec["shape"])
+            chunks = (min(rows, WRITE_CHUNK_ROWS),) + shape[1:] if rows else None
+            dtype = np.float64 if spec.get("time_axis") else self.dtype  # time keeps full precision
+            dset = h5.create_dataset(name, shape=shape, dtype=dtype, chunks=chunks)
+            units = spec.get("default_units") or next(iter(self.schema["units"][spec["quantity"]]))
+            if spec["quantity"] != "dimensionless":
+                dset.attrs["units"] = units
+        if self.simulation is not None:
+            g = h5.create_group("simulation")
+            g.attrs["truth_json"] = json.dumps(self.simulation, sort_keys=True)
+            g.attrs["scenario"] = str(self.simulation.get("scenario", "custom"))
+            g.attrs["seed"] = int(self.simulation.get("seed", 0))
+
+    def _put(self, name: str, values):
+        values = np.asarray(values, dtype=float)
+        start = self._written[name]
+        stop = start + values.shape[0]
+        if stop > self._plan[name]:
+            raise ValueError(f"{name}: writing rows {start}:{stop} beyond the declared {self._plan[name]}")
+        self.h5[name][start:stop] = values
+        self._written[name] = stop
+
+    def write_imu(self, time_s, gyro_like, accel_like, accel_time_s=None):
+        """Append IMU rows: rates (rad/s, m/s^2) or increments (rad, m/s) as declared."""
+        gname, aname = self.schema["forms"][self.form]["datasets"]
+        self._put("/imu/time", time_s)
+        self._put(gname, gyro_like)
+        self._put(aname, accel_like)
+        if accel_time_s is not None:
+            self._put("/imu/accel_time", accel_time_s)
+
+    def write_reference(self, time_s, quat_nb, lat_rad=None, lon_rad=None, height_m=None, velocity_n_mps=None):
+        """Append reference rows (positions in radians and metres; stored as deg, deg, m)."""
+        self._put("/reference/time", time_s)
+        self._put("/reference/quaternion", quat_nb)
+        if "/reference/position" in self._plan:
+            self._put("/reference/position", np.column_stack([np.degrees(lat_rad), np.degrees(lon_rad), height_m]))
+        if "/reference/velocity" in self._plan:
+            self._put("/reference/velocity", velocity_n_mps)
+
+    def __exit__(self, exc_type, exc, tb):
+        try:
+            self.h5.close()
+        finally:
+            if exc_type is None:
+                short = {k: (self._written[k], n) for k, n in self._plan.items() if self._written[k] != n}
+                if short:
+                    err = RuntimeError(f"{self.path}: incomplete write {short}")
+                    self._ctx.__exit__(RuntimeError, err, None)
+                    raise err
+            return self._ctx.__exit__(exc_type, exc, tb)
+
+
+def write_telemetry(path, tel: Telemetry, *, inputs=(), force: bool = False, dtype=np.float64) -> Path:
+    """Write a whole :class:`Telemetry` in one call (atomically)."""
+    ref = tel.reference
+    writer = TelemetryWriter(
+        path, n_samples=tel.n_samples, form=tel.form,
+        n_reference=0 if ref is None else ref.time_s.shape[0],
+        reference_position=bool(ref is not None and ref.has_position),
+        reference_velocity=bool(ref is not None and ref.velocity_n_mps is not None),
+        accel_time=tel.accel_time_s is not None, site=tel.site, description=tel.description,
+        simulation=tel.simulation, inputs=inputs, force=force, dtype=dtype,
+    )
+    with writer as w:
+        g, a = tel.imu_arrays()
+        w.write_imu(tel.time_s, g, a, tel.accel_time_s)
+        if ref is not None:
+            w.write_reference(ref.time_s, ref.quat_nb, ref.lat_rad, ref.lon_rad, ref.height_m, ref.velocity_n_mps)
+    return Path(path)
