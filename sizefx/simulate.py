@@ -154,7 +154,9 @@ class ImuSynthesizer:
 
     def _random_walk(self, name: str, q: float, n: int, state: np.ndarray):
         steps = self._rng[name].standard_normal((n, 3)) * (q * np.sqrt(self.dt))
-        walk = state + np.cumsum(steps, axis=0)
+        # Summing from the carried state in one sequential cumsum gives bit-identical
+        # results whatever the chunk size (state + cumsum(steps) would not).
+        walk = np.cumsum(np.vstack([state, steps]), axis=0)[1:]
         return walk, walk[-1].copy()
 
     def _quantise(self, name: str, values: np.ndarray, lsb_increment: float):
@@ -162,7 +164,7 @@ class ImuSynthesizer:
             lsb = lsb_increment / self.dt
             return np.round(values / lsb) * lsb
         # Counters carry the remainder: the sum of outputs tracks the true sum.
-        total = self._carry[name] + np.cumsum(values, axis=0)
+        total = np.cumsum(np.vstack([self._carry[name], values]), axis=0)[1:]
         counts = np.round(total / lsb_increment)
         prev = np.vstack([np.round(self._carry[name] / lsb_increment), counts[:-1]])
         self._carry[name] = total[-1]

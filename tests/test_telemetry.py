@@ -1,0 +1,276 @@
+"""The sizefx/telemetry/1 contract: round trips, and one test per kind of bad input."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from sizefx.errors import OutputError, TelemetryError
+from sizefx.schema import load_schema
+from sizefx.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
+from tests.conftest import N, RATE_HZ, write_raw
+
+DEG = np.pi / 180
+
+
+# --------------------------------------------------------------------------- round trips
+
+
+def _telemetry(form, *, accel_time=False, ref_position=True, ref_velocity=True, simulation=None):
+    rng = np.random.default_rng(7)
+    n, m = 500, 50
+    t = np.arange(n) / 200.0
+    a, b = rng.standard_normal((n, 3)), rng.standard_normal((n, 3)) + [0, 0, -9.8]
+    q = rng.standard_normal((m, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    ref = Reference(time_s=np.arange(m) / 20.0, quat_nb=q)
+    if ref_position:
+        ref.lat_rad, ref.lon_rad, ref.height_m = rng.uniform(-1, 1, m), rng.uniform(-3, 3, m), rng.uniform(0, 900, m)
+    if ref_velocity:
+        ref.velocity_n_mps = rng.standard_normal((m, 3))
+    tel = Telemetry(time_s=t, form=form, reference=ref, site=Site(0.5, 1.0, 10.0), description="round trip",
+                    simulation=simulation, accel_time_s=t + 1e-4 if accel_time else None)
+    if form == "rates":
+        tel.gyro_rad_s, tel.accel_mps2 = a * 0.1, b
+    else:
+        tel.dtheta_rad, tel.dvel_mps = a * 0.1 / 200.0, b / 200.0
+    return tel
+
+
+@pytest.mark.parametrize("form", ["rates", "increments"])
+@pytest.mark.parametrize("accel_time", [False, True])
+@pytest.mark.parametrize("ref_position,ref_velocity", [(True, True), (False, False), (True, False)])
+def test_round_trip_every_dataset_kind(tmp_path, form, accel_time, ref_position, ref_velocity):
+    tel = _telemetry(form, accel_time=accel_time, ref_position=ref_position, ref_velocity=ref_velocity,
+                     simulation={"scenario": "custom", "seed": 3, "effects": {"x": [1, 2]}})
+    path = write_telemetry(tmp_path / "rt.h5", tel)
+    back = read_telemetry(path, check_plausibility=False)
+    assert back.form == form
+    for name in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s"):
+        want, got = getattr(tel, name), getattr(back, name)
+        assert (want is None) == (got is None), name
+        if want is not None:
+            np.testing.assert_array_equal(got, want, err_msg=name)  # float64 storage is lossless
+    # the reader renormalises quaternions: equal to a few ulp
+    np.testing.assert_allclose(back.reference.quat_nb, tel.reference.quat_nb, rtol=0, atol=4e-16)
+    assert back.reference.has_position == ref_position
+    if ref_position:
+        # stored in degrees: one multiplication and one division by pi/180 apart
+        np.testing.assert_allclose(back.reference.lat_rad, tel.reference.lat_rad, rtol=1e-15, atol=1e-16)
+        np.testing.assert_array_equal(back.reference.height_m, tel.reference.height_m)
+    assert (back.reference.velocity_n_mps is not None) == ref_velocity
+    assert back.simulation == {"scenario": "custom", "seed": 3, "effects": {"x": [1, 2]}}
+    assert back.site.height_m == 10.0 and back.description == "round trip"
+
+
+def test_round_trip_float32_storage(tmp_path):
+    tel = _telemetry("rates")
+    back = read_telemetry(write_telemetry(tmp_path / "f32.h5", tel, dtype=np.float32), check_plausibility=False)
+    assert back.stored_dtypes["/imu/gyro"] == "float32"
+    assert back.stored_dtypes["/imu/time"] == "float64"  # time keeps full precision whatever the data dtype
+    # float32 keeps 24 bits: relative error below 2^-24
+    np.testing.assert_allclose(back.accel_mps2, tel.accel_mps2, rtol=2**-24)
+
+
+def test_reader_converts_non_si_units(tmp_path):
+    def to_degrees_and_g(h5):
+        g = h5["imu/gyro"][()]
+        f = h5["imu/accel"][()]
+        del h5["imu/gyro"], h5["imu/accel"]
+        h5["imu"].create_dataset("gyro", data=np.degrees(g)).attrs["units"] = "deg/s"
+        h5["imu"].create_dataset("accel", data=f / 9.80665).attrs["units"] = "g"
+
+    si = read_telemetry(write_raw(tmp_path / "si.h5"))
+    other = read_telemetry(write_raw(tmp_path / "deg.h5", mutate=to_degrees_and_g))
+    np.testing.assert_allclose(other.gyro_rad_s, si.gyro_rad_s, rtol=1e-14)
+    np.testing.assert_allclose(other.accel_mps2, si.accel_mps2, rtol=1e-14)
+    assert other.stored_units["/imu/gyro"] == "deg/s"
+
+
+def test_writer_is_atomic_and_refuses_to_overwrite(tmp_path):
+    out = tmp_path / "out.h5"
+    tel = _telemetry("rates")
+    write_telemetry(out, tel)
+    with pytest.raises(OutputError, match="--force"):
+        write_telemetry(out, tel)
+    before = out.read_bytes()
+    # a failure during the write leaves the old file untouched and no temporary behind
+    bad = _telemetry("rates")
+    bad.accel_mps2 = bad.accel_mps2[:10]
+    with pytest.raises(Exception):
+        write_telemetry(out, bad, force=True)
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.h5"]
+    with pytest.raises(OutputError, match="overwrite the input"):
+        write_telemetry(out, tel, inputs=[out], force=True)
+
+
+def test_schema_is_what_the_reader_enforces():
+    schema = load_schema("sizefx/telemetry/1")
+    assert set(schema["forms"]) == {"rates", "increments"}
+    assert schema["units"]["acceleration"]["g"] == 9.80665
+    assert schema["units"]["angular_rate"]["deg/s"] == pytest.approx(DEG, rel=1e-15)
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+def _replace(name, data, units=None):
+    def mutate(h5):
+        old_units = h5[name].attrs.get("units")
+        del h5[name]
+        d = h5.create_dataset(name, data=data)
+        if units is not None or old_units is not None:
+            d.attrs["units"] = units if units is not None else old_units
+    return mutate
+
+
+def _set_row(name, row, value):
+    def mutate(h5):
+        d = h5[name][()]
+        d[row] = value
+        h5[name][...] = d
+    return mutate
+
+
+def _scale(name, factor):
+    def mutate(h5):
+        h5[name][...] = h5[name][()] * factor
+    return mutate
+
+
+def _time_with(change):
+    def mutate(h5):
+        t = h5["imu/time"][()]
+        change(t)
+        h5["imu/time"][...] = t
+    return mutate
+
+
+def _external_link(tmp_path):
+    def mutate(h5):
+        other = tmp_path / "other.h5"
+        with h5py.File(other, "w") as o:
+            o["accel"] = np.zeros((N, 3))
+        del h5["imu/accel"]
+        h5["imu/accel"] = h5py.ExternalLink(str(other), "/accel")
+    return mutate
+
+
+def _virtual(tmp_path):
+    def mutate(h5):
+        other = tmp_path / "src.h5"
+        with h5py.File(other, "w") as o:
+            o["accel"] = np.tile([0.0, 0.0, -9.8], (N, 1))
+        layout = h5py.VirtualLayout(shape=(N, 3), dtype="f8")
+        layout[:] = h5py.VirtualSource(str(other), "accel", shape=(N, 3))
+        del h5["imu/accel"]
+        h5["imu"].create_virtual_dataset("accel", layout).attrs["units"] = "m/s^2"
+    return mutate
+
+
+def _drop(name):
+    def mutate(h5):
+        del h5[name]
+    return mutate
+
+
+def _attr(name, key, value):
+    def mutate(h5):
+        if value is None:
+            del h5[name].attrs[key]
+        else:
+            h5[name].attrs[key] = value
+    return mutate
+
+
+BAD_CASES = {
+    # id: (mutate factory taking tmp_path, expected dataset, expected words)
+    "missing schema attribute": (lambda p: _attr("/", "schema", None), "/", "schema"),
+    "wrong schema": (lambda p: _attr("/", "schema", "other/1"), "/", "expected 'sizefx/telemetry/1'"),
+    "missing imu group": (lambda p: _drop("imu"), "/imu", "missing"),
+    "missing dataset": (lambda p: _drop("imu/accel"), "/imu/accel", "missing"),
+    "no imu data": (lambda p: lambda h5: (_drop("imu/accel")(h5), _drop("imu/gyro")(h5)), "/imu", "neither"),
+    "both forms": (lambda p: lambda h5: (h5["imu"].create_dataset("dtheta", data=np.zeros((N, 3))),
+                                         h5["imu"].create_dataset("dvel", data=np.zeros((N, 3)))), "/imu", "both"),
+    "wrong rank": (lambda p: _replace("imu/gyro", np.zeros(N)), "/imu/gyro", "rank 1"),
+    "wrong shape": (lambda p: _replace("imu/gyro", np.zeros((N, 4))), "/imu/gyro", "length 3"),
+    "row count mismatch": (lambda p: _replace("imu/accel", np.zeros((N - 1, 3))), "/imu/accel", "rows"),
+    "integer dtype": (lambda p: _replace("imu/gyro", np.zeros((N, 3), dtype=np.int32)), "/imu/gyro", "dtype int32"),
+    "unknown units": (lambda p: _attr("imu/gyro", "units", "dps"), "/imu/gyro", "units 'dps' are not known"),
+    "missing units": (lambda p: _attr("imu/accel", "units", None), "/imu/accel", "no 'units'"),
+    "wrong time units": (lambda p: _attr("imu/time", "units", "ms"), "/imu/time", "units 'ms'"),
+    "NaN": (lambda p: _set_row("imu/accel", 17, np.nan), "/imu/accel", "NaN/Inf values, the first at row 17"),
+    "Inf": (lambda p: _set_row("imu/gyro", 3, np.inf), "/imu/gyro", "row 3"),
+    "time goes back": (lambda p: _time_with(lambda t: t.__setitem__(500, t[498])), "/imu/time", "not strictly increasing"),
+    "duplicated timestamp": (lambda p: _time_with(lambda t: t.__setitem__(500, t[499])), "/imu/time", "duplicated"),
+    "gap": (lambda p: _time_with(lambda t: t.__setitem__(slice(600, None), t[600:] + 0.5)), "/imu/time",
+            "gaps longer than 1.5"),
+    "time in milliseconds": (lambda p: _time_with(lambda t: t.__imul__(1000.0)), "/imu/time", "ms or us"),
+    "accel in g labelled m/s^2": (lambda p: _scale("imu/accel", 1 / 9.80665), "/imu/accel",
+                                  "units attribute is probably wrong"),
+    "non-unit quaternion": (lambda p: _set_row("reference/quaternion", 4, [1.0, 0.1, 0.0, 0.0]),
+                            "/reference/quaternion", "row 4 has norm"),
+    "reference without time": (lambda p: _drop("reference/time"), "/reference/time", "missing"),
+    "external link": (_external_link, "/imu/accel", "external link"),
+    "virtual dataset": (_virtual, "/imu/accel", "virtual dataset"),
+    "partial site": (lambda p: _attr("/", "height_m", None), "/", "not height_m"),
+    "latitude out of range": (lambda p: _attr("/", "latitude_deg", 95.0), "/", "latitude_deg = 95.0"),
+    "empty dataset": (lambda p: lambda h5: [_replace("imu/" + k, np.zeros((0, 3)) if k != "time" else np.zeros(0))(h5)
+                                            for k in ("time", "gyro", "accel")], "/imu/time", "no samples"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_CASES))
+def test_each_bad_input_is_refused_with_file_dataset_and_problem(tmp_path, case):
+    factory, dataset, words = BAD_CASES[case]
+    path = write_raw(tmp_path / "bad.h5", mutate=factory(tmp_path))
+    with pytest.raises(TelemetryError) as info:
+        read_telemetry(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: {dataset}: "), msg
+    assert words in msg, msg
+    assert "\n" not in msg
+
+
+def test_not_hdf5(tmp_path):
+    path = tmp_path / "log.h5"
+    path.write_text("time,gx,gy\n0,1,2\n")
+    with pytest.raises(TelemetryError, match="not an HDF5 file"):
+        read_telemetry(path)
+
+
+def test_empty_file(tmp_path):
+    path = tmp_path / "empty.h5"
+    path.write_bytes(b"")
+    with pytest.raises(TelemetryError, match="empty"):
+        read_telemetry(path)
+
+
+def test_truncated_file(tmp_path):
+    full = write_raw(tmp_path / "full.h5")
+    data = full.read_bytes()
+    cut = tmp_path / "cut.h5"
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.raises(TelemetryError, match="truncated or corrupt"):
+        read_telemetry(cut)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(TelemetryError, match="does not exist"):
+        read_telemetry(tmp_path / "nope.h5")
+
+
+def test_gaps_can_be_allowed_and_are_reported(tmp_path):
+    path = write_raw(tmp_path / "gap.h5", mutate=_time_with(lambda t: t.__setitem__(slice(600, None), t[600:] + 0.5)))
+    tel = read_telemetry(path, allow_gaps=True)
+    assert len(tel.gaps) == 1
+    gap = tel.gaps[0]
+    assert gap.index == 600 and gap.duration_s == pytest.approx(0.5 + 1 / RATE_HZ)
+
+
+def test_valid_raw_file_reads(raw_file):
+    tel = read_telemetry(raw_file)
+    assert tel.n_samples == N and tel.sample_rate_hz == pytest.approx(RATE_HZ)
+    assert tel.reference is not None and not tel.reference.has_position
