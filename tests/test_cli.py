@@ -1,0 +1,106 @@
+"""The command line: help with units, simulate -> inspect, and bad input as one line with exit code 2."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from sizefx_cli.main import main
+from tests.conftest import write_raw
+from tests.test_telemetry import BAD_CASES
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+def test_help_explains_every_command_with_units(runner):
+    top = runner.invoke(main, ["--help"])
+    assert top.exit_code == 0
+    for cmd in ("demo", "inspect", "simulate"):
+        assert cmd in top.output
+    for args, units in ((["simulate", "turntable", "--help"], ["[deg/s]", "[deg/s^2]", "[s]", "[Hz]", "[mm]"]),
+                        (["simulate", "sway", "--help"], ["[deg/s]", "[Hz]", "[s]"]),
+                        (["simulate", "flight", "--help"], ["[h]", "[m/s]", "[m]", "[Hz]", "[deg]"]),
+                        (["inspect", "--help"], ["[Hz]", "[s]"])):
+        result = runner.invoke(main, args)
+        assert result.exit_code == 0, result.output
+        text = " ".join(result.output.split())
+        for u in units:
+            assert u in text, (args, u)
+
+
+def test_simulate_then_inspect(runner, tmp_path):
+    out = tmp_path / "sway.h5"
+    result = runner.invoke(main, ["simulate", "sway", "-o", str(out), "--static-s", "2", "--segment-s", "3",
+                                  "--amplitudes-dps", "10,20", "--rate-hz", "400", "--form", "increments",
+                                  "--ideal", "--set", "accel_delay.enabled=true", "--offset-mm", "10,0,0"])
+    assert result.exit_code == 0, result.output
+    assert "wrote" in result.output
+    result = runner.invoke(main, ["inspect", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["form"] == "increments" and summary["samples"] == 3200
+    effects = " ".join(summary["simulation"]["effects"])
+    assert "accel_delay: 500.0 us" in effects and "(34.90, 0.00, 0.00)" in effects
+    # the same output again is refused without --force, accepted with it
+    again = runner.invoke(main, ["simulate", "sway", "-o", str(out), "--static-s", "2", "--segment-s", "3"])
+    assert again.exit_code == 2 and "--force" in again.output
+
+
+def test_print_effects_is_a_complete_template(runner):
+    result = runner.invoke(main, ["simulate", "--print-effects"])
+    assert result.exit_code == 0
+    assert "[lever_arm]" in result.output and "[accel_delay]" in result.output
+
+
+def test_bad_option_values_exit_2_with_one_line(runner, tmp_path):
+    out = str(tmp_path / "x.h5")
+    for args in (["simulate", "turntable", "-o", out, "--set", "nonsense"],
+                 ["simulate", "turntable", "-o", out, "--set", "lever_arm.preset=\"huge\""],
+                 ["simulate", "turntable", "-o", out, "--cycles", "50"],
+                 ["simulate", "sway", "-o", out, "--segment-s", "2.5", "--frequency-hz", "1"]):
+        result = runner.invoke(main, args)
+        assert result.exit_code == 2, (args, result.output)
+        assert "Traceback" not in result.output
+        assert not (tmp_path / "x.h5").exists()
+
+
+@pytest.mark.parametrize("case", list(BAD_CASES))
+def test_inspect_bad_file_exits_2_with_one_line(runner, tmp_path, case):
+    factory, dataset, words = BAD_CASES[case]
+    path = write_raw(tmp_path / "bad.h5", mutate=factory(tmp_path))
+    result = runner.invoke(main, ["inspect", str(path)])
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith(f"sizefx: error: {path}: {dataset}: ") and words in lines[0]
+
+
+def test_installed_console_script_exits_2_without_traceback(tmp_path):
+    bad = tmp_path / "notes.h5"
+    bad.write_text("not hdf5")
+    exe = os.path.join(os.path.dirname(sys.executable), "sizefx")
+    proc = subprocess.run([exe, "inspect", str(bad)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert proc.stderr.strip() == f"sizefx: error: {bad}: /: is not an HDF5 file (no HDF5 signature); convert it with sizefx import"
+
+
+def test_inspect_valid_file(runner, raw_file):
+    result = runner.invoke(main, ["inspect", str(raw_file)])
+    assert result.exit_code == 0
+    assert "valid sizefx/telemetry/1" in result.output and "100 Hz" in result.output
+
+
+def test_demo_smoke(runner, tmp_path):
+    result = runner.invoke(main, ["demo", "--out", str(tmp_path / "demo")])
+    assert result.exit_code == 0, result.output
+    assert "rotate Y" in result.output and "ug" in result.output
+    assert (tmp_path / "demo" / "turntable.h5").exists()
