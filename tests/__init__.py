@@ -1,0 +1,1 @@
+"""Tests mirror the package; fixtures in conftest.py."""
