@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .constants import ARCSEC, MICRO_G, PPM
+from .schema import TELEMETRY_SCHEMA
 from .telemetry import Telemetry, read_telemetry
 
 __all__ = ["summarize", "format_summary", "inspect_file"]
@@ -65,7 +66,7 @@ def summarize(tel: Telemetry) -> dict:
     ref = tel.reference
     out = {
         "path": tel.path,
-        "schema": "sizefx/telemetry/1",
+        "schema": TELEMETRY_SCHEMA,
         "form": tel.form,
         "samples": tel.n_samples,
         "sample_rate_hz": tel.sample_rate_hz,

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, earth
-from .effects import EffectModel
+from . import __version__, earth, scenarios
+from .effects import IDEAL, EffectModel, load_effects
 from .motion import Trajectory
 from .rotation import mat_to_quat, rotvec_to_mat
 from .telemetry import Site, TelemetryWriter
@@ -281,9 +281,6 @@ def run(scenario: str, out, *, plan=None, site=None, effects_path=None, override
     ``overrides`` are applied, so ``ideal`` plus ``overrides`` gives a record
     with exactly the named effects.
     """
-    from . import scenarios
-    from .effects import IDEAL, load_effects
-
     builders = {"turntable": (scenarios.turntable, scenarios.TurntablePlan),
                 "sway": (scenarios.sway, scenarios.SwayPlan),
                 "flight": (scenarios.flight, scenarios.FlightPlan)}

@@ -218,7 +218,6 @@ class _Reader:
     def dataset(self, name: str, required: bool):
         """Read, check and convert one dataset listed in the schema; None if absent and optional."""
         spec = self.schema["datasets"][name]
-        group_name, _, leaf = name.rpartition("/")
         if name not in self.h5:
             if required:
                 self.fail(name, "dataset is missing")
