@@ -34,7 +34,7 @@ def common_options(f):
                      help="Offset r from the rotation centre to the triad point, body axes [mm] "
                           "(sets lever_arm.r_vehicle_m)."),
         click.option("--reference-rate-hz", type=float,
-                     help="Rate of /reference [Hz]; must divide the IMU rate [default: IMU rate; flight 100]."),
+                     help="Rate of /reference [Hz]; must divide the IMU rate [default: turntable the IMU rate; sway, flight 100]."),
         click.option("--latitude-deg", default=scenarios.PAPER_AIRFIELD.latitude_deg, show_default=True,
                      type=click.FloatRange(-89.9, 89.9), help="Site or start latitude [deg]."),
         click.option("--longitude-deg", default=scenarios.PAPER_AIRFIELD.longitude_deg, show_default=True,
