@@ -36,7 +36,6 @@ def test_earth_rate_components():
 
 def test_omegadot_in_n_is_the_derivative_of_omega_in_n():
     # a point moving with acceleration; compare with a central difference
-    rng = np.random.default_rng(0)
     lat0, h0, v0, a = 0.9, 500.0, np.array([60.0, -40.0, 3.0]), np.array([0.5, 1.2, -0.3])
 
     def state(t):
@@ -50,7 +49,6 @@ def test_omegadot_in_n_is_the_derivative_of_omega_in_n():
         lat, h, v = state(t)
         return earth.omega_ie_n(lat) + earth.omega_en_n(lat, h, v)
 
-    del rng
     dt = 1e-3
     fd = (w_in(dt) - w_in(-dt)) / (2 * dt)
     lat, h, v = state(0.0)
