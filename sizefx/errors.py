@@ -12,6 +12,7 @@ __all__ = [
     "TelemetryError",
     "ConfigError",
     "OutputError",
+    "SourceError",
 ]
 
 
@@ -47,3 +48,12 @@ class ConfigError(SizefxError):
 
 class OutputError(SizefxError):
     """An output cannot be written as asked (exists, is an input, ...)."""
+
+
+class SourceError(SizefxError):
+    """A file to import is not what its format promises (missing column, truncated, bad units)."""
+
+    def __init__(self, path, problem: str):
+        self.path = str(path)
+        self.problem = problem
+        super().__init__(f"{self.path}: {problem}")

@@ -93,6 +93,7 @@ class Telemetry:
     site: Site | None = None
     description: str = ""
     simulation: dict | None = None
+    source: dict | None = None  #: provenance written by the importers (/source attributes)
     path: str | None = None
     stored_units: dict = field(default_factory=dict)
     stored_dtypes: dict = field(default_factory=dict)
@@ -123,6 +124,17 @@ class Telemetry:
 
 
 # --------------------------------------------------------------------------- reading
+
+
+def _attr_value(value):
+    """An HDF5 attribute as plain Python (str, float, int, list)."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
 
 def _attr_str(value) -> str:
@@ -283,13 +295,14 @@ class _Reader:
                             f"({t[k - 1]:.6f} s -> {t[k]:.6f} s), {back.size} times in all; sort or split the record")
         nominal = float(np.median(dt))
         lo, hi = self.schema["plausibility"]["sample_rate_hz"]
-        if self.check_plausibility and not lo <= 1.0 / nominal <= hi:
+        rate_check = self.schema["datasets"][name]["rate_check"]
+        if self.check_plausibility and rate_check and not lo <= 1.0 / nominal <= hi:
             self.fail(name, f"median time step is {nominal:g} s ({1.0 / nominal:g} Hz), outside "
                             f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
         gap_idx = np.flatnonzero(dt > GAP_FACTOR * nominal)
         if gap_idx.size:
             gaps = [Gap(name, int(k) + 1, float(t[k]), float(dt[k])) for k in gap_idx]
-            if not self.allow_gaps:
+            if self.schema["datasets"][name]["gaps"] == "refuse" and not self.allow_gaps:
                 g = gaps[0]
                 self.fail(name, f"has {len(gaps)} gaps longer than {GAP_FACTOR} sample periods "
                                 f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
@@ -402,6 +415,10 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
                     r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
                 reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
 
+        source = None
+        if "/source" in h5:
+            source = {k: _attr_value(v) for k, v in h5["/source"].attrs.items()}
+
         simulation = None
         if "/simulation" in h5:
             sim_attrs = h5["/simulation"].attrs
@@ -417,7 +434,7 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
         site = Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])
     tel = Telemetry(
         time_s=time_s, form=form, accel_time_s=accel_time, reference=reference, site=site,
-        description=attrs.get("description", ""), simulation=simulation, path=str(path),
+        description=attrs.get("description", ""), simulation=simulation, source=source, path=str(path),
         stored_units=r.units, stored_dtypes=r.dtypes, gaps=r.gaps,
     )
     if form == "rates":
@@ -445,8 +462,10 @@ class TelemetryWriter:
     def __init__(self, path, *, n_samples: int, form: str, n_reference: int = 0,
                  reference_position: bool = False, reference_velocity: bool = False,
                  accel_time: bool = False, site: Site | None = None, description: str = "",
-                 simulation: dict | None = None, inputs=(), force: bool = False, dtype=np.float64):
+                 simulation: dict | None = None, source: dict | None = None, inputs=(), force: bool = False,
+                 dtype=np.float64):
         self.schema = load_schema(TELEMETRY_SCHEMA)
+        self.source = source
         if form not in self.schema["forms"]:
             raise ValueError(f"form must be one of {list(self.schema['forms'])}, got {form!r}")
         self.path = Path(path)
@@ -502,6 +521,10 @@ class TelemetryWriter:
             units = spec.get("default_units") or next(iter(self.schema["units"][spec["quantity"]]))
             if spec["quantity"] != "dimensionless":
                 dset.attrs["units"] = units
+        if self.source is not None:
+            g = h5.create_group("source")
+            for key, value in self.source.items():
+                g.attrs[key] = value
         if self.simulation is not None:
             g = h5.create_group("simulation")
             g.attrs["truth_json"] = json.dumps(self.simulation, sort_keys=True)
@@ -557,7 +580,7 @@ def write_telemetry(path, tel: Telemetry, *, inputs=(), force: bool = False, dty
         reference_position=bool(ref is not None and ref.has_position),
         reference_velocity=bool(ref is not None and ref.velocity_n_mps is not None),
         accel_time=tel.accel_time_s is not None, site=tel.site, description=tel.description,
-        simulation=tel.simulation, inputs=inputs, force=force, dtype=dtype,
+        simulation=tel.simulation, source=tel.source, inputs=inputs, force=force, dtype=dtype,
     )
     with writer as w:
         g, a = tel.imu_arrays()

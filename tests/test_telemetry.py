@@ -274,3 +274,24 @@ def test_valid_raw_file_reads(raw_file):
     tel = read_telemetry(raw_file)
     assert tel.n_samples == N and tel.sample_rate_hz == pytest.approx(RATE_HZ)
     assert tel.reference is not None and not tel.reference.has_position
+
+
+def test_source_attributes_round_trip(tmp_path):
+    tel = _telemetry("rates")
+    tel.source = {"format": "csv", "file": "x.csv", "axis_map": ["y", "x", "-z"], "gyro_bias_rad_s_frd": [1e-5, 0.0, 2.0],
+                  "dropouts": 3, "approximate": True}
+    back = read_telemetry(write_telemetry(tmp_path / "s.h5", tel), check_plausibility=False)
+    assert back.source == tel.source
+
+
+def test_reference_gaps_are_reported_not_refused(tmp_path):
+    def drop_reference_rows(h5):
+        t = h5["reference/time"][()]
+        q = h5["reference/quaternion"][()]
+        keep = np.r_[0:40, 60:t.size]
+        del h5["reference/time"], h5["reference/quaternion"]
+        h5["reference"].create_dataset("time", data=t[keep]).attrs["units"] = "s"
+        h5["reference"].create_dataset("quaternion", data=q[keep])
+
+    tel = read_telemetry(write_raw(tmp_path / "refgap.h5", mutate=drop_reference_rows))
+    assert [(g.dataset, g.index) for g in tel.gaps] == [("/reference/time", 40)]

@@ -1,0 +1,107 @@
+"""``sizefx import FORMAT SOURCE -o OUT.h5``."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx.importers import run_import
+from sizefx.importers.broad import DEFAULT_SITE_DEG
+
+from .options import force_option, parse_vector
+
+
+def output_option(f):
+    return click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+                        help="Telemetry file to write (HDF5, sizefx/telemetry/1).")(f)
+
+
+def source_argument(f):
+    return click.argument("source", type=click.Path(dir_okay=False))(f)
+
+
+def _report(summary):
+    gaps = summary["imu_gaps"]
+    lines = [f"wrote {summary['path']}: {summary['samples']} {summary['form']} samples at {summary['rate_hz']:.6g} Hz, "
+             f"{summary['duration_s']:.2f} s; reference rows: {summary['reference_rows']}"
+             + (f" ({summary['reference_gaps']} dropouts)" if summary["reference_gaps"] else "")]
+    if gaps:
+        lines.append(f"note: {gaps} gaps in the IMU time stamps, the first at t = {summary['first_imu_gap_s']:.6f} s; "
+                     "pass --allow-gaps to the commands that read this file")
+    for line in lines:
+        click.echo(line)
+
+
+@click.group(name="import")
+def import_():
+    """Convert other telemetry formats into sizefx/telemetry/1 (body FRD, NED, SI).
+
+    Each importer records in /source where the data came from (file, SHA-256,
+    credits) and writes the file atomically; the result is validated before
+    the command returns.
+    """
+
+
+@import_.command()
+@source_argument
+@output_option
+@click.option("--site-deg", default=",".join(map(str, DEFAULT_SITE_DEG)), show_default=True, metavar="LAT,LON,H",
+              help="Assumed site (latitude [deg], longitude [deg], height [m]); BROAD gives none.")
+@force_option
+def broad(source, output, site_deg, force):
+    """BROAD benchmark trial (.mat, 285.7 Hz): IMU FLU -> FRD, motion capture ENU -> NED."""
+    _report(run_import("broad", source, output, force=force, site_deg=parse_vector(site_deg, "--site-deg")))
+
+
+@import_.command("psins-imu")
+@source_argument
+@output_option
+@force_option
+def psins_imu(source, output, force):
+    """PSINS text log of integer increments (RFU -> FRD; header site and attitude kept)."""
+    _report(run_import("psins-imu", source, output, force=force))
+
+
+@import_.command("psins-mat")
+@source_argument
+@output_option
+@force_option
+def psins_mat(source, output, force):
+    """PSINS MEMS + FOG-INS record (.mat): increments, reference attitude, velocity, position, biases."""
+    _report(run_import("psins-mat", source, output, force=force))
+
+
+@import_.command()
+@source_argument
+@output_option
+@click.option("--time", "time_col", required=True, help="Time column name.")
+@click.option("--time-units", type=click.Choice(["s", "ms", "us", "ns", "samples"]), default="s", show_default=True,
+              help="Units of the time column; 'samples' for a counter (needs --rate-hz).")
+@click.option("--rate-hz", type=float, help="Sample rate [Hz] when time is a sample counter.")
+@click.option("--form", type=click.Choice(["rates", "increments"]), default="rates", show_default=True,
+              help="Rates (gyro, accel) or increments (dtheta, dvel) in the columns.")
+@click.option("--gyro", required=True, metavar="X,Y,Z", help="Gyro (or dtheta) column names.")
+@click.option("--gyro-units", default="rad/s", show_default=True,
+              help="rad/s or deg/s (increments: rad or deg).")
+@click.option("--accel", required=True, metavar="X,Y,Z", help="Accelerometer (or dvel) column names.")
+@click.option("--accel-units", default="m/s^2", show_default=True, help="m/s^2 or g (increments: m/s).")
+@click.option("--axes", default="x,y,z", show_default=True,
+              help="Body FRD axes in sensor axes, e.g. y,x,-z for a right-forward-up sensor.")
+@click.option("--delimiter", default=",", show_default=True, help="Field separator.")
+@click.option("--site-deg", metavar="LAT,LON,H", help="Site: latitude [deg], longitude [deg], height [m].")
+@force_option
+def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, accel, accel_units, axes,
+        delimiter, site_deg, force):
+    """Generic CSV with a column map and units."""
+    _report(run_import("csv", source, output, force=force, time=time_col, time_units=time_units, rate_hz=rate_hz,
+                       form=form, gyro=tuple(gyro.split(",")), gyro_units=gyro_units, accel=tuple(accel.split(",")),
+                       accel_units=accel_units, axes=tuple(axes.split(",")), delimiter=delimiter,
+                       site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None))
+
+
+@import_.command()
+@source_argument
+@output_option
+@force_option
+def ulog(source, output, force):
+    """PX4 ULog (sensor_combined, via pyulog): FRD already; dropouts are reported as gaps."""
+    _report(run_import("ulog", source, output, force=force))
