@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import earth
-from .rotation import mat_to_quat, quat_to_mat
+from .rotation import axis_angle_mat, mat_to_quat, quat_to_mat
 
 __all__ = [
     "MAT_NED_ENU",
@@ -51,17 +51,8 @@ def quat_nb_from_enu_body(quat_enu_src, mat_src_b):
 
 def psins_mat_enu_rfu(pitch_rad, roll_rad, yaw_rad):
     """PSINS attitude: ``C_nb = Rz(yaw) Rx(pitch) Ry(roll)``, n = ENU, b = RFU (yaw counter-clockwise)."""
-    cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
-    cr, sr = np.cos(roll_rad), np.sin(roll_rad)
-    cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
-    shape = np.broadcast(cp, cr, cy).shape
-    rz = np.zeros(shape + (3, 3))
-    rz[..., 0, 0], rz[..., 0, 1], rz[..., 1, 0], rz[..., 1, 1], rz[..., 2, 2] = cy, -sy, sy, cy, 1.0
-    rx = np.zeros(shape + (3, 3))
-    rx[..., 0, 0], rx[..., 1, 1], rx[..., 1, 2], rx[..., 2, 1], rx[..., 2, 2] = 1.0, cp, -sp, sp, cp
-    ry = np.zeros(shape + (3, 3))
-    ry[..., 0, 0], ry[..., 0, 2], ry[..., 1, 1], ry[..., 2, 0], ry[..., 2, 2] = cr, sr, 1.0, -sr, cr
-    return rz @ rx @ ry
+    return (axis_angle_mat([0.0, 0.0, 1.0], yaw_rad) @ axis_angle_mat([1.0, 0.0, 0.0], pitch_rad)
+            @ axis_angle_mat([0.0, 1.0, 0.0], roll_rad))
 
 
 def geodetic_from_local_ned(ned_m, lat0_rad, lon0_rad, h0_m):
