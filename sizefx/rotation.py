@@ -23,6 +23,8 @@ __all__ = [
     "axis_angle_mat",
     "euler_to_mat",
     "mat_to_euler",
+    "quat_interp",
+    "quat_angle_between",
 ]
 
 
@@ -186,3 +188,33 @@ def mat_to_euler(mat):
     pitch = -np.arcsin(np.clip(m[..., 2, 0], -1.0, 1.0))
     heading = np.arctan2(m[..., 1, 0], m[..., 0, 0])
     return roll, pitch, heading
+
+
+def quat_interp(t_ref, quat_ref, t):
+    """Attitude at times ``t`` by spherical linear interpolation of unit quaternions ``quat_ref`` at ``t_ref``.
+
+    ``t`` outside ``[t_ref[0], t_ref[-1]]`` takes the end rows.
+    """
+    t_ref = np.asarray(t_ref, dtype=float)
+    q = np.asarray(quat_ref, dtype=float)
+    t = np.asarray(t, dtype=float)
+    k = np.clip(np.searchsorted(t_ref, t, side="right") - 1, 0, t_ref.size - 2)
+    span = t_ref[k + 1] - t_ref[k]
+    u = np.clip((t - t_ref[k]) / span, 0.0, 1.0)[:, None]
+    q0, q1 = q[k], q[k + 1].copy()
+    q1 *= np.where(np.sum(q0 * q1, axis=1, keepdims=True) < 0.0, -1.0, 1.0)  # the shorter way round
+    rel = quat_multiply(quat_conjugate(q0), q1)
+    vec_norm = np.linalg.norm(rel[:, 1:], axis=1, keepdims=True)
+    angle = 2.0 * np.arctan2(vec_norm, rel[:, :1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        axis = np.where(vec_norm > 1e-300, rel[:, 1:] / vec_norm, 0.0)
+    half = 0.5 * angle * u
+    step = np.column_stack([np.cos(half), np.sin(half) * axis])
+    out = quat_multiply(q0, step)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def quat_angle_between(q_a, q_b):
+    """Rotation angle [rad] taking attitude ``q_a`` to ``q_b`` (both scalar-first, [..., 4])."""
+    rel = quat_multiply(quat_conjugate(q_a), q_b)
+    return 2.0 * np.arctan2(np.linalg.norm(rel[..., 1:], axis=-1), np.abs(rel[..., 0]))

@@ -1,0 +1,369 @@
+"""Whole-record strapdown navigation: ``sizefx navigate``.
+
+Reads a telemetry file, turns rates into increments (fourth order), sets the
+initial state (from ``/reference``, or by alignment), runs the Numba
+mechanisation of :mod:`sizefx.kernels.strapdown`, compares with ``/reference``
+and writes ``sizefx/navigation/1``.
+
+Alignment (``init="align"``): the record must be stationary over the window.
+1. Coarse: TRIAD on the mean specific force (levelling) and the mean angular
+   rate (gyrocompassing) against ``-g_n`` and ``omega_ie_n``.
+2. Fine: a batch zero-velocity fit. The mechanisation is run over the window from
+   the coarse attitude and from three slightly rotated ones. The resulting
+   velocity histories give the sensitivity of the velocity to an attitude error
+   about north, east and down. The least-squares attitude correction that brings
+   the window's velocity closest to zero is then applied (two iterations). This
+   uses the whole nonlinear mechanisation, Earth rate and Schuler coupling
+   included. It reaches what the sensors allow: tilt to accelerometer bias / g,
+   heading to gyro bias / (Omega_E cos lat).
+"""
+
+from __future__ import annotations
+
+import json
+import time as _time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from . import __version__, earth
+from .constants import DEG
+from .errors import ConfigError, TelemetryError
+from .fileio import atomic_output
+from .kernels.increments import rates_to_increments
+from .kernels.strapdown import (
+    VERTICAL_FREE,
+    VERTICAL_HELD,
+    VERTICAL_REFERENCE,
+    coning_coefficients,
+    pack_state,
+    strapdown,
+)
+from .rotation import mat_to_euler, mat_to_quat, quat_angle_between, quat_interp, quat_to_mat, rotvec_to_mat
+from .telemetry import Telemetry, read_telemetry
+
+__all__ = ["NavConfig", "NavResult", "navigate", "run", "coarse_alignment", "increments_of", "METRES_PER_NMI"]
+
+METRES_PER_NMI = 1852.0
+VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
+#: A reference whose position spans less than this [m] is a stationary site: vertical channel held.
+STATIONARY_SPAN_M = 1.0
+
+
+@dataclass
+class NavConfig:
+    subsamples: int = 4  #: sub-samples per navigation interval (1..4)
+    vertical: str = "auto"  #: auto | free | held | reference
+    init: str = "auto"  #: auto | reference | align
+    align_s: float = 300.0  #: alignment window [s] when init is align
+    output_rate_hz: float | None = 10.0  #: rate of the written solution (None: every interval)
+    allow_gaps: bool = False
+
+
+@dataclass
+class NavResult:
+    time_s: np.ndarray  #: [M] end of each navigation interval
+    quat_nb: np.ndarray  #: [M, 4]
+    v_n: np.ndarray  #: [M, 3]
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+    height_m: np.ndarray
+    config: dict
+    summary: dict
+    errors: dict | None = None  #: time histories against the reference (horizontal, north, east [m], attitude [rad])
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def increments_of(tel: Telemetry):
+    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form."""
+    dt = tel.sample_period_s
+    steps = np.diff(tel.time_s)
+    if np.abs(steps - dt).max() > 1e-3 * dt:
+        worst = int(np.argmax(np.abs(steps - dt)))
+        raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform (step {steps[worst]:.6g} s at row "
+                                                    f"{worst + 1}, nominal {dt:.6g} s); navigation needs a uniform rate")
+    if tel.form == "increments":
+        return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt
+    n = tel.n_samples
+    dtheta = np.empty((n - 1, 3))
+    dvel = np.empty((n - 1, 3))
+    rates_to_increments(np.ascontiguousarray(tel.gyro_rad_s), dt, dtheta)
+    rates_to_increments(np.ascontiguousarray(tel.accel_mps2), dt, dvel)
+    return tel.time_s[1:], dtheta, dvel, dt
+
+
+# --------------------------------------------------------------------------- alignment
+
+
+def coarse_alignment(f_b, omega_b, lat_rad, h_m) -> np.ndarray:
+    """``mat_nb`` from mean specific force and angular rate (TRIAD: gravity trusted, heading from Earth rate)."""
+    f_n = -earth.gravity_n(lat_rad, h_m)
+    w_n = earth.omega_ie_n(lat_rad)
+
+    def triad(f, w):
+        v1 = f / np.linalg.norm(f)
+        v2 = np.cross(f, w)
+        v2 /= np.linalg.norm(v2)
+        return np.column_stack([v1, v2, np.cross(v1, v2)])
+
+    return triad(f_n, w_n) @ triad(np.asarray(f_b), np.asarray(omega_b)).T
+
+
+def _run_kernel(dtheta, dvel, n_sub, dt, state, mode, h_hold, h_ref, vd_ref):
+    n_steps = dtheta.shape[0] // n_sub
+    out_q = np.empty((n_steps, 4))
+    out_v = np.empty((n_steps, 3))
+    out_lat = np.empty(n_steps)
+    out_lon = np.empty(n_steps)
+    out_h = np.empty(n_steps)
+    strapdown(dtheta, dvel, n_sub, coning_coefficients(n_sub), n_sub * dt, state, mode, h_hold,
+              h_ref, vd_ref, out_q, out_v, out_lat, out_lon, out_h)
+    return out_q, out_v, out_lat, out_lon, out_h
+
+
+def fine_alignment(dtheta, dvel, dt, mat_nb0, lat, lon, h, n_sub, iterations: int = 2) -> np.ndarray:
+    """Refine ``mat_nb0`` so that navigating the (stationary) window gives the least velocity."""
+    empty = np.zeros(0)
+    mat = mat_nb0
+    eps = 1e-5  # rad: small enough for linearity (errors ~ eps^2), large enough against rounding
+    for _ in range(iterations):
+        runs = []
+        for k in range(4):
+            trial = mat if k == 0 else rotvec_to_mat(eps * np.eye(3)[k - 1]) @ mat
+            state = pack_state(mat_to_quat(trial), np.zeros(3), lat, lon, h)
+            _, v, _, _, _ = _run_kernel(dtheta, dvel, n_sub, dt, state, VERTICAL_HELD, h, empty, empty)
+            runs.append(v[:, :2].ravel())
+        jac = np.column_stack([(r - runs[0]) / eps for r in runs[1:]])
+        phi, *_ = np.linalg.lstsq(jac, -runs[0], rcond=None)
+        mat = rotvec_to_mat(phi) @ mat
+    return mat
+
+
+# --------------------------------------------------------------------------- the run
+
+
+def _reference_at(tel: Telemetry, t):
+    ref = tel.reference
+    out = {"quat_nb": quat_interp(ref.time_s, ref.quat_nb, t)}
+    if ref.has_position:
+        out["lat"] = np.interp(t, ref.time_s, ref.lat_rad)
+        out["lon"] = np.interp(t, ref.time_s, ref.lon_rad)
+        out["h"] = np.interp(t, ref.time_s, ref.height_m)
+    if ref.velocity_n_mps is not None:
+        out["v_n"] = np.column_stack([np.interp(t, ref.time_s, ref.velocity_n_mps[:, i]) for i in range(3)])
+    return out
+
+
+def _choose(tel: Telemetry, cfg: NavConfig, t_start: float):
+    """Initialisation and vertical mode for this record, with the reason."""
+    ref = tel.reference
+    approximate = bool(tel.source and tel.source.get("reference_is_approximate"))
+    covers = ref is not None and ref.time_s[0] <= t_start + 1e-9 and not approximate
+    init = cfg.init
+    if init == "auto":
+        init = "reference" if covers else "align"
+    if init == "reference" and not covers:
+        raise ConfigError(f"{tel.path}: --init reference needs a /reference that covers the start "
+                          f"(t = {t_start:.3f} s) and is not approximate; use --init align")
+    vertical = cfg.vertical
+    stationary = True
+    if ref is not None and ref.has_position:
+        r_mer, r_tr = earth.radii_m(ref.lat_rad[0])
+        span = max(np.ptp(ref.lat_rad) * r_mer, np.ptp(ref.lon_rad) * r_tr * np.cos(ref.lat_rad[0]),
+                   np.ptp(ref.height_m))
+        stationary = span < STATIONARY_SPAN_M
+    if vertical == "auto":
+        if stationary:
+            vertical = "held"
+        elif ref is not None and ref.has_position:
+            vertical = "reference"
+        else:
+            vertical = "free"
+    if vertical == "reference" and (ref is None or not ref.has_position):
+        raise ConfigError(f"{tel.path}: --vertical reference needs /reference/position")
+    return init, vertical, stationary
+
+
+def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
+    """Navigate a record in memory (see :func:`run` for files)."""
+    cfg = cfg or NavConfig()
+    started = _time.perf_counter()
+    t_end, dtheta, dvel, dt = increments_of(tel)
+    n_sub = int(cfg.subsamples)
+    coning_coefficients(n_sub)  # validates
+    t0 = t_end[0] - dt  # start of the first increment
+    init, vertical, stationary = _choose(tel, cfg, t0)
+    site = tel.site
+    ref0 = _reference_at(tel, np.array([t0])) if tel.reference is not None else None
+    if ref0 is not None and "lat" in ref0:
+        lat0, lon0, h0 = float(ref0["lat"][0]), float(ref0["lon"][0]), float(ref0["h"][0])
+    elif site is not None:
+        lat0, lon0, h0 = float(site.lat_rad), float(site.lon_rad), float(site.height_m)
+    else:
+        raise ConfigError(f"{tel.path}: no start position: the file has neither root latitude/longitude/height "
+                          "nor /reference/position; add the site attributes (sizefx import --site-deg)")
+    details = {}
+    if init == "reference":
+        quat0 = ref0["quat_nb"][0]
+        v0 = ref0["v_n"][0] if "v_n" in ref0 else np.zeros(3)
+    else:
+        n_align = int(round(cfg.align_s / dt))
+        n_align -= n_align % n_sub
+        if n_align < n_sub * 10 or n_align > dtheta.shape[0]:
+            raise ConfigError(f"{tel.path}: alignment window of {cfg.align_s} s does not fit a record of "
+                              f"{dtheta.shape[0] * dt:.1f} s; choose --align-s")
+        window = slice(0, n_align)
+        f_b = dvel[window].sum(axis=0) / (n_align * dt)
+        w_b = dtheta[window].sum(axis=0) / (n_align * dt)
+        mat_c = coarse_alignment(f_b, w_b, lat0, h0)
+        mat_f = fine_alignment(dtheta[window], dvel[window], dt, mat_c, lat0, lon0, h0, n_sub)
+        quat0 = mat_to_quat(mat_f)
+        v0 = np.zeros(3)
+        roll_c, pitch_c, heading_c = mat_to_euler(mat_c)
+        roll, pitch, heading = mat_to_euler(mat_f)
+        details = {"align_window_s": n_align * dt,
+                   "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll_c, pitch_c, heading_c % (2 * np.pi))],
+                   "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll, pitch, heading % (2 * np.pi))],
+                   "mean_specific_force_mps2": f_b.tolist()}
+    n_steps = dtheta.shape[0] // n_sub
+    t_nav = t0 + dt * n_sub * np.arange(1, n_steps + 1)
+    h_ref = vd_ref = np.zeros(0)
+    if vertical == "reference":
+        refs = _reference_at(tel, t_nav)
+        h_ref = refs["h"]
+        vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
+    state = pack_state(quat0, v0, lat0, lon0, h0)
+    kernel_started = _time.perf_counter()
+    q, v, lat, lon, h = _run_kernel(dtheta, dvel, n_sub, dt, state, VERTICAL_MODES[vertical], h0, h_ref, vd_ref)
+    kernel_s = _time.perf_counter() - kernel_started
+    config = {**asdict(cfg), "init": init, "vertical": vertical, "stationary_reference": stationary,
+              "input_form": tel.form, "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / (n_sub * dt),
+              "dropped_trailing_samples": int(dtheta.shape[0] - n_steps * n_sub), **details}
+    result = NavResult(t_nav, q, v, lat, lon, h, config, {})
+    result.summary = _summary(tel, result, n_steps * n_sub)
+    result.summary["kernel_s"] = kernel_s
+    result.summary["wall_s"] = _time.perf_counter() - started
+    return result
+
+
+def _summary(tel: Telemetry, res: NavResult, samples: int) -> dict:
+    duration = float(res.time_s[-1] - res.time_s[0] + (res.time_s[1] - res.time_s[0] if res.time_s.size > 1 else 0))
+    out = {"samples": int(samples), "duration_s": duration, "final_horizontal_error_m": None,
+           "max_horizontal_error_m": None, "drift_nmi_per_h": None, "final_velocity_error_mps": None,
+           "final_attitude_error_deg": None, "max_attitude_error_deg": None,
+           "final_latitude_deg": float(np.degrees(res.lat_rad[-1])),
+           "final_longitude_deg": float(np.degrees(res.lon_rad[-1])), "final_height_m": float(res.height_m[-1])}
+    if tel.reference is None:
+        return out
+    ref = _reference_at(tel, res.time_s)
+    covered = (res.time_s >= tel.reference.time_s[0]) & (res.time_s <= tel.reference.time_s[-1] + 1e-9)
+    errors = {}
+    if "lat" in ref:
+        r_mer, r_tr = earth.radii_m(ref["lat"])
+        d_north = (res.lat_rad - ref["lat"]) * (r_mer + ref["h"])
+        d_east = (res.lon_rad - ref["lon"]) * (r_tr + ref["h"]) * np.cos(ref["lat"])
+        horiz = np.hypot(d_north, d_east)
+        errors.update(north_m=d_north, east_m=d_east, horizontal_m=horiz)
+        out["final_horizontal_error_m"] = float(horiz[covered][-1])
+        out["max_horizontal_error_m"] = float(horiz[covered].max())
+        out["drift_nmi_per_h"] = float(horiz[covered][-1] / METRES_PER_NMI / (duration / 3600.0))
+    if "v_n" in ref:
+        dv = res.v_n - ref["v_n"]
+        errors["velocity_mps"] = dv
+        out["final_velocity_error_mps"] = float(np.linalg.norm(dv[covered][-1]))
+    if not (tel.source and tel.source.get("reference_is_approximate")):
+        att = quat_angle_between(ref["quat_nb"], res.quat_nb)
+        errors["attitude_rad"] = att
+        out["final_attitude_error_deg"] = float(np.degrees(att[covered][-1]))
+        out["max_attitude_error_deg"] = float(np.degrees(att[covered].max()))
+    res.errors = errors
+    return out
+
+
+def format_summary(path, res: NavResult) -> str:
+    s, c = res.summary, res.config
+    lines = [f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / 3600:.3f} h), "
+             f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s",
+             f"  initial state from {c['init']}; vertical channel {c['vertical']}"]
+    if "fine_roll_pitch_heading_deg" in c:
+        r, p, h = c["fine_roll_pitch_heading_deg"]
+        lines.append(f"  alignment over {c['align_window_s']:.1f} s: roll {r:.4f} deg, pitch {p:.4f} deg, "
+                     f"heading {h:.4f} deg")
+    lines.append(f"  final position {s['final_latitude_deg']:.7f} deg N, {s['final_longitude_deg']:.7f} deg E, "
+                 f"{s['final_height_m']:.2f} m")
+    if s["final_horizontal_error_m"] is not None:
+        lines.append(f"  horizontal error: final {s['final_horizontal_error_m']:.4g} m, max "
+                     f"{s['max_horizontal_error_m']:.4g} m, drift {s['drift_nmi_per_h']:.4g} nmi/h")
+    if s["final_velocity_error_mps"] is not None:
+        lines.append(f"  final velocity error {s['final_velocity_error_mps']:.4g} m/s")
+    if s["final_attitude_error_deg"] is not None:
+        lines.append(f"  attitude error: final {s['final_attitude_error_deg']:.3g} deg, "
+                     f"max {s['max_attitude_error_deg']:.3g} deg")
+    return "\n".join(lines)
+
+
+def write_navigation(path, res: NavResult, *, input_file, force: bool = False):
+    """Write ``sizefx/navigation/1`` atomically, decimated to ``output_rate_hz``."""
+    rate = res.config.get("output_rate_hz")
+    stride = 1
+    if rate:
+        stride = max(1, int(round(res.config["nav_rate_hz"] / rate)))
+    sel = slice(stride - 1, None, stride)
+    roll, pitch, heading = mat_to_euler(quat_to_mat(res.quat_nb[sel]))
+    with atomic_output(path, inputs=[input_file], force=force) as tmp, h5py.File(tmp, "w") as h5:
+        h5.attrs["schema"] = "sizefx/navigation/1"
+        h5.attrs["input_file"] = str(input_file)
+        h5.attrs["configuration_json"] = json.dumps(res.config, default=float)
+        h5.attrs["summary_json"] = json.dumps(res.summary, default=float)
+        h5.attrs["sizefx_version"] = __version__
+        h5.create_dataset("time", data=res.time_s[sel]).attrs["units"] = "s"
+        h5.create_dataset("position", data=np.column_stack([np.degrees(res.lat_rad[sel]), np.degrees(res.lon_rad[sel]),
+                                                            res.height_m[sel]])).attrs["units"] = "deg,deg,m"
+        h5.create_dataset("velocity", data=res.v_n[sel]).attrs["units"] = "m/s"
+        h5.create_dataset("quaternion", data=res.quat_nb[sel]).attrs["units"] = "1"
+        h5.create_dataset("euler", data=np.column_stack([np.degrees(roll), np.degrees(pitch),
+                                                         np.degrees(heading) % 360.0])).attrs["units"] = "deg"
+
+
+def plot_errors(res: NavResult, png, title: str):
+    """Horizontal (and north, east) error against the reference versus time, PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if res.errors is None or "horizontal_m" not in res.errors:
+        raise ConfigError("no reference position to plot errors against")
+    t_min = (res.time_s - res.time_s[0]) / 60.0
+    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    ax.plot(t_min, res.errors["horizontal_m"], label="horizontal")
+    ax.plot(t_min, res.errors["north_m"], lw=0.8, label="north")
+    ax.plot(t_min, res.errors["east_m"], lw=0.8, label="east")
+    ax.set_xlabel("time since start [min]")
+    ax.set_ylabel("position error [m]")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+
+
+def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot=None, force: bool = False):
+    """Entry point of ``sizefx navigate``: returns the result; writes what was asked."""
+    cfg = cfg or NavConfig()
+    tel = read_telemetry(path, allow_gaps=cfg.allow_gaps)
+    if tel.gaps and any(g.dataset.startswith("/imu") for g in tel.gaps):
+        raise TelemetryError(path, "/imu/time", "has gaps; navigation needs continuous samples (cut the record)")
+    res = navigate(tel, cfg)
+    if output:
+        write_navigation(output, res, input_file=path, force=force)
+    if json_path:
+        with atomic_output(json_path, inputs=[path], force=force) as tmp:
+            Path(tmp).write_text(json.dumps({**res.summary, "configuration": res.config}, indent=2, default=float))
+    if plot:
+        plot_errors(res, plot, f"{Path(path).name}: free-inertial position error")
+    return res
