@@ -36,9 +36,11 @@ def main():
 from . import demo as _demo  # noqa: E402  (imported after `main` exists)
 from . import import_ as _import  # noqa: E402
 from . import inspect as _inspect  # noqa: E402
+from . import navigate as _navigate  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
 main.add_command(_demo.demo)
 main.add_command(_import.import_)
 main.add_command(_inspect.inspect)
+main.add_command(_navigate.navigate)
 main.add_command(_simulate.simulate)

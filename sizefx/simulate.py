@@ -136,7 +136,7 @@ class ImuSynthesizer:
         a = kin.accel_input
         return self.accel_scale * a + self.accel_k2 * a * a + self.accel_bias
 
-    def _deterministic(self, t: np.ndarray):
+    def deterministic(self, t: np.ndarray):
         """Error-model outputs (no noise) at times t: rates, or increments over (t - dt, t]."""
         if self.form == "rates":
             nodes = t
@@ -177,7 +177,7 @@ class ImuSynthesizer:
         self._next = k1
         n = k1 - k0
         t = self.sample_times(k0, k1)
-        gyro, accel = self._deterministic(t)
+        gyro, accel = self.deterministic(t)
         fx = self.fx
         per_sample = 1.0 if self.form == "rates" else self.dt  # bias -> increment
         white = 1.0 / np.sqrt(self.dt) if self.form == "rates" else np.sqrt(self.dt)

@@ -1,0 +1,48 @@
+"""``sizefx navigate FILE``."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx.navigate import NavConfig, format_summary, run
+
+from .options import allow_gaps_option, force_option
+
+
+@click.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="Write the solution (HDF5, sizefx/navigation/1).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the summary as JSON.")
+@click.option("--plot", type=click.Path(dir_okay=False), help="Write the position error versus time (PNG).")
+@click.option("--subsamples", default=4, show_default=True, type=click.IntRange(1, 4),
+              help="IMU samples per navigation interval (coning/sculling sub-samples); 4 at 1600 Hz -> 400 Hz.")
+@click.option("--init", type=click.Choice(["auto", "reference", "align"]), default="auto", show_default=True,
+              help="Initial attitude from /reference, or by static alignment over --align-s "
+                   "(auto: the reference when it covers the start and is not approximate).")
+@click.option("--align-s", default=300.0, show_default=True, type=float,
+              help="Alignment window from the start of the record [s]; the vehicle must be at rest.")
+@click.option("--vertical", type=click.Choice(["auto", "held", "reference", "free"]), default="auto",
+              show_default=True, help="Vertical channel: held at the known height, replaced by the reference "
+                                      "height, or free (auto: held at rest, reference when moving).")
+@click.option("--output-rate-hz", default=10.0, show_default=True, type=float,
+              help="Rate of the written solution [Hz] (0: every navigation interval).")
+@allow_gaps_option
+@force_option
+def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, allow_gaps, force):
+    """Whole-record strapdown navigation on WGS-84 (Numba).
+
+    Prints the errors against /reference when the file has one: final and
+    maximum horizontal error [m], drift [nmi/h], final velocity error [m/s],
+    attitude error [deg].
+    """
+    cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
+                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps)
+    res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force)
+    click.echo(format_summary(file, res))
+    if json_path:
+        click.echo(f"summary -> {json_path}")
+    if output:
+        click.echo(f"solution -> {output}")
+    if plot:
+        click.echo(f"plot -> {plot}")

@@ -1,0 +1,85 @@
+"""Slow, obviously correct twins of the Numba kernels (compared in tests; stumpy's tests/naive.py habit).
+
+Written with sizefx.earth (vectorised NumPy) and sizefx.rotation, one step at
+a time, so a kernel slip in the hand-unrolled scalar code shows up as a mismatch.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sizefx import earth
+from sizefx.kernels.strapdown import VERTICAL_HELD, VERTICAL_REFERENCE
+from sizefx.rotation import quat_multiply, quat_to_mat
+
+
+def rates_to_increments(rates, dt):
+    """Integral over each interval of the cubic (quadratic at the ends) through the nearest samples."""
+    n = rates.shape[0]
+    out = np.empty((n - 1, rates.shape[1]))
+    for k in range(1, n):
+        if k == 1:
+            w = np.array([5.0, 8.0, -1.0]) / 12.0
+            out[k - 1] = dt * w @ rates[0:3]
+        elif k == n - 1:
+            w = np.array([-1.0, 8.0, 5.0]) / 12.0
+            out[k - 1] = dt * w @ rates[n - 3:n]
+        else:
+            w = np.array([-1.0, 13.0, 13.0, -1.0]) / 24.0
+            out[k - 1] = dt * w @ rates[k - 2:k + 2]
+    return out
+
+
+def quat_of_rotvec(v):
+    angle = np.linalg.norm(v)
+    if angle == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return np.r_[np.cos(angle / 2), np.sin(angle / 2) * v / angle]
+
+
+def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, vertical=0, h_hold=0.0,
+              h_ref=None, vd_ref=None):
+    """The mechanisation of sizefx.kernels.strapdown, step by step with vectors and matrices."""
+    q = np.asarray(quat0, dtype=float) / np.linalg.norm(quat0)
+    v = np.asarray(v0, dtype=float).copy()
+    lat, lon, h = lat0, lon0, h0
+    prev = None
+    out = []
+    for step in range(dtheta.shape[0] // n_sub):
+        a = dtheta[step * n_sub:(step + 1) * n_sub]
+        u = dvel[step * n_sub:(step + 1) * n_sub]
+        cone = np.zeros(3)
+        scul = np.zeros(3)
+        for i in range(n_sub):
+            for j in range(i + 1, n_sub):
+                cone += coeffs[i, j] * np.cross(a[i], a[j])
+                scul += coeffs[i, j] * (np.cross(a[i], u[j]) + np.cross(u[i], a[j]))
+        phi = a.sum(axis=0) + cone
+        dv_b = u.sum(axis=0) + 0.5 * np.cross(a.sum(axis=0), u.sum(axis=0)) + scul
+        if prev is None:
+            lat_m, h_m, v_m = lat, h, v
+        else:
+            lat_m, h_m, v_m = 1.5 * lat - 0.5 * prev[0], 1.5 * h - 0.5 * prev[1], 1.5 * v - 0.5 * prev[2]
+        w_ie = earth.omega_ie_n(lat_m)
+        w_en = earth.omega_en_n(lat_m, h_m, v_m)
+        zeta = (w_ie + w_en) * dt_nav
+        g = earth.gravity_n(lat_m, h_m)
+        dv_n = quat_to_mat(q) @ dv_b
+        dv_n = dv_n - 0.5 * np.cross(zeta, dv_n)
+        v_new = v + dv_n + (g - np.cross(2 * w_ie + w_en, v_m)) * dt_nav
+        q = quat_multiply(quat_multiply(quat_of_rotvec(-zeta), q), quat_of_rotvec(phi))
+        q = q / np.linalg.norm(q)
+        if vertical == VERTICAL_HELD:
+            v_new[2], h_new = 0.0, h_hold
+        elif vertical == VERTICAL_REFERENCE:
+            v_new[2], h_new = vd_ref[step], h_ref[step]
+        else:
+            h_new = h - 0.5 * (v[2] + v_new[2]) * dt_nav
+        r_mer, r_tr = earth.radii_m(lat_m)
+        h_mid = 0.5 * (h + h_new)
+        lat_new = lat + 0.5 * (v[0] + v_new[0]) * dt_nav / (r_mer + h_mid)
+        lon_new = lon + 0.5 * (v[1] + v_new[1]) * dt_nav / ((r_tr + h_mid) * np.cos(lat_m))
+        prev = (lat, h, v)
+        lat, lon, h, v = lat_new, lon_new, h_new, v_new
+        out.append(np.r_[q, v, lat, lon, h])
+    return np.array(out)
