@@ -72,7 +72,9 @@ class NavResult:
     height_m: np.ndarray
     config: dict
     summary: dict
-    errors: dict | None = None  #: time histories against the reference (horizontal, north, east [m], attitude [rad])
+    #: histories against the reference at errors["time_s"]: horizontal_m, north_m, east_m,
+    #: velocity_mps [.., 3], attitude_rad (only where the reference has samples)
+    errors: dict | None = None
 
 
 # --------------------------------------------------------------------------- inputs
@@ -246,7 +248,7 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
                    "mean_specific_force_mps2": f_b.tolist(),
                    "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0)}
     n_steps = dtheta.shape[0] // n_sub
-    t_nav = t0 + dt * n_sub * np.arange(1, n_steps + 1)
+    t_nav = t_end[n_sub - 1:n_steps * n_sub:n_sub]  # the file's own stamps: no accumulated rounding
     h_ref = vd_ref = np.zeros(0)
     if vertical == "reference":
         refs = _reference_at(tel, t_nav)
@@ -275,33 +277,38 @@ def _summary(tel: Telemetry, res: NavResult, samples: int) -> dict:
            "final_longitude_deg": float(np.degrees(res.lon_rad[-1])), "final_height_m": float(res.height_m[-1])}
     if tel.reference is None:
         return out
-    ref = _reference_at(tel, res.time_s)
-    covered = (res.time_s >= tel.reference.time_s[0]) & (res.time_s <= tel.reference.time_s[-1] + 1e-9)
     ref_t = tel.reference.time_s
+    covered = (res.time_s >= ref_t[0]) & (res.time_s <= ref_t[-1] + 1e-9)
     if ref_t.size > 2 and np.median(np.diff(ref_t)) > 1.5 * np.median(np.diff(res.time_s)):
         # A reference sparser than the solution is compared only where it has samples:
         # interpolating it (e.g. 100 Hz through 32 Hz rotor vibration) would be the error shown.
-        k = np.clip(np.searchsorted(ref_t, res.time_s), 0, ref_t.size - 1)
-        covered &= np.abs(ref_t[k] - res.time_s) < 1e-6 * np.median(np.diff(res.time_s))
-    errors = {}
+        k = np.clip(np.searchsorted(ref_t, res.time_s), 1, ref_t.size - 1)
+        nearest = np.minimum(np.abs(ref_t[k] - res.time_s), np.abs(ref_t[k - 1] - res.time_s))
+        covered &= nearest < 1e-3 * np.median(np.diff(res.time_s))
+    idx = np.flatnonzero(covered)
+    if idx.size == 0:
+        return out
+    t = res.time_s[idx]
+    ref = _reference_at(tel, t)
+    errors = {"time_s": t}
     if "lat" in ref:
         r_mer, r_tr = earth.radii_m(ref["lat"])
-        d_north = (res.lat_rad - ref["lat"]) * (r_mer + ref["h"])
-        d_east = (res.lon_rad - ref["lon"]) * (r_tr + ref["h"]) * np.cos(ref["lat"])
+        d_north = (res.lat_rad[idx] - ref["lat"]) * (r_mer + ref["h"])
+        d_east = (res.lon_rad[idx] - ref["lon"]) * (r_tr + ref["h"]) * np.cos(ref["lat"])
         horiz = np.hypot(d_north, d_east)
         errors.update(north_m=d_north, east_m=d_east, horizontal_m=horiz)
-        out["final_horizontal_error_m"] = float(horiz[covered][-1])
-        out["max_horizontal_error_m"] = float(horiz[covered].max())
-        out["drift_nmi_per_h"] = float(horiz[covered][-1] / METRES_PER_NMI / (duration / 3600.0))
+        out["final_horizontal_error_m"] = float(horiz[-1])
+        out["max_horizontal_error_m"] = float(horiz.max())
+        out["drift_nmi_per_h"] = float(horiz[-1] / METRES_PER_NMI / (duration / 3600.0))
     if "v_n" in ref:
-        dv = res.v_n - ref["v_n"]
+        dv = res.v_n[idx] - ref["v_n"]
         errors["velocity_mps"] = dv
-        out["final_velocity_error_mps"] = float(np.linalg.norm(dv[covered][-1]))
+        out["final_velocity_error_mps"] = float(np.linalg.norm(dv[-1]))
     if not (tel.source and tel.source.get("reference_is_approximate")):
-        att = quat_angle_between(ref["quat_nb"], res.quat_nb)
+        att = quat_angle_between(ref["quat_nb"], res.quat_nb[idx])
         errors["attitude_rad"] = att
-        out["final_attitude_error_deg"] = float(np.degrees(att[covered][-1]))
-        out["max_attitude_error_deg"] = float(np.degrees(att[covered].max()))
+        out["final_attitude_error_deg"] = float(np.degrees(att[-1]))
+        out["max_attitude_error_deg"] = float(np.degrees(att.max()))
     res.errors = errors
     return out
 
@@ -360,7 +367,7 @@ def plot_errors(res: NavResult, png, title: str):
 
     if res.errors is None or "horizontal_m" not in res.errors:
         raise ConfigError("no reference position to plot errors against")
-    t_min = (res.time_s - res.time_s[0]) / 60.0
+    t_min = (res.errors["time_s"] - res.time_s[0]) / 60.0
     fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
     ax.plot(t_min, res.errors["horizontal_m"], label="horizontal")
     ax.plot(t_min, res.errors["north_m"], lw=0.8, label="north")

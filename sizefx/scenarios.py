@@ -323,3 +323,35 @@ def flight(plan: FlightPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajector
             "site": asdict(site), "turn_deg": float(turn_deg), "outbound_cruise_s": float(t_out),
             "return_cruise_s": float(t_return)}
     return traj, info
+
+
+# --------------------------------------------------------------------------- algorithm checks
+
+
+def coning(freq_hz: float, half_angle_rad: float, duration_s: float, site: SiteSpec = PAPER_AIRFIELD) -> Trajectory:
+    """Classical coning on a static site: ``mat_nb = Rz(W t) Rx(beta) Rz(-W t)``, W = 2 pi f."""
+    w = 2 * np.pi * freq_hz
+    spin = ProfileBuilder(0.0).hold(duration_s).build(rate0=w)
+    back = ProfileBuilder(0.0).hold(duration_s).build(rate0=-w)
+    chain = RotationChain([E_DOWN, E_NORTH, E_DOWN], [spin, ConstantProfile(half_angle_rad), back])
+    lat, lon, h = site.radians()
+    return Trajectory(StaticSite(lat, lon, h), chain, duration_s, name="coning",
+                      segments=[(f"coning {freq_hz:g} Hz", 0.0, duration_s)])
+
+
+def sculling(freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, duration_s: float,
+             site: SiteSpec = PAPER_AIRFIELD) -> Trajectory:
+    """Classical sculling without gravity coupling: heading A sin(W t) with north acceleration B sin(W t).
+
+    The rotation axis is vertical, so gravity (along it) does not enter the rectification;
+    the rectified error of a sculling algorithm then appears in the east velocity.
+    """
+    w = 2 * np.pi * freq_hz
+    still = ProfileBuilder(0.0).hold(duration_s).build()
+    lat, lon, h = site.radians()
+    height = ProfileBuilder(0.0).hold(duration_s).build(value0=h)
+    north = Sinusoids([-accel_amp_mps2 / w**2], [freq_hz], [0.0])  # displacement with acceleration B sin(W t)
+    path = FlightPath(still, still, height, lat, lon, duration_s, vibration_n=[(0, north)])
+    chain = RotationChain([E_DOWN, E_EAST, E_NORTH],
+                          [Sinusoids([angle_amp_rad], [freq_hz], [0.0]), ConstantProfile(0.0), ConstantProfile(0.0)])
+    return Trajectory(path, chain, duration_s, name="sculling", segments=[(f"sculling {freq_hz:g} Hz", 0.0, duration_s)])

@@ -296,3 +296,26 @@ def run(scenario: str, out, *, plan=None, site=None, effects_path=None, override
     inputs = [effects_path] if effects_path else []
     return simulate_to_file(traj, info, fx, out, rate_hz=rate_hz, form=form, seed=seed,
                             reference_rate_hz=reference_rate_hz, force=force, inputs=inputs, progress=progress)
+
+
+def simulate_in_memory(traj: Trajectory, effects: EffectModel | None = None, *, rate_hz: float = 1600.0,
+                       form: str = "increments", seed: int = 0):
+    """A whole record as a :class:`~sizefx.telemetry.Telemetry` in memory, reference at the IMU rate.
+
+    For short records (algorithm checks, diagnosis experiments); files go through
+    :func:`simulate_to_file`.
+    """
+    from .telemetry import Reference, Telemetry
+
+    fx = effects if effects is not None else load_effects(base=IDEAL)
+    syn = ImuSynthesizer(traj, fx, rate_hz=rate_hz, form=form, seed=seed)
+    t, g, a = syn.next_chunk(syn.n_samples)
+    t_ref = np.arange(0, int(np.floor(traj.duration_s * rate_hz + 1e-9)) + 1) / rate_hz
+    q, lat, lon, h, v = syn.reference_rows(t_ref)
+    tel = Telemetry(time_s=t, form=form, reference=Reference(t_ref, q, lat, lon, h, v),
+                    site=Site(float(lat[0]), float(lon[0]), float(h[0])))
+    if form == "rates":
+        tel.gyro_rad_s, tel.accel_mps2 = g, a
+    else:
+        tel.dtheta_rad, tel.dvel_mps = g, a
+    return tel

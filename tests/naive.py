@@ -44,6 +44,7 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, ve
     v = np.asarray(v0, dtype=float).copy()
     lat, lon, h = lat0, lon0, h0
     prev = None
+    c_lat = c_lon = 0.0  # Kahan compensation, as in the kernel
     out = []
     for step in range(dtheta.shape[0] // n_sub):
         a = dtheta[step * n_sub:(step + 1) * n_sub]
@@ -77,8 +78,12 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, ve
             h_new = h - 0.5 * (v[2] + v_new[2]) * dt_nav
         r_mer, r_tr = earth.radii_m(lat_m)
         h_mid = 0.5 * (h + h_new)
-        lat_new = lat + 0.5 * (v[0] + v_new[0]) * dt_nav / (r_mer + h_mid)
-        lon_new = lon + 0.5 * (v[1] + v_new[1]) * dt_nav / ((r_tr + h_mid) * np.cos(lat_m))
+        y = 0.5 * (v[0] + v_new[0]) * dt_nav / (r_mer + h_mid) - c_lat
+        lat_new = lat + y
+        c_lat = (lat_new - lat) - y
+        y = 0.5 * (v[1] + v_new[1]) * dt_nav / ((r_tr + h_mid) * np.cos(lat_m)) - c_lon
+        lon_new = lon + y
+        c_lon = (lon_new - lon) - y
         prev = (lat, h, v)
         lat, lon, h, v = lat_new, lon_new, h_new, v_new
         out.append(np.r_[q, v, lat, lon, h])

@@ -34,8 +34,9 @@ from sizefx.motion import (
 )
 from sizefx.navigate import NavConfig, navigate
 from sizefx.rotation import mat_to_quat
-from sizefx.simulate import ImuSynthesizer, kinematics
+from sizefx.simulate import ImuSynthesizer, kinematics, simulate_in_memory
 from sizefx.telemetry import Reference, Site, Telemetry
+from sizefx.theory import coning_residual_rad_s, schuler_peak_error_m, schuler_period_s, sculling_residual_mps2
 from sizefx_cli.main import main
 from tests import naive
 
@@ -48,15 +49,8 @@ def ideal(**sections):
     return load_effects(overrides=sections, base=IDEAL)
 
 
-def simulate_increments(traj, fx=None, rate_hz=1600.0):
-    """Ideal increments of a trajectory as an in-memory Telemetry with a full-rate reference."""
-    syn = ImuSynthesizer(traj, fx or ideal(), rate_hz=rate_hz, form="increments")
-    t, dtheta, dvel = syn.next_chunk(syn.n_samples)
-    t_ref = np.arange(0, syn.n_samples + 1) / rate_hz
-    q, lat, lon, h, v = syn.reference_rows(t_ref)
-    ref = Reference(t_ref, q, lat, lon, h, v)
-    return Telemetry(time_s=t, form="increments", dtheta_rad=dtheta, dvel_mps=dvel, reference=ref,
-                     site=Site(float(lat[0]), float(lon[0]), float(h[0])))
+def simulate_increments(traj, fx=None):
+    return simulate_in_memory(traj, fx or ideal())
 
 
 def static_trajectory(duration_s, heading=0.3):
@@ -162,22 +156,12 @@ def test_static_18_hours_stays_put():
 
 def _drift_rate(res, key):
     """Least-squares slope [per s] of an error history over the record."""
-    t = res.time_s - res.time_s[0]
+    t = res.errors["time_s"] - res.errors["time_s"][0]
     return np.polyfit(t, key, 1)[0]
 
 
-def coning_residual(freq_hz, beta_rad, n_sub, h=H_SAMPLE):
-    """Closed-form coning drift of the n_sub-sample algorithm [rad/s] (pure coning, small half-angle).
-
-    True rotation about the cone axis over T: a^2/2 (Omega T - sin Omega T), a = sin(beta);
-    algorithm: sum k_ij (a_i x a_j) with |a_i x a_j| = 4 a^2 sin^2(Omega h / 2) sin((j - i) Omega h).
-    """
-    w, a, T = 2 * np.pi * freq_hz, np.sin(beta_rad), n_sub * h
-    k = coning_coefficients(n_sub)
-    true = 0.5 * a * a * (w * T - np.sin(w * T))
-    alg = sum(k[i, j] * 4 * a * a * np.sin(w * h / 2) ** 2 * np.sin((j - i) * w * h)
-              for i in range(n_sub) for j in range(i + 1, n_sub))
-    return (true - alg) / T
+def coning_residual(freq_hz, beta_rad, n_sub):
+    return coning_residual_rad_s(freq_hz, beta_rad, n_sub, H_SAMPLE)
 
 
 CONING_CASES = [(10.0, 1), (10.0, 2), (10.0, 3), (50.0, 1), (50.0, 2), (50.0, 3), (50.0, 4)]
@@ -188,10 +172,7 @@ def coning_records():
     beta = 1.0 * DEG
     out = {}
     for f in (10.0, 50.0):
-        spin = ProfileBuilder(0.0).hold(40.0).build(rate0=2 * np.pi * f)
-        back = ProfileBuilder(0.0).hold(40.0).build(rate0=-2 * np.pi * f)
-        chain = RotationChain([E_D, E_N, E_D], [spin, ConstantProfile(beta), back])  # Rz(wt) Rx(b) Rz(-wt)
-        out[f] = simulate_increments(Trajectory(StaticSite(LAT, LON, H), chain, 40.0))
+        out[f] = simulate_increments(scenarios.coning(f, beta, 40.0))
     return beta, out
 
 
@@ -210,30 +191,8 @@ def test_coning_drift_falls_with_more_subsamples():
         assert r[0] > r[1] > r[2] > r[3]
 
 
-def sculling_residual(freq_hz, angle_amp_rad, accel_amp_mps2, n_sub, h=H_SAMPLE):
-    """Closed-form sculling error [m/s^2] of the n_sub-sample algorithm.
-
-    Motion: angle A sin(Omega t) about one axis and specific force B sin(Omega t) along a
-    perpendicular one (classical sculling). Per interval the algorithm's rectified term is
-    1/2 (a x u) + sum k_ij (a_i x u_j + u_i x a_j); the exact one, to leading order, is the
-    integral of alpha x f. Averaged over the phase with
-    <sin(W(t0 + p h)) cos(W(t0 + q h))> = 1/2 sin(W h (p - q)):
-    error = (<algorithm> - A B (T/2 - sin(W T) / (2 W))) / T.
-    """
-    w, A, B, T = 2 * np.pi * freq_hz, angle_amp_rad, accel_amp_mps2, n_sub * h
-    k = coning_coefficients(n_sub)
-
-    def sc(p, q):  # <S_p C_q> over the phase
-        return 0.5 * np.sin(w * h * (p - q))
-
-    def a_u(i, j):  # <a_i u_j>: a_i = A (S_i - S_(i-1)), u_j = B / W (C_(j-1) - C_j)
-        return A * B / w * (sc(i, j - 1) - sc(i, j) - sc(i - 1, j - 1) + sc(i - 1, j))
-
-    total = A * B / w * (sc(n_sub, 0) - sc(n_sub, n_sub) - sc(0, 0) + sc(0, n_sub))
-    alg = 0.5 * total + sum(k[i - 1, j - 1] * (a_u(i, j) - a_u(j, i))
-                            for i in range(1, n_sub + 1) for j in range(i + 1, n_sub + 1))
-    true = A * B * (T / 2 - np.sin(w * T) / (2 * w))
-    return (alg - true) / T
+def sculling_residual(freq_hz, angle_amp_rad, accel_amp_mps2, n_sub):
+    return sculling_residual_mps2(freq_hz, angle_amp_rad, accel_amp_mps2, n_sub, H_SAMPLE)
 
 
 @pytest.mark.parametrize("n_sub", [1, 2, 3, 4])
@@ -243,14 +202,7 @@ def test_sculling_drift_matches_the_closed_form_residual(n_sub):
     # 100 Hz, 0.25 deg: small enough that terms beyond the leading order (A^2 A B) stay under
     # 3 % of even the 4-sub-sample residual (at 1 deg they reach 15 % there)
     freq, amp, accel = 100.0, 0.25 * DEG, 1.0
-    w = 2 * np.pi * freq
-    still = ProfileBuilder(0.0).hold(20.0).build()
-    height = ProfileBuilder(0.0).hold(20.0).build(value0=H)
-    north = Sinusoids([-accel / w**2], [freq], [0.0])  # displacement whose acceleration is B sin(w t)
-    path = FlightPath(still, still, height, LAT, LON, 20.0, vibration_n=[(0, north)])
-    chain = RotationChain([E_D, E_E, E_N], [Sinusoids([amp], [freq], [0.0]), ConstantProfile(0.0),
-                                            ConstantProfile(0.0)])
-    tel = simulate_increments(Trajectory(path, chain, 20.0))
+    tel = simulate_increments(scenarios.sculling(freq, amp, accel, 20.0))
     res = navigate(tel, NavConfig(subsamples=n_sub, output_rate_hz=None))
     measured = _drift_rate(res, res.errors["velocity_mps"][:, 1])
     expected = sculling_residual(freq, amp, accel, n_sub)
@@ -290,21 +242,19 @@ def test_schuler_oscillation_of_an_accelerometer_bias():
                                         np.full(2, LAT), np.full(2, LON), np.full(2, H)),
                     site=Site(LAT, LON, H))
     res = navigate(tel, NavConfig(subsamples=1, output_rate_hz=None))
-    err, t = res.errors["horizontal_m"], res.time_s
-    r_mer, r_tr = earth.radii_m(LAT)
-    R = np.sqrt(r_mer * r_tr) + H
-    g = earth.gravity_n(LAT, H)[2]
-    period_expected = 2 * np.pi * np.sqrt(R / g)
+    err, t = res.errors["horizontal_m"], res.errors["time_s"]
+    period_expected = schuler_period_s(LAT, H)
     assert period_expected / 60 == pytest.approx(84.4, abs=0.1)
     # period from the zero crossings of the north velocity (every half period); the magnitude
     # of the position error is a poor clock: Foucault coupling adds ~20 m east near its minima
     v_north = res.v_n[:, 0]
+    t = res.time_s
     crossings = t[np.flatnonzero(np.diff(np.sign(v_north)) != 0)]
     assert crossings.size >= 3
     period = 2.0 * np.mean(np.diff(crossings))
     assert period / 60 == pytest.approx(84.4, rel=0.01)
     assert period == pytest.approx(period_expected, rel=0.01)
-    assert err.max() == pytest.approx(2 * b * R / g, rel=0.05)
+    assert err.max() == pytest.approx(schuler_peak_error_m(b, LAT, H), rel=0.05)
 
 
 # --------------------------------------------------------------------------- real data and the command

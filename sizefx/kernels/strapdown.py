@@ -19,6 +19,9 @@ are updated once.
   gravity and the velocity in the Coriolis term are taken at the interval
   midpoint, extrapolated from the two previous steps (Savage 1998, sec. 7.2).
 - Position: trapezoidal in velocity with midpoint radii; Groves eqs. 5.56-5.57.
+  Latitude and longitude are summed with Kahan compensation: a 400 Hz step of a
+  slow drift (1e-17 rad at 3e-8 m/s) lies below the float64 spacing of a latitude
+  near 1 rad (2e-16) and would otherwise be lost, step after step.
 
 References
 ----------
@@ -45,7 +48,9 @@ __all__ = ["coning_coefficients", "STATE_SIZE", "VERTICAL_FREE", "VERTICAL_HELD"
            "strapdown", "pack_state"]
 
 #: layout of the state vector carried between calls (chunks)
-STATE_SIZE = 16  # q[0:4], v_n[4:7], lat, lon, h [7:10], lat_prev, h_prev [10:12], v_prev [12:15], have_prev [15]
+#: q[0:4], v_n[4:7], lat, lon, h [7:10], lat_prev, h_prev [10:12], v_prev [12:15], have_prev [15],
+#: Kahan compensation of lat, lon [16:18]
+STATE_SIZE = 18
 
 VERTICAL_FREE = 0  #: integrate the vertical channel (unstable over minutes, like any INS)
 VERTICAL_HELD = 1  #: height fixed at a known value, vertical velocity zero (turntable, sway, a site)
@@ -126,6 +131,7 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, state, vertical_mode, h_hold,
     lat_p, h_p = state[10], state[11]
     vn_p, ve_p, vd_p = state[12], state[13], state[14]
     have_prev = state[15] > 0.5
+    c_lat, c_lon = state[16], state[17]
     for step in range(n_steps):
         j0 = step * n_sub
         # -- sums, coning and sculling over the sub-samples
@@ -227,8 +233,12 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, state, vertical_mode, h_hold,
             h_new = h - 0.5 * (vd + vd_new) * T
         # -- position, trapezoidal in velocity with midpoint radii
         h_mid = 0.5 * (h + h_new)
-        lat_new = lat + 0.5 * (vn + vn_new) * T / (r_mer + h_mid)
-        lon_new = lon + 0.5 * (ve + ve_new) * T / ((r_tr + h_mid) * cl)
+        y = 0.5 * (vn + vn_new) * T / (r_mer + h_mid) - c_lat
+        lat_new = lat + y
+        c_lat = (lat_new - lat) - y
+        y = 0.5 * (ve + ve_new) * T / ((r_tr + h_mid) * cl) - c_lon
+        lon_new = lon + y
+        c_lon = (lon_new - lon) - y
 
         lat_p, h_p, vn_p, ve_p, vd_p = lat, h, vn, ve, vd
         have_prev = True
@@ -249,3 +259,4 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, state, vertical_mode, h_hold,
     state[10], state[11] = lat_p, h_p
     state[12], state[13], state[14] = vn_p, ve_p, vd_p
     state[15] = 1.0 if have_prev else 0.0
+    state[16], state[17] = c_lat, c_lon
