@@ -8,6 +8,8 @@ import numpy as np
 
 from .constants import DEG, MICRO_G
 from .inspect import format_summary, summarize
+from .navigate import NavConfig, navigate
+from .navigate import format_summary as format_nav_summary
 from .simulate import run
 from .telemetry import read_telemetry
 
@@ -42,4 +44,8 @@ def run_demo(out_dir: Path, *, seed: int = 0):
                 cells.append(f"{'xyz'[i]} {measured / MICRO_G:7.1f} ug (-<w^2> r = {-w2 * arms[i][i] / MICRO_G:7.1f})")
         peak = np.max(np.abs(tel.gyro_rad_s[sel, axis])) / DEG
         yield f"  {name} (peak {peak:.1f} deg/s): " + "; ".join(cells)
-    yield "next stages (calibrate, compensate, navigate, diagnose) are on the issue list."
+    # Navigate the same record: the size effect and the noise, uncompensated, over 7.8 minutes.
+    res = navigate(tel, NavConfig(subsamples=4))
+    yield "navigating the record (initial state from /reference, no compensation):"
+    yield format_nav_summary(path, res)
+    yield "next stages (calibrate, compensate, compare, diagnose) are on the issue list."
