@@ -360,7 +360,10 @@ def write_navigation(path, res: NavResult, *, input_file, force: bool = False):
 
 def plot_errors(res: NavResult, png, title: str):
     """Horizontal (and north, east) error against the reference versus time, PNG."""
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError:
+        raise ConfigError("plots need matplotlib: pip install 'sizefx[plots]'") from None
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
