@@ -27,9 +27,14 @@ from .options import allow_gaps_option, force_option
                                       "height, or free (auto: held at rest, reference when moving).")
 @click.option("--output-rate-hz", default=10.0, show_default=True, type=float,
               help="Rate of the written solution [Hz] (0: every navigation interval).")
+@click.option("--levers", type=click.Path(dir_okay=False),
+              help="Compensate the size effect first with these lever arms (sizefx/levers/1).")
+@click.option("--mode", type=click.Choice(["triad", "center"]), default="triad", show_default=True,
+              help="With --levers: bring the accelerometers to the triad point or to the rotation centre.")
 @allow_gaps_option
 @force_option
-def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, allow_gaps, force):
+def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers, mode,
+             allow_gaps, force):
     """Whole-record strapdown navigation on WGS-84 (Numba).
 
     Prints the errors against /reference when the file has one: final and
@@ -37,7 +42,7 @@ def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical,
     attitude error [deg].
     """
     cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
-                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps)
+                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, levers=levers, mode=mode)
     res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force)
     click.echo(format_summary(file, res))
     if json_path:

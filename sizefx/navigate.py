@@ -60,6 +60,8 @@ class NavConfig:
     align_s: float = 300.0  #: alignment window [s] when init is align
     output_rate_hz: float | None = 10.0  #: rate of the written solution (None: every interval)
     allow_gaps: bool = False
+    levers: str | None = None  #: sizefx/levers/1 file: compensate the size effect before navigating
+    mode: str = "triad"  #: triad | center (see sizefx.compensate)
 
 
 @dataclass
@@ -210,6 +212,14 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     cfg = cfg or NavConfig()
     started = _time.perf_counter()
     t_end, dtheta, dvel, dt = increments_of(tel)
+    if cfg.levers:
+        from .compensate import compensate_arrays_increments, resample_increments
+        from .levers import read_levers
+
+        levers = read_levers(cfg.levers)
+        if levers.accel_delay_s:
+            dvel = resample_increments(dvel, t_end - levers.accel_delay_s, t_end)
+        dvel = compensate_arrays_increments(dtheta, dvel, dt, levers, cfg.mode)
     n_sub = int(cfg.subsamples)
     coning_coefficients(n_sub)  # validates
     t0 = t_end[0] - dt  # start of the first increment

@@ -24,8 +24,9 @@ def load_schema(name: str) -> dict:
         raise ValueError(f"not a sizefx schema name: {name!r}")
     text = resources.files("sizefx.schemas").joinpath(f"{kind}-{version}.json").read_text("utf-8")
     schema = json.loads(text)
-    if schema.get("schema") != name:
-        raise RuntimeError(f"schema file for {name!r} declares {schema.get('schema')!r}")
+    declared = schema.get("schema", schema.get("$id"))  # our HDF5/TOML contracts, or a JSON Schema
+    if declared != name:
+        raise RuntimeError(f"schema file for {name!r} declares {declared!r}")
     return schema
 
 

@@ -88,3 +88,31 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, ve
         lat, lon, h, v = lat_new, lon_new, h_new, v_new
         out.append(np.r_[q, v, lat, lon, h])
     return np.array(out)
+
+
+def compensate_rates(accel, omega, omegadot, arms, axes, centripetal=True, tangential=True):
+    """a_i - u_i . (omegadot x r_i + omega x (omega x r_i)), sample by sample."""
+    out = np.array(accel, dtype=float)
+    for k in range(accel.shape[0]):
+        for i in range(3):
+            lever = np.zeros(3)
+            if tangential:
+                lever += np.cross(omegadot[k], arms[i])
+            if centripetal:
+                lever += np.cross(omega[k], np.cross(omega[k], arms[i]))
+            out[k, i] -= axes[i] @ lever
+    return out
+
+
+def compensate_increments(dvel, dtheta, omega_edges, dt, arms, axes, centripetal=True, tangential=True):
+    out = np.array(dvel, dtype=float)
+    for k in range(dvel.shape[0]):
+        w = dtheta[k] / dt
+        for i in range(3):
+            lever = np.zeros(3)
+            if tangential:
+                lever += np.cross(omega_edges[k + 1] - omega_edges[k], arms[i])
+            if centripetal:
+                lever += dt * np.cross(w, np.cross(w, arms[i]))
+            out[k, i] -= axes[i] @ lever
+    return out

@@ -1,0 +1,45 @@
+"""``sizefx calibrate RECORD [RECORD ...]``."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx.calibrate import format_report, run
+from sizefx.levers import write_levers
+
+from .options import allow_gaps_option, force_option
+
+
+@click.command()
+@click.argument("records", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--nominal", default="high-precision", show_default=True,
+              help="Nominal geometry to compare with: high-precision, compact, or a sizefx/levers/1 file.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the lever arms (sizefx/levers/1).")
+@click.option("--tilt/--no-tilt", default=True, show_default=True,
+              help="Estimate the table's tilt about north and east [arcsec].")
+@click.option("--delay/--no-delay", default=False, show_default=True,
+              help="Estimate the accelerometers' delay behind the gyros [us] (needs rotation about horizontal axes).")
+@click.option("--triad-point", type=click.Choice(["normals", "x-accelerometer"]), default="normals",
+              show_default=True, help="Triad point for the split r_i = r + d_i: where the accelerometer normals "
+                                      "meet, or accelerometer x.")
+@click.option("--plot", type=click.Path(dir_okay=False),
+              help="Write the paper's Fig. 6 (PNG): horizontal channels before and after compensation.")
+@allow_gaps_option
+@force_option
+def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow_gaps, force):
+    """Lever arms of each accelerometer from turntable rotations (least squares).
+
+    RECORDS need /reference attitude (what the table reports). Several records
+    (e.g. the turntable plan and a roll sway) are fitted jointly: shared arms,
+    tilt and delay, a bias per record. Prints the joint estimates with standard
+    errors [mm], the difference from the nominal, the paper's per-rotation fit,
+    tilt [arcsec] and delay [us].
+    """
+    out = run(list(records), nominal=nominal, with_tilt=tilt, with_delay=delay, triad=triad_point,
+              allow_gaps=allow_gaps, plot=plot)
+    click.echo(format_report(out))
+    if json_path:
+        write_levers(json_path, out["levers"], inputs=list(records), force=force)
+        click.echo(f"lever arms -> {json_path}")
+    if plot:
+        click.echo(f"figure -> {plot}")

@@ -1,0 +1,398 @@
+"""Lever-arm calibration on a turntable (or any record with reference attitude): ``sizefx calibrate``.
+
+Measurement model of accelerometer channel i at time t:
+
+    a_i = u_i . [ f_grav + omegadot x r_i + omega x (omega x r_i) ] + b_i
+          + tilt_i(phi_N, phi_E) + tau (omega x f_grav)_i + noise
+
+- ``f_grav = C_bn (-g_n)``: normal gravity, projected with the reference attitude.
+- ``tilt``: the true attitude is R(phi) C_ref. To first order this adds
+  ``C_bn (g phi_E, -g phi_N, 0)``.
+- ``tau``: the accelerometers read the specific force tau seconds late; to first order
+  ``-tau d/dt f_grav = tau omega x f_grav``.
+
+Unknowns: the nine components of r_x, r_y, r_z; a bias per channel and record; the tilt;
+optionally tau. Two estimators:
+
+* :func:`per_rotation_fit`: the paper's per-rotation least squares,
+  ``H = [1, omega^2, omegadot]`` for each rotation block and horizontal channel
+  (Morozov & Bogdanov 2024, section "Calibration"). It ignores the tilt, which
+  therefore biases it.
+* :func:`joint_fit`: one weighted least squares over every sample of every record,
+  with standard errors, the condition number, residual RMS per channel, and an
+  explicit observability check: parameters the motion cannot reveal are named
+  instead of inverting a singular matrix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import earth
+from .constants import ARCSEC, DEG
+from .errors import SizefxError
+from .levers import Levers, read_levers, levers_from_preset
+from .omegadot import savgol
+from .rotation import quat_interp, quat_to_mat
+from .telemetry import Telemetry, read_telemetry
+
+__all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_fit", "triad_point",
+           "detect_rotations", "CalibrationResult", "run"]
+
+#: A sample rotates when |omega| exceeds this [rad/s] (1 deg/s: far above Earth rate and noise).
+ROTATING_RAD_S = 1.0 * DEG
+#: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable.
+#: 1e-10 relative is ~1e5 times the rounding level of the normal equations (1e-15).
+UNOBSERVABLE_EIG = 1e-10
+PARAMS_R = [f"r_{a}[{c}]" for a in "xyz" for c in "xyz"]
+
+
+class CalibrationError(SizefxError):
+    """The records cannot give what was asked (no rotation, unobservable components)."""
+
+
+@dataclass
+class Record:
+    """What the fits need from one file, per IMU sample (rates domain)."""
+
+    name: str
+    t: np.ndarray  #: [N] s
+    accel: np.ndarray  #: [N, 3] m/s^2
+    omega: np.ndarray  #: [N, 3] rad/s (gyros)
+    omegadot: np.ndarray  #: [N, 3] rad/s^2 (Savitzky-Golay, centred)
+    mat_nb: np.ndarray  #: [N, 3, 3] reference attitude
+    g_down: float  #: normal gravity at the site [m/s^2]
+
+    @property
+    def f_grav(self):
+        """C_bn (-g_n) [N, 3]: gravity's specific force in body axes."""
+        return -self.g_down * self.mat_nb[:, 2, :]
+
+
+def prepare(tel: Telemetry, name: str = "") -> Record:
+    """Rates, angular acceleration and reference attitude on the IMU samples of a record."""
+    if tel.reference is None:
+        raise CalibrationError(f"{tel.path}: calibration needs /reference attitude (what the table reports)")
+    dt = tel.sample_period_s
+    if tel.form == "rates":
+        t, omega, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
+    else:  # increments -> mean rates over each interval, stamped at its midpoint
+        t, omega, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
+    if tel.accel_time_s is not None:
+        from .compensate import resample_onto
+
+        accel = resample_onto(accel, tel.accel_time_s, tel.time_s)
+    mat_nb = quat_to_mat(quat_interp(tel.reference.time_s, tel.reference.quat_nb, t))
+    lat, h = (tel.site.lat_rad, tel.site.height_m) if tel.site is not None else (
+        tel.reference.lat_rad[0], tel.reference.height_m[0])
+    return Record(name or str(tel.path), t, accel, omega, savgol(omega, dt), mat_nb,
+                  float(earth.gravity_n(lat, h)[2]))
+
+
+# --------------------------------------------------------------------------- the paper's per-rotation fit
+
+
+#: A body axis counts as vertical within this angle of the down direction in the reported
+#: attitude (36 arcsec: the table reports the axis vertical during a block; within 1 deg,
+#: gravity would already leak 17 000 ug into a "horizontal" channel at the block's edge).
+VERTICAL_WITHIN_RAD = 0.01 * DEG
+
+
+def detect_rotations(rec: Record, min_s: float = 5.0):
+    """Blocks ``[(axis, i0, i1)]`` in which body axis ``axis`` stays vertical and the table turns about it.
+
+    Segmenting by the reference attitude, not by the gyros, keeps repositioning
+    (where gravity sweeps through every channel) out of the blocks.
+    """
+    down = np.abs(rec.mat_nb[:, 2, :])  # |cosine| between each body axis and the vertical
+    axis = np.argmax(down, axis=1)
+    vertical = down[np.arange(axis.size), axis] > np.cos(VERTICAL_WITHIN_RAD)
+    label = np.where(vertical, axis, -1)
+    dt = float(np.median(np.diff(rec.t)))
+    blocks = []
+    edges = np.flatnonzero(np.diff(label) != 0) + 1
+    for i0, i1 in zip(np.r_[0, edges], np.r_[edges, label.size]):
+        a = label[i0]
+        if a < 0:
+            continue
+        turning = np.abs(rec.omega[i0:i1, a]) > ROTATING_RAD_S
+        if turning.sum() * dt >= min_s:
+            blocks.append((int(a), int(i0), int(i1)))
+    return blocks
+
+
+def per_rotation_fit(rec: Record):
+    """The paper's fit: per block and horizontal channel, ``a_i = b + c2 omega_a^2 + c3 omegadot_a``.
+
+    A block is a stretch in which body axis ``a`` is vertical (static lead-in and
+    dwell included) and the table turns about it.
+
+    Returns a list of dicts with the block, channel, the coefficients and the lever-arm
+    components they stand for: ``c2 = -r_i[i]`` (centripetal), ``c3 = eps(i, a, j) r_i[j]``
+    (tangential, j the third axis), as rigid-body kinematics gives them.
+    """
+    out = []
+    for a, i0, i1 in detect_rotations(rec):
+        wa = rec.omega[i0:i1, a]
+        H = np.column_stack([np.ones(i1 - i0), wa**2, rec.omegadot[i0:i1, a]])
+        for i in range(3):
+            if i == a:
+                continue
+            j = 3 - a - i
+            eps = np.sign(np.linalg.det(np.eye(3)[[i, a, j]]))  # Levi-Civita symbol eps(i, a, j)
+            coef, *_ = np.linalg.lstsq(H, rec.accel[i0:i1, i], rcond=None)
+            resid = rec.accel[i0:i1, i] - H @ coef
+            cov = np.linalg.inv(H.T @ H) * resid.var()
+            out.append({"axis": "xyz"[a], "channel": "xyz"[i], "t0": float(rec.t[i0]), "t1": float(rec.t[i1 - 1]),
+                        "bias": float(coef[0]), "r_own": float(-coef[1]), "r_other": float(eps * coef[2]),
+                        "other_component": "xyz"[j],
+                        "sigma_r_own": float(np.sqrt(cov[1, 1])), "sigma_r_other": float(np.sqrt(cov[2, 2]))})
+    return out
+
+
+# --------------------------------------------------------------------------- the joint fit
+
+
+@dataclass
+class CalibrationResult:
+    arms: np.ndarray  #: [3, 3] r_i
+    sigma_arms: np.ndarray  #: [3, 3]
+    biases: np.ndarray  #: [n_records, 3] m/s^2
+    tilt_rad: np.ndarray | None  #: [2] (north, east)
+    sigma_tilt_rad: np.ndarray | None
+    delay_s: float | None
+    sigma_delay_s: float | None
+    condition: float
+    residual_rms: np.ndarray  #: [3] m/s^2 per channel
+    samples: int
+    names: list = field(default_factory=list)
+    covariance: np.ndarray | None = None
+
+
+def _rows(rec: Record, i: int, sl: slice, n_rec: int, k_rec: int, with_tilt: bool, with_delay: bool):
+    """Design rows of channel i for samples ``sl``: [r (9) | biases (3 n_rec) | tilt (2) | delay (1)]."""
+    w, wd, mat = rec.omega[sl], rec.omegadot[sl], rec.mat_nb[sl]
+    n = w.shape[0]
+    cols = 9 + 3 * n_rec + (2 if with_tilt else 0) + (1 if with_delay else 0)
+    H = np.zeros((n, cols))
+    # u_i . (wd x r + w x (w x r)) = row i of ([wd x] + [w x]^2) applied to r_i
+    e = np.zeros(3)
+    e[i] = 1.0
+    # [wd x]^T e_i and ([w x]^2)^T e_i: wd x r . e_i = (e_i x wd) . r ; (w x (w x r)) . e_i = (w (w.e_i) - |w|^2 e_i) . r
+    H[:, 3 * i:3 * i + 3] = np.cross(e, wd) + w * w[:, i:i + 1] - np.sum(w * w, axis=1, keepdims=True) * e
+    H[:, 9 + 3 * k_rec + i] = 1.0
+    c = 9 + 3 * n_rec
+    if with_tilt:
+        H[:, c] = -rec.g_down * mat[:, 1, i]  # phi_N
+        H[:, c + 1] = rec.g_down * mat[:, 0, i]  # phi_E
+        c += 2
+    if with_delay:
+        fg = -rec.g_down * mat[:, 2, :]
+        H[:, c] = np.cross(w, fg)[:, i]
+    y = rec.accel[sl, i] + rec.g_down * mat[:, 2, i]  # minus the known gravity term
+    return H, y
+
+
+def _names(n_rec, with_tilt, with_delay, rec_names):
+    names = list(PARAMS_R) + [f"bias_{a} ({Path(rec_names[k]).name})" for k in range(n_rec) for a in "xyz"]
+    if with_tilt:
+        names += ["tilt_north", "tilt_east"]
+    if with_delay:
+        names += ["accel_delay"]
+    return names
+
+
+def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool = False,
+              chunk: int = 1 << 16) -> CalibrationResult:
+    """Weighted least squares over all samples of all records; weights 1 / (channel noise variance)."""
+    n_rec = len(records)
+    names = _names(n_rec, with_tilt, with_delay, [r.name for r in records])
+    p = len(names)
+    for rec in records:
+        if not np.any(np.linalg.norm(rec.omega, axis=1) > ROTATING_RAD_S):
+            raise CalibrationError(f"{rec.name}: the record never rotates (|omega| stays under 1 deg/s); "
+                                   "no lever arm is observable: record rotations about at least two body axes")
+    variance = np.ones(3)
+    for _ in range(2):  # unweighted, then weighted with each channel's residual variance
+        N = np.zeros((p, p))
+        b = np.zeros(p)
+        for k, rec in enumerate(records):
+            for i in range(3):
+                for s in range(0, rec.t.size, chunk):
+                    H, y = _rows(rec, i, slice(s, s + chunk), n_rec, k, with_tilt, with_delay)
+                    N += H.T @ H / variance[i]
+                    b += H.T @ y / variance[i]
+        scale = 1.0 / np.sqrt(np.where(np.diag(N) > 0, np.diag(N), 1.0))
+        Ns = N * np.outer(scale, scale)
+        eigval, eigvec = np.linalg.eigh(Ns)
+        weak = eigval < UNOBSERVABLE_EIG * eigval.max()
+        if weak.any() or np.any(np.diag(N) == 0):
+            bad = set(np.flatnonzero(np.diag(N) == 0))
+            for v in eigvec[:, weak].T:
+                bad |= set(np.flatnonzero(np.abs(v) > 0.3))
+            listed = ", ".join(names[j] for j in sorted(bad))
+            raise CalibrationError(f"the rotations in the record(s) leave unobservable: {listed}; "
+                                   "record rotations about at least two body axes (the paper rotates about Y, X "
+                                   "and Z in turn)" + (", and about horizontal axes for the delay" if with_delay else ""))
+        x = scale * np.linalg.solve(Ns, scale * b)
+        ss = np.zeros(3)
+        count = np.zeros(3)
+        for k, rec in enumerate(records):
+            for i in range(3):
+                for s in range(0, rec.t.size, chunk):
+                    H, y = _rows(rec, i, slice(s, s + chunk), n_rec, k, with_tilt, with_delay)
+                    r = y - H @ x
+                    ss[i] += r @ r
+                    count[i] += r.size
+        variance = ss / np.maximum(count - p / 3.0, 1.0)
+    cov = np.linalg.inv(N)  # weights are 1 / variance: the normal matrix inverse is the covariance
+    sig = np.sqrt(np.diag(cov))
+    c = 9 + 3 * n_rec
+    res = CalibrationResult(
+        arms=x[:9].reshape(3, 3), sigma_arms=sig[:9].reshape(3, 3), biases=x[9:c].reshape(n_rec, 3),
+        tilt_rad=x[c:c + 2] if with_tilt else None, sigma_tilt_rad=sig[c:c + 2] if with_tilt else None,
+        delay_s=float(x[-1]) if with_delay else None, sigma_delay_s=float(sig[-1]) if with_delay else None,
+        condition=float(eigval.max() / eigval.min()), residual_rms=np.sqrt(ss / count),
+        samples=int(sum(r.t.size for r in records)), names=names, covariance=cov)
+    return res
+
+
+def triad_point(arms: np.ndarray, axes: np.ndarray = np.eye(3), how: str = "normals") -> np.ndarray:
+    """The triad point C as a vector from the reference point [m].
+
+    ``normals``: the point nearest (least squares) to the three lines through each
+    accelerometer along its sensitive axis (the paper's point C, where the normals
+    meet); ``x-accelerometer``: accelerometer x itself (the paper's alternative).
+    """
+    if how == "x-accelerometer":
+        return arms[0].copy()
+    if how != "normals":
+        raise CalibrationError(f"triad point '{how}': use normals or x-accelerometer")
+    A = np.zeros((3, 3))
+    rhs = np.zeros(3)
+    for r, u in zip(arms, axes):
+        P = np.eye(3) - np.outer(u, u)
+        A += P
+        rhs += P @ r
+    return np.linalg.solve(A, rhs)
+
+
+# --------------------------------------------------------------------------- the command
+
+
+def nominal_levers(nominal: str) -> Levers:
+    if nominal in ("high-precision", "compact", "none"):
+        return levers_from_preset(nominal)
+    return read_levers(nominal)
+
+
+def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_delay: bool = False,
+        triad: str = "normals", allow_gaps: bool = False, plot=None) -> dict:
+    """Entry point of ``sizefx calibrate``: fits, decomposition, report figures, and the Levers to write."""
+    tels = [read_telemetry(p, allow_gaps=allow_gaps) for p in paths]
+    records = [prepare(tel, str(p)) for tel, p in zip(tels, paths)]
+    per_rotation = {str(p): per_rotation_fit(rec) for p, rec in zip(paths, records)}
+    res = joint_fit(records, with_tilt=with_tilt, with_delay=with_delay)
+    nom = nominal_levers(nominal)
+    point = triad_point(res.arms, how=triad)
+    levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms,
+                    reference_point="rotation-center",
+                    tilt_arcsec=None if res.tilt_rad is None else (res.tilt_rad / ARCSEC).tolist(),
+                    accel_delay_s=res.delay_s,
+                    extra={"triad_point": triad,
+                           "sigma_tilt_arcsec": None if res.sigma_tilt_rad is None else (res.sigma_tilt_rad / ARCSEC).tolist(),
+                           "sigma_accel_delay_s": res.sigma_delay_s,
+                           "accel_bias_mps2": res.biases.tolist(), "condition_number": res.condition,
+                           "residual_rms_mps2": res.residual_rms.tolist(), "samples": res.samples,
+                           "nominal": nominal, "difference_from_nominal_m": (res.arms - nom.arms_total).tolist(),
+                           "per_rotation": per_rotation, "records": [str(p) for p in paths]})
+    out = {"levers": levers, "result": res, "per_rotation": per_rotation, "nominal": nom, "records": records}
+    if plot:
+        out["figure_spans"] = compensation_figure(records[0], levers, plot,
+                                                  title=f"{Path(paths[0]).name}: size effect before and after")
+    return out
+
+
+def format_report(out: dict) -> str:
+    res, nom, lev = out["result"], out["nominal"], out["levers"]
+    mm = 1e3
+    lines = [f"joint weighted least squares over {res.samples} samples "
+             f"(condition number {res.condition:.3g}; residual RMS x, y, z = "
+             + ", ".join(f"{v / 9.80665e-6:.2f}" for v in res.residual_rms) + " ug)",
+             "  arm   r [mm] (from the rotation centre)          sigma [mm]              estimate - nominal [mm]"]
+    for i, a in enumerate("xyz"):
+        lines.append(f"  r_{a}  " + " ".join(f"{v * mm:8.4f}" for v in res.arms[i]) + "   "
+                     + " ".join(f"{v * mm:7.4f}" for v in res.sigma_arms[i]) + "   "
+                     + " ".join(f"{v * mm:7.4f}" for v in (res.arms[i] - nom.arms_total[i])))
+    lines.append(f"  sigma: mean {res.sigma_arms.mean() * mm:.4f} mm, max {res.sigma_arms.max() * mm:.4f} mm")
+    lines.append(f"  triad point ({lev.extra['triad_point']}) from the rotation centre [mm]: "
+                 + " ".join(f"{v * mm:.4f}" for v in lev.offset))
+    for i, a in enumerate("xyz"):
+        lines.append(f"  d_{a}  " + " ".join(f"{v * mm:8.4f}" for v in lev.arms_triad[i]))
+    if res.tilt_rad is not None:
+        lines.append(f"  table tilt: north {res.tilt_rad[0] / ARCSEC:.2f} +- {res.sigma_tilt_rad[0] / ARCSEC:.2f} arcsec, "
+                     f"east {res.tilt_rad[1] / ARCSEC:.2f} +- {res.sigma_tilt_rad[1] / ARCSEC:.2f} arcsec")
+    if res.delay_s is not None:
+        lines.append(f"  accelerometer delay: {res.delay_s * 1e6:.2f} +- {res.sigma_delay_s * 1e6:.2f} us")
+    for path, rows in out["per_rotation"].items():
+        lines.append(f"the paper's per-rotation fit ({Path(path).name}; ignores the tilt) [mm]:")
+        for row in rows:
+            lines.append(f"  rotation about {row['axis']}, channel {row['channel']}: "
+                         f"r_{row['channel']}[{row['channel']}] = {row['r_own'] * mm:8.4f} +- {row['sigma_r_own'] * mm:.4f}, "
+                         f"r_{row['channel']}[{row['other_component']}] = {row['r_other'] * mm:8.4f} +- "
+                         f"{row['sigma_r_other'] * mm:.4f}, bias {row['bias'] / 9.80665e-6:8.1f} ug")
+    return "\n".join(lines)
+
+
+def compensation_figure(rec: Record, levers: Levers, png, *, mode: str = "center", title: str = ""):
+    """The paper's Fig. 6: horizontal accelerometers before and after compensation, per rotation block.
+
+    Offsets of +-100 ug separate the two horizontal channels, as in the paper. Returns
+    the peak-to-peak [ug] of each horizontal channel in each block, before and after.
+    """
+    from .kernels.sizeeffect import compensate_rates
+
+    try:
+        import matplotlib
+    except ImportError:
+        raise CalibrationError("plots need matplotlib: pip install 'sizefx[plots]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    after = np.empty_like(rec.accel)
+    compensate_rates(np.ascontiguousarray(rec.accel), np.ascontiguousarray(rec.omega),
+                     np.ascontiguousarray(rec.omegadot), np.ascontiguousarray(levers.arms_for(mode)),
+                     np.ascontiguousarray(levers.axes), True, True, after)
+    blocks = detect_rotations(rec)
+    dt = float(np.median(np.diff(rec.t)))
+    width = max(1, int(round(0.25 / dt)))  # 0.25 s means: the 100 ug sample noise would hide a 60 ug tilt signal
+
+    def smooth(x):
+        return np.convolve(x, np.ones(width) / width, mode="valid")
+
+    fig, axes = plt.subplots(len(blocks), 1, figsize=(9, 2.6 * len(blocks)), constrained_layout=True, squeeze=False)
+    ug = 9.80665e-6
+    spans = []
+    for ax, (a, i0, i1) in zip(axes[:, 0], blocks):
+        t = smooth(rec.t[i0:i1] - rec.t[i0])
+        horiz = [i for i in range(3) if i != a]
+        for off, i in zip((100.0, -100.0), horiz):
+            before = smooth(rec.accel[i0:i1, i]) / ug
+            compensated = smooth(after[i0:i1, i]) / ug
+            ax.plot(t, before + off, lw=0.6, alpha=0.6, label=f"{'xyz'[i]} raw {off:+.0f} ug")
+            ax.plot(t, compensated + off, lw=0.9, label=f"{'xyz'[i]} compensated {off:+.0f} ug")
+            spans.append({"axis": "xyz"[a], "channel": "xyz"[i], "raw_ptp_ug": float(np.ptp(before)),
+                          "compensated_ptp_ug": float(np.ptp(compensated))})
+        ax.set_title(f"rotation about {'XYZ'[a]}")
+        ax.set_ylabel("specific force, 0.25 s means [ug]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2, loc="upper right")
+    axes[-1, 0].set_xlabel("time in block [s]")
+    if title:
+        fig.suptitle(title)
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+    return spans

@@ -1,0 +1,116 @@
+"""Size-effect compensation of a record: ``sizefx compensate`` and ``navigate --levers``.
+
+Steps:
+
+1. Sync. Accelerometers stamped apart (``/imu/accel_time``) or late by a known
+   delay are brought onto the gyro time base by a not-a-knot cubic spline. For
+   increments, the spline interpolates the cumulative velocity, which is then
+   differenced. The phase error is below 1e-5 rad for a 50 Hz tone at 1600 Hz.
+2. Compensation in the record's own domain.
+   - Rates: ``a_i - u_i . (omegadot x r_i + omega x (omega x r_i))``, with omegadot
+     from the chosen estimator (:mod:`sizefx.omegadot`).
+   - Increments: the tangential term as a difference of edge rates (no derivative).
+   Mode ``triad`` uses d_i and brings the three accelerometers to the triad point.
+   Mode ``center`` uses r_i = r + d_i and brings them to the rotation centre.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .errors import ConfigError
+from .kernels.sizeeffect import compensate_increments, compensate_rates
+from .levers import Levers, read_levers
+from .omegadot import ESTIMATORS, central, edges_from_increments, savgol
+from .telemetry import Telemetry, read_telemetry, write_telemetry
+
+__all__ = ["resample_onto", "resample_increments", "compensate", "compensate_arrays_increments", "run"]
+
+
+def resample_onto(values, t_from, t_to):
+    """Samples ``values [N, 3]`` at ``t_from`` -> at ``t_to`` (not-a-knot cubic spline)."""
+    return CubicSpline(t_from, values, axis=0, bc_type="not-a-knot")(t_to)
+
+
+def resample_increments(incr, t_end_from, t_end_to):
+    """Increments over ``(t_from[k-1], t_from[k]]`` -> over ``(t_to[k-1], t_to[k]]``.
+
+    Interpolates the cumulative sum (a smooth function of time) and differences it;
+    the first interval of each starts one median period before its first stamp.
+    """
+    def edges(t):
+        return np.r_[t[0] - np.median(np.diff(t)), t]
+
+    cum = np.vstack([np.zeros(incr.shape[1]), np.cumsum(incr, axis=0)])
+    return np.diff(CubicSpline(edges(t_end_from), cum, axis=0, bc_type="not-a-knot")(edges(t_end_to)), axis=0)
+
+
+def _arms(levers: Levers, mode: str):
+    return np.ascontiguousarray(levers.arms_for(mode)), np.ascontiguousarray(levers.axes)
+
+
+def compensate_arrays_increments(dtheta, dvel, dt, levers: Levers, mode: str, *, centripetal=True, tangential=True):
+    """Increment-domain compensation of arrays (used by navigate)."""
+    arms, axes = _arms(levers, mode)
+    out = np.empty_like(dvel)
+    compensate_increments(np.ascontiguousarray(dvel), np.ascontiguousarray(dtheta), edges_from_increments(dtheta, dt),
+                          dt, arms, axes, centripetal, tangential, out)
+    return out
+
+
+def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator: str | None = None,
+               centripetal: bool = True, tangential: bool = True, accel_delay_s: float | None = None) -> Telemetry:
+    """A copy of ``tel`` with size-effect-free accelerometers on the gyro time base."""
+    if estimator is None:
+        estimator = "increments" if tel.form == "increments" else "savgol"
+    if estimator not in ESTIMATORS:
+        raise ConfigError(f"estimator '{estimator}': use one of {', '.join(ESTIMATORS)}")
+    if tel.form == "increments" and estimator != "increments":
+        raise ConfigError("increment data are compensated with --estimator increments (no derivative is formed)")
+    if tel.form == "rates" and estimator == "increments":
+        raise ConfigError("rate data take --estimator central or savgol")
+    tau = levers.accel_delay_s if accel_delay_s is None else accel_delay_s
+    tau = 0.0 if tau is None else float(tau)
+    t = tel.time_s
+    dt = tel.sample_period_s
+    arms, axes = _arms(levers, mode)
+    if tel.form == "rates":
+        accel = tel.accel_mps2
+        t_accel = tel.accel_time_s if tel.accel_time_s is not None else t
+        if tel.accel_time_s is not None or tau != 0.0:
+            accel = resample_onto(accel, t_accel - tau, t)
+        omega = np.ascontiguousarray(tel.gyro_rad_s)
+        omegadot = central(omega, dt) if estimator == "central" else savgol(omega, dt)
+        out = np.empty_like(accel)
+        compensate_rates(np.ascontiguousarray(accel), omega, np.ascontiguousarray(omegadot), arms, axes,
+                         centripetal, tangential, out)
+        new = replace(tel, accel_mps2=out, accel_time_s=None)
+    else:
+        dvel = tel.dvel_mps
+        t_accel = tel.accel_time_s if tel.accel_time_s is not None else t
+        if tel.accel_time_s is not None or tau != 0.0:
+            dvel = resample_increments(dvel, t_accel - tau, t)
+        new = replace(tel, dvel_mps=compensate_arrays_increments(tel.dtheta_rad, dvel, dt, levers, mode,
+                                                                 centripetal=centripetal, tangential=tangential),
+                      accel_time_s=None)
+    applied = {"mode": mode, "estimator": estimator, "centripetal": centripetal, "tangential": tangential,
+               "accel_delay_s": tau, "arms_m": arms.tolist(), "axes": axes.tolist()}
+    new.source = {**(tel.source or {}), "compensation_json": json.dumps(applied)}
+    new.description = (tel.description + " | " if tel.description else "") + \
+        f"size effect compensated ({mode}, {estimator}, delay {tau * 1e6:.1f} us)"
+    return new
+
+
+def run(path, levers_path, out, *, mode="triad", estimator=None, centripetal=True, tangential=True,
+        accel_delay_s=None, allow_gaps=False, force=False) -> dict:
+    """Entry point of ``sizefx compensate``."""
+    tel = read_telemetry(path, allow_gaps=allow_gaps)
+    levers = read_levers(levers_path)
+    new = compensate(tel, levers, mode, estimator=estimator, centripetal=centripetal, tangential=tangential,
+                     accel_delay_s=accel_delay_s)
+    write_telemetry(out, new, inputs=[path, levers_path], force=force)
+    return {"path": str(out), "samples": new.n_samples, **json.loads(new.source["compensation_json"])}
