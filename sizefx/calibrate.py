@@ -44,9 +44,18 @@ __all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_f
 
 #: A sample rotates when |omega| exceeds this [rad/s] (1 deg/s: far above Earth rate and noise).
 ROTATING_RAD_S = 1.0 * DEG
-#: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable.
-#: 1e-10 relative is ~1e5 times the rounding level of the normal equations (1e-15).
-UNOBSERVABLE_EIG = 1e-10
+#: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable:
+#: determined 1000 times worse than the best. Earth rate (5e-5 rad/s) against the table's
+#: 0.35 rad/s "observes" a missing axis at ~1e-8: in practice, not at all.
+UNOBSERVABLE_EIG = 1e-6
+#: The accelerometer biases are modelled piecewise constant over windows of this length [s].
+#: A bias random walk (2 ug/sqrt(h) by default) drifts ~0.7 ug over the paper's plan; one
+#: constant per channel would pass that drift into the centripetal estimate (~0.1 mm, 4 sigma).
+BIAS_WINDOW_S = 120.0
+#: Standard errors beyond which a parameter counts as not determined. Column scaling makes a
+#: parameter seen only through Earth rate look well conditioned, so the check is in physical
+#: units: arms are known to ~0.02-0.05 mm from a proper plan; 1 mm is no calibration.
+UNDETERMINED_SIGMA = {"arm_m": 1e-3, "tilt_rad": 60 * ARCSEC, "delay_s": 1e-3}
 PARAMS_R = [f"r_{a}[{c}]" for a in "xyz" for c in "xyz"]
 
 
@@ -160,7 +169,7 @@ def per_rotation_fit(rec: Record):
 class CalibrationResult:
     arms: np.ndarray  #: [3, 3] r_i
     sigma_arms: np.ndarray  #: [3, 3]
-    biases: np.ndarray  #: [n_records, 3] m/s^2
+    biases: np.ndarray  #: [n_records, 3] m/s^2, the mean of each record's bias windows
     tilt_rad: np.ndarray | None  #: [2] (north, east)
     sigma_tilt_rad: np.ndarray | None
     delay_s: float | None
@@ -172,19 +181,34 @@ class CalibrationResult:
     covariance: np.ndarray | None = None
 
 
-def _rows(rec: Record, i: int, sl: slice, n_rec: int, k_rec: int, with_tilt: bool, with_delay: bool):
-    """Design rows of channel i for samples ``sl``: [r (9) | biases (3 n_rec) | tilt (2) | delay (1)]."""
+def _windows(rec: Record, window_s):
+    """Bias window index of every sample (0 .. n-1) and the number of windows."""
+    if not window_s:
+        return np.zeros(rec.t.size, dtype=int), 1
+    idx = np.floor((rec.t - rec.t[0]) / window_s).astype(int)
+    n = int(idx[-1]) + 1
+    if n > 1 and (rec.t[-1] - rec.t[0]) - (n - 1) * window_s < 0.5 * window_s:
+        idx[idx == n - 1] = n - 2  # fold a short last window into the previous one
+        n -= 1
+    return idx, n
+
+
+def _rows(rec: Record, i: int, sl: slice, n_bias: int, bias_index, with_tilt: bool, with_delay: bool):
+    """Design rows of channel i for samples ``sl``: [r (9) | biases (3 per window) | tilt (2) | delay (1)].
+
+    ``bias_index`` [n] gives each sample's bias window (global over all records).
+    """
     w, wd, mat = rec.omega[sl], rec.omegadot[sl], rec.mat_nb[sl]
     n = w.shape[0]
-    cols = 9 + 3 * n_rec + (2 if with_tilt else 0) + (1 if with_delay else 0)
+    cols = 9 + 3 * n_bias + (2 if with_tilt else 0) + (1 if with_delay else 0)
     H = np.zeros((n, cols))
     # u_i . (wd x r + w x (w x r)) = row i of ([wd x] + [w x]^2) applied to r_i
     e = np.zeros(3)
     e[i] = 1.0
     # [wd x]^T e_i and ([w x]^2)^T e_i: wd x r . e_i = (e_i x wd) . r ; (w x (w x r)) . e_i = (w (w.e_i) - |w|^2 e_i) . r
     H[:, 3 * i:3 * i + 3] = np.cross(e, wd) + w * w[:, i:i + 1] - np.sum(w * w, axis=1, keepdims=True) * e
-    H[:, 9 + 3 * k_rec + i] = 1.0
-    c = 9 + 3 * n_rec
+    H[np.arange(n), 9 + 3 * bias_index[sl] + i] = 1.0
+    c = 9 + 3 * n_bias
     if with_tilt:
         H[:, c] = -rec.g_down * mat[:, 1, i]  # phi_N
         H[:, c + 1] = rec.g_down * mat[:, 0, i]  # phi_E
@@ -196,8 +220,8 @@ def _rows(rec: Record, i: int, sl: slice, n_rec: int, k_rec: int, with_tilt: boo
     return H, y
 
 
-def _names(n_rec, with_tilt, with_delay, rec_names):
-    names = list(PARAMS_R) + [f"bias_{a} ({Path(rec_names[k]).name})" for k in range(n_rec) for a in "xyz"]
+def _names(window_labels, with_tilt, with_delay):
+    names = list(PARAMS_R) + [f"bias_{a} ({label})" for label in window_labels for a in "xyz"]
     if with_tilt:
         names += ["tilt_north", "tilt_east"]
     if with_delay:
@@ -206,10 +230,20 @@ def _names(n_rec, with_tilt, with_delay, rec_names):
 
 
 def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool = False,
-              chunk: int = 1 << 16) -> CalibrationResult:
-    """Weighted least squares over all samples of all records; weights 1 / (channel noise variance)."""
+              bias_window_s: float | None = BIAS_WINDOW_S, chunk: int = 1 << 16) -> CalibrationResult:
+    """Weighted least squares over all samples of all records; weights 1 / (channel noise variance).
+
+    Biases are piecewise constant over ``bias_window_s`` windows of each record (None: one per record).
+    """
     n_rec = len(records)
-    names = _names(n_rec, with_tilt, with_delay, [r.name for r in records])
+    bias_index, labels, first = [], [], 0
+    for rec in records:
+        idx, n = _windows(rec, bias_window_s)
+        bias_index.append(idx + first)
+        labels += [f"{Path(rec.name).name} window {j}" for j in range(n)]
+        first += n
+    n_bias = first
+    names = _names(labels, with_tilt, with_delay)
     p = len(names)
     for rec in records:
         if not np.any(np.linalg.norm(rec.omega, axis=1) > ROTATING_RAD_S):
@@ -222,7 +256,7 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         for k, rec in enumerate(records):
             for i in range(3):
                 for s in range(0, rec.t.size, chunk):
-                    H, y = _rows(rec, i, slice(s, s + chunk), n_rec, k, with_tilt, with_delay)
+                    H, y = _rows(rec, i, slice(s, s + chunk), n_bias, bias_index[k], with_tilt, with_delay)
                     N += H.T @ H / variance[i]
                     b += H.T @ y / variance[i]
         scale = 1.0 / np.sqrt(np.where(np.diag(N) > 0, np.diag(N), 1.0))
@@ -243,16 +277,32 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         for k, rec in enumerate(records):
             for i in range(3):
                 for s in range(0, rec.t.size, chunk):
-                    H, y = _rows(rec, i, slice(s, s + chunk), n_rec, k, with_tilt, with_delay)
+                    H, y = _rows(rec, i, slice(s, s + chunk), n_bias, bias_index[k], with_tilt, with_delay)
                     r = y - H @ x
                     ss[i] += r @ r
                     count[i] += r.size
         variance = ss / np.maximum(count - p / 3.0, 1.0)
     cov = np.linalg.inv(N)  # weights are 1 / variance: the normal matrix inverse is the covariance
     sig = np.sqrt(np.diag(cov))
-    c = 9 + 3 * n_rec
+    limits = np.full(p, np.inf)
+    limits[:9] = UNDETERMINED_SIGMA["arm_m"]
+    for j, name in enumerate(names):
+        if name.startswith("tilt"):
+            limits[j] = UNDETERMINED_SIGMA["tilt_rad"]
+        elif name == "accel_delay":
+            limits[j] = UNDETERMINED_SIGMA["delay_s"]
+    loose = np.flatnonzero(sig > limits)
+    if loose.size:
+        listed = ", ".join(f"{names[j]} (sigma {sig[j] * (1e3 if j < 9 else 1):.3g}{' mm' if j < 9 else ''})"
+                           for j in loose)
+        raise CalibrationError(f"the rotations in the record(s) leave unobservable: {listed}; record rotations "
+                               "about at least two body axes (the paper rotates about Y, X and Z in turn)"
+                               + (", and about horizontal axes for the delay" if with_delay else ""))
+    c = 9 + 3 * n_bias
+    windows = x[9:c].reshape(n_bias, 3)
+    per_record = np.array([windows[np.unique(bias_index[k])].mean(axis=0) for k in range(n_rec)])
     res = CalibrationResult(
-        arms=x[:9].reshape(3, 3), sigma_arms=sig[:9].reshape(3, 3), biases=x[9:c].reshape(n_rec, 3),
+        arms=x[:9].reshape(3, 3), sigma_arms=sig[:9].reshape(3, 3), biases=per_record,
         tilt_rad=x[c:c + 2] if with_tilt else None, sigma_tilt_rad=sig[c:c + 2] if with_tilt else None,
         delay_s=float(x[-1]) if with_delay else None, sigma_delay_s=float(sig[-1]) if with_delay else None,
         condition=float(eigval.max() / eigval.min()), residual_rms=np.sqrt(ss / count),
