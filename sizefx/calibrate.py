@@ -390,10 +390,14 @@ def format_report(out: dict) -> str:
     for path, rows in out["per_rotation"].items():
         lines.append(f"the paper's per-rotation fit ({Path(path).name}; ignores the tilt) [mm]:")
         for row in rows:
+            i, j = "xyz".index(row["channel"]), "xyz".index(row["other_component"])
+            d_own = (row["r_own"] - nom.arms_total[i][i]) * mm
+            d_other = (row["r_other"] - nom.arms_total[i][j]) * mm
             lines.append(f"  rotation about {row['axis']}, channel {row['channel']}: "
                          f"r_{row['channel']}[{row['channel']}] = {row['r_own'] * mm:8.4f} +- {row['sigma_r_own'] * mm:.4f}, "
                          f"r_{row['channel']}[{row['other_component']}] = {row['r_other'] * mm:8.4f} +- "
-                         f"{row['sigma_r_other'] * mm:.4f}, bias {row['bias'] / 9.80665e-6:8.1f} ug")
+                         f"{row['sigma_r_other'] * mm:.4f}, bias (tau) {row['bias'] / 9.80665e-6:8.1f} ug; "
+                         f"minus nominal {d_own:+.4f}, {d_other:+.4f}")
     return "\n".join(lines)
 
 

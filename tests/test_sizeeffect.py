@@ -321,3 +321,16 @@ def test_calibrate_compensate_navigate_commands(tmp_path, paper_plan):
     assert json.loads(comp.source["compensation_json"])["mode"] == "center"
     r = CliRunner().invoke(main, ["navigate", str(sim), "--levers", str(lev), "--mode", "triad"])
     assert r.exit_code == 0, r.output
+
+
+def test_increment_domain_tangential_noise_has_no_one_over_h():
+    """Edge-rate differences of white increments: std sigma_omega / sqrt(2) per increment (sizefx.omegadot)."""
+    rng = np.random.default_rng(5)
+    sigma_omega = 4e-6  # rad/s per sample, the default gyro ARW at 1600 Hz
+    dtheta = rng.standard_normal((400_000, 3)) * sigma_omega * H
+    edges = edges_from_increments(dtheta, H)
+    diff = np.diff(edges, axis=0)[5:-5]
+    assert diff.std() == pytest.approx(sigma_omega / np.sqrt(2), rel=0.01)
+    # the rate-domain central difference, integrated over one sample, has the same velocity noise;
+    # formed as a derivative it is 1/h = 1600 times larger per sample
+    assert noise_gain("central", H) * sigma_omega == pytest.approx(sigma_omega / np.sqrt(2) / H)
