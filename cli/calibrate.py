@@ -36,7 +36,7 @@ def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow
     tilt [arcsec] and delay [us].
     """
     out = run(list(records), nominal=nominal, with_tilt=tilt, with_delay=delay, triad=triad_point,
-              allow_gaps=allow_gaps, plot=plot)
+              allow_gaps=allow_gaps, plot=plot, force=force)
     click.echo(format_report(out))
     if json_path:
         write_levers(json_path, out["levers"], inputs=list(records), force=force)

@@ -118,7 +118,10 @@ def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_
 @click.option("--segment-s", default=600.0, show_default=True, type=float, help="Duration of each amplitude [s].")
 def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
     """The paper's sway test: static, then harmonic sway at each amplitude in turn."""
-    amps = tuple(float(a) for a in amplitudes_dps.split(","))
+    try:
+        amps = tuple(float(a) for a in amplitudes_dps.split(","))
+    except ValueError:
+        raise click.BadParameter(f"'{amplitudes_dps}' is not a list of numbers", param_hint="--amplitudes-dps") from None
     plan = scenarios.SwayPlan(axis=axis, amplitudes_dps=amps, frequency_hz=frequency_hz, static_s=static_s,
                               segment_s=segment_s)
     _run("sway", plan, **common)

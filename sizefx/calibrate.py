@@ -34,6 +34,7 @@ import numpy as np
 from . import earth
 from .constants import ARCSEC, DEG
 from .errors import SizefxError
+from .fileio import atomic_output, check_output_path
 from .levers import Levers, read_levers, levers_from_preset
 from .omegadot import savgol
 from .rotation import quat_interp, quat_to_mat
@@ -42,6 +43,8 @@ from .telemetry import Telemetry, read_telemetry
 __all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_fit", "triad_point",
            "detect_rotations", "CalibrationResult", "run"]
 
+#: Fewest samples a record may have: the Savitzky-Golay angular-acceleration window, with room.
+MIN_SAMPLES = 4 * 41
 #: A sample rotates when |omega| exceeds this [rad/s] (1 deg/s: far above Earth rate and noise).
 ROTATING_RAD_S = 1.0 * DEG
 #: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable:
@@ -85,6 +88,11 @@ def prepare(tel: Telemetry, name: str = "") -> Record:
     """Rates, angular acceleration and reference attitude on the IMU samples of a record."""
     if tel.reference is None:
         raise CalibrationError(f"{tel.path}: calibration needs /reference attitude (what the table reports)")
+    if tel.site is None and not tel.reference.has_position:
+        raise CalibrationError(f"{tel.path}: no site: normal gravity needs latitude and height; add the root "
+                               "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
+    if tel.n_samples < MIN_SAMPLES:
+        raise CalibrationError(f"{tel.path}: {tel.n_samples} samples; calibration needs at least {MIN_SAMPLES}")
     dt = tel.sample_period_s
     if tel.form == "rates":
         t, omega, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
@@ -340,8 +348,10 @@ def nominal_levers(nominal: str) -> Levers:
 
 
 def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_delay: bool = False,
-        triad: str = "normals", allow_gaps: bool = False, plot=None) -> dict:
+        triad: str = "normals", allow_gaps: bool = False, plot=None, force: bool = False) -> dict:
     """Entry point of ``sizefx calibrate``: fits, decomposition, report figures, and the Levers to write."""
+    if plot:
+        check_output_path(plot, inputs=paths, force=force)  # before the work: folder exists, no silent replace
     tels = [read_telemetry(p, allow_gaps=allow_gaps) for p in paths]
     records = [prepare(tel, str(p)) for tel, p in zip(tels, paths)]
     per_rotation = {str(p): per_rotation_fit(rec) for p, rec in zip(paths, records)}
@@ -361,8 +371,12 @@ def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_
                            "per_rotation": per_rotation, "records": [str(p) for p in paths]})
     out = {"levers": levers, "result": res, "per_rotation": per_rotation, "nominal": nom, "records": records}
     if plot:
-        out["figure_spans"] = compensation_figure(records[0], levers, plot,
-                                                  title=f"{Path(paths[0]).name}: size effect before and after")
+        with_blocks = [k for k, rec in enumerate(records) if detect_rotations(rec)]
+        if not with_blocks:
+            raise CalibrationError("--plot draws rotation blocks about vertical axes, and none of the records has one")
+        k = with_blocks[0]
+        out["figure_spans"] = compensation_figure(records[k], levers, plot,
+                                                  title=f"{Path(paths[k]).name}: size effect before and after")
     return out
 
 
@@ -447,6 +461,7 @@ def compensation_figure(rec: Record, levers: Levers, png, *, mode: str = "center
     axes[-1, 0].set_xlabel("time in block [s]")
     if title:
         fig.suptitle(title)
-    fig.savefig(png, dpi=110)
+    with atomic_output(png, force=True) as tmp:  # the caller checked the path (and --force)
+        fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
     return spans

@@ -25,7 +25,7 @@ from scipy.interpolate import CubicSpline
 from .errors import ConfigError
 from .kernels.sizeeffect import compensate_increments, compensate_rates
 from .levers import Levers, read_levers
-from .omegadot import ESTIMATORS, central, edges_from_increments, savgol
+from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
 from .telemetry import Telemetry, read_telemetry, write_telemetry
 
 __all__ = ["resample_onto", "resample_increments", "compensate", "compensate_arrays_increments", "run"]
@@ -73,6 +73,8 @@ def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator
         raise ConfigError("increment data are compensated with --estimator increments (no derivative is formed)")
     if tel.form == "rates" and estimator == "increments":
         raise ConfigError("rate data take --estimator central or savgol")
+    if tel.n_samples < 4 * SAVGOL_WINDOW:
+        raise ConfigError(f"{tel.path}: {tel.n_samples} samples; compensation needs at least {4 * SAVGOL_WINDOW}")
     tau = levers.accel_delay_s if accel_delay_s is None else accel_delay_s
     tau = 0.0 if tau is None else float(tau)
     t = tel.time_s

@@ -91,6 +91,27 @@ def _check(doc, path):
             raise ConfigError(f"{path}: {key} must be a list of 3 finite numbers (metres), got {value!r}")
 
 
+def _check_extras(doc, path):
+    delay = doc["accel_delay_s"]
+    if delay is not None and (isinstance(delay, bool) or not isinstance(delay, (int, float)) or not np.isfinite(delay)):
+        raise ConfigError(f"{path}: accel_delay_s = {delay!r} must be a number of seconds or null")
+    tilt = doc["tilt_arcsec"]
+    if tilt is not None:
+        try:
+            ok = np.asarray(tilt, dtype=float).shape == (2,)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ConfigError(f"{path}: tilt_arcsec = {tilt!r} must be [north, east] in arcsec or null")
+    if "axes" in doc:
+        try:
+            axes = np.asarray(doc["axes"], dtype=float)
+        except (TypeError, ValueError):
+            axes = np.zeros(0)
+        if axes.shape != (3, 3) or not np.all(np.isfinite(axes)) or np.any(np.linalg.norm(axes, axis=1) < 0.5):
+            raise ConfigError(f"{path}: axes must be three rows of three numbers, the sensitive axes u_x, u_y, u_z")
+
+
 def read_levers(path) -> Levers:
     path = Path(path)
     try:
@@ -100,6 +121,7 @@ def read_levers(path) -> Levers:
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{path}: not valid JSON ({exc})") from None
     _check(doc, path)
+    _check_extras(doc, path)
     rows = lambda prefix: np.array([doc[f"{prefix}_{a}"] for a in "xyz"], dtype=float)  # noqa: E731
     sigma = None if any(doc[f"sigma_{a}"] is None for a in "xyz") else rows("sigma")
     axes = np.asarray(doc.get("axes", np.eye(3)), dtype=float)

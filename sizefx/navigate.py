@@ -211,6 +211,17 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     """Navigate a record in memory (see :func:`run` for files)."""
     cfg = cfg or NavConfig()
     started = _time.perf_counter()
+    if tel.accel_time_s is not None:
+        # accelerometers stamped apart: onto the gyro time base first, as sizefx.compensate does
+        from dataclasses import replace
+
+        from .compensate import resample_increments, resample_onto
+
+        if tel.form == "rates":
+            tel = replace(tel, accel_mps2=resample_onto(tel.accel_mps2, tel.accel_time_s, tel.time_s), accel_time_s=None)
+        else:
+            tel = replace(tel, dvel_mps=resample_increments(tel.dvel_mps, tel.accel_time_s, tel.time_s),
+                          accel_time_s=None)
     t_end, dtheta, dvel, dt = increments_of(tel)
     if cfg.levers:
         from .compensate import compensate_arrays_increments, resample_increments
@@ -390,13 +401,18 @@ def plot_errors(res: NavResult, png, title: str):
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.savefig(png, dpi=120)
+    with atomic_output(png, force=True) as tmp:  # the caller checked the path (and --force)
+        fig.savefig(tmp, dpi=120, format="png")
     plt.close(fig)
 
 
 def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot=None, force: bool = False):
     """Entry point of ``sizefx navigate``: returns the result; writes what was asked."""
     cfg = cfg or NavConfig()
+    if plot:
+        from .fileio import check_output_path
+
+        check_output_path(plot, inputs=[path], force=force)  # before the work: folder exists, no silent replace
     tel = read_telemetry(path, allow_gaps=cfg.allow_gaps)
     if tel.gaps and any(g.dataset.startswith("/imu") for g in tel.gaps):
         raise TelemetryError(path, "/imu/time", "has gaps; navigation needs continuous samples (cut the record)")

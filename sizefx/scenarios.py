@@ -84,8 +84,15 @@ class TurntablePlan:
     def check(self):
         if not self.axes or any(a not in TABLE_ORIENTATIONS_DEG for a in self.axes):
             raise ConfigError(f"turntable axes '{self.axes}': use letters X, Y, Z (e.g. YXZ)")
+        for name in ("static_s", "seconds_per_axis", "peak_rate_dps", "accel_dps2", "ramp_s", "reposition_s",
+                     "settle_s"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"turntable: {name} = {getattr(self, name)} must be positive")
+        if self.dwell_s < 0:
+            raise ConfigError(f"turntable: dwell_s = {self.dwell_s} must not be negative")
         half = self.seconds_per_axis / (2 * self.cycles)
-        spin = self.peak_rate_dps / self.accel_dps2 + self.ramp_s
+        # ProfileBuilder.change_rate: ramp, hold, ramp; with no room for a hold it takes two ramps
+        spin = max(self.peak_rate_dps / self.accel_dps2, self.ramp_s) + self.ramp_s
         cruise = half - 2 * spin - 2 * self.dwell_s
         if cruise <= 0:
             raise ConfigError(f"turntable: {self.cycles} cycles in {self.seconds_per_axis} s leave no time at "
@@ -157,6 +164,8 @@ class SwayPlan:
     heading_deg: float = 0.0
 
     def check(self):
+        if not (self.frequency_hz > 0 and self.static_s > 0 and self.segment_s > 0):
+            raise ConfigError("sway: frequency, static and segment durations must be positive")
         if self.axis not in ("heading", "roll", "pitch"):
             raise ConfigError(f"sway axis '{self.axis}': use heading, roll or pitch")
         cycles = self.segment_s * self.frequency_hz

@@ -31,6 +31,7 @@ import numpy as np
 
 from . import __version__, earth, scenarios
 from .effects import IDEAL, EffectModel, load_effects
+from .errors import ConfigError
 from .motion import Trajectory
 from .rotation import mat_to_quat, rotvec_to_mat
 from .telemetry import Site, TelemetryWriter
@@ -218,7 +219,8 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
     ref_rate = rate_hz if reference_rate_hz is None else float(reference_rate_hz)
     stride = rate_hz / ref_rate
     if abs(stride - round(stride)) > 1e-9 or stride < 1:
-        raise ValueError(f"reference rate {ref_rate} Hz must divide the IMU rate {rate_hz} Hz")
+        raise ConfigError(f"--reference-rate-hz {ref_rate:g} must divide the IMU rate {rate_hz:g} Hz "
+                          "(e.g. 100, 200, 400, 800 for 1600 Hz)")
     n_ref = int(np.floor(traj.duration_s * ref_rate + 1e-9)) + 1
     st0 = traj.evaluate(np.array([0.0]))
     site = Site(float(st0.lat_rad[0]), float(st0.lon_rad[0]), float(st0.height_m[0]))

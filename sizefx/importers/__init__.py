@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SourceError
+from ..fileio import atomic_output
 from ..telemetry import read_telemetry, write_telemetry
 
 __all__ = ["FORMATS", "run_import", "provenance"]
@@ -65,8 +66,11 @@ def load_source(fmt: str, path, **options):
 def run_import(fmt: str, source, out, *, force: bool = False, **options) -> dict:
     """Import ``source`` into ``out``; validate the written file; return a summary."""
     tel = load_source(fmt, source, **options)
-    write_telemetry(out, tel, inputs=[source], force=force)
-    back = read_telemetry(out, allow_gaps=True)
+    # write and validate the temporary file: a file the reader refuses never reaches OUT
+    with atomic_output(out, inputs=[source], force=force) as tmp:
+        write_telemetry(tmp, tel, force=True)
+        back = read_telemetry(tmp, allow_gaps=True)
+    back.path = str(out)
     imu_gaps = [g for g in back.gaps if g.dataset.startswith("/imu")]
     ref_gaps = [g for g in back.gaps if g.dataset.startswith("/reference")]
     return {

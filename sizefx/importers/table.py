@@ -43,6 +43,9 @@ def axis_matrix(spec) -> np.ndarray:
 def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units: str = "rad/s",
          accel_units: str = "m/s^2", time_units: str = "s", rate_hz: float | None = None,
          axes=("x", "y", "z"), delimiter: str = ",", site_deg=None) -> Telemetry:
+    for label, cols in (("gyro", gyro), ("accel", accel)):
+        if len(cols) != 3:
+            raise SourceError(path, f"--{label} names {len(cols)} columns ({', '.join(cols)}); give exactly three, x,y,z")
     if form not in FORM_QUANTITIES:
         raise SourceError(path, f"form '{form}': use rates or increments")
     q_gyro, q_accel = FORM_QUANTITIES[form]

@@ -12,6 +12,23 @@ from .jit import kernel
 
 
 @kernel
+def _lever_along(u0, u1, u2, rx, ry, rz, wx, wy, wz, tx, ty, tz, w_scale, centripetal, tangential):
+    """``u . (t x r + w_scale * w x (w x r))`` with the terms switched as asked."""
+    lx = ly = lz = 0.0
+    if tangential:
+        lx += ty * rz - tz * ry
+        ly += tz * rx - tx * rz
+        lz += tx * ry - ty * rx
+    if centripetal:
+        wr = wx * rx + wy * ry + wz * rz
+        w2 = wx * wx + wy * wy + wz * wz
+        lx += w_scale * (wx * wr - w2 * rx)
+        ly += w_scale * (wy * wr - w2 * ry)
+        lz += w_scale * (wz * wr - w2 * rz)
+    return u0 * lx + u1 * ly + u2 * lz
+
+
+@kernel
 def compensate_rates(accel, omega, omegadot, arms, axes, centripetal, tangential, out):
     """``out[k, i] = accel[k, i] - u_i . (omegadot_k x r_i + omega_k x (omega_k x r_i))``.
 
@@ -20,22 +37,11 @@ def compensate_rates(accel, omega, omegadot, arms, axes, centripetal, tangential
     centripetal, tangential : bool, which terms to remove.
     """
     for k in range(accel.shape[0]):
-        wx, wy, wz = omega[k, 0], omega[k, 1], omega[k, 2]
-        ax, ay, az = omegadot[k, 0], omegadot[k, 1], omegadot[k, 2]
-        w2 = wx * wx + wy * wy + wz * wz
         for i in range(3):
-            rx, ry, rz = arms[i, 0], arms[i, 1], arms[i, 2]
-            lx = ly = lz = 0.0
-            if tangential:
-                lx += ay * rz - az * ry
-                ly += az * rx - ax * rz
-                lz += ax * ry - ay * rx
-            if centripetal:
-                wr = wx * rx + wy * ry + wz * rz
-                lx += wx * wr - w2 * rx
-                ly += wy * wr - w2 * ry
-                lz += wz * wr - w2 * rz
-            out[k, i] = accel[k, i] - (axes[i, 0] * lx + axes[i, 1] * ly + axes[i, 2] * lz)
+            out[k, i] = accel[k, i] - _lever_along(
+                axes[i, 0], axes[i, 1], axes[i, 2], arms[i, 0], arms[i, 1], arms[i, 2],
+                omega[k, 0], omega[k, 1], omega[k, 2], omegadot[k, 0], omegadot[k, 1], omegadot[k, 2],
+                1.0, centripetal, tangential)
 
 
 @kernel
@@ -49,21 +55,9 @@ def compensate_increments(dvel, dtheta, omega_edges, dt, arms, axes, centripetal
     (second order).
     """
     for k in range(dvel.shape[0]):
-        wx, wy, wz = dtheta[k, 0] / dt, dtheta[k, 1] / dt, dtheta[k, 2] / dt
-        dx = omega_edges[k + 1, 0] - omega_edges[k, 0]
-        dy = omega_edges[k + 1, 1] - omega_edges[k, 1]
-        dz = omega_edges[k + 1, 2] - omega_edges[k, 2]
-        w2 = wx * wx + wy * wy + wz * wz
         for i in range(3):
-            rx, ry, rz = arms[i, 0], arms[i, 1], arms[i, 2]
-            lx = ly = lz = 0.0
-            if tangential:
-                lx += dy * rz - dz * ry
-                ly += dz * rx - dx * rz
-                lz += dx * ry - dy * rx
-            if centripetal:
-                wr = wx * rx + wy * ry + wz * rz
-                lx += dt * (wx * wr - w2 * rx)
-                ly += dt * (wy * wr - w2 * ry)
-                lz += dt * (wz * wr - w2 * rz)
-            out[k, i] = dvel[k, i] - (axes[i, 0] * lx + axes[i, 1] * ly + axes[i, 2] * lz)
+            out[k, i] = dvel[k, i] - _lever_along(
+                axes[i, 0], axes[i, 1], axes[i, 2], arms[i, 0], arms[i, 1], arms[i, 2],
+                dtheta[k, 0] / dt, dtheta[k, 1] / dt, dtheta[k, 2] / dt,
+                omega_edges[k + 1, 0] - omega_edges[k, 0], omega_edges[k + 1, 1] - omega_edges[k, 1],
+                omega_edges[k + 1, 2] - omega_edges[k, 2], dt, centripetal, tangential)
