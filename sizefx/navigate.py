@@ -29,7 +29,6 @@ import h5py
 import numpy as np
 
 from . import __version__, earth
-from .constants import DEG
 from .errors import ConfigError, TelemetryError
 from .fileio import atomic_output
 from .kernels.increments import rates_to_increments

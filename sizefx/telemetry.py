@@ -559,16 +559,21 @@ class TelemetryWriter:
             self._put("/reference/velocity", velocity_n_mps)
 
     def __exit__(self, exc_type, exc, tb):
+        """Close the file; publish it only if the block succeeded and every declared row was written."""
         try:
             self.h5.close()
-        finally:
-            if exc_type is None:
-                short = {k: (self._written[k], n) for k, n in self._plan.items() if self._written[k] != n}
-                if short:
-                    err = RuntimeError(f"{self.path}: incomplete write {short}")
-                    self._ctx.__exit__(RuntimeError, err, None)
-                    raise err
-            return self._ctx.__exit__(exc_type, exc, tb)
+        except BaseException as close_exc:  # the temporary file is unusable: discard it, report the first error
+            self._ctx.__exit__(type(close_exc), close_exc, close_exc.__traceback__)
+            if exc is not None:
+                raise exc from close_exc
+            raise
+        if exc_type is None:
+            short = {k: (self._written[k], n) for k, n in self._plan.items() if self._written[k] != n}
+            if short:
+                err = RuntimeError(f"{self.path}: incomplete write {short}")
+                self._ctx.__exit__(RuntimeError, err, None)
+                raise err
+        return self._ctx.__exit__(exc_type, exc, tb)
 
 
 def write_telemetry(path, tel: Telemetry, *, inputs=(), force: bool = False, dtype=np.float64) -> Path:

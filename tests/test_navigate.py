@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sizefx import earth, scenarios
+from sizefx import scenarios
 from sizefx.constants import DEG, MICRO_G
 from sizefx.effects import IDEAL, load_effects
 from sizefx.kernels.increments import rates_to_increments
@@ -28,7 +28,6 @@ from sizefx.motion import (
     ProfileBuilder,
     RateOf,
     RotationChain,
-    Sinusoids,
     StaticSite,
     Trajectory,
 )

@@ -9,7 +9,6 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx import scenarios
-from sizefx.constants import DEG
 from sizefx.errors import SourceError
 from sizefx.importers import run_import
 from sizefx_cli.main import main
@@ -21,7 +20,7 @@ def test_short_rate_changes_keep_the_turntable_on_time():
     plan = scenarios.TurntablePlan(peak_rate_dps=2.0, accel_dps2=10.0)
     traj, _ = scenarios.turntable(plan)
     outer = traj.attitude.profiles[0]
-    for name, t0, t1 in traj.segments:
+    for name, t0, _ in traj.segments:
         if name.startswith("reposition"):
             _, rate, _ = outer.evaluate(np.array([t0 - 1e-6, t0 + 1.0]))
             assert np.abs(rate).max() < 1e-12, name  # the outer axis is at rest when repositioning starts

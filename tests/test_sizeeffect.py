@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from sizefx import scenarios
 from sizefx.calibrate import CalibrationError, joint_fit, per_rotation_fit, prepare, triad_point
 from sizefx.compensate import compensate, resample_increments, resample_onto
-from sizefx.constants import ARCSEC, DEG, MICRO_G
+from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError
 from sizefx.kernels.sizeeffect import compensate_increments, compensate_rates

@@ -98,8 +98,8 @@ def test_writer_is_atomic_and_refuses_to_overwrite(tmp_path):
     # a failure during the write leaves the old file untouched and no temporary behind
     bad = _telemetry("rates")
     bad.accel_mps2 = bad.accel_mps2[:10]
-    with pytest.raises(Exception):
-        write_telemetry(out, bad, force=True)
+    with pytest.raises(RuntimeError, match=r"incomplete write .*/imu/accel.*\(10, 500\)"):
+        write_telemetry(out, bad, force=True)  # 10 accel rows written where 500 were declared
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.h5"]
     with pytest.raises(OutputError, match="overwrite the input"):
