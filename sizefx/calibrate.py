@@ -32,10 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from . import earth
+from .compensate import sync_accelerometers
 from .constants import ARCSEC, DEG
 from .errors import SizefxError
 from .fileio import atomic_output, check_output_path
-from .levers import Levers, read_levers, levers_from_preset
+from .levers import Levers, levers_from_preset, read_levers
 from .omegadot import savgol
 from .rotation import quat_interp, quat_to_mat
 from .telemetry import Telemetry, read_telemetry
@@ -93,15 +94,12 @@ def prepare(tel: Telemetry, name: str = "") -> Record:
                                "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
     if tel.n_samples < MIN_SAMPLES:
         raise CalibrationError(f"{tel.path}: {tel.n_samples} samples; calibration needs at least {MIN_SAMPLES}")
+    tel = sync_accelerometers(tel)  # on the gyro time base before any conversion
     dt = tel.sample_period_s
     if tel.form == "rates":
         t, omega, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
     else:  # increments -> mean rates over each interval, stamped at its midpoint
         t, omega, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
-    if tel.accel_time_s is not None:
-        from .compensate import resample_onto
-
-        accel = resample_onto(accel, tel.accel_time_s, tel.time_s)
     mat_nb = quat_to_mat(quat_interp(tel.reference.time_s, tel.reference.quat_nb, t))
     lat, h = (tel.site.lat_rad, tel.site.height_m) if tel.site is not None else (
         tel.reference.lat_rad[0], tel.reference.height_m[0])

@@ -28,7 +28,7 @@ from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
 from .telemetry import Telemetry, read_telemetry, write_telemetry
 
-__all__ = ["resample_onto", "resample_increments", "compensate", "compensate_arrays_increments", "run"]
+__all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "compensate", "compensate_arrays_increments", "run"]
 
 
 def resample_onto(values, t_from, t_to):
@@ -47,6 +47,21 @@ def resample_increments(incr, t_end_from, t_end_to):
 
     cum = np.vstack([np.zeros(incr.shape[1]), np.cumsum(incr, axis=0)])
     return np.diff(CubicSpline(edges(t_end_from), cum, axis=0, bc_type="not-a-knot")(edges(t_end_to)), axis=0)
+
+
+def sync_accelerometers(tel: Telemetry, tau_s: float = 0.0) -> Telemetry:
+    """The accelerometers on the gyro time base: ``/imu/accel_time`` and a known delay ``tau_s`` undone.
+
+    Accelerometer samples stamped ``t_a`` represent the specific force at ``t_a - tau``;
+    rates are resampled by cubic spline, increments through their cumulative sum. The
+    one place that does this, for compensate, navigate and calibrate alike.
+    """
+    if tel.accel_time_s is None and tau_s == 0.0:
+        return tel
+    t_accel = (tel.accel_time_s if tel.accel_time_s is not None else tel.time_s) - tau_s
+    if tel.form == "rates":
+        return replace(tel, accel_mps2=resample_onto(tel.accel_mps2, t_accel, tel.time_s), accel_time_s=None)
+    return replace(tel, dvel_mps=resample_increments(tel.dvel_mps, t_accel, tel.time_s), accel_time_s=None)
 
 
 def _arms(levers: Levers, mode: str):
@@ -77,32 +92,24 @@ def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator
         raise ConfigError(f"{tel.path}: {tel.n_samples} samples; compensation needs at least {4 * SAVGOL_WINDOW}")
     tau = levers.accel_delay_s if accel_delay_s is None else accel_delay_s
     tau = 0.0 if tau is None else float(tau)
-    t = tel.time_s
+    tel_in, tel = tel, sync_accelerometers(tel, tau)
     dt = tel.sample_period_s
     arms, axes = _arms(levers, mode)
     if tel.form == "rates":
         accel = tel.accel_mps2
-        t_accel = tel.accel_time_s if tel.accel_time_s is not None else t
-        if tel.accel_time_s is not None or tau != 0.0:
-            accel = resample_onto(accel, t_accel - tau, t)
         omega = np.ascontiguousarray(tel.gyro_rad_s)
         omegadot = central(omega, dt) if estimator == "central" else savgol(omega, dt)
         out = np.empty_like(accel)
         compensate_rates(np.ascontiguousarray(accel), omega, np.ascontiguousarray(omegadot), arms, axes,
                          centripetal, tangential, out)
-        new = replace(tel, accel_mps2=out, accel_time_s=None)
+        new = replace(tel, accel_mps2=out)
     else:
-        dvel = tel.dvel_mps
-        t_accel = tel.accel_time_s if tel.accel_time_s is not None else t
-        if tel.accel_time_s is not None or tau != 0.0:
-            dvel = resample_increments(dvel, t_accel - tau, t)
-        new = replace(tel, dvel_mps=compensate_arrays_increments(tel.dtheta_rad, dvel, dt, levers, mode,
-                                                                 centripetal=centripetal, tangential=tangential),
-                      accel_time_s=None)
+        new = replace(tel, dvel_mps=compensate_arrays_increments(tel.dtheta_rad, tel.dvel_mps, dt, levers, mode,
+                                                                 centripetal=centripetal, tangential=tangential))
     applied = {"mode": mode, "estimator": estimator, "centripetal": centripetal, "tangential": tangential,
                "accel_delay_s": tau, "arms_m": arms.tolist(), "axes": axes.tolist()}
-    new.source = {**(tel.source or {}), "compensation_json": json.dumps(applied)}
-    new.description = (tel.description + " | " if tel.description else "") + \
+    new.source = {**(tel_in.source or {}), "compensation_json": json.dumps(applied)}
+    new.description = (tel_in.description + " | " if tel_in.description else "") + \
         f"size effect compensated ({mode}, {estimator}, delay {tau * 1e6:.1f} us)"
     return new
 

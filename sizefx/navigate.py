@@ -29,6 +29,7 @@ import h5py
 import numpy as np
 
 from . import __version__, earth
+from .compensate import compensate_arrays_increments, sync_accelerometers
 from .errors import ConfigError, TelemetryError
 from .fileio import atomic_output
 from .kernels.increments import rates_to_increments
@@ -40,7 +41,15 @@ from .kernels.strapdown import (
     pack_state,
     strapdown,
 )
-from .rotation import mat_to_euler, mat_to_quat, quat_angle_between, quat_interp, quat_to_mat, rotvec_to_mat
+from .levers import read_levers
+from .rotation import (
+    mat_to_euler,
+    mat_to_quat,
+    quat_angle_between,
+    quat_interp,
+    quat_to_mat,
+    rotvec_to_mat,
+)
 from .telemetry import Telemetry, read_telemetry
 
 __all__ = ["NavConfig", "NavResult", "navigate", "run", "coarse_alignment", "increments_of", "METRES_PER_NMI"]
@@ -210,25 +219,10 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     """Navigate a record in memory (see :func:`run` for files)."""
     cfg = cfg or NavConfig()
     started = _time.perf_counter()
-    if tel.accel_time_s is not None:
-        # accelerometers stamped apart: onto the gyro time base first, as sizefx.compensate does
-        from dataclasses import replace
-
-        from .compensate import resample_increments, resample_onto
-
-        if tel.form == "rates":
-            tel = replace(tel, accel_mps2=resample_onto(tel.accel_mps2, tel.accel_time_s, tel.time_s), accel_time_s=None)
-        else:
-            tel = replace(tel, dvel_mps=resample_increments(tel.dvel_mps, tel.accel_time_s, tel.time_s),
-                          accel_time_s=None)
+    levers = read_levers(cfg.levers) if cfg.levers else None
+    tel = sync_accelerometers(tel, (levers.accel_delay_s or 0.0) if levers else 0.0)
     t_end, dtheta, dvel, dt = increments_of(tel)
-    if cfg.levers:
-        from .compensate import compensate_arrays_increments, resample_increments
-        from .levers import read_levers
-
-        levers = read_levers(cfg.levers)
-        if levers.accel_delay_s:
-            dvel = resample_increments(dvel, t_end - levers.accel_delay_s, t_end)
+    if levers:
         dvel = compensate_arrays_increments(dtheta, dvel, dt, levers, cfg.mode)
     n_sub = int(cfg.subsamples)
     coning_coefficients(n_sub)  # validates

@@ -34,7 +34,7 @@ from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
 from .motion import Trajectory
 from .rotation import mat_to_quat, rotvec_to_mat
-from .telemetry import Site, TelemetryWriter
+from .telemetry import Reference, Site, Telemetry, TelemetryWriter
 
 __all__ = ["ImuKinematics", "kinematics", "ImuSynthesizer", "simulate_to_file", "GAUSS_NODES", "GAUSS_WEIGHTS"]
 
@@ -307,8 +307,6 @@ def simulate_in_memory(traj: Trajectory, effects: EffectModel | None = None, *, 
     For short records (algorithm checks, diagnosis experiments); files go through
     :func:`simulate_to_file`.
     """
-    from .telemetry import Reference, Telemetry
-
     fx = effects if effects is not None else load_effects(base=IDEAL)
     syn = ImuSynthesizer(traj, fx, rate_hz=rate_hz, form=form, seed=seed)
     t, g, a = syn.next_chunk(syn.n_samples)
