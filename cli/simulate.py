@@ -1,4 +1,4 @@
-"""``sizefx simulate turntable | sway | flight``."""
+"""``sizefx simulate turntable | sway | flight | tumble``."""
 
 from __future__ import annotations
 
@@ -142,3 +142,19 @@ def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **
     plan = scenarios.FlightPlan(duration_s=duration_h * 3600.0, align_s=align_s, speed_mps=speed_mps,
                                 altitude_m=altitude_m, heading_deg=heading_deg, rotor_hz=rotor_hz)
     _run("flight", plan, **common)
+
+
+@simulate.command()
+@common_options
+@click.option("--duration-s", default=120.0, show_default=True, type=click.FloatRange(min=1.0),
+              help="Record length [s].")
+@click.option("--axes", default="zyx", show_default=True,
+              help="Gimbals that move: z heading, y pitch, x roll (z alone: rotation about the vertical only).")
+def tumble(duration_s, axes, **common):
+    """A record for sizefx diagnose: heading, pitch and roll sinusoids on a static site.
+
+    Gravity sweeps every body axis and the rates reach about 0.7 rad/s, so every
+    effect sizefx diagnose knows is observable (with --axes zyx).
+    """
+    plan = scenarios.TumblePlan(duration_s=duration_s, axes=axes.lower())
+    _run("tumble", plan, **common)

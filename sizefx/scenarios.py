@@ -28,7 +28,8 @@ from .motion import (
     Trajectory,
 )
 
-__all__ = ["SiteSpec", "TurntablePlan", "SwayPlan", "FlightPlan", "turntable", "sway", "flight", "PAPER_AIRFIELD"]
+__all__ = ["SiteSpec", "TurntablePlan", "SwayPlan", "FlightPlan", "turntable", "sway", "flight", "tumble",
+           "PAPER_AIRFIELD"]
 
 E_NORTH = np.array([1.0, 0.0, 0.0])
 E_EAST = np.array([0.0, 1.0, 0.0])
@@ -364,3 +365,41 @@ def sculling(freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, durati
     chain = RotationChain([E_DOWN, E_EAST, E_NORTH],
                           [Sinusoids([angle_amp_rad], [freq_hz], [0.0]), ConstantProfile(0.0), ConstantProfile(0.0)])
     return Trajectory(path, chain, duration_s, name="sculling", segments=[(f"sculling {freq_hz:g} Hz", 0.0, duration_s)])
+
+
+def tumble(duration_s: float = 120.0, site: SiteSpec = PAPER_AIRFIELD, *,
+           amplitudes_deg=(120.0, 70.0, 80.0), freqs_hz=(0.05, 0.083, 0.117), axes: str = "zyx") -> Trajectory:
+    """Heading, pitch and roll sinusoids on a static site (a three-axis table tumbling).
+
+    ``mat_nb = Rz(psi) Ry(theta) Rx(phi)`` with ``psi, theta, phi = A_k sin(2 pi f_k t + k)``:
+    gravity sweeps every body axis with both signs, and the rates (up to about 0.7 rad/s)
+    and angular accelerations excite every lever-arm component, delay and sensor error.
+    ``axes`` keeps a subset: ``"z"`` turns about the vertical only, the case in which
+    the accelerometer delay and most sensor errors stay hidden.
+    """
+    chain_axes, profiles = [], []
+    for k, (name, axis) in enumerate(zip("zyx", (E_DOWN, E_EAST, E_NORTH))):
+        amp = amplitudes_deg[k] * DEG if name in axes else 0.0
+        chain_axes.append(axis)
+        profiles.append(Sinusoids([amp], [freqs_hz[k]], [float(k)]))
+    lat, lon, h = site.radians()
+    return Trajectory(StaticSite(lat, lon, h), RotationChain(chain_axes, profiles), duration_s, name="tumble",
+                      segments=[(f"tumble about {axes}", 0.0, duration_s)])
+
+
+@dataclass
+class TumblePlan:
+    """A diagnosis record: the table tumbles about ``axes`` (see :func:`tumble`)."""
+
+    duration_s: float = 120.0
+    axes: str = "zyx"
+    amplitudes_deg: tuple = (120.0, 70.0, 80.0)
+    freqs_hz: tuple = (0.05, 0.083, 0.117)
+
+
+def tumble_scenario(plan: TumblePlan, site: SiteSpec = PAPER_AIRFIELD):
+    """:func:`tumble` from a plan, with the plan as the scenario's parameters."""
+    if not plan.axes or set(plan.axes) - set("xyz"):
+        raise ConfigError(f"--axes '{plan.axes}': use a subset of x, y, z (e.g. zyx, or z for the vertical only)")
+    traj = tumble(plan.duration_s, site, amplitudes_deg=plan.amplitudes_deg, freqs_hz=plan.freqs_hz, axes=plan.axes)
+    return traj, asdict(plan)

@@ -287,7 +287,8 @@ def run(scenario: str, out, *, plan=None, site=None, effects_path=None, override
     """
     builders = {"turntable": (scenarios.turntable, scenarios.TurntablePlan),
                 "sway": (scenarios.sway, scenarios.SwayPlan),
-                "flight": (scenarios.flight, scenarios.FlightPlan)}
+                "flight": (scenarios.flight, scenarios.FlightPlan),
+                "tumble": (scenarios.tumble_scenario, scenarios.TumblePlan)}
     if scenario not in builders:
         raise ValueError(f"unknown scenario {scenario!r}")
     build, plan_cls = builders[scenario]
