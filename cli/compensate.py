@@ -1,40 +1,68 @@
-"""``sizefx compensate IN.h5 --levers LEVERS.json -o OUT.h5``."""
+"""``sizefx compensate IN.h5 --levers LEVERS.json -o OUT.h5`` (or ``--model MODEL.toml``)."""
 
 from __future__ import annotations
 
 import click
 
-from sizefx.compensate import run
+from sizefx import compensate as _levers
+from sizefx import correct as _model
+from sizefx.errors import ConfigError
 
 from .options import allow_gaps_option, force_option
 
 
 @click.command()
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--levers", "levers_path", required=True, type=click.Path(dir_okay=False),
+@click.option("--levers", "levers_path", type=click.Path(dir_okay=False),
               help="Lever arms (sizefx/levers/1 JSON, e.g. from sizefx calibrate).")
+@click.option("--model", "model_path", type=click.Path(dir_okay=False),
+              help="Instead of --levers: an effect model (sizefx/effects/1 TOML, e.g. from sizefx diagnose); "
+                   "corrects delay, biases, scale factors, misalignments, quadratic term, g-sensitivity and "
+                   "lever arms. Sections the file omits are off.")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Compensated telemetry (HDF5).")
 @click.option("--mode", type=click.Choice(["triad", "center"]), default="triad", show_default=True,
               help="triad: bring the accelerometers to the triad point (d_i); center: to the rotation centre (r_i).")
 @click.option("--estimator", type=click.Choice(["central", "savgol", "increments"]),
               help="Angular acceleration: central or savgol for rates, increments for increments [default: "
                    "savgol for rates, increments for increments].")
-@click.option("--centripetal-only", is_flag=True, help="Drop the tangential term (the paper: it does not accumulate).")
+@click.option("--centripetal-only", is_flag=True,
+              help="Drop the tangential term (the paper: it does not accumulate). Only with --levers.")
 @click.option("--accel-delay-us", type=float,
-              help="Known delay of the accelerometers behind the gyros [us] (default: from the levers file).")
+              help="Known delay of the accelerometers behind the gyros [us] (default: from the levers file). "
+                   "Only with --levers; a model gives it in [accel_delay].")
 @allow_gaps_option
 @force_option
-def compensate(file, levers_path, output, mode, estimator, centripetal_only, accel_delay_us, allow_gaps, force):
+def compensate(file, levers_path, model_path, output, mode, estimator, centripetal_only, accel_delay_us, allow_gaps,
+               force):
     """Remove the size effect (centripetal and tangential terms) from the accelerometers.
 
     Separately stamped accelerometers (/imu/accel_time) and a known delay are
     brought onto the gyro time base first. The output keeps the input's form and
-    records what was applied in /source.
+    records what was applied in /source. With --model, the model's sensor errors
+    are removed as well (see sizefx.correct).
     """
-    summary = run(file, levers_path, output, mode=mode, estimator=estimator, centripetal=True,
-                  tangential=not centripetal_only,
-                  accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
-                  allow_gaps=allow_gaps, force=force)
+    if levers_path and model_path:
+        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
+                          "([lever_arm]); give one of them")
+    if model_path:
+        if centripetal_only or accel_delay_us is not None:
+            raise ConfigError("--centripetal-only and --accel-delay-us apply to --levers; with --model the "
+                              "delay comes from the model's [accel_delay] and both terms are removed")
+        summary = _model.run(file, model_path, output, mode=mode, estimator=estimator, allow_gaps=allow_gaps,
+                             force=force)
+        click.echo(f"wrote {summary['path']}: {summary['samples']} samples corrected with {summary['model']}, "
+                   f"mode {summary['mode']}, estimator {summary['estimator']}, "
+                   f"delay {summary['accel_delay_s'] * 1e6:.1f} us; corrected: "
+                   f"{', '.join(summary['corrected']) or 'nothing (every section off)'}")
+        if summary["ignored"]:
+            click.echo(f"not IMU output errors, left alone: {', '.join(summary['ignored'])}")
+        return
+    if not levers_path:
+        raise ConfigError("give the lever arms (--levers LEVERS.json) or an effect model (--model MODEL.toml)")
+    summary = _levers.run(file, levers_path, output, mode=mode, estimator=estimator, centripetal=True,
+                          tangential=not centripetal_only,
+                          accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
+                          allow_gaps=allow_gaps, force=force)
     click.echo(f"wrote {summary['path']}: {summary['samples']} samples, mode {summary['mode']}, estimator "
                f"{summary['estimator']}, tangential {'on' if summary['tangential'] else 'off'}, "
                f"delay {summary['accel_delay_s'] * 1e6:.1f} us")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from sizefx.correct import load_model
 from sizefx.navigate import NavConfig, format_summary, run
 
 from .options import allow_gaps_option, force_option
@@ -29,11 +30,16 @@ from .options import allow_gaps_option, force_option
               help="Rate of the written solution [Hz] (0: every navigation interval).")
 @click.option("--levers", type=click.Path(dir_okay=False),
               help="Compensate the size effect first with these lever arms (sizefx/levers/1).")
+@click.option("--model", type=click.Path(dir_okay=False),
+              help="Correct the IMU first with this effect model (sizefx/effects/1 TOML, e.g. from sizefx "
+                   "diagnose): delay, biases, scale factors, misalignments, quadratic term, g-sensitivity, "
+                   "lever arms. Sections the file omits are off. Not with --levers.")
 @click.option("--mode", type=click.Choice(["triad", "center"]), default="triad", show_default=True,
-              help="With --levers: bring the accelerometers to the triad point or to the rotation centre.")
+              help="With --levers or --model: bring the accelerometers to the triad point or to the rotation "
+                   "centre.")
 @allow_gaps_option
 @force_option
-def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers, mode,
+def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers, model, mode,
              allow_gaps, force):
     """Whole-record strapdown navigation on WGS-84 (Numba).
 
@@ -42,7 +48,8 @@ def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical,
     attitude error [deg].
     """
     cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
-                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, levers=levers, mode=mode)
+                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, levers=levers,
+                    model=load_model(model) if model else None, mode=mode)
     res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force)
     click.echo(format_summary(file, res))
     if json_path:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import json
 import time as _time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import h5py
@@ -30,6 +30,8 @@ import numpy as np
 
 from . import __version__, earth
 from .compensate import compensate_arrays_increments, sync_accelerometers
+from .correct import correct_imu
+from .effects import EffectModel
 from .errors import ConfigError, TelemetryError
 from .fileio import atomic_output
 from .kernels.increments import rates_to_increments
@@ -69,6 +71,9 @@ class NavConfig:
     output_rate_hz: float | None = 10.0  #: rate of the written solution (None: every interval)
     allow_gaps: bool = False
     levers: str | None = None  #: sizefx/levers/1 file: compensate the size effect before navigating
+    #: effect model (sizefx.correct.load_model): correct the IMU errors and the size effect before
+    #: navigating (sizefx.correct.correct_imu); not together with ``levers``
+    model: EffectModel | None = None
     mode: str = "triad"  #: triad | center (see sizefx.compensate)
 
 
@@ -219,8 +224,17 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     """Navigate a record in memory (see :func:`run` for files)."""
     cfg = cfg or NavConfig()
     started = _time.perf_counter()
+    if cfg.levers and cfg.model is not None:
+        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
+                          "([lever_arm]); give one of them")
     levers = read_levers(cfg.levers) if cfg.levers else None
-    tel = sync_accelerometers(tel, (levers.accel_delay_s or 0.0) if levers else 0.0)
+    correction = None
+    if cfg.model is not None:
+        tel = correct_imu(tel, cfg.model, mode=cfg.mode)  # syncs the accelerometers itself
+        correction = json.loads(tel.source["correction_json"])
+        del correction["effects"]  # in the model file; the configuration names it
+    else:
+        tel = sync_accelerometers(tel, (levers.accel_delay_s or 0.0) if levers else 0.0)
     t_end, dtheta, dvel, dt = increments_of(tel)
     if levers:
         dvel = compensate_arrays_increments(dtheta, dvel, dt, levers, cfg.mode)
@@ -272,7 +286,8 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     kernel_started = _time.perf_counter()
     q, v, lat, lon, h = _run_kernel(dtheta, dvel, n_sub, dt, state, VERTICAL_MODES[vertical], h0, h_ref, vd_ref)
     kernel_s = _time.perf_counter() - kernel_started
-    config = {**asdict(cfg), "init": init, "vertical": vertical, "stationary_reference": stationary,
+    config = {**asdict(replace(cfg, model=None)), "model": cfg.model.source if cfg.model is not None else None,
+              "correction": correction, "init": init, "vertical": vertical, "stationary_reference": stationary,
               "input_form": tel.form, "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / (n_sub * dt),
               "dropped_trailing_samples": int(dtheta.shape[0] - n_steps * n_sub), **details}
     result = NavResult(t_nav, q, v, lat, lon, h, config, {})
@@ -332,6 +347,10 @@ def format_summary(path, res: NavResult) -> str:
     lines = [f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / 3600:.3f} h), "
              f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s",
              f"  initial state from {c['init']}; vertical channel {c['vertical']}"]
+    if c.get("correction"):
+        corr = c["correction"]
+        lines.append(f"  IMU corrected with the effect model {corr['model']} ({corr['mode']}): "
+                     f"{', '.join(corr['corrected']) or 'nothing enabled'}")
     if "fine_roll_pitch_heading_deg" in c:
         r, p, h = c["fine_roll_pitch_heading_deg"]
         lines.append(f"  alignment over {c['align_window_s']:.1f} s: roll {r:.4f} deg, pitch {p:.4f} deg, "
