@@ -36,6 +36,7 @@ def main():
 from . import calibrate as _calibrate  # noqa: E402  (imported after `main` exists)
 from . import compensate as _compensate  # noqa: E402
 from . import demo as _demo  # noqa: E402
+from . import diagnose as _diagnose  # noqa: E402
 from . import import_ as _import  # noqa: E402
 from . import inspect as _inspect  # noqa: E402
 from . import navigate as _navigate  # noqa: E402
@@ -44,6 +45,7 @@ from . import simulate as _simulate  # noqa: E402
 main.add_command(_calibrate.calibrate)
 main.add_command(_compensate.compensate)
 main.add_command(_demo.demo)
+main.add_command(_diagnose.diagnose)
 main.add_command(_import.import_)
 main.add_command(_inspect.inspect)
 main.add_command(_navigate.navigate)

@@ -1,0 +1,50 @@
+"""``sizefx diagnose MEASURED.h5``."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx.diagnose import run
+
+from .options import allow_gaps_option, force_option
+
+
+@click.command()
+@click.argument("measured", type=click.Path(dir_okay=False))
+@click.option("--nominal", default=None,
+              help="Geometry the prediction starts from: high-precision (default), compact, none, or a "
+                   "sizefx/levers/1 file; lever arms from the reference point of the motion.")
+@click.option("--model", type=click.Path(dir_okay=False),
+              help="Start from this effect model instead (sizefx/effects/1 TOML, e.g. a previous diagnosis); "
+                   "sections it omits are off.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the report (sizefx/diagnosis/1).")
+@click.option("--plots", type=click.Path(file_okay=False),
+              help="Write residual time series and spectra, before and after (PNG), into this folder.")
+@click.option("--model-out", type=click.Path(dir_okay=False),
+              help="Where to write the extended model [default: MEASURED with .model.toml].")
+@click.option("--bandwidth-hz", type=float,
+              help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
+                   "alike). For references differentiated from motion capture, whose noise grows with "
+                   "frequency; leave it out for a table's or a simulation's reference.")
+@click.option("--navigation/--no-navigation", default=True, show_default=True,
+              help="On records of 10 minutes or more with reference position, also navigate with the start "
+                   "and the extended model and report the horizontal error.")
+@allow_gaps_option
+@force_option
+def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, navigation, allow_gaps, force):
+    """What the simulation of a record gets wrong: named, fixed, and the gain measured.
+
+    Predicts the IMU from the record's /reference motion under the start
+    model, selects the physical effects the residual supports (lever arms,
+    accelerometer and reference delays, table tilt, biases, scale factors,
+    misalignments, quadratic term, g-sensitivity), names each in a sentence
+    with its standard error, says what the record cannot reveal, writes the
+    extended model and reports the residual RMS per channel before and after.
+    """
+    d, report, doc = run(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
+                         model_out=model_out, bandwidth_hz=bandwidth_hz, allow_gaps=allow_gaps, force=force, navigation=navigation)
+    click.echo(report)
+    if json_path:
+        click.echo(f"report -> {json_path}")
+    for path in doc.get("plots", []):
+        click.echo(f"plot -> {path}")
