@@ -26,12 +26,16 @@ from .options import allow_gaps_option, force_option
               help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
                    "alike). For references differentiated from motion capture, whose noise grows with "
                    "frequency; leave it out for a table's or a simulation's reference.")
+@click.option("--from-s", type=float, help="Diagnose the record from this time on [s] (IMU clock).")
+@click.option("--to-s", type=float, help="Diagnose the record up to this time [s]; records over 3 million "
+                                          "samples must be cut (about 3 kB per sample).")
 @click.option("--navigation/--no-navigation", default=True, show_default=True,
               help="On records of 10 minutes or more with reference position, also navigate with the start "
                    "and the extended model and report the horizontal error.")
 @allow_gaps_option
 @force_option
-def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, navigation, allow_gaps, force):
+def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, from_s, to_s, navigation,
+             allow_gaps, force):
     """What the simulation of a record gets wrong: named, fixed, and the gain measured.
 
     Predicts the IMU from the record's /reference motion under the start
@@ -41,8 +45,9 @@ def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz
     with its standard error, says what the record cannot reveal, writes the
     extended model and reports the residual RMS per channel before and after.
     """
-    d, report, doc = run(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
-                         model_out=model_out, bandwidth_hz=bandwidth_hz, allow_gaps=allow_gaps, force=force, navigation=navigation)
+    _, report, doc = run(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
+                         model_out=model_out, bandwidth_hz=bandwidth_hz, from_s=from_s, to_s=to_s,
+                         allow_gaps=allow_gaps, force=force, navigation=navigation)
     click.echo(report)
     if json_path:
         click.echo(f"report -> {json_path}")

@@ -17,18 +17,21 @@ The loop (Morozov & Bogdanov 2024 fit one effect, the lever arms; this generalis
    - accelerometer ``(1 + s_a) a + K2 a^2 + b_a``, ``a = u_i . (f_b + omegadot x r_i +
      omega x (omega x r_i))``, all at ``t - tau_acc``. ``f_b`` comes from the reference;
      the lever terms use the *gyros* (corrected by the model's gyro errors) and their
-     Savitzky-Golay derivative, exactly as compensation will use them: a
-     motion-capture reference differentiated twice would bury omegadot in noise.
+     Savitzky-Golay derivative over 25 ms, as compensation uses measured rates: a
+     motion-capture reference differentiated twice would bury omegadot in noise;
+   - increments records are compared as interval means: the prediction at each
+     interval's midpoint plus ``dt^2 / 24`` times its second derivative (the mean of a
+     smooth signal over the interval, to ``dt^4``).
 2. **Residual** ``y = measured - predicted`` on the six channels.
 3. **Candidates.** Every effect of :data:`CANDIDATES` is a group of parameters whose
-   regressors are the partial derivatives of the prediction, taken numerically
-   (central differences: exact for the many linear terms, and no hand-derived sign
-   to get wrong for delays and tilt).
+   regressors are the partial derivatives of the prediction (analytic; a numerical
+   twin checks them in the tests).
 4. **Select.** Forward selection on the weighted normal equations, linearised at the
    current estimate, with parameters not selected pinned at their nominal values. A
    candidate enters only when (a) it lowers the weighted residual by more than the
-   Bayesian information criterion's ``k ln(n)`` (3.7 sigma for one parameter; a false
-   alarm rate near 2e-4 per candidate and step on white noise) and (b) it lowers the
+   Bayesian information criterion's ``k ln(n)`` (for one parameter 3.7 sigma at 1e6
+   rows, 3.45 sigma at 1.5e5; a false alarm rate near 2e-4 per candidate and step on
+   white noise) and (b) it lowers the
    five-fold cross-validated error (interleaved one-second folds). Of the candidates that
    pass, the one that improves the criterion most enters (a bias, one parameter, beats a
    three-parameter g-sensitivity that mimics it through a mostly one-signed gravity
@@ -43,7 +46,8 @@ The loop (Morozov & Bogdanov 2024 fit one effect, the lever arms; this generalis
 5. **Iterate.** The model is updated with the selected estimates, the prediction and
    regressors are recomputed there (Gauss-Newton), the channel weights are
    re-estimated from the new residual (``1 / (sigma_c^2 kappa_c)``, ``kappa_c`` the
-   variance inflation of block means: coloured residuals count as fewer samples),
+   largest variance inflation of block means from 0.5 s to a twentieth of the record:
+   coloured residuals, such as a bias random walk, count as fewer samples),
    and the selection is repeated until it no longer changes.
 6. **Measure.** The final model is written as a ``sizefx/effects/1`` TOML file; the
    record is re-simulated with it and the residual RMS per channel is reported
@@ -85,15 +89,22 @@ MIN_SAMPLES = 400
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
 #: by sample; longer records are averaged in blocks (y and regressors alike, so the model stays exact).
 MAX_ROWS = 250_000
-#: Samples this close to the ends of the reference, or to a reference gap, are left out [s]:
-#: room for delays up to 50 ms, and for the splines' end effects.
+#: Samples this close to the ends of the reference, or to a reference or IMU gap, are left out [s]:
+#: room for delays up to 50 ms; and at least :data:`EDGE_REFERENCE_PERIODS` reference periods, where
+#: the splines' end conditions still pull (5e-3 rad/s at one 20 Hz period from the end).
 EDGE_S = 0.05
+EDGE_REFERENCE_PERIODS = 10
+#: Fewest reference rows: a spline through fewer cannot stand for the motion.
+MIN_REFERENCE_ROWS = 20
+#: Most IMU samples diagnosed at once: the prediction and regressors take about 3 kB per sample.
+MAX_SAMPLES = 3_000_000
 #: A reference step longer than this many median periods is a gap (motion-capture dropout).
 REFERENCE_GAP_FACTOR = 3.0
 #: Cross-validation: folds and the length of the interleaved blocks [s].
 FOLDS = 5
 FOLD_BLOCK_S = 1.0
-#: Block length for the variance inflation kappa of a channel's residual [s].
+#: Shortest block for the variance inflation kappa of a channel's residual [s]; longer ones, by
+#: factors of 4, up to a twentieth of the record.
 KAPPA_BLOCK_S = 0.5
 #: Gauss-Newton passes at most; selection and estimates settle in two or three.
 MAX_PASSES = 6
@@ -308,12 +319,20 @@ class _Predictor:
                                 "latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
         from .compensate import sync_accelerometers
 
+        if tel.reference.time_s.size < MIN_REFERENCE_ROWS:
+            raise DiagnoseError(f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
+                                f"least {MIN_REFERENCE_ROWS} to interpolate the motion from")
+        if tel.n_samples > MAX_SAMPLES:
+            raise DiagnoseError(f"{tel.path}: {tel.n_samples} IMU samples; diagnose holds about 3 kB per sample and "
+                                f"takes at most {MAX_SAMPLES}: give a part of the record with --from-s/--to-s "
+                                "(e.g. 20 minutes)")
         tel = sync_accelerometers(tel)  # separate accelerometer stamps are a known sync, not an effect
         dt = tel.sample_period_s
         if tel.form == "rates":
             t, gyro, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
-        else:  # mean rates over each interval, stamped at its midpoint (error dt^2/24 of the 2nd derivative)
+        else:  # mean rates over each interval, stamped at its midpoint (predict() predicts the mean)
             t, gyro, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
+        self.increments = tel.form == "increments"
         self.path = tel.path
         self.dt = dt
         self.t = np.asarray(t, dtype=float)
@@ -335,11 +354,17 @@ class _Predictor:
 
     def _usable(self, tel):
         t, rt = self.t, tel.reference.time_s
-        ok = (t >= rt[0] + EDGE_S) & (t <= rt[-1] - EDGE_S)
         steps = np.diff(rt)
+        edge = max(EDGE_S, EDGE_REFERENCE_PERIODS * float(np.median(steps)))
+        ok = (t >= rt[0] + edge) & (t <= rt[-1] - edge)
         limit = REFERENCE_GAP_FACTOR * np.median(steps)
         for k in np.flatnonzero(steps > limit):
-            ok &= ~((t > rt[k] - EDGE_S) & (t < rt[k + 1] + EDGE_S))
+            ok &= ~((t > rt[k] - edge) & (t < rt[k + 1] + edge))
+        # IMU gaps (accepted with --allow-gaps): the derivative window and the splines span them
+        margin = EDGE_S + self.window * self.dt
+        for gap in tel.gaps:
+            if gap.dataset.startswith("/imu"):
+                ok &= ~((t > gap.time_s - margin) & (t < gap.time_s + gap.duration_s + margin))
         half = (self.window - 1) // 2
         ok[:half + 2] = False  # the gyro derivative's end fits, and the shifts' spline ends
         ok[-half - 2:] = False
@@ -406,6 +431,8 @@ class _Predictor:
         out[:, :3] = p["w_ib"] @ p["m_g"].T + th[G_BIAS] + p["f_g"] @ p["g_sens"].T
         a = p["a"]
         out[:, 3:] = (1.0 + th[A_SF]) * a + th[A_K2] * a * a + th[A_BIAS]
+        if self.increments:  # the interval mean: midpoint value + dt^2/24 x'' (exact to dt^4)
+            out += self.dt**2 / 24.0 * np.gradient(np.gradient(out, self.t, axis=0), self.t, axis=0)
         return out
 
     def jacobian(self, th: np.ndarray, numeric: bool = False):
@@ -523,7 +550,7 @@ class _Rows:
     def __init__(self, t, mask, dt, bandwidth_hz=None):
         n = t.size
         self.bandwidth_hz = bandwidth_hz
-        if bandwidth_hz:
+        if bandwidth_hz is not None:
             from scipy.signal import butter
 
             nyquist = 0.5 / dt
@@ -547,7 +574,7 @@ class _Rows:
 
     def __call__(self, x):
         """Rows ``[m, ...]`` of a per-sample series ``x [n, ...]`` (all rows; index with ``keep``)."""
-        if self.bandwidth_hz:
+        if self.bandwidth_hz is not None:
             from scipy.signal import sosfiltfilt
 
             x = np.where(self.mask.reshape(-1, *([1] * (x.ndim - 1))), x, 0.0)
@@ -558,7 +585,9 @@ class _Rows:
 def _normal(rows_of: _Rows, y, cols, weights) -> _Normal:
     keep = rows_of.keep
     t = rows_of.t[keep]
-    fold = (np.floor((t - t[0]) / max(FOLD_BLOCK_S, rows_of.dt)).astype(int)) % FOLDS  # interleaved 1 s folds
+    span = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    block = max(min(FOLD_BLOCK_S, span / (2 * FOLDS)), rows_of.dt)  # 1 s, shorter for records under 10 s
+    fold = (np.floor((t - t[0]) / block).astype(int)) % FOLDS  # interleaved folds
     order = np.argsort(fold, kind="stable")  # rows grouped by fold: slices instead of masks
     edges = np.searchsorted(fold[order], np.arange(FOLDS + 1))
     rows = np.flatnonzero(keep)[order]
@@ -745,6 +774,8 @@ def _why(nrm: _Normal, cand, hidden, chosen):
             culprits.append(c.cand.key)
     if culprits:
         return "indistinguishable in this record from " + " or ".join(culprits)
+    if not [c for c in chosen if c.cand != cand]:
+        return "its components cannot be told apart from each other in this record"
     return "indistinguishable in this record from the effects found together"
 
 
@@ -789,6 +820,7 @@ class Diagnosis:
     model_path: str | None = None
     navigation: dict | None = None
     bandwidth_hz: float | None = None
+    white_sigma: dict | None = None  #: per channel: the residual's sample-to-sample (first-difference) noise
     rms_full_before: dict | None = None  #: full-band RMS (differs from rms_* when bandwidth_hz is set)
     rms_full_after: dict | None = None
 
@@ -803,11 +835,12 @@ def _noise(rows_of: _Rows, res):
     r = rows_of(res)[rows_of.keep]
     r = r - r.mean(axis=0)
     sigma = np.maximum(r.std(axis=0), 1e-300)
-    B = max(2, round(KAPPA_BLOCK_S / rows_of.dt))
-    blocks = _blocks(r, B)
     kappa = np.ones(6)
-    if blocks.shape[0] >= 10:
-        kappa = np.maximum(1.0, blocks.var(axis=0) * B / sigma**2)
+    B = max(2, round(KAPPA_BLOCK_S / rows_of.dt))
+    while r.shape[0] // B >= 20:  # 0.5 s, 2 s, 8 s, ...: a random walk shows only in the long blocks
+        blocks = _blocks(r, B)
+        kappa = np.maximum(kappa, blocks.var(axis=0) * B / sigma**2)
+        B *= 4
     return sigma, kappa
 
 
@@ -891,6 +924,8 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         rms_before=dict(zip(CHANNELS, rms_b.tolist())), rms_after=dict(zip(CHANNELS, rms_a.tolist())),
         theta_nominal=theta0, theta=theta, sigma_theta=sig, samples=int(mask.sum()), block=rows_of.L,
         bandwidth_hz=bandwidth_hz,
+        white_sigma=dict(zip(CHANNELS, (np.sqrt(np.mean(np.diff(rows_of(residual)[rows_of.keep], axis=0) ** 2, axis=0)
+                                                / 2.0)).tolist())),
         rms_full_before=dict(zip(CHANNELS, np.sqrt(np.mean(residual_before[mask] ** 2, axis=0)).tolist())),
         rms_full_after=dict(zip(CHANNELS, np.sqrt(np.mean(residual[mask] ** 2, axis=0)).tolist())),
         weights_sigma=sigma_c, kappa=kappa, passes=passes, log=log, wall_s=time.perf_counter() - started,
@@ -941,8 +976,9 @@ def _effect(c: _Chosen, theta, theta0, sig, frac) -> Effect:
             word = "lag" if v >= 0 else "lead"
             sentence = f"the accelerometers {word} the gyros by {_fmt(abs(v), s, 'microseconds')}"
         else:
-            word = "behind" if v >= 0 else "ahead of"
-            sentence = f"the reference clock runs {_fmt(abs(v), s, 'microseconds')} {word} the IMU clock"
+            word, sign = ("lags", "-") if v >= 0 else ("leads", "+")
+            sentence = (f"the reference {word} the IMU by {_fmt(abs(v), s, 'microseconds')} (its rows stamped t "
+                        f"hold the motion at t {sign} {abs(v):.1f} us)")
         if n0:
             sentence += f" (nominal {n0:.1f} us)"
     elif eid == "level_tilt":
@@ -1008,6 +1044,13 @@ def model_toml(theta: np.ndarray, source: str = "") -> str:
         return "[" + ", ".join(vec(r) for r in m) + "]"
 
     arms = theta[LEVER].reshape(3, 3)
+    # r_i = r + d_i with r the triad point (where the accelerometer normals meet, as calibrate
+    # splits them), so that navigate/compensate --mode triad and center keep their meaning
+    from .calibrate import triad_point
+
+    axes = _axes(theta[A_MIS])
+    offset = triad_point(arms, axes) if np.any(arms) else np.zeros(3)
+    d_arms = arms - offset
     on = {name: bool(np.any(theta[idx] != 0.0)) for name, idx in
           (("accel_bias", A_BIAS), ("accel_scale_factor", A_SF), ("accel_misalignment", A_MIS),
            ("accel_quadratic", A_K2), ("accel_delay", [TAU_A]), ("reference_delay", [TAU_R]),
@@ -1021,9 +1064,10 @@ def model_toml(theta: np.ndarray, source: str = "") -> str:
     lines = [f"# sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
              "# Arms r_i from the reference point of the motion (body axes x forward, y right, z down).",
              f'schema = "{EFFECTS_SCHEMA}"', "",
-             "[lever_arm]", "enabled = true", 'preset = "none"'] + \
-            [f"d_{a}_m = {vec(arms[i])}" for i, a in enumerate("xyz")] + [
-        "r0_m = [0.0, 0.0, 0.0]", "r_plate_m = [0.0, 0.0, 0.0]", "r_vehicle_m = [0.0, 0.0, 0.0]", "",
+             "[lever_arm]", "enabled = true", 'preset = "none"',
+             "# d_i: triad point to accelerometer i; r_vehicle_m: reference point to the triad point"] + \
+            [f"d_{a}_m = {vec(d_arms[i])}" for i, a in enumerate("xyz")] + [
+        "r0_m = [0.0, 0.0, 0.0]", "r_plate_m = [0.0, 0.0, 0.0]", f"r_vehicle_m = {vec(offset)}", "",
         "[accel_delay]", f"enabled = {t(on['accel_delay'])}", f"tau_s = {float(theta[TAU_A])!r}", "",
         "[reference_delay]", f"enabled = {t(on['reference_delay'])}", f"tau_s = {float(theta[TAU_R])!r}", "",
         "[level_tilt]", f"enabled = {t(on['level_tilt'])}", f"north_arcsec = {float(theta[TILT[0]] / ARCSEC)!r}",
@@ -1136,7 +1180,14 @@ def format_report(d: Diagnosis, start: str) -> str:
             lines.append(f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
                          "residual in its channels]")
     else:
-        lines.append("found nothing beyond the start model: the residual is consistent with sensor noise")
+        loud = [c for c in CHANNELS if d.white_sigma and d.rms_after[c] > 1.5 * d.white_sigma[c]]
+        if loud:
+            lines.append("found nothing the data supports beyond the start model; but the residual on "
+                         + ", ".join(f"{c} ({d.rms_after[c] / d.white_sigma[c]:.1f} times its sample-to-sample noise)"
+                                     for c in loud)
+                         + " is more than noise: an effect outside the candidates, or too little motion or data")
+        else:
+            lines.append("found nothing beyond the start model: the residual is consistent with sensor noise")
     if d.unrevealed:
         lines.append("not revealed by this record (kept at the start model; record more motion to see them):")
         for u in d.unrevealed:
@@ -1238,21 +1289,48 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
 NAVIGATION_MIN_S = 600.0
 
 
+def crop(tel: Telemetry, from_s: float | None, to_s: float | None) -> Telemetry:
+    """The part of a record between two times [s] (IMU and reference alike)."""
+    if from_s is None and to_s is None:
+        return tel
+    from dataclasses import replace
+
+    lo = -np.inf if from_s is None else from_s
+    hi = np.inf if to_s is None else to_s
+    keep = (tel.time_s >= lo) & (tel.time_s <= hi)
+    if keep.sum() < MIN_SAMPLES:
+        raise DiagnoseError(f"{tel.path}: --from-s/--to-s keep {int(keep.sum())} IMU samples; diagnose needs "
+                            f"{MIN_SAMPLES}")
+    fields = {k: (getattr(tel, k)[keep] if getattr(tel, k) is not None else None)
+              for k in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")}
+    ref = tel.reference
+    rk = (ref.time_s >= lo - 1.0) & (ref.time_s <= hi + 1.0)  # a second more of reference for the splines
+    ref = replace(ref, **{k: getattr(ref, k)[rk] for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m",
+                                                           "velocity_n_mps") if getattr(ref, k) is not None})
+    gaps = [g for g in tel.gaps if lo <= g.time_s <= hi]
+    return replace(tel, reference=ref, gaps=gaps, **fields)
+
+
 def run(path, *, nominal: str | None = None, model: str | None = None, json_path=None, plots=None,
-        model_out=None, bandwidth_hz: float | None = None, allow_gaps: bool = False, force: bool = False,
-        navigation: bool = True):
+        model_out=None, bandwidth_hz: float | None = None, from_s: float | None = None, to_s: float | None = None,
+        allow_gaps: bool = False, force: bool = False, navigation: bool = True):
     """Entry point of ``sizefx diagnose``: returns ``(Diagnosis, report text, json document)``."""
     inputs = [path] + ([model] if model else [])
     if model_out is None:
         model_out = str(Path(path).with_suffix("")) + ".model.toml"
-    for out in (json_path, model_out):
-        if out:
-            check_output_path(out, inputs=inputs, force=force)
+    outs = [o for o in (json_path, model_out) if o]
+    if len({Path(o).resolve() for o in outs}) < len(outs):
+        raise ConfigError(f"{json_path}: --json and --model-out name the same file; give two")
+    for out in outs:
+        check_output_path(out, inputs=inputs, force=force)
     if plots and any(Path(plots).resolve() == Path(p).resolve() for p in inputs):
         raise ConfigError(f"{plots}: --plots names an input file; give a folder")
     theta0, start = start_model(nominal, model)
     tel = read_telemetry(path, allow_gaps=allow_gaps)
-    d = diagnose(tel, theta0, bandwidth_hz=bandwidth_hz, keep_series=bool(plots))
+    if tel.reference is None:
+        raise DiagnoseError(f"{path}: diagnose needs /reference motion (attitude at least) to predict the IMU "
+                            "from; record it, or import it with sizefx import")
+    d = diagnose(crop(tel, from_s, to_s), theta0, bandwidth_hz=bandwidth_hz, keep_series=bool(plots))
     with atomic_output(model_out, force=force) as tmp:
         Path(tmp).write_text(model_toml(d.theta, source=str(path)))
     d.model_path = str(model_out)
