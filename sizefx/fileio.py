@@ -43,6 +43,12 @@ def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
     return out
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp"):
     """Yield a temporary path next to ``path``; rename it to ``path`` on success.
@@ -57,6 +63,8 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp")
         yield tmp_path
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
+        # mkstemp creates 0600; an output gets the permissions any new file would (umask applied)
+        os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, out)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):

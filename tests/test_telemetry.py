@@ -295,3 +295,17 @@ def test_reference_gaps_are_reported_not_refused(tmp_path):
 
     tel = read_telemetry(write_raw(tmp_path / "refgap.h5", mutate=drop_reference_rows))
     assert [(g.dataset, g.index) for g in tel.gaps] == [("/reference/time", 40)]
+
+
+def test_outputs_get_ordinary_file_permissions(tmp_path):
+    """mkstemp makes 0600 files; a finished output must be readable like any new file (umask applied)."""
+    import os
+
+    from sizefx.fileio import atomic_output
+
+    out = tmp_path / "o.txt"
+    with atomic_output(out) as tmp:
+        tmp.write_text("x")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (out.stat().st_mode & 0o777) == 0o666 & ~mask
