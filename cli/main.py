@@ -34,6 +34,7 @@ def main():
 
 
 from . import calibrate as _calibrate  # noqa: E402  (imported after `main` exists)
+from . import compare as _compare  # noqa: E402
 from . import compensate as _compensate  # noqa: E402
 from . import demo as _demo  # noqa: E402
 from . import diagnose as _diagnose  # noqa: E402
@@ -43,6 +44,7 @@ from . import navigate as _navigate  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
 main.add_command(_calibrate.calibrate)
+main.add_command(_compare.compare)
 main.add_command(_compensate.compensate)
 main.add_command(_demo.demo)
 main.add_command(_diagnose.diagnose)

@@ -1,0 +1,39 @@
+"""``sizefx compare A B [--reference REF]``."""
+
+from __future__ import annotations
+
+import click
+
+from sizefx.compare import format_report, run
+
+from .options import force_option
+
+
+@click.command()
+@click.argument("a", type=click.Path(dir_okay=False))
+@click.argument("b", type=click.Path(dir_okay=False))
+@click.option("--reference", type=click.Path(dir_okay=False),
+              help="The truth (a navigation file or telemetry with /reference/position): report A and B against "
+                   "it, and A against B.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False),
+              help="Write the figures as JSON (sizefx/comparison/1).")
+@click.option("--plots", "plots_dir", type=click.Path(file_okay=False),
+              help="Write PNG figures into this directory (created if missing): trajectories, horizontal_error, "
+                   "velocity, attitude.")
+@force_option
+def compare(a, b, reference, json_path, plots_dir, force):
+    """Compare two navigation solutions (or a solution and a telemetry reference).
+
+    A and B are sizefx/navigation/1 files (sizefx navigate -o) or telemetry
+    files with /reference/position. A is compared with B on A's time stamps
+    where both have data; every difference is A - B. Prints the horizontal
+    distance [m] (chord on the WGS-84 surface), its along- and cross-track
+    parts [m] (ahead and right of B's track positive), the drift [nmi/h],
+    height [m], velocity [m/s] and attitude [deg] differences.
+    """
+    report = run(a, b, reference=reference, json_path=json_path, plots_dir=plots_dir, force=force)
+    click.echo(format_report(report))
+    if json_path:
+        click.echo(f"comparison -> {json_path}")
+    for png in report.plots:
+        click.echo(f"figure -> {png}")
