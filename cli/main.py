@@ -41,6 +41,7 @@ from . import diagnose as _diagnose  # noqa: E402
 from . import import_ as _import  # noqa: E402
 from . import inspect as _inspect  # noqa: E402
 from . import navigate as _navigate  # noqa: E402
+from . import paper as _paper  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
 main.add_command(_calibrate.calibrate)
@@ -51,4 +52,5 @@ main.add_command(_diagnose.diagnose)
 main.add_command(_import.import_)
 main.add_command(_inspect.inspect)
 main.add_command(_navigate.navigate)
+main.add_command(_paper.paper)
 main.add_command(_simulate.simulate)

@@ -23,7 +23,7 @@ def runner():
 def test_help_explains_every_command_with_units(runner):
     top = runner.invoke(main, ["--help"])
     assert top.exit_code == 0
-    for cmd in ("demo", "inspect", "simulate"):
+    for cmd in ("demo", "diagnose", "inspect", "paper", "simulate"):
         assert cmd in top.output
     for args, units in ((["simulate", "turntable", "--help"], ["[deg/s]", "[deg/s^2]", "[s]", "[Hz]", "[mm]"]),
                         (["simulate", "sway", "--help"], ["[deg/s]", "[Hz]", "[s]"]),
@@ -100,7 +100,17 @@ def test_inspect_valid_file(runner, raw_file):
 
 
 def test_demo_smoke(runner, tmp_path):
-    result = runner.invoke(main, ["demo", "--out", str(tmp_path / "demo")])
+    """The README's first command: the three experiments, the table, the diagnosis, the plots."""
+    out = tmp_path / "demo"
+    result = runner.invoke(main, ["demo", "--out", str(out)])
     assert result.exit_code == 0, result.output
-    assert "rotate Y" in result.output and "ug" in result.output
-    assert (tmp_path / "demo" / "turntable.h5").exists()
+    text = result.output
+    assert "the paper's experiments in simulation (reduced size)" in text
+    for figure in ("turntable, 3 repeats", "heading sway", "flight 1.8 h"):
+        assert figure in text
+    assert "accelerometer y sits" in text and "lag the gyros by" in text  # diagnose found both hidden effects
+    for png in ("fig6_turntable_compensation.png", "fig8_sway_velocity.png", "fig9_sway_position.png",
+                "flight_horizontal_error.png", "flight_ground_speed_error.png", "diagnosis/residuals.png",
+                "diagnosis/spectra.png"):
+        assert (out / png).stat().st_size > 10_000, png
+    assert f"plots in {out}/" in text
