@@ -45,7 +45,7 @@ from .rotation import (
     quat_to_mat,
 )
 from .schema import TELEMETRY_SCHEMA, load_schema, normalise_units
-from .telemetry import read_telemetry
+from .telemetry import open_hdf5, read_telemetry
 
 __all__ = [
     "COMPARISON_SCHEMA",
@@ -153,25 +153,7 @@ def _decode(value) -> str:
 
 
 def _open_hdf5(path: Path) -> h5py.File:
-    """Open ``path`` read-only, or raise a one-line error saying why it is not an HDF5 file."""
-    if not path.exists():
-        raise TelemetryError(path, "/", "file does not exist")
-    if path.is_dir():
-        raise TelemetryError(path, "/", "is a directory, not an HDF5 file")
-    if path.stat().st_size == 0:
-        raise TelemetryError(path, "/", "file is empty (0 bytes)")
-    try:
-        is_hdf5 = h5py.is_hdf5(path)
-    except OSError:
-        is_hdf5 = False
-    if not is_hdf5:
-        raise TelemetryError(path, "/", "is not an HDF5 file (no HDF5 signature); compare reads "
-                                        f"{NAVIGATION_SCHEMA} (sizefx navigate -o) or {TELEMETRY_SCHEMA} files")
-    try:
-        return h5py.File(path, "r")
-    except OSError as exc:
-        raise TelemetryError(path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); "
-                                        "the file is truncated or corrupt") from None
+    return open_hdf5(path, f"compare reads {NAVIGATION_SCHEMA} (sizefx navigate -o) or {TELEMETRY_SCHEMA} files")
 
 
 def read_track(path) -> Track:

@@ -217,6 +217,19 @@ def _levers_file(fx, path):
     return levers
 
 
+def _simulate_and_navigate(out_dir, scenario, plan, overrides, rate_hz, seed, log, **cfg):
+    """Simulate ``scenario`` into ``out_dir``, then navigate it in the three modes with the true arms."""
+    path = out_dir / f"{scenario}.h5"
+    # the experiments own their folder: they replace their own records from an earlier run
+    summary = simulate_run(scenario, path, plan=plan, overrides=overrides, rate_hz=rate_hz, seed=seed, force=True)
+    log(f"  simulated {scenario} -> {path} ({summary['samples']} samples, {summary['wall_s']:.1f} s)")
+    fx = load_effects(overrides=overrides)
+    tel = read_telemetry(path)
+    levers_path = out_dir / f"{scenario}_levers.json"
+    _levers_file(fx, levers_path)
+    return fx, tel, _navigate_modes(tel, levers_path, **cfg)
+
+
 def _navigate_modes(tel, levers_path, **cfg):
     out = {}
     for mode in ("none", "triad", "center"):
@@ -241,15 +254,8 @@ def sway_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) -> d
     # The unit sits off the table's axis, further along north (x) than east, as the paper's does.
     overrides = {"lever_arm": {"preset": "high-precision", "d_x_m": d_true[0].tolist(), "d_y_m": d_true[1].tolist(),
                                "d_z_m": d_true[2].tolist(), "r_vehicle_m": [0.15, 0.05, -0.10]}}
-    path = out_dir / "sway.h5"
-    summary = simulate_run("sway", path, plan=plan, overrides=overrides, rate_hz=size.sway_rate_hz, seed=seed,
-                           force=True)
-    log(f"  simulated heading sway -> {path} ({summary['samples']} samples, {summary['wall_s']:.1f} s)")
-    fx = load_effects(overrides=overrides)
-    tel = read_telemetry(path)
-    levers_path = out_dir / "sway_levers.json"
-    _levers_file(fx, levers_path)
-    navs = _navigate_modes(tel, levers_path, init="align", align_s=plan.static_s)
+    fx, tel, navs = _simulate_and_navigate(out_dir, "sway", plan, overrides, size.sway_rate_hz, seed, log,
+                                           init="align", align_s=plan.static_s)
     # Closed form: accelerometer x (north at heading 0) carries -d_x[x] <omega^2> = -d_x[x] A^2 / 2 during a
     # segment; y (east) the same with d_y[y]. The paper's r A^2 t^2 / 4 is its double integral.
     d = fx.arms_d_m()
@@ -388,15 +394,7 @@ def flight_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) ->
     overrides = {"lever_arm": {"preset": "high-precision", "d_x_m": d_true[0].tolist(), "d_y_m": d_true[1].tolist(),
                                "d_z_m": d_true[2].tolist(), "r_vehicle_m": list(FLIGHT_OFFSET_M)},
                  "accel_bias": {"enabled": True}, "gyro_bias": {"enabled": True}}
-    path = out_dir / "flight.h5"
-    summary = simulate_run("flight", path, plan=plan, overrides=overrides, rate_hz=size.flight_rate_hz, seed=seed,
-                           force=True)
-    log(f"  simulated the flight -> {path} ({summary['samples']} samples, {summary['wall_s']:.1f} s)")
-    fx = load_effects(overrides=overrides)
-    tel = read_telemetry(path)
-    levers_path = out_dir / "flight_levers.json"
-    _levers_file(fx, levers_path)
-    navs = _navigate_modes(tel, levers_path)
+    _, tel, navs = _simulate_and_navigate(out_dir, "flight", plan, overrides, size.flight_rate_hz, seed, log)
     del tel
     hours = size.flight_duration_h
     out = {"rate_hz": size.flight_rate_hz, "duration_h": hours, "vibration_dps": list(FLIGHT_VIBRATION_DPS),

@@ -25,6 +25,7 @@ from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_unit
 __all__ = [
     "Reference",
     "Site",
+    "open_hdf5",
     "Telemetry",
     "read_telemetry",
     "TelemetryWriter",
@@ -326,6 +327,31 @@ class _Reader:
                             f"plausible {lo:g}..{hi:g}; the units attribute is probably wrong")
 
 
+def open_hdf5(path: Path, hint: str) -> h5py.File:
+    """Open ``path`` read-only, or raise a one-line error saying why it is not a readable HDF5 file.
+
+    ``hint`` ends the message when the file is not HDF5 at all (what to do instead).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise TelemetryError(path, "/", "file does not exist")
+    if path.is_dir():
+        raise TelemetryError(path, "/", "is a directory, not an HDF5 file")
+    if path.stat().st_size == 0:
+        raise TelemetryError(path, "/", "file is empty (0 bytes)")
+    try:
+        is_hdf5 = h5py.is_hdf5(path)
+    except OSError:
+        is_hdf5 = False
+    if not is_hdf5:
+        raise TelemetryError(path, "/", f"is not an HDF5 file (no HDF5 signature); {hint}")
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise TelemetryError(path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); "
+                                        "the file is truncated or corrupt") from None
+
+
 def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True) -> Telemetry:
     """Read and validate a ``sizefx/telemetry/1`` file; return SI arrays.
 
@@ -346,24 +372,7 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
         For every violation of the contract, with a one-line message.
     """
     path = Path(path)
-    if not path.exists():
-        raise TelemetryError(path, "/", "file does not exist")
-    if path.is_dir():
-        raise TelemetryError(path, "/", "is a directory, not an HDF5 file")
-    if path.stat().st_size == 0:
-        raise TelemetryError(path, "/", "file is empty (0 bytes)")
-    try:
-        is_hdf5 = h5py.is_hdf5(path)
-    except OSError:
-        is_hdf5 = False
-    if not is_hdf5:
-        raise TelemetryError(path, "/", "is not an HDF5 file (no HDF5 signature); convert it with sizefx import")
-    try:
-        h5 = h5py.File(path, "r")
-    except OSError as exc:
-        raise TelemetryError(path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); "
-                                        "the file is truncated or corrupt") from None
-    with h5:
+    with open_hdf5(path, "convert it with sizefx import") as h5:
         r = _Reader(path, h5, allow_gaps, check_plausibility)
         r.refuse_links_to_other_files()
         attrs = r.root_attributes()
