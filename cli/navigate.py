@@ -7,7 +7,7 @@ import click
 from sizefx.correct import load_model
 from sizefx.navigate import NavConfig, format_summary, run
 
-from .options import allow_gaps_option, force_option
+from .options import Progress, allow_gaps_option, force_option, quiet_option
 
 
 @click.command()
@@ -37,10 +37,14 @@ from .options import allow_gaps_option, force_option
 @click.option("--mode", type=click.Choice(["triad", "center"]), default="triad", show_default=True,
               help="With --levers or --model: bring the accelerometers to the triad point or to the rotation "
                    "centre.")
+@click.option("--chunk-samples", default=1 << 20, show_default=True, type=click.IntRange(min=0),
+              help="IMU rows read and processed at a time (memory is bounded by the chunk, results are identical); "
+                   "0 reads the whole record into memory.")
 @allow_gaps_option
 @force_option
+@quiet_option
 def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers, model, mode,
-             allow_gaps, force):
+             chunk_samples, allow_gaps, force, quiet):
     """Whole-record strapdown navigation on WGS-84 (Numba).
 
     Prints the errors against /reference when the file has one: final and
@@ -50,7 +54,8 @@ def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical,
     cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
                     output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, levers=levers,
                     model=load_model(model) if model else None, mode=mode)
-    res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force)
+    res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force, chunk_samples=chunk_samples,
+              progress=Progress("navigate", quiet))
     click.echo(format_summary(file, res))
     if json_path:
         click.echo(f"summary -> {json_path}")

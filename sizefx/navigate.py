@@ -372,7 +372,7 @@ def write_navigation(path, res: NavResult, *, input_file, force: bool = False):
     """Write ``sizefx/navigation/1`` atomically, decimated to ``output_rate_hz``."""
     rate = res.config.get("output_rate_hz")
     stride = 1
-    if rate:
+    if rate and not res.config.get("streamed"):  # a streamed result holds the output rows already
         stride = max(1, int(round(res.config["nav_rate_hz"] / rate)))
     sel = slice(stride - 1, None, stride)
     roll, pitch, heading = mat_to_euler(quat_to_mat(res.quat_nb[sel]))
@@ -418,17 +418,27 @@ def plot_errors(res: NavResult, png, title: str):
     plt.close(fig)
 
 
-def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot=None, force: bool = False):
-    """Entry point of ``sizefx navigate``: returns the result; writes what was asked."""
-    cfg = cfg or NavConfig()
-    if plot:
-        from .fileio import check_output_path
+def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot=None, force: bool = False,
+        chunk_samples: int | None = None, progress=None):
+    """Entry point of ``sizefx navigate``: returns the result; writes what was asked.
 
-        check_output_path(plot, inputs=[path], force=force)  # before the work: folder exists, no silent replace
-    tel = read_telemetry(path, allow_gaps=cfg.allow_gaps)
-    if tel.gaps and any(g.dataset.startswith("/imu") for g in tel.gaps):
-        raise TelemetryError(path, "/imu/time", "has gaps; navigation needs continuous samples (cut the record)")
-    res = navigate(tel, cfg)
+    The file is streamed in chunks (:func:`sizefx.pipeline.navigate_file`, identical results,
+    memory bounded by the chunk); ``chunk_samples=0`` reads it whole and navigates in memory.
+    """
+    from .fileio import check_output_path
+    from .pipeline import CHUNK_SAMPLES, navigate_file
+
+    cfg = cfg or NavConfig()
+    for out in (output, json_path, plot):
+        if out:
+            check_output_path(out, inputs=[path], force=force)  # before the work: folder exists, no silent replace
+    if chunk_samples == 0:
+        tel = read_telemetry(path, allow_gaps=cfg.allow_gaps)
+        if tel.gaps and any(g.dataset.startswith("/imu") for g in tel.gaps):
+            raise TelemetryError(path, "/imu/time", "has gaps; navigation needs continuous samples (cut the record)")
+        res = navigate(tel, cfg)
+    else:
+        res = navigate_file(path, cfg, chunk_samples=chunk_samples or CHUNK_SAMPLES, progress=progress)
     if output:
         write_navigation(output, res, input_file=path, force=force)
     if json_path:

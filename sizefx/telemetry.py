@@ -26,6 +26,7 @@ __all__ = [
     "Reference",
     "Site",
     "open_hdf5",
+    "TelemetryStream",
     "Telemetry",
     "read_telemetry",
     "TelemetryWriter",
@@ -230,6 +231,33 @@ class _Reader:
     # -- datasets -------------------------------------------------------------------
     def dataset(self, name: str, required: bool):
         """Read, check and convert one dataset listed in the schema; None if absent and optional."""
+        handle = self.handle(name, required)
+        if handle is None:
+            return None
+        return self.rows(name, handle, slice(None))
+
+    def rows(self, name: str, handle, rows: slice, first_row: int = 0):
+        """Rows ``rows`` of a dataset from :meth:`handle`, checked (finite) and in SI units.
+
+        ``first_row`` numbers the rows in messages (the absolute row of ``rows.start``).
+        """
+        dset, factor = handle
+        try:
+            data = np.asarray(dset[rows], dtype=np.float64)
+        except OSError as exc:
+            self.fail(name, f"cannot be read ({exc}); the file is truncated or corrupt")
+        if data.shape[0] == 0:
+            self.fail(name, "holds no samples")
+        bad = ~np.isfinite(data)
+        if bad.any():
+            first = int(np.argwhere(bad)[0][0]) + first_row
+            self.fail(name, f"holds NaN/Inf values, the first at row {first}; "
+                            "remove or interpolate them (or cut the record) before processing")
+        return data * np.asarray(factor, dtype=float)
+
+    def handle(self, name: str, required: bool):
+        """``(h5py dataset, SI factor)`` of a dataset listed in the schema, its structure, dtype and units
+        checked; None if absent and optional. The values are read by :meth:`rows`."""
         spec = self.schema["datasets"][name]
         if name not in self.h5:
             if required:
@@ -264,21 +292,9 @@ class _Reader:
         factor = unit_factor(quantity, units)
         if factor is None:
             self.fail(name, f"units '{units}' are not known; use one of {', '.join(allowed_units(quantity))}")
-        try:
-            data = np.asarray(dset[()], dtype=np.float64)
-        except OSError as exc:
-            self.fail(name, f"cannot be read ({exc}); the file is truncated or corrupt")
-        if data.shape[0] == 0:
-            self.fail(name, "holds no samples")
-        bad = ~np.isfinite(data)
-        if bad.any():
-            first = int(np.argwhere(bad)[0][0])
-            self.fail(name, f"holds {int(bad.sum())} NaN/Inf values, the first at row {first}; "
-                            "remove or interpolate them (or cut the record) before processing")
-        data = data * np.asarray(factor, dtype=float)
         self.units[name] = units
         self.dtypes[name] = dset.dtype.name
-        return data
+        return dset, factor
 
     def check_time(self, name: str, t: np.ndarray):
         if t.shape[0] < 2:
@@ -373,29 +389,8 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
     """
     path = Path(path)
     with open_hdf5(path, "convert it with sizefx import") as h5:
-        r = _Reader(path, h5, allow_gaps, check_plausibility)
-        r.refuse_links_to_other_files()
-        attrs = r.root_attributes()
+        r, attrs, form = _open_structure(path, h5, allow_gaps, check_plausibility)
         schema = r.schema
-        for gname, gspec in schema["groups"].items():
-            if gname in h5 and not isinstance(h5[gname], h5py.Group):
-                r.fail(gname, "must be a group")
-            if gspec["required"] and gname not in h5:
-                r.fail(gname, "group is missing; IMU samples belong in /imu")
-
-        # IMU: exactly one form.
-        present = {form: [d for d in spec["datasets"] if d in h5] for form, spec in schema["forms"].items()}
-        complete = [form for form, names in present.items() if len(names) == len(schema["forms"][form]["datasets"])]
-        if len(complete) == 2:
-            r.fail("/imu", "holds both gyro/accel and dtheta/dvel; keep one form")
-        if not complete:
-            partial = [d for names in present.values() for d in names]
-            if partial:
-                form = next(f for f, names in present.items() if names)
-                missing = [d for d in schema["forms"][form]["datasets"] if d not in h5]
-                r.fail(missing[0], f"dataset is missing ({partial[0]} is present; {form} need both)")
-            r.fail("/imu", "holds neither gyro+accel (rates) nor dtheta+dvel (increments)")
-        form = complete[0]
         time_s = r.dataset("/imu/time", required=True)
         r.check_time("/imu/time", time_s)
         gyro_name, accel_name = schema["forms"][form]["datasets"]
@@ -405,44 +400,10 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
         if accel_time is not None:
             r.check_time("/imu/accel_time", accel_time)
         if check_plausibility:
-            period = float(np.median(np.diff(time_s)))
-            f_est = accel if form == "rates" else accel / period
-            w_est = gyro if form == "rates" else gyro / period
-            r.check_plausible(accel_name, f_est, "median_specific_force_mps2", "specific force", r.units[accel_name])
-            r.check_plausible(gyro_name, w_est, "median_angular_rate_rad_s", "angular rate", r.units[gyro_name])
-
-        reference = None
-        if "/reference" in h5:
-            ref_t = r.dataset("/reference/time", required=True)
-            r.check_time("/reference/time", ref_t)
-            quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
-            pos = r.dataset("/reference/position", required=False)
-            vel = r.dataset("/reference/velocity", required=False)
-            reference = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
-            if pos is not None:
-                if np.any(np.abs(pos[:, 0]) > np.pi / 2):
-                    r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
-                reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
-
-        source = None
-        if "/source" in h5:
-            source = {k: _attr_value(v) for k, v in h5["/source"].attrs.items()}
-
-        simulation = None
-        if "/simulation" in h5:
-            sim_attrs = h5["/simulation"].attrs
-            if "truth_json" not in sim_attrs:
-                r.fail("/simulation", "attribute truth_json is missing")
-            try:
-                simulation = json.loads(_attr_str(sim_attrs["truth_json"]))
-            except json.JSONDecodeError as exc:
-                r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
-
-    site = None
-    if "latitude_deg" in attrs:
-        site = Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])
+            _check_magnitudes(r, form, time_s, gyro, accel)
+        reference, source, simulation = _side_groups(r, h5)
     tel = Telemetry(
-        time_s=time_s, form=form, accel_time_s=accel_time, reference=reference, site=site,
+        time_s=time_s, form=form, accel_time_s=accel_time, reference=reference, site=_site(attrs),
         description=attrs.get("description", ""), simulation=simulation, source=source, path=str(path),
         stored_units=r.units, stored_dtypes=r.dtypes, gaps=r.gaps,
     )
@@ -451,6 +412,160 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
     else:
         tel.dtheta_rad, tel.dvel_mps = gyro, accel
     return tel
+
+
+def _open_structure(path, h5, allow_gaps, check_plausibility):
+    """Links, root attributes, groups and the IMU form: ``(reader, root attributes, form)``."""
+    r = _Reader(path, h5, allow_gaps, check_plausibility)
+    r.refuse_links_to_other_files()
+    attrs = r.root_attributes()
+    schema = r.schema
+    for gname, gspec in schema["groups"].items():
+        if gname in h5 and not isinstance(h5[gname], h5py.Group):
+            r.fail(gname, "must be a group")
+        if gspec["required"] and gname not in h5:
+            r.fail(gname, "group is missing; IMU samples belong in /imu")
+    # IMU: exactly one form.
+    present = {form: [d for d in spec["datasets"] if d in h5] for form, spec in schema["forms"].items()}
+    complete = [form for form, names in present.items() if len(names) == len(schema["forms"][form]["datasets"])]
+    if len(complete) == 2:
+        r.fail("/imu", "holds both gyro/accel and dtheta/dvel; keep one form")
+    if not complete:
+        partial = [d for names in present.values() for d in names]
+        if partial:
+            form = next(f for f, names in present.items() if names)
+            missing = [d for d in schema["forms"][form]["datasets"] if d not in h5]
+            r.fail(missing[0], f"dataset is missing ({partial[0]} is present; {form} need both)")
+        r.fail("/imu", "holds neither gyro+accel (rates) nor dtheta+dvel (increments)")
+    return r, attrs, complete[0]
+
+
+def _check_magnitudes(r, form, time_s, gyro, accel):
+    gyro_name, accel_name = r.schema["forms"][form]["datasets"]
+    period = float(np.median(np.diff(time_s)))
+    f_est = accel if form == "rates" else accel / period
+    w_est = gyro if form == "rates" else gyro / period
+    r.check_plausible(accel_name, f_est, "median_specific_force_mps2", "specific force", r.units[accel_name])
+    r.check_plausible(gyro_name, w_est, "median_angular_rate_rad_s", "angular rate", r.units[gyro_name])
+
+
+def _side_groups(r, h5):
+    """``/reference`` (read whole), ``/source`` and ``/simulation``."""
+    reference = None
+    if "/reference" in h5:
+        ref_t = r.dataset("/reference/time", required=True)
+        r.check_time("/reference/time", ref_t)
+        quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
+        pos = r.dataset("/reference/position", required=False)
+        vel = r.dataset("/reference/velocity", required=False)
+        reference = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
+        if pos is not None:
+            if np.any(np.abs(pos[:, 0]) > np.pi / 2):
+                r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
+            reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
+    source = None
+    if "/source" in h5:
+        source = {k: _attr_value(v) for k, v in h5["/source"].attrs.items()}
+    simulation = None
+    if "/simulation" in h5:
+        sim_attrs = h5["/simulation"].attrs
+        if "truth_json" not in sim_attrs:
+            r.fail("/simulation", "attribute truth_json is missing")
+        try:
+            simulation = json.loads(_attr_str(sim_attrs["truth_json"]))
+        except json.JSONDecodeError as exc:
+            r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
+    return reference, source, simulation
+
+
+def _site(attrs):
+    if "latitude_deg" not in attrs:
+        return None
+    return Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])
+
+
+class TelemetryStream:
+    """A telemetry file read in chunks of IMU rows, validated as it is read.
+
+    At open: the structure, root attributes, IMU form, units, ``/reference`` (read whole:
+    it is sparse), ``/source`` and ``/simulation``; the sample period and the magnitude
+    check come from the first :data:`PROBE_ROWS` rows. :meth:`read` returns rows
+    ``[k0, k1)`` in SI units after the same checks :func:`read_telemetry` makes (finite
+    values; time strictly increasing, no gap, across chunk boundaries too), with
+    messages naming absolute rows. Memory: the chunk, not the record.
+    """
+
+    PROBE_ROWS = 1 << 16
+
+    def __init__(self, path, *, allow_gaps: bool = False, check_plausibility: bool = True):
+        self.path = Path(path)
+        self.h5 = open_hdf5(self.path, "convert it with sizefx import")
+        try:
+            r, attrs, form = _open_structure(self.path, self.h5, allow_gaps, check_plausibility)
+            self._r = r
+            self.form = form
+            gyro_name, accel_name = r.schema["forms"][form]["datasets"]
+            self.names = ("/imu/time", gyro_name, accel_name)
+            self._handles = [r.handle(name, required=True) for name in self.names]
+            self._accel_time = r.handle("/imu/accel_time", required=False)
+            self.n_samples = int(self._handles[0][0].shape[0])
+            probe = slice(0, min(self.n_samples, self.PROBE_ROWS))
+            t = r.rows("/imu/time", self._handles[0], probe)
+            r.check_time("/imu/time", t)  # rate plausibility, and the first chunk's checks
+            self.sample_period_s = float(np.median(np.diff(t)))
+            if check_plausibility:
+                _check_magnitudes(r, form, t, r.rows(gyro_name, self._handles[1], probe),
+                                  r.rows(accel_name, self._handles[2], probe))
+            self.reference, self.source, self.simulation = _side_groups(r, self.h5)
+            self.site = _site(attrs)
+            self.description = attrs.get("description", "")
+            self.gaps = r.gaps
+            self._last_t = None
+        except BaseException:
+            self.h5.close()
+            raise
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        self.h5.close()
+
+    @property
+    def start_time_s(self) -> float:
+        return float(self._handles[0][0][0]) * float(np.asarray(self._handles[0][1]).ravel()[0])
+
+    def read(self, k0: int, k1: int):
+        """Rows ``[k0, k1)``: ``(time_s, gyro_like, accel_like, accel_time_s or None)``, SI, checked.
+
+        Reading in order lets the time checks span chunk boundaries; out-of-order reads
+        (margins) are checked within the chunk.
+        """
+        r = self._r
+        rows = slice(k0, k1)
+        t = r.rows("/imu/time", self._handles[0], rows, k0)
+        before = self._last_t if (self._last_t is not None and self._last_t[0] == k0 - 1) else None
+        full = t if before is None else np.concatenate([[before[1]], t])
+        if full.size >= 2:
+            dt = np.diff(full)
+            bad = np.flatnonzero(dt <= 0.0)
+            if bad.size:
+                k = int(bad[0]) + k0 + (0 if before is not None else 1)
+                r.fail("/imu/time", f"is not strictly increasing at row {k}; sort or split the record")
+            gap = np.flatnonzero(dt > GAP_FACTOR * self.sample_period_s)
+            if gap.size:
+                k = int(gap[0]) + k0 + (0 if before is not None else 1)
+                r.fail("/imu/time", f"has a gap at row {k} ({dt[gap[0]] * 1e3:.4g} ms); navigation needs "
+                                    "continuous samples (cut the record)")
+        if k1 > k0:
+            self._last_t = (k1 - 1, float(t[-1]))
+        g = r.rows(self.names[1], self._handles[1], rows, k0)
+        a = r.rows(self.names[2], self._handles[2], rows, k0)
+        ta = None if self._accel_time is None else r.rows("/imu/accel_time", self._accel_time, rows, k0)
+        return t, g, a, ta
 
 
 # --------------------------------------------------------------------------- writing

@@ -1,0 +1,310 @@
+"""Streaming navigation of a telemetry file: ``sizefx navigate`` on records of any length.
+
+The record is read in chunks of IMU rows (:class:`sizefx.telemetry.TelemetryStream`).
+Each chunk goes through the same steps as whole-record :func:`sizefx.navigate.navigate`:
+
+1. sync of the accelerometers (``/imu/accel_time``, or the delay of ``--levers``) or the
+   effect-model correction (``--model``);
+2. rates to increments (fourth order);
+3. size-effect compensation (``--levers``);
+4. the strapdown kernel, whose state (with its Kahan terms) is carried to the next chunk.
+
+Each chunk is read with :data:`MARGIN` extra rows on both sides, so every filter sees the
+same neighbours it sees in a whole-record run: the four-point increment stencil, the edge
+rates of the increment-domain compensation, the Savitzky-Golay window of a rates-domain
+model correction, and the not-a-knot sync spline, whose dependence on a sample k rows
+away decays as (2 - sqrt(3))^k (1e-37 at 64 rows). Results equal the whole-record run to
+1e-12 relative (``tests/test_pipeline.py``).
+
+Memory is the chunk, the reference (read whole: it is sparse) and the output rows at
+``--output-rate-hz``; the navigation steps themselves are not kept. The output solution
+(and the errors against ``/reference``) is held at the output rate; the summary's final
+and maximum errors are taken over every navigation step the reference has a sample at,
+exactly as in the whole-record run.
+
+While the kernel integrates chunk k on one core, a worker thread reads and prepares
+chunk k + 1 on the other (the Numba kernels release the GIL; h5py reads hold it).
+"""
+
+from __future__ import annotations
+
+import json
+import time as _time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, replace
+
+import numpy as np
+
+from . import earth
+from .compensate import compensate_arrays_increments, sync_accelerometers
+from .correct import correct_imu
+from .errors import ConfigError, TelemetryError
+from .kernels.increments import rates_to_increments
+from .kernels.strapdown import coning_coefficients, pack_state
+from .levers import read_levers
+from .navigate import (
+    METRES_PER_NMI,
+    VERTICAL_MODES,
+    NavConfig,
+    NavResult,
+    _choose,
+    _reference_at,
+    _run_kernel,
+    coarse_alignment,
+    fine_alignment,
+)
+from .rotation import mat_to_euler, mat_to_quat, quat_angle_between
+from .telemetry import Telemetry, TelemetryStream
+
+__all__ = ["CHUNK_SAMPLES", "MARGIN", "navigate_file"]
+
+#: Default IMU rows per chunk (2^20: 24 MiB of rates, a few hundred MiB of working set).
+CHUNK_SAMPLES = 1 << 20
+#: Extra rows read on each side of a chunk (see the module docstring).
+MARGIN = 64
+#: Fewest rows read for any chunk: the rates-domain compensation of a model needs 164.
+MIN_ROWS = 512
+
+
+class _Source:
+    """Prepared increments ``[j0, j1)`` of a stream, the same as a whole-record run would give."""
+
+    def __init__(self, st: TelemetryStream, cfg: NavConfig, levers):
+        self.st, self.cfg, self.levers = st, cfg, levers
+        self.dt = st.sample_period_s
+        self.rates = st.form == "rates"
+        self.n_increments = st.n_samples - 1 if self.rates else st.n_samples
+        self.correction = None  #: what the model corrected (from the first chunk), for the configuration
+
+    def increments(self, j0: int, j1: int):
+        st, dt = self.st, self.dt
+        extra = 1 if self.rates else 0  # increment j spans rows j and j + 1 of a rates record
+        hi = min(st.n_samples, j1 + extra + MARGIN)
+        lo = max(0, min(j0 - MARGIN, hi - MIN_ROWS))  # a short last chunk reads more history, not less
+        t, g, a, ta = st.read(lo, hi)
+        steps = np.diff(t)
+        if steps.size and np.abs(steps - dt).max() > 1e-3 * dt:
+            worst = int(np.argmax(np.abs(steps - dt)))
+            raise TelemetryError(st.path, "/imu/time", f"sampling is not uniform (step {steps[worst]:.6g} s at row "
+                                                       f"{lo + worst + 1}, nominal {dt:.6g} s); navigation needs a "
+                                                       "uniform rate")
+        tel = Telemetry(time_s=t, form=st.form, accel_time_s=ta, site=st.site, path=str(st.path), source=st.source)
+        if self.rates:
+            tel.gyro_rad_s, tel.accel_mps2 = g, a
+        else:
+            tel.dtheta_rad, tel.dvel_mps = g, a
+        if self.cfg.model is not None:
+            tel = correct_imu(tel, self.cfg.model, mode=self.cfg.mode)
+            if self.correction is None:
+                self.correction = json.loads(tel.source["correction_json"])
+                del self.correction["effects"]  # in the model file; the configuration names it
+        else:
+            tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
+        if self.rates:
+            n = tel.n_samples
+            dtheta = np.empty((n - 1, 3))
+            dvel = np.empty((n - 1, 3))
+            rates_to_increments(np.ascontiguousarray(tel.gyro_rad_s), dt, dtheta)
+            rates_to_increments(np.ascontiguousarray(tel.accel_mps2), dt, dvel)
+            t_end = tel.time_s[1:]
+        else:
+            t_end, dtheta, dvel = tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps)
+        if self.levers:
+            dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
+        keep = slice(j0 - lo, j1 - lo)
+        return t_end[keep], np.ascontiguousarray(dtheta[keep]), np.ascontiguousarray(dvel[keep])
+
+
+class _Errors:
+    """Errors against the reference at the navigation steps it has samples at: running final and
+    maximum (as :func:`sizefx.navigate._summary`), and the history at the output rows."""
+
+    def __init__(self, st: TelemetryStream, res_dt: float):
+        self.ref = st.reference
+        self.shell = Telemetry(time_s=np.zeros(1), form=st.form, reference=st.reference)
+        self.approximate = bool(st.source and st.source.get("reference_is_approximate"))
+        ref_t = self.ref.time_s if self.ref is not None else None
+        self.sparse = ref_t is not None and ref_t.size > 2 and np.median(np.diff(ref_t)) > 1.5 * res_dt
+        self.res_dt = res_dt
+        self.final = {}
+        self.max = {"horizontal": None, "attitude": None}
+        self.history = {k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps",
+                                        "attitude_rad")}
+
+    def add(self, t, q, v, lat, lon, out_rows):
+        if self.ref is None:
+            return
+        ref_t = self.ref.time_s
+        covered = (t >= ref_t[0]) & (t <= ref_t[-1] + 1e-9)
+        if self.sparse:
+            k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
+            nearest = np.minimum(np.abs(ref_t[k] - t), np.abs(ref_t[k - 1] - t))
+            covered &= nearest < 1e-3 * self.res_dt
+        idx = np.flatnonzero(covered)
+        if idx.size == 0:
+            return
+        ref = _reference_at(self.shell, t[idx])
+        hist = np.isin(idx, out_rows)
+        self.history["time_s"].append(t[idx][hist])
+        if "lat" in ref:
+            r_mer, r_tr = earth.radii_m(ref["lat"])
+            dn = (lat[idx] - ref["lat"]) * (r_mer + ref["h"])
+            de = (lon[idx] - ref["lon"]) * (r_tr + ref["h"]) * np.cos(ref["lat"])
+            horiz = np.hypot(dn, de)
+            self.final["horizontal"] = float(horiz[-1])
+            self.max["horizontal"] = max(self.max["horizontal"] or 0.0, float(horiz.max()))
+            for name, x in (("north_m", dn), ("east_m", de), ("horizontal_m", horiz)):
+                self.history[name].append(x[hist])
+        if "v_n" in ref:
+            dv = v[idx] - ref["v_n"]
+            self.final["velocity"] = float(np.linalg.norm(dv[-1]))
+            self.history["velocity_mps"].append(dv[hist])
+        if not self.approximate:
+            att = quat_angle_between(ref["quat_nb"], q[idx])
+            self.final["attitude"] = float(att[-1])
+            self.max["attitude"] = max(self.max["attitude"] or 0.0, float(att.max()))
+            self.history["attitude_rad"].append(att[hist])
+
+    def errors(self):
+        if self.ref is None:
+            return None
+        return {k: np.concatenate(v) for k, v in self.history.items() if v}
+
+
+def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
+                  threads: bool = True) -> NavResult:
+    """Navigate a telemetry file chunk by chunk; the result holds the output rows only.
+
+    ``progress(done, total)`` is called after each chunk (IMU samples). ``threads``: prepare
+    the next chunk in a worker thread while the kernel runs.
+    """
+    cfg = cfg or NavConfig()
+    started = _time.perf_counter()
+    if cfg.levers and cfg.model is not None:
+        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
+                          "([lever_arm]); give one of them")
+    if chunk_samples < 1000:
+        raise ConfigError(f"--chunk-samples {chunk_samples}: use at least 1000")
+    levers = read_levers(cfg.levers) if cfg.levers else None
+    n_sub = int(cfg.subsamples)
+    coning_coefficients(n_sub)  # validates
+    with TelemetryStream(path, allow_gaps=cfg.allow_gaps) as st:
+        src = _Source(st, cfg, levers)
+        dt = src.dt
+        n_steps = src.n_increments // n_sub
+        if n_steps < 1:
+            raise TelemetryError(st.path, "/imu/time", f"{st.n_samples} samples: too few for one navigation step")
+        t_head = st.read(0, min(2, st.n_samples))[0]
+        t0 = (t_head[1] if src.rates else t_head[0]) - dt  # start of the first increment
+        shell = Telemetry(time_s=np.array([t0]), form=st.form, reference=st.reference, site=st.site,
+                          source=st.source, path=str(st.path))
+        init, vertical, stationary = _choose(shell, cfg, t0)
+        ref0 = _reference_at(shell, np.array([t0])) if st.reference is not None else None
+        if ref0 is not None and "lat" in ref0:
+            lat0, lon0, h0 = float(ref0["lat"][0]), float(ref0["lon"][0]), float(ref0["h"][0])
+        elif st.site is not None:
+            lat0, lon0, h0 = float(st.site.lat_rad), float(st.site.lon_rad), float(st.site.height_m)
+        else:
+            raise ConfigError(f"{st.path}: no start position: the file has neither root latitude/longitude/height "
+                              "nor /reference/position; add the site attributes (sizefx import --site-deg)")
+        details = {}
+        if init == "reference":
+            quat0 = ref0["quat_nb"][0]
+            v0 = ref0["v_n"][0] if "v_n" in ref0 else np.zeros(3)
+        else:
+            n_align = int(round(cfg.align_s / dt))
+            n_align -= n_align % n_sub
+            if n_align < n_sub * 10 or n_align > src.n_increments:
+                raise ConfigError(f"{st.path}: alignment window of {cfg.align_s} s does not fit a record of "
+                                  f"{src.n_increments * dt:.1f} s; choose --align-s")
+            _, dth_a, dv_a = src.increments(0, n_align)
+            f_b = dv_a.sum(axis=0) / (n_align * dt)
+            w_b = dth_a.sum(axis=0) / (n_align * dt)
+            mat_c = coarse_alignment(f_b, w_b, lat0, h0)
+            mat_f, drift_n = fine_alignment(dth_a, dv_a, dt, mat_c, lat0, lon0, h0, n_sub)
+            del dth_a, dv_a
+            quat0 = mat_to_quat(mat_f)
+            v0 = np.zeros(3)
+            roll_c, pitch_c, heading_c = mat_to_euler(mat_c)
+            roll, pitch, heading = mat_to_euler(mat_f)
+            details = {"align_window_s": n_align * dt,
+                       "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in
+                                                         (roll_c, pitch_c, heading_c % (2 * np.pi))],
+                       "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in
+                                                       (roll, pitch, heading % (2 * np.pi))],
+                       "mean_specific_force_mps2": f_b.tolist(),
+                       "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0)}
+        state = pack_state(quat0, v0, lat0, lon0, h0)
+        mode = VERTICAL_MODES[vertical]
+        T = n_sub * dt
+        stride = 1
+        if cfg.output_rate_hz:
+            stride = max(1, int(round(1.0 / (T * cfg.output_rate_hz))))
+        chunk = max(n_sub, (int(chunk_samples) // (n_sub * stride)) * n_sub * stride)
+        bounds = [(j0, min(j0 + chunk, n_steps * n_sub)) for j0 in range(0, n_steps * n_sub, chunk)]
+        out = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
+        errors = _Errors(st, T)
+        kernel_s = 0.0
+        step0 = 0
+        pool = ThreadPoolExecutor(max_workers=1) if threads and len(bounds) > 1 else None
+        try:
+            pending = pool.submit(src.increments, *bounds[0]) if pool else None
+            for c, (j0, j1) in enumerate(bounds):
+                t_end, dtheta, dvel = pending.result() if pool else src.increments(j0, j1)
+                if pool and c + 1 < len(bounds):
+                    pending = pool.submit(src.increments, *bounds[c + 1])
+                steps = (j1 - j0) // n_sub
+                t_nav = t_end[n_sub - 1:steps * n_sub:n_sub]
+                h_ref = vd_ref = np.zeros(0)
+                if vertical == "reference":
+                    refs = _reference_at(shell, t_nav)
+                    h_ref = refs["h"]
+                    vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
+                k_started = _time.perf_counter()
+                q, v, lat, lon, h = _run_kernel(dtheta, dvel, n_sub, dt, state, mode, h0, h_ref, vd_ref)
+                kernel_s += _time.perf_counter() - k_started
+                rows = np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0)
+                for key, x in zip(("t", "q", "v", "lat", "lon", "h"), (t_nav, q, v, lat, lon, h)):
+                    out[key].append(x[rows])
+                errors.add(t_nav, q, v, lat, lon, rows)
+                if c == 0:
+                    t_first_nav = float(t_nav[0])
+                last = (float(t_nav[-1]), float(lat[-1]), float(lon[-1]), float(h[-1]))
+                step0 += steps
+                if progress is not None:
+                    progress(min(st.n_samples, j1 + 1), st.n_samples)
+        finally:
+            if pool:
+                pool.shutdown(wait=True, cancel_futures=True)
+        form = st.form
+    config = {**asdict(replace(cfg, model=None)), "model": cfg.model.source if cfg.model is not None else None,
+              "correction": src.correction, "init": init, "vertical": vertical, "stationary_reference": stationary,
+              "input_form": form,
+              "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / T,
+              "dropped_trailing_samples": int(src.n_increments - n_steps * n_sub), "streamed": True,
+              "chunk_samples": chunk, "output_stride": stride, **details}
+    res = NavResult(*(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")), config, {})
+    duration = last[0] - t_first_nav + T
+    summary = {"samples": int(n_steps * n_sub), "duration_s": duration, "final_horizontal_error_m": None,
+               "max_horizontal_error_m": None, "drift_nmi_per_h": None, "final_velocity_error_mps": None,
+               "final_attitude_error_deg": None, "max_attitude_error_deg": None,
+               "final_latitude_deg": float(np.degrees(last[1])), "final_longitude_deg": float(np.degrees(last[2])),
+               "final_height_m": last[3]}
+    if "horizontal" in errors.final:
+        summary["final_horizontal_error_m"] = errors.final["horizontal"]
+        summary["max_horizontal_error_m"] = errors.max["horizontal"]
+        summary["drift_nmi_per_h"] = errors.final["horizontal"] / METRES_PER_NMI / (duration / 3600.0)
+    if "velocity" in errors.final:
+        summary["final_velocity_error_mps"] = errors.final["velocity"]
+    if "attitude" in errors.final:
+        summary["final_attitude_error_deg"] = float(np.degrees(errors.final["attitude"]))
+        summary["max_attitude_error_deg"] = float(np.degrees(errors.max["attitude"]))
+    summary["kernel_s"] = kernel_s
+    summary["wall_s"] = _time.perf_counter() - started
+    res.summary = summary
+    res.errors = errors.errors()
+    return res
+
+
+def summary_json(res: NavResult) -> str:
+    return json.dumps({**res.summary, "configuration": res.config}, indent=2, default=float)
