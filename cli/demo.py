@@ -18,7 +18,7 @@ def demo(out_dir, seed):
 
     The paper's three experiments at reduced size (turntable calibration,
     heading sway, helicopter flight) with the comparison table, then a
-    diagnosis of a record with hidden effects. About a minute on two cores;
+    diagnosis of a record with hidden effects. About two minutes on two cores;
     plots go to --out. Full size: sizefx paper all.
     """
     for line in run_demo(Path(out_dir), seed=seed):

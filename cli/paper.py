@@ -14,7 +14,7 @@ from sizefx.paper import SIZES, format_results, run_all, to_json
 @click.argument("experiment", type=click.Choice(["turntable", "sway", "flight", "all"]), default="all")
 @click.option("--size", type=click.Choice(sorted(SIZES)), default="full", show_default=True,
               help="full: the paper's sizes (1600 Hz, five turntable repeats, the 1.8 h flight); reduced: the "
-                   "demo's (400 Hz, three repeats, a 0.6 h flight).")
+                   "demo's (three turntable repeats and the flight at 400 Hz, the sway at 1600 Hz).")
 @click.option("--out", "out_dir", default="sizefx-paper", show_default=True, type=click.Path(file_okay=False),
               help="Folder for the simulated records, lever-arm files and figures (PNG); created.")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write every figure as JSON.")
@@ -25,7 +25,7 @@ def paper(experiment, size, out_dir, json_path, seed, keep_records):
     """Reproduce Morozov & Bogdanov (2024) in simulation and print the comparison table.
 
     \b
-    turntable  five calibrations of the rotation plan: arms minus nominal [mm] and
+    turntable  calibrations of the rotation plan (five; three reduced): arms minus nominal [mm] and
                their spread, beside the paper's table; Fig. 6
     sway       heading sway 10/20/30 deg/s at 1 Hz after 10 min alignment, navigated
                without compensation, with triad and with rotation-centre compensation;

@@ -443,7 +443,7 @@ def _at(track: Track, t: np.ndarray, vel: np.ndarray | None):
     return lat, lon, h, v, q
 
 
-def compare(a: Track, b: Track, label: str = "A vs B") -> Comparison:
+def compare(a: Track, b: Track, label: str = "A vs B", track: Track | None = None) -> Comparison:
     """Compare track A against track B on A's time stamps inside the overlap of both spans.
 
     B is interpolated linearly in latitude, (unwrapped) longitude, height and
@@ -453,8 +453,10 @@ def compare(a: Track, b: Track, label: str = "A vs B") -> Comparison:
       surface (h = 0) in ECEF, short of the surface distance ``s`` by
       ``s^3 / (24 R^2)``: 1 mm at 10 km (:func:`horizontal_offset_m`). Final,
       maximum (with its time), RMS.
-    * Along- and cross-track parts of A - B, relative to B's direction of
-      horizontal motion (from B's velocity, else from its position differences);
+    * Along- and cross-track parts of A - B, relative to the direction of horizontal
+      motion of ``track`` (default B; ``sizefx compare --reference`` passes the
+      reference, so that a drifting solution B does not define the track), from its
+      velocity, else from its position differences;
       cross-track positive to the right of the track, along-track positive ahead;
       NaN (null in JSON) where B's ground speed is under ``MIN_GROUND_SPEED_MPS``.
     * Drift rate [nmi/h, 1 nmi = 1852 m]: final distance / elapsed time, and
@@ -491,20 +493,31 @@ def compare(a: Track, b: Track, label: str = "A vs B") -> Comparison:
                                                                                a.height_m)
     vel_b = b.vel_n_mps if b.vel_n_mps is not None else velocity_from_position(b.time_s, b.lat_rad, b.lon_rad,
                                                                                b.height_m)
-    for key, track in (("a", a), ("b", b)):
+    for key, which in (("a", a), ("b", b)):
         if derived[key]:
-            notes.append(f"{track.name} has no velocity: derived from its positions by central differences")
+            notes.append(f"{which.name} has no velocity: derived from its positions by central differences")
     lat_b, lon_b, h_b, v_b, q_b = _at(b, t, vel_b)
     if b.median_step_s > SPARSE_FACTOR * a.median_step_s:
         notes.append(f"{b.name} is sampled every {b.median_step_s:.4g} s, sparser than {a.name} "
                      f"({a.median_step_s:.4g} s): differences between its samples include its linear interpolation")
 
     horiz, north, east = horizontal_offset_m(a.lat_rad[sel], a.lon_rad[sel], lat_b, lon_b)
-    along, cross = along_cross_track_m(north, east, v_b)
+    if track is None or track is b:
+        v_track, track_name = v_b, b.name
+    else:
+        vel_t = track.vel_n_mps if track.vel_n_mps is not None else velocity_from_position(
+            track.time_s, track.lat_rad, track.lon_rad, track.height_m)
+        v_track, track_name = _at(track, t, vel_t)[3], track.name
+    along, cross = along_cross_track_m(north, east, v_track)
+    span_a, span_b = a.time_s[-1] - a.time_s[0], b.time_s[-1] - b.time_s[0]
+    covered = (t[-1] - t[0]) / max(min(span_a, span_b), 1e-300)
+    if covered < 0.9:
+        notes.append(f"the compared span ({t[0]:.1f}..{t[-1]:.1f} s) covers {100 * covered:.0f} % of the shorter "
+                     "record: final figures are at its end, not at the end of either record")
     undefined = int(np.count_nonzero(np.isnan(along)))
     if undefined:
         notes.append(f"along/cross-track undefined at {undefined} of {t.size} samples where the ground speed of "
-                     f"{b.name} is under {MIN_GROUND_SPEED_MPS:g} m/s (reported as null)")
+                     f"{track_name} is under {MIN_GROUND_SPEED_MPS:g} m/s (reported as null)")
     dh = a.height_m[sel] - h_b
     v_a = vel_a[sel]
     dv = v_a - v_b
@@ -515,7 +528,7 @@ def compare(a: Track, b: Track, label: str = "A vs B") -> Comparison:
         roll_b, pitch_b, head_b = mat_to_euler(quat_to_mat(q_b))
         att = np.column_stack([_wrap_pi(roll_a - roll_b), _wrap_pi(pitch_a - pitch_b), _wrap_pi(head_a - head_b),
                                _rotation_angle_rad(a.quat_nb[sel], q_b)])
-    elif a.quat_nb is None or b.quat_nb is None:
+    else:
         missing = a.name if a.quat_nb is None else b.name
         notes.append(f"{missing} has no attitude: attitude not compared")
 
@@ -699,7 +712,7 @@ def run(a, b, *, reference=None, json_path=None, plots_dir=None, force: bool = F
     else:
         tracks["REF"] = read_track(reference)
         comparisons = [compare(tracks["A"], tracks["REF"], "A vs REF"), compare(tracks["B"], tracks["REF"], "B vs REF"),
-                       compare(tracks["A"], tracks["B"], "A vs B")]
+                       compare(tracks["A"], tracks["B"], "A vs B", track=tracks["REF"])]
     pngs = []
     if plots_dir:
         out_dir = Path(plots_dir)

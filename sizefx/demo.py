@@ -1,8 +1,8 @@
 """The demo behind ``sizefx demo``: the paper's three experiments and a diagnosis, on built-in data.
 
 Everything is simulated here, at the reduced size (:data:`sizefx.paper.SIZES`): the
-turntable calibration (three repeats at 400 Hz), the heading sway (40 min at 400 Hz,
-three navigations), a 0.6 h helicopter flight, then ``diagnose`` on a two-minute tumble
+turntable calibration (three repeats at 400 Hz), the heading sway (40 min at 1600 Hz,
+three navigations), the 1.8 h helicopter flight at 400 Hz, then ``diagnose`` on a two-minute tumble
 record with a hidden lever-arm error and accelerometer delay. It prints the comparison
 table with the paper's figures and writes every plot into the folder it names.
 """

@@ -511,3 +511,19 @@ def test_plot_directory_needs_an_existing_parent(flight_files, tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="needs a directory"):
         C.run(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "file")
+
+
+def test_a_vs_b_takes_the_track_direction_from_the_reference():
+    """Two drifting solutions: along/cross-track of A - B are split along the reference's motion
+    (eastbound), not along B's own drift (northbound)."""
+    t = np.arange(0.0, 100.0, 1.0)
+    r_e = WGS84_A_M
+    zeros = np.zeros(t.size)
+    ref = C.Track(t, zeros, 20.0 * t / r_e, zeros, np.column_stack([zeros, np.full(t.size, 20.0), zeros]), None, "REF")
+    b = C.Track(t, 5.0 * t / r_e, zeros, zeros, np.column_stack([np.full(t.size, 5.0), zeros, zeros]), None, "B")
+    a = C.Track(t, b.lat_rad, b.lon_rad + 10.0 / r_e, zeros, b.vel_n_mps, None, "A")  # 10 m east of B
+    with_ref = C.compare(a, b, "A vs B", track=ref)
+    assert with_ref.summary["along_track_m"]["final"] == pytest.approx(10.0, abs=1e-3)  # ahead along the east track
+    assert with_ref.summary["cross_track_m"]["final"] == pytest.approx(0.0, abs=1e-3)
+    own = C.compare(a, b, "A vs B")  # B moves north: 10 m east is 10 m to the right of B's own motion
+    assert own.summary["cross_track_m"]["final"] == pytest.approx(10.0, abs=1e-3)
