@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sizefx.calibrate import format_report, run
-from sizefx.levers import write_levers
 
 from .options import allow_gaps_option, force_option
 
@@ -35,6 +33,9 @@ def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow
     errors [mm], the difference from the nominal, the paper's per-rotation fit,
     tilt [arcsec] and delay [us].
     """
+    from sizefx.calibrate import format_report, run
+    from sizefx.levers import write_levers
+
     out = run(list(records), nominal=nominal, with_tilt=tilt, with_delay=delay, triad=triad_point,
               allow_gaps=allow_gaps, plot=plot, force=force)
     click.echo(format_report(out))

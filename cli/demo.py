@@ -6,7 +6,6 @@ from pathlib import Path
 
 import click
 
-from sizefx.demo import run_demo
 
 
 @click.command()
@@ -21,5 +20,7 @@ def demo(out_dir, seed):
     diagnosis of a record with hidden effects. About two minutes on two cores;
     plots go to --out. Full size: sizefx paper all.
     """
+    from sizefx.demo import run_demo
+
     for line in run_demo(Path(out_dir), seed=seed):
         click.echo(line)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sizefx.diagnose import run
 
 from .options import allow_gaps_option, force_option
 
@@ -45,6 +44,8 @@ def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz
     with its standard error, says what the record cannot reveal, writes the
     extended model and reports the residual RMS per channel before and after.
     """
+    from sizefx.diagnose import run
+
     _, report, doc = run(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
                          model_out=model_out, bandwidth_hz=bandwidth_hz, from_s=from_s, to_s=to_s,
                          allow_gaps=allow_gaps, force=force, navigation=navigation)

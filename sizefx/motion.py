@@ -28,8 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.interpolate import PPoly
 
 from . import earth
 from .rotation import axis_angle_mat
@@ -72,7 +70,7 @@ class SmoothProfile:
     breakpoint the acceleration is zero (constant rate).
     """
 
-    def __init__(self, accel: PPoly, t0: float, value0: float, rate0: float):
+    def __init__(self, accel, t0: float, value0: float, rate0: float):
         self.t0 = t0
         self.value0 = value0
         self.rate0 = rate0
@@ -205,6 +203,10 @@ class ProfileBuilder:
             raise ValueError("a profile must end with zero acceleration")
         x = np.asarray(self._x + [self.t + 1.0])
         c = np.column_stack(self._c + [np.zeros(6)])
+        from scipy.interpolate import (
+            PPoly,  # here: scipy.interpolate costs 0.45 s at start-up
+        )
+
         return SmoothProfile(PPoly(c, x), self.t0, value0, rate0)
 
 
@@ -377,6 +379,10 @@ class FlightPath:
         breaks = breaks[(breaks >= 0.0) & (breaks <= self.t_end)]
         self._segments = []
         y = np.array([lat0_rad, lon0_rad])
+        from scipy.integrate import (
+            solve_ivp,  # here: scipy.integrate costs 0.4 s at start-up
+        )
+
         for a, b in zip(breaks[:-1], breaks[1:]):
             sol = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-13, atol=1e-15, dense_output=True)
             if not sol.success:

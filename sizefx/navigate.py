@@ -178,9 +178,9 @@ def fine_alignment(dtheta, dvel, dt, mat_nb0, lat, lon, h, n_sub, iterations: in
 # --------------------------------------------------------------------------- the run
 
 
-def _reference_at(tel: Telemetry, t):
+def _reference_at(tel: Telemetry, t, attitude: bool = True):
     ref = tel.reference
-    out = {"quat_nb": quat_interp(ref.time_s, ref.quat_nb, t)}
+    out = {"quat_nb": quat_interp(ref.time_s, ref.quat_nb, t)} if attitude else {}
     if ref.has_position:
         out["lat"] = np.interp(t, ref.time_s, ref.lat_rad)
         out["lon"] = np.interp(t, ref.time_s, ref.lon_rad)
@@ -279,7 +279,7 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     t_nav = t_end[n_sub - 1:n_steps * n_sub:n_sub]  # the file's own stamps: no accumulated rounding
     h_ref = vd_ref = np.zeros(0)
     if vertical == "reference":
-        refs = _reference_at(tel, t_nav)
+        refs = _reference_at(tel, t_nav, attitude=False)
         h_ref = refs["h"]
         vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
     state = pack_state(quat0, v0, lat0, lon0, h0)

@@ -16,7 +16,6 @@ the accelerometer sample it compensates; ``savgol`` trades bandwidth for noise.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import savgol_coeffs, savgol_filter
 
 __all__ = ["central", "savgol", "edges_from_increments", "response", "noise_gain", "ESTIMATORS"]
 
@@ -35,6 +34,10 @@ def central(omega, dt):
 
 def savgol(omega, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER):
     """Centred Savitzky-Golay first derivative (scipy); ends by polynomial fit ('interp')."""
+    from scipy.signal import (
+        savgol_filter,  # scipy.signal is imported here, not at module level: it costs 0.9 s at start-up
+    )
+
     return savgol_filter(np.asarray(omega, dtype=float), window, order, deriv=1, delta=dt, axis=0, mode="interp")
 
 
@@ -52,6 +55,8 @@ def edges_from_increments(dtheta, dt):
 
 
 def _savgol_kernel(dt, window, order):
+    from scipy.signal import savgol_coeffs
+
     # savgol_coeffs with use='dot' gives c such that estimate = c . x[k - m .. k + m]
     return savgol_coeffs(window, order, deriv=1, delta=dt, use="dot")
 

@@ -257,7 +257,7 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
                 t_nav = t_end[n_sub - 1:steps * n_sub:n_sub]
                 h_ref = vd_ref = np.zeros(0)
                 if vertical == "reference":
-                    refs = _reference_at(shell, t_nav)
+                    refs = _reference_at(shell, t_nav, attitude=False)
                     h_ref = refs["h"]
                     vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
                 k_started = _time.perf_counter()
