@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from .errors import ConfigError
-from .kernels.sizeeffect import compensate_increments, compensate_rates
+from .kernels.sizeeffect import compensate_increments, compensate_increments_edges, compensate_rates
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
 from .telemetry import Telemetry, read_telemetry, write_telemetry
@@ -77,8 +77,12 @@ def compensate_arrays_increments(dtheta, dvel, dt, levers: Levers, mode: str, *,
     """Increment-domain compensation of arrays (used by navigate)."""
     arms, axes = _arms(levers, mode)
     out = np.empty_like(dvel)
-    compensate_increments(np.ascontiguousarray(dvel), np.ascontiguousarray(dtheta), edges_from_increments(dtheta, dt),
-                          dt, arms, axes, centripetal, tangential, out)
+    if dvel.shape[0] < 2:
+        compensate_increments(np.ascontiguousarray(dvel), np.ascontiguousarray(dtheta),
+                              edges_from_increments(dtheta, dt), dt, arms, axes, centripetal, tangential, out)
+        return out
+    compensate_increments_edges(np.ascontiguousarray(dvel), np.ascontiguousarray(dtheta), dt, arms, axes,
+                                centripetal, tangential, out)
     return out
 
 

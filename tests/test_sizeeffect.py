@@ -334,3 +334,24 @@ def test_increment_domain_tangential_noise_has_no_one_over_h():
     # the rate-domain central difference, integrated over one sample, has the same velocity noise;
     # formed as a derivative it is 1/h = 1600 times larger per sample
     assert noise_gain("central", H) * sigma_omega == pytest.approx(sigma_omega / np.sqrt(2) / H)
+
+
+def test_one_pass_increment_compensation_matches_the_two_pass_one():
+    """compensate_increments_edges (edge rates formed on the fly, the navigation path) against
+    edges_from_increments + compensate_increments. Rates are dtheta * (1/dt) instead of dtheta / dt:
+    each rate moves by an ulp (1e-16 relative of ~1 rad/s), and the tangential term, a difference of
+    two edge rates times an arm of 2 cm, by ~3e-17 m/s in increments of ~6e-3 m/s; 1e-16 allows it."""
+    from sizefx.kernels.sizeeffect import compensate_increments, compensate_increments_edges
+    from sizefx.omegadot import edges_from_increments
+
+    rng = np.random.default_rng(5)
+    n, dt = 5000, 1 / 1600
+    dth, dv = rng.standard_normal((n, 3)) * 1e-3, rng.standard_normal((n, 3)) * 6e-3
+    arms = np.array([[0.0060, 0.0010, 0.0242], [0.0, -0.0172, 0.0], [0.0, 0.0, -0.0212]])
+    axes = np.eye(3) + 1e-3 * rng.standard_normal((3, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    for cent, tang in ((True, True), (True, False), (False, True)):
+        a, b = np.empty_like(dv), np.empty_like(dv)
+        compensate_increments(dv, dth, edges_from_increments(dth, dt), dt, arms, axes, cent, tang, a)
+        compensate_increments_edges(dv, dth, dt, arms, axes, cent, tang, b)
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-16)

@@ -61,3 +61,33 @@ def compensate_increments(dvel, dtheta, omega_edges, dt, arms, axes, centripetal
                 dtheta[k, 0] / dt, dtheta[k, 1] / dt, dtheta[k, 2] / dt,
                 omega_edges[k + 1, 0] - omega_edges[k, 0], omega_edges[k + 1, 1] - omega_edges[k, 1],
                 omega_edges[k + 1, 2] - omega_edges[k, 2], dt, centripetal, tangential)
+
+
+@kernel
+def compensate_increments_edges(dvel, dtheta, dt, arms, axes, centripetal, tangential, out):
+    """:func:`compensate_increments` with the edge rates of ``edges_from_increments`` formed on the
+    fly: one pass over the data, each edge computed once, no ``[N + 1, 3]`` temporary (N >= 2).
+
+    Rates are ``dtheta * (1 / dt)``: within an ulp of the two-pass version.
+    """
+    n = dvel.shape[0]
+    inv = 1.0 / dt
+    ex = 1.5 * (dtheta[0, 0] * inv) - 0.5 * (dtheta[1, 0] * inv)
+    ey = 1.5 * (dtheta[0, 1] * inv) - 0.5 * (dtheta[1, 1] * inv)
+    ez = 1.5 * (dtheta[0, 2] * inv) - 0.5 * (dtheta[1, 2] * inv)
+    for k in range(n):
+        wx, wy, wz = dtheta[k, 0] * inv, dtheta[k, 1] * inv, dtheta[k, 2] * inv
+        if k + 1 < n:
+            nx = 0.5 * (dtheta[k + 1, 0] * inv + wx)
+            ny = 0.5 * (dtheta[k + 1, 1] * inv + wy)
+            nz = 0.5 * (dtheta[k + 1, 2] * inv + wz)
+        else:
+            nx = 1.5 * wx - 0.5 * (dtheta[k - 1, 0] * inv)
+            ny = 1.5 * wy - 0.5 * (dtheta[k - 1, 1] * inv)
+            nz = 1.5 * wz - 0.5 * (dtheta[k - 1, 2] * inv)
+        tx, ty, tz = nx - ex, ny - ey, nz - ez
+        for i in range(3):
+            out[k, i] = dvel[k, i] - _lever_along(
+                axes[i, 0], axes[i, 1], axes[i, 2], arms[i, 0], arms[i, 1], arms[i, 2],
+                wx, wy, wz, tx, ty, tz, dt, centripetal, tangential)
+        ex, ey, ez = nx, ny, nz
