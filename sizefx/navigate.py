@@ -95,9 +95,19 @@ class NavResult:
 # --------------------------------------------------------------------------- inputs
 
 
+def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
+    """The sample period of a uniformly sampled record: its span over ``n - 1`` steps.
+
+    Not the median step: stamps like k / 1600 round differently along a long record, and
+    the median of the whole record and of its first chunk differ in the 11th digit, which
+    a streamed run must not.
+    """
+    return (float(t_last) - float(t_first)) / (n - 1)
+
+
 def increments_of(tel: Telemetry):
     """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form."""
-    dt = tel.sample_period_s
+    dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
     steps = np.diff(tel.time_s)
     if np.abs(steps - dt).max() > 1e-3 * dt:
         worst = int(np.argmax(np.abs(steps - dt)))

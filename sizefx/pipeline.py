@@ -51,6 +51,7 @@ from .navigate import (
     _reference_at,
     _run_kernel,
     coarse_alignment,
+    uniform_period_s,
     fine_alignment,
 )
 from .rotation import mat_to_euler, mat_to_quat, quat_angle_between
@@ -71,7 +72,8 @@ class _Source:
 
     def __init__(self, st: TelemetryStream, cfg: NavConfig, levers):
         self.st, self.cfg, self.levers = st, cfg, levers
-        self.dt = st.sample_period_s
+        first, last = st.read(0, 1)[0][0], st.read(st.n_samples - 1, st.n_samples)[0][0]
+        self.dt = uniform_period_s(first, last, st.n_samples)  # as navigate.increments_of
         self.rates = st.form == "rates"
         self.n_increments = st.n_samples - 1 if self.rates else st.n_samples
         self.correction = None  #: what the model corrected (from the first chunk), for the configuration

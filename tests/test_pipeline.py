@@ -82,3 +82,24 @@ def test_progress_is_reported_to_the_end(sway):
     navigate_file(path, NavConfig(), chunk_samples=5000, progress=lambda done, total: seen.append((done, total)))
     assert seen[-1][0] == seen[-1][1] and len(seen) > 5
     assert all(a[0] < b[0] for a, b in zip(seen, seen[1:]))
+
+
+def test_stamps_far_from_zero_give_the_same_period_whole_and_streamed(tmp_path):
+    """Stamps k/1600 + 2007 s cross 2048 s after 41 s, where their spacing starts rounding the
+    other way: the median step of the whole record and of the stream's first 65536 rows differ in
+    the 10th digit. Both runs take the span over the count instead, and agree."""
+    from sizefx.telemetry import TelemetryStream, write_telemetry
+
+    path = tmp_path / "sway.h5"
+    run("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=40.0, amplitudes_dps=(20.0,)),
+        rate_hz=1600.0, reference_rate_hz=100.0, seed=4)
+    tel = read_telemetry(path)
+    tel.time_s = tel.time_s + 2007.0
+    tel.reference.time_s = tel.reference.time_s + 2007.0
+    shifted = tmp_path / "shifted.h5"
+    write_telemetry(shifted, tel)
+    whole_tel = read_telemetry(shifted)
+    with TelemetryStream(shifted) as st:
+        assert whole_tel.sample_period_s != st.sample_period_s  # the premise: the medians differ
+    cfg = NavConfig(init="align", align_s=60.0)
+    assert_same(navigate(whole_tel, cfg), navigate_file(shifted, cfg, chunk_samples=40_000))
