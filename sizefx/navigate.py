@@ -20,6 +20,7 @@ Alignment (``init="align"``): the record must be stationary over the window.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time as _time
 from dataclasses import asdict, dataclass, replace
@@ -401,6 +402,61 @@ def write_navigation(path, res: NavResult, *, input_file, force: bool = False):
                                                          np.degrees(heading) % 360.0])).attrs["units"] = "deg"
 
 
+class NavigationWriter:
+    """``sizefx/navigation/1`` written row block by row block, atomically (a streamed run's output).
+
+    The rows go to resizable datasets of a temporary file; :meth:`close` adds the
+    configuration and summary and renames it into place, :meth:`abort` removes it.
+    """
+
+    def __init__(self, path, *, input_file, force: bool = False):
+        self._ctx = atomic_output(path, inputs=[input_file], force=force)
+        tmp = self._ctx.__enter__()
+        try:
+            self.h5 = h5py.File(tmp, "w")
+            self.h5.attrs["schema"] = "sizefx/navigation/1"
+            self.h5.attrs["input_file"] = str(input_file)
+            self.h5.attrs["sizefx_version"] = __version__
+            self._sets = {}
+            for name, width, units in (("time", None, "s"), ("position", 3, "deg,deg,m"), ("velocity", 3, "m/s"),
+                                       ("quaternion", 4, "1"), ("euler", 3, "deg")):
+                shape, maxshape = ((0,), (None,)) if width is None else ((0, width), (None, width))
+                chunks = (1 << 14,) if width is None else (1 << 14, width)
+                dset = self.h5.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8")
+                dset.attrs["units"] = units
+                self._sets[name] = dset
+        except BaseException as exc:
+            self._ctx.__exit__(type(exc), exc, exc.__traceback__)
+            raise
+        self.rows = 0
+
+    def append(self, time_s, lat_rad, lon_rad, height_m, v_n, quat_nb):
+        if len(time_s) == 0:
+            return
+        roll, pitch, heading = mat_to_euler(quat_to_mat(quat_nb))
+        block = {"time": time_s,
+                 "position": np.column_stack([np.degrees(lat_rad), np.degrees(lon_rad), height_m]),
+                 "velocity": v_n, "quaternion": quat_nb,
+                 "euler": np.column_stack([np.degrees(roll), np.degrees(pitch), np.degrees(heading) % 360.0])}
+        n0, n1 = self.rows, self.rows + len(time_s)
+        for name, data in block.items():
+            dset = self._sets[name]
+            dset.resize(n1, axis=0)
+            dset[n0:n1] = data
+        self.rows = n1
+
+    def close(self, config: dict, summary: dict):
+        self.h5.attrs["configuration_json"] = json.dumps(config, default=float)
+        self.h5.attrs["summary_json"] = json.dumps(summary, default=float)
+        self.h5.close()
+        self._ctx.__exit__(None, None, None)
+
+    def abort(self, exc: BaseException):
+        self.h5.close()
+        with contextlib.suppress(type(exc)):
+            self._ctx.__exit__(type(exc), exc, exc.__traceback__)
+
+
 def plot_errors(res: NavResult, png, title: str):
     """Horizontal (and north, east) error against the reference versus time, PNG."""
     try:
@@ -448,7 +504,17 @@ def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot
             raise TelemetryError(path, "/imu/time", "has gaps; navigation needs continuous samples (cut the record)")
         res = navigate(tel, cfg)
     else:
-        res = navigate_file(path, cfg, chunk_samples=chunk_samples or CHUNK_SAMPLES, progress=progress)
+        writer = NavigationWriter(output, input_file=path, force=force) if output else None
+        try:
+            res = navigate_file(path, cfg, chunk_samples=chunk_samples or CHUNK_SAMPLES, progress=progress,
+                                writer=writer)
+        except BaseException as exc:
+            if writer is not None:
+                writer.abort(exc)
+            raise
+        if writer is not None:
+            writer.close(res.config, res.summary)
+            output = None  # written
     if output:
         write_navigation(output, res, input_file=path, force=force)
     if json_path:

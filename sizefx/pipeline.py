@@ -16,7 +16,7 @@ model correction, and the not-a-knot sync spline, whose dependence on a sample k
 away decays as (2 - sqrt(3))^k (1e-37 at 64 rows). Results equal the whole-record run to
 1e-12 relative (``tests/test_pipeline.py``).
 
-Memory is the chunk, the reference (read whole: it is sparse) and the output rows at
+Memory is the chunk, the window of ``/reference`` it spans, and the output rows at
 ``--output-rate-hz``; the navigation steps themselves are not kept. The output solution
 (and the errors against ``/reference``) is held at the output rate; the summary's final
 and maximum errors are taken over every navigation step the reference has a sample at,
@@ -122,11 +122,9 @@ class _Errors:
     maximum (as :func:`sizefx.navigate._summary`), and the history at the output rows."""
 
     def __init__(self, st: TelemetryStream, res_dt: float):
-        self.ref = st.reference
-        self.shell = Telemetry(time_s=np.zeros(1), form=st.form, reference=st.reference)
+        self.ref = st.reference  # a ReferenceStream: windows of it are read chunk by chunk
         self.approximate = bool(st.source and st.source.get("reference_is_approximate"))
-        ref_t = self.ref.time_s if self.ref is not None else None
-        self.sparse = ref_t is not None and ref_t.size > 2 and np.median(np.diff(ref_t)) > 1.5 * res_dt
+        self.sparse = self.ref is not None and self.ref.n > 2 and self.ref.median_step_s > 1.5 * res_dt
         self.res_dt = res_dt
         self.final = {}
         self.max = {"horizontal": None, "attitude": None}
@@ -136,8 +134,11 @@ class _Errors:
     def add(self, t, q, v, lat, lon, out_rows):
         if self.ref is None:
             return
-        ref_t = self.ref.time_s
-        covered = (t >= ref_t[0]) & (t <= ref_t[-1] + 1e-9)
+        covered = (t >= self.ref.first_s) & (t <= self.ref.last_s + 1e-9)
+        if not covered.any():
+            return
+        window = self.ref.window(float(t[covered][0]), float(t[covered][-1]))
+        ref_t = window.time_s
         if self.sparse:
             k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
             nearest = np.minimum(np.abs(ref_t[k] - t), np.abs(ref_t[k - 1] - t))
@@ -145,7 +146,7 @@ class _Errors:
         idx = np.flatnonzero(covered)
         if idx.size == 0:
             return
-        ref = _reference_at(self.shell, t[idx])
+        ref = _reference_at(Telemetry(time_s=np.zeros(1), form="rates", reference=window), t[idx])
         hist = np.isin(idx, out_rows)
         self.history["time_s"].append(t[idx][hist])
         if "lat" in ref:
@@ -174,11 +175,13 @@ class _Errors:
 
 
 def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
-                  threads: bool = True) -> NavResult:
+                  threads: bool = True, writer=None) -> NavResult:
     """Navigate a telemetry file chunk by chunk; the result holds the output rows only.
 
     ``progress(done, total)`` is called after each chunk (IMU samples). ``threads``: prepare
-    the next chunk in a worker thread while the kernel runs.
+    the next chunk in a worker thread while the kernel runs. ``writer`` (a
+    :class:`sizefx.navigate.NavigationWriter`) receives the output rows chunk by chunk; the
+    result then keeps only the first and the last row (memory stays bounded on any length).
     """
     cfg = cfg or NavConfig()
     started = _time.perf_counter()
@@ -198,10 +201,16 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
             raise TelemetryError(st.path, "/imu/time", f"{st.n_samples} samples: too few for one navigation step")
         t_head = st.read(0, min(2, st.n_samples))[0]
         t0 = (t_head[1] if src.rates else t_head[0]) - dt  # start of the first increment
-        shell = Telemetry(time_s=np.array([t0]), form=st.form, reference=st.reference, site=st.site,
-                          source=st.source, path=str(st.path))
+        # the reference is read by time window: a two-row summary decides the initialisation and
+        # the vertical channel, and each chunk reads the rows it needs
+        shell = Telemetry(time_s=np.array([t0]), form=st.form, site=st.site, source=st.source, path=str(st.path),
+                          reference=st.reference.summary() if st.reference is not None else None)
         init, vertical, stationary = _choose(shell, cfg, t0)
-        ref0 = _reference_at(shell, np.array([t0])) if st.reference is not None else None
+
+        def reference_shell(t_lo, t_hi):
+            return Telemetry(time_s=np.zeros(1), form=st.form, reference=st.reference.window(t_lo, t_hi))
+
+        ref0 = _reference_at(reference_shell(t0, t0), np.array([t0])) if st.reference is not None else None
         if ref0 is not None and "lat" in ref0:
             lat0, lon0, h0 = float(ref0["lat"][0]), float(ref0["lon"][0]), float(ref0["h"][0])
         elif st.site is not None:
@@ -259,15 +268,20 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
                 t_nav = t_end[n_sub - 1:steps * n_sub:n_sub]
                 h_ref = vd_ref = np.zeros(0)
                 if vertical == "reference":
-                    refs = _reference_at(shell, t_nav, attitude=False)
+                    refs = _reference_at(reference_shell(float(t_nav[0]), float(t_nav[-1])), t_nav, attitude=False)
                     h_ref = refs["h"]
                     vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
                 k_started = _time.perf_counter()
                 q, v, lat, lon, h = _run_kernel(dtheta, dvel, n_sub, dt, state, mode, h0, h_ref, vd_ref)
                 kernel_s += _time.perf_counter() - k_started
                 rows = np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0)
+                if writer is not None:
+                    writer.append(t_nav[rows], lat[rows], lon[rows], h[rows], v[rows], q[rows])
                 for key, x in zip(("t", "q", "v", "lat", "lon", "h"), (t_nav, q, v, lat, lon, h)):
-                    out[key].append(x[rows])
+                    if writer is None:
+                        out[key].append(x[rows])
+                    elif rows.size:  # the first and the latest output row
+                        out[key] = out[key][:1] + [x[rows[-1:]]] if out[key] else [x[rows[:1]], x[rows[-1:]]]
                 errors.add(t_nav, q, v, lat, lon, rows)
                 if c == 0:
                     t_first_nav = float(t_nav[0])

@@ -27,6 +27,7 @@ __all__ = [
     "Site",
     "open_hdf5",
     "TelemetryStream",
+    "ReferenceStream",
     "Telemetry",
     "read_telemetry",
     "TelemetryWriter",
@@ -449,10 +450,11 @@ def _check_magnitudes(r, form, time_s, gyro, accel):
     r.check_plausible(gyro_name, w_est, "median_angular_rate_rad_s", "angular rate", r.units[gyro_name])
 
 
-def _side_groups(r, h5):
-    """``/reference`` (read whole), ``/source`` and ``/simulation``."""
+def _side_groups(r, h5, reference: bool = True):
+    """``/reference`` (read whole; None with ``reference=False``), ``/source`` and ``/simulation``."""
+    want_reference = reference
     reference = None
-    if "/reference" in h5:
+    if want_reference and "/reference" in h5:
         ref_t = r.dataset("/reference/time", required=True)
         r.check_time("/reference/time", ref_t)
         quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
@@ -484,11 +486,91 @@ def _site(attrs):
     return Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])
 
 
+class ReferenceStream:
+    """``/reference`` of an open file, read a time window at a time (long records, dense references).
+
+    At open: structure, units and the first and last stamps; the extremes of the position
+    (for the stationary test) in one chunked pass. :meth:`window` returns the rows that
+    bracket ``[t_lo, t_hi]`` (one more on each side) as a :class:`Reference`, after the
+    checks :func:`read_telemetry` makes on the whole group (finite, strictly increasing
+    time, unit quaternions, latitude range), naming absolute rows.
+    """
+
+    PASS_ROWS = 1 << 20
+
+    def __init__(self, r: _Reader, h5):
+        self._r = r
+        self._time = r.handle("/reference/time", required=True)
+        self._quat = r.handle("/reference/quaternion", required=True)
+        self._pos = r.handle("/reference/position", required=False)
+        self._vel = r.handle("/reference/velocity", required=False)
+        self.n = int(self._time[0].shape[0])
+        if self.n < 2:
+            r.fail("/reference/time", f"holds {self.n} sample; at least 2 are needed")
+        self.first_s = float(r.rows("/reference/time", self._time, slice(0, 1))[0])
+        self.last_s = float(r.rows("/reference/time", self._time, slice(self.n - 1, self.n), self.n - 1)[0])
+        self.has_position = self._pos is not None
+        self.has_velocity = self._vel is not None
+        head = r.rows("/reference/time", self._time, slice(0, min(self.n, 1 << 16)))
+        self.median_step_s = float(np.median(np.diff(head)))
+        self.position_min = self.position_max = None
+        if self.has_position:
+            lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+            for k0 in range(0, self.n, self.PASS_ROWS):
+                pos = r.rows("/reference/position", self._pos, slice(k0, k0 + self.PASS_ROWS), k0)
+                lo, hi = np.minimum(lo, pos.min(axis=0)), np.maximum(hi, pos.max(axis=0))
+            self.position_min, self.position_max = lo, hi
+
+    def _search(self, t: float) -> int:
+        """Index of the last stamp <= t (binary search on the dataset, a few reads)."""
+        dset, factor = self._time
+        factor = float(np.asarray(factor).ravel()[0])
+        lo, hi = 0, self.n - 1
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            if float(dset[mid]) * factor <= t:
+                lo = mid
+            else:
+                hi = mid - 1
+        return lo
+
+    def window(self, t_lo: float, t_hi: float) -> Reference:
+        r = self._r
+        k0 = max(0, self._search(t_lo) - 1)
+        k1 = min(self.n, self._search(t_hi) + 3)
+        rows = slice(k0, k1)
+        t = r.rows("/reference/time", self._time, rows, k0)
+        if np.any(np.diff(t) <= 0.0):
+            k = int(np.flatnonzero(np.diff(t) <= 0.0)[0]) + k0 + 1
+            r.fail("/reference/time", f"is not strictly increasing at row {k}; sort the reference")
+        q = r.check_unit_quaternions("/reference/quaternion", r.rows("/reference/quaternion", self._quat, rows, k0))
+        ref = Reference(time_s=t, quat_nb=q)
+        if self._vel is not None:
+            ref.velocity_n_mps = r.rows("/reference/velocity", self._vel, rows, k0)
+        if self._pos is not None:
+            pos = r.rows("/reference/position", self._pos, rows, k0)
+            if np.any(np.abs(pos[:, 0]) > np.pi / 2):
+                r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
+            ref.lat_rad, ref.lon_rad, ref.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
+        return ref
+
+    def summary(self) -> Reference:
+        """A two-row stand-in for decisions about the whole reference: the first and last stamps,
+        and the position extremes (so ``ptp`` of each position column is the whole record's)."""
+        ref = Reference(time_s=np.array([self.first_s, self.last_s]), quat_nb=np.tile([1.0, 0.0, 0.0, 0.0], (2, 1)))
+        if self.has_position:
+            ref.lat_rad, ref.lon_rad, ref.height_m = (np.array([self.position_min[c], self.position_max[c]])
+                                                      for c in range(3))
+        if self.has_velocity:
+            ref.velocity_n_mps = np.zeros((2, 3))
+        return ref
+
+
 class TelemetryStream:
     """A telemetry file read in chunks of IMU rows, validated as it is read.
 
-    At open: the structure, root attributes, IMU form, units, ``/reference`` (read whole:
-    it is sparse), ``/source`` and ``/simulation``; the sample period and the magnitude
+    At open: the structure, root attributes, IMU form, units, ``/reference`` as a
+    :class:`ReferenceStream` (read by time window), ``/source`` and ``/simulation``; the sample period and the magnitude
     check come from the first :data:`PROBE_ROWS` rows. :meth:`read` returns rows
     ``[k0, k1)`` in SI units after the same checks :func:`read_telemetry` makes (finite
     values; time strictly increasing, no gap, across chunk boundaries too), with
@@ -516,7 +598,8 @@ class TelemetryStream:
             if check_plausibility:
                 _check_magnitudes(r, form, t, r.rows(gyro_name, self._handles[1], probe),
                                   r.rows(accel_name, self._handles[2], probe))
-            self.reference, self.source, self.simulation = _side_groups(r, self.h5)
+            self.reference = ReferenceStream(r, self.h5) if "/reference" in self.h5 else None
+            _, self.source, self.simulation = _side_groups(r, self.h5, reference=False)
             self.site = _site(attrs)
             self.description = attrs.get("description", "")
             self.gaps = r.gaps

@@ -103,3 +103,30 @@ def test_stamps_far_from_zero_give_the_same_period_whole_and_streamed(tmp_path):
         assert whole_tel.sample_period_s != st.sample_period_s  # the premise: the medians differ
     cfg = NavConfig(init="align", align_s=60.0)
     assert_same(navigate(whole_tel, cfg), navigate_file(shifted, cfg, chunk_samples=40_000))
+
+
+def test_streamed_output_file_is_written_chunk_by_chunk_and_equals_the_whole_one(sway, tmp_path):
+    from sizefx.navigate import run as navigate_run
+
+    path, levers = sway
+    cfg = NavConfig(levers=str(levers), mode="triad")
+    navigate_run(path, cfg, output=tmp_path / "whole.h5", chunk_samples=0)
+    navigate_run(path, cfg, output=tmp_path / "streamed.h5", chunk_samples=3000)
+    with h5py.File(tmp_path / "whole.h5") as a, h5py.File(tmp_path / "streamed.h5") as b:
+        for name in ("time", "position", "velocity", "quaternion", "euler"):
+            np.testing.assert_array_equal(b[name][()], a[name][()], err_msg=name)
+            assert b[name].attrs["units"] == a[name].attrs["units"]
+        assert b.attrs["schema"] == "sizefx/navigation/1" and "summary_json" in b.attrs
+
+
+def test_a_failing_stream_leaves_no_output(sway, tmp_path):
+    from sizefx.navigate import run as navigate_run
+
+    path, _ = sway
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(path.read_bytes())
+    with h5py.File(bad, "r+") as h5:
+        h5["imu/gyro"][40_000, 0] = np.inf
+    with pytest.raises(TelemetryError, match="row 40000"):
+        navigate_run(bad, NavConfig(), output=tmp_path / "out.h5", chunk_samples=5000)
+    assert not list(tmp_path.glob("out.h5*")) and not list(tmp_path.glob(".out.h5*"))
