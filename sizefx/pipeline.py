@@ -321,6 +321,3 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
     res.errors = errors.errors()
     return res
 
-
-def summary_json(res: NavResult) -> str:
-    return json.dumps({**res.summary, "configuration": res.config}, indent=2, default=float)

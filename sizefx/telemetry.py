@@ -617,10 +617,6 @@ class TelemetryStream:
     def close(self):
         self.h5.close()
 
-    @property
-    def start_time_s(self) -> float:
-        return float(self._handles[0][0][0]) * float(np.asarray(self._handles[0][1]).ravel()[0])
-
     def read(self, k0: int, k1: int):
         """Rows ``[k0, k1)``: ``(time_s, gyro_like, accel_like, accel_time_s or None)``, SI, checked.
 
