@@ -231,6 +231,44 @@ def _choose(tel: Telemetry, cfg: NavConfig, t_start: float):
     return init, vertical, stationary
 
 
+def initial_state(path, cfg: NavConfig, init: str, ref0, site, dt: float, n_sub: int, n_increments: int,
+                  alignment_window):
+    """Start attitude, velocity and position, and the alignment details for the configuration.
+
+    ``ref0``: the reference at the start (:func:`_reference_at`) or None; ``alignment_window(n)``
+    returns the first ``n`` angle and velocity increments (whole record or stream alike).
+    Returns ``(quat0, v0, (lat0, lon0, h0), details)``.
+    """
+    if ref0 is not None and "lat" in ref0:
+        lat0, lon0, h0 = float(ref0["lat"][0]), float(ref0["lon"][0]), float(ref0["h"][0])
+    elif site is not None:
+        lat0, lon0, h0 = float(site.lat_rad), float(site.lon_rad), float(site.height_m)
+    else:
+        raise ConfigError(f"{path}: no start position: the file has neither root latitude/longitude/height "
+                          "nor /reference/position; add the site attributes (sizefx import --site-deg)")
+    if init == "reference":
+        v0 = ref0["v_n"][0] if "v_n" in ref0 else np.zeros(3)
+        return ref0["quat_nb"][0], v0, (lat0, lon0, h0), {}
+    n_align = int(round(cfg.align_s / dt))
+    n_align -= n_align % n_sub
+    if n_align < n_sub * 10 or n_align > n_increments:
+        raise ConfigError(f"{path}: alignment window of {cfg.align_s} s does not fit a record of "
+                          f"{n_increments * dt:.1f} s; choose --align-s")
+    dtheta, dvel = alignment_window(n_align)
+    f_b = dvel.sum(axis=0) / (n_align * dt)
+    w_b = dtheta.sum(axis=0) / (n_align * dt)
+    mat_c = coarse_alignment(f_b, w_b, lat0, h0)
+    mat_f, drift_n = fine_alignment(dtheta, dvel, dt, mat_c, lat0, lon0, h0, n_sub)
+    roll_c, pitch_c, heading_c = mat_to_euler(mat_c)
+    roll, pitch, heading = mat_to_euler(mat_f)
+    details = {"align_window_s": n_align * dt,
+               "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll_c, pitch_c, heading_c % (2 * np.pi))],
+               "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll, pitch, heading % (2 * np.pi))],
+               "mean_specific_force_mps2": f_b.tolist(),
+               "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0)}
+    return mat_to_quat(mat_f), np.zeros(3), (lat0, lon0, h0), details
+
+
 def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     """Navigate a record in memory (see :func:`run` for files)."""
     cfg = cfg or NavConfig()
@@ -253,39 +291,9 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     coning_coefficients(n_sub)  # validates
     t0 = t_end[0] - dt  # start of the first increment
     init, vertical, stationary = _choose(tel, cfg, t0)
-    site = tel.site
     ref0 = _reference_at(tel, np.array([t0])) if tel.reference is not None else None
-    if ref0 is not None and "lat" in ref0:
-        lat0, lon0, h0 = float(ref0["lat"][0]), float(ref0["lon"][0]), float(ref0["h"][0])
-    elif site is not None:
-        lat0, lon0, h0 = float(site.lat_rad), float(site.lon_rad), float(site.height_m)
-    else:
-        raise ConfigError(f"{tel.path}: no start position: the file has neither root latitude/longitude/height "
-                          "nor /reference/position; add the site attributes (sizefx import --site-deg)")
-    details = {}
-    if init == "reference":
-        quat0 = ref0["quat_nb"][0]
-        v0 = ref0["v_n"][0] if "v_n" in ref0 else np.zeros(3)
-    else:
-        n_align = int(round(cfg.align_s / dt))
-        n_align -= n_align % n_sub
-        if n_align < n_sub * 10 or n_align > dtheta.shape[0]:
-            raise ConfigError(f"{tel.path}: alignment window of {cfg.align_s} s does not fit a record of "
-                              f"{dtheta.shape[0] * dt:.1f} s; choose --align-s")
-        window = slice(0, n_align)
-        f_b = dvel[window].sum(axis=0) / (n_align * dt)
-        w_b = dtheta[window].sum(axis=0) / (n_align * dt)
-        mat_c = coarse_alignment(f_b, w_b, lat0, h0)
-        mat_f, drift_n = fine_alignment(dtheta[window], dvel[window], dt, mat_c, lat0, lon0, h0, n_sub)
-        quat0 = mat_to_quat(mat_f)
-        v0 = np.zeros(3)
-        roll_c, pitch_c, heading_c = mat_to_euler(mat_c)
-        roll, pitch, heading = mat_to_euler(mat_f)
-        details = {"align_window_s": n_align * dt,
-                   "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll_c, pitch_c, heading_c % (2 * np.pi))],
-                   "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll, pitch, heading % (2 * np.pi))],
-                   "mean_specific_force_mps2": f_b.tolist(),
-                   "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0)}
+    quat0, v0, (lat0, lon0, h0), details = initial_state(
+        tel.path, cfg, init, ref0, tel.site, dt, n_sub, dtheta.shape[0], lambda n: (dtheta[:n], dvel[:n]))
     n_steps = dtheta.shape[0] // n_sub
     t_nav = t_end[n_sub - 1:n_steps * n_sub:n_sub]  # the file's own stamps: no accumulated rounding
     h_ref = vd_ref = np.zeros(0)

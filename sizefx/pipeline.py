@@ -50,11 +50,10 @@ from .navigate import (
     _choose,
     _reference_at,
     _run_kernel,
-    coarse_alignment,
+    initial_state,
     uniform_period_s,
-    fine_alignment,
 )
-from .rotation import mat_to_euler, mat_to_quat, quat_angle_between
+from .rotation import quat_angle_between
 from .telemetry import Telemetry, TelemetryStream
 
 __all__ = ["CHUNK_SAMPLES", "MARGIN", "navigate_file"]
@@ -211,40 +210,8 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
             return Telemetry(time_s=np.zeros(1), form=st.form, reference=st.reference.window(t_lo, t_hi))
 
         ref0 = _reference_at(reference_shell(t0, t0), np.array([t0])) if st.reference is not None else None
-        if ref0 is not None and "lat" in ref0:
-            lat0, lon0, h0 = float(ref0["lat"][0]), float(ref0["lon"][0]), float(ref0["h"][0])
-        elif st.site is not None:
-            lat0, lon0, h0 = float(st.site.lat_rad), float(st.site.lon_rad), float(st.site.height_m)
-        else:
-            raise ConfigError(f"{st.path}: no start position: the file has neither root latitude/longitude/height "
-                              "nor /reference/position; add the site attributes (sizefx import --site-deg)")
-        details = {}
-        if init == "reference":
-            quat0 = ref0["quat_nb"][0]
-            v0 = ref0["v_n"][0] if "v_n" in ref0 else np.zeros(3)
-        else:
-            n_align = int(round(cfg.align_s / dt))
-            n_align -= n_align % n_sub
-            if n_align < n_sub * 10 or n_align > src.n_increments:
-                raise ConfigError(f"{st.path}: alignment window of {cfg.align_s} s does not fit a record of "
-                                  f"{src.n_increments * dt:.1f} s; choose --align-s")
-            _, dth_a, dv_a = src.increments(0, n_align)
-            f_b = dv_a.sum(axis=0) / (n_align * dt)
-            w_b = dth_a.sum(axis=0) / (n_align * dt)
-            mat_c = coarse_alignment(f_b, w_b, lat0, h0)
-            mat_f, drift_n = fine_alignment(dth_a, dv_a, dt, mat_c, lat0, lon0, h0, n_sub)
-            del dth_a, dv_a
-            quat0 = mat_to_quat(mat_f)
-            v0 = np.zeros(3)
-            roll_c, pitch_c, heading_c = mat_to_euler(mat_c)
-            roll, pitch, heading = mat_to_euler(mat_f)
-            details = {"align_window_s": n_align * dt,
-                       "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in
-                                                         (roll_c, pitch_c, heading_c % (2 * np.pi))],
-                       "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in
-                                                       (roll, pitch, heading % (2 * np.pi))],
-                       "mean_specific_force_mps2": f_b.tolist(),
-                       "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0)}
+        quat0, v0, (lat0, lon0, h0), details = initial_state(
+            st.path, cfg, init, ref0, st.site, dt, n_sub, src.n_increments, lambda n: src.increments(0, n)[1:])
         state = pack_state(quat0, v0, lat0, lon0, h0)
         mode = VERTICAL_MODES[vertical]
         T = n_sub * dt
