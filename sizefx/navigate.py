@@ -106,14 +106,20 @@ def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
     return (float(t_last) - float(t_first)) / (n - 1)
 
 
-def increments_of(tel: Telemetry):
-    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form."""
-    dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
+def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0):
+    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form.
+
+    ``dt``: the record's period when ``tel`` is a chunk of it (default: ``tel``'s own span);
+    ``first_row``: the absolute row of ``tel``'s first sample, for messages.
+    """
+    if dt is None:
+        dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
     steps = np.diff(tel.time_s)
-    if np.abs(steps - dt).max() > 1e-3 * dt:
+    if steps.size and np.abs(steps - dt).max() > 1e-3 * dt:
         worst = int(np.argmax(np.abs(steps - dt)))
         raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform (step {steps[worst]:.6g} s at row "
-                                                    f"{worst + 1}, nominal {dt:.6g} s); navigation needs a uniform rate")
+                                                    f"{first_row + worst + 1}, nominal {dt:.6g} s); navigation "
+                                                    "needs a uniform rate")
     if tel.form == "increments":
         return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt
     n = tel.n_samples

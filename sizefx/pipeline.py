@@ -39,7 +39,6 @@ from . import earth
 from .compensate import compensate_arrays_increments, sync_accelerometers
 from .correct import correct_imu
 from .errors import ConfigError, TelemetryError
-from .kernels.increments import rates_to_increments
 from .kernels.strapdown import coning_coefficients, pack_state
 from .levers import read_levers
 from .navigate import (
@@ -50,6 +49,7 @@ from .navigate import (
     _choose,
     _reference_at,
     _run_kernel,
+    increments_of,
     initial_state,
     uniform_period_s,
 )
@@ -83,12 +83,6 @@ class _Source:
         hi = min(st.n_samples, j1 + extra + MARGIN)
         lo = max(0, min(j0 - MARGIN, hi - MIN_ROWS))  # a short last chunk reads more history, not less
         t, g, a, ta = st.read(lo, hi)
-        steps = np.diff(t)
-        if steps.size and np.abs(steps - dt).max() > 1e-3 * dt:
-            worst = int(np.argmax(np.abs(steps - dt)))
-            raise TelemetryError(st.path, "/imu/time", f"sampling is not uniform (step {steps[worst]:.6g} s at row "
-                                                       f"{lo + worst + 1}, nominal {dt:.6g} s); navigation needs a "
-                                                       "uniform rate")
         tel = Telemetry(time_s=t, form=st.form, accel_time_s=ta, site=st.site, path=str(st.path), source=st.source)
         if self.rates:
             tel.gyro_rad_s, tel.accel_mps2 = g, a
@@ -101,15 +95,7 @@ class _Source:
                 del self.correction["effects"]  # in the model file; the configuration names it
         else:
             tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
-        if self.rates:
-            n = tel.n_samples
-            dtheta = np.empty((n - 1, 3))
-            dvel = np.empty((n - 1, 3))
-            rates_to_increments(np.ascontiguousarray(tel.gyro_rad_s), dt, dtheta)
-            rates_to_increments(np.ascontiguousarray(tel.accel_mps2), dt, dvel)
-            t_end = tel.time_s[1:]
-        else:
-            t_end, dtheta, dvel = tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps)
+        t_end, dtheta, dvel, _ = increments_of(tel, dt=dt, first_row=lo)
         if self.levers:
             dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
         keep = slice(j0 - lo, j1 - lo)
