@@ -44,7 +44,7 @@ from .rotation import (
     quat_multiply,
     quat_to_mat,
 )
-from .schema import TELEMETRY_SCHEMA, load_schema, normalise_units
+from .schema import TELEMETRY_SCHEMA, check_document, load_schema, normalise_units
 from .telemetry import open_hdf5, read_telemetry
 
 __all__ = [
@@ -646,34 +646,9 @@ def to_json(comparisons, inputs: dict, plots=()) -> dict:
     return doc
 
 
-def _check_required(value, node: dict, root: dict, where: str, problems: list):
-    """Required keys of ``value`` and its nested objects, following ``$ref``, ``properties`` and ``items``."""
-    while "$ref" in node:
-        ref = node["$ref"]
-        if not ref.startswith("#/"):
-            raise RuntimeError(f"{COMPARISON_SCHEMA}: only local $ref are supported, got {ref!r}")
-        node = root
-        for part in ref[2:].split("/"):
-            node = node[part]
-    if isinstance(value, dict):
-        problems += [f"{where}.{k}" for k in node.get("required", []) if k not in value]
-        for key, sub in node.get("properties", {}).items():
-            if key in value and value[key] is not None:
-                _check_required(value[key], sub, root, f"{where}.{key}", problems)
-    elif isinstance(value, list) and "items" in node:
-        for i, item in enumerate(value):
-            _check_required(item, node["items"], root, f"{where}[{i}]", problems)
-
-
 def _check_document(doc: dict):
-    """Our writer against our contract: required keys, the schema id (a bug if it fails)."""
-    schema = load_schema(COMPARISON_SCHEMA)
-    problems: list = []
-    _check_required(doc, schema, schema, "", problems)
-    if doc.get("schema") != schema["properties"]["schema"]["const"]:
-        problems.append(f"schema {doc.get('schema')!r}")
-    if problems:
-        raise AssertionError(f"comparison document breaks {COMPARISON_SCHEMA}: missing {', '.join(problems)}")
+    """Our writer against our contract (a bug if it fails)."""
+    check_document(doc, COMPARISON_SCHEMA)
 
 
 # --------------------------------------------------------------------------- entry point

@@ -73,7 +73,7 @@ from .errors import ConfigError, SizefxError
 from .fileio import atomic_output, check_output_path
 from .omegadot import savgol
 from .rotation import rotvec_to_mat
-from .schema import load_schema
+from .schema import check_document
 from .telemetry import Telemetry, read_telemetry
 
 __all__ = ["CANDIDATES", "DIAGNOSIS_SCHEMA", "PARAMS", "DiagnoseError", "Diagnosis", "diagnose", "format_report",
@@ -1141,16 +1141,7 @@ def to_json(d: Diagnosis, start: str) -> dict:
 
 def _check_document(doc: dict):
     """Our writer against our contract: required keys, known identifiers (a bug if it fails)."""
-    schema = load_schema(DIAGNOSIS_SCHEMA)
-    missing = [k for k in schema["required"] if k not in doc]
-    item = schema["$defs"]["effect"]
-    ids = set(item["properties"]["id"]["enum"])
-    for e in doc["effects"]:
-        missing += [f"effects[].{k}" for k in item["required"] if k not in e]
-        if e["id"] not in ids:
-            missing.append(f"effects[].id {e['id']!r} not in the schema")
-    if missing:
-        raise AssertionError(f"diagnosis document breaks {DIAGNOSIS_SCHEMA}: {', '.join(missing)}")
+    check_document(doc, DIAGNOSIS_SCHEMA)
 
 
 def _rms_line(name, before, after):

@@ -11,7 +11,7 @@ import functools
 import json
 from importlib import resources
 
-__all__ = ["load_schema", "TELEMETRY_SCHEMA", "unit_factor"]
+__all__ = ["load_schema", "TELEMETRY_SCHEMA", "unit_factor", "check_document"]
 
 TELEMETRY_SCHEMA = "sizefx/telemetry/1"
 
@@ -46,3 +46,37 @@ def unit_factor(quantity: str, units: str, schema_name: str = TELEMETRY_SCHEMA):
 
 def allowed_units(quantity: str, schema_name: str = TELEMETRY_SCHEMA) -> list[str]:
     return list(load_schema(schema_name)["units"][quantity])
+
+
+def _problems(value, node: dict, root: dict, where: str, out: list):
+    """Required keys, ``const`` and ``enum`` of ``value`` and its nested objects, following
+    ``$ref`` (local), ``properties`` and ``items``: the parts of JSON Schema our writers use."""
+    while "$ref" in node:
+        ref = node["$ref"]
+        if not ref.startswith("#/"):
+            raise RuntimeError(f"{root.get('$id')}: only local $ref are supported, got {ref!r}")
+        node = root
+        for part in ref[2:].split("/"):
+            node = node[part]
+    if "const" in node and value != node["const"]:
+        out.append(f"{where or '/'} = {value!r}, not {node['const']!r}")
+    if "enum" in node and value not in node["enum"]:
+        out.append(f"{where or '/'} = {value!r}, not one of the schema's")
+    if isinstance(value, dict):
+        out += [f"{where}.{k} missing" for k in node.get("required", []) if k not in value]
+        for key, sub in node.get("properties", {}).items():
+            if key in value and value[key] is not None:
+                _problems(value[key], sub, root, f"{where}.{key}", out)
+    elif isinstance(value, list) and "items" in node:
+        for i, item in enumerate(value):
+            _problems(item, node["items"], root, f"{where}[{i}]", out)
+
+
+def check_document(doc: dict, name: str):
+    """Check a JSON document our code wrote against its contract ``name`` (a JSON Schema in
+    ``data-schemas/``); a failure is a bug in the writer, so it raises AssertionError."""
+    schema = load_schema(name)
+    problems: list = []
+    _problems(doc, schema, schema, "", problems)
+    if problems:
+        raise AssertionError(f"document breaks {name}: {'; '.join(problems)}")
