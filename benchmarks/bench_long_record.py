@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 import time
@@ -25,6 +24,9 @@ import numpy as np
 from sizefx import earth
 from sizefx.constants import DEG
 from sizefx.telemetry import Site, TelemetryWriter
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import emit, run_measured  # noqa: E402  (a sibling of this script)
 
 CHUNK = 1 << 22
 ARW_RAD_PER_SQRT_S = 0.00035 * DEG / 60.0  # 0.00035 deg/sqrt(h)
@@ -69,14 +71,9 @@ def main(argv=None):
         n = write_record(path, args.hours, args.rate_hz)
         write_s = time.perf_counter() - t0
         exe = Path(sys.executable).with_name("sizefx")
-        probe = ("import resource, subprocess, sys, time; t0 = time.perf_counter(); "
-                 "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
-                 "print(time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
         out = Path(tmp) / "nav.h5"
         js = Path(tmp) / "nav.json"
-        done = subprocess.run([sys.executable, "-c", probe, str(exe), "navigate", str(path), "-o", str(out),
-                               "--json", str(js), "--quiet"], check=True, capture_output=True, text=True)
-        wall, peak_kib = (float(x) for x in done.stdout.split())
+        wall, peak_mib = run_measured([exe, "navigate", path, "-o", out, "--json", js, "--quiet"])
         summary = json.loads(js.read_text())
         # a static unit: free-inertial error bounded by the Schuler response to its noise (a few km at most
         # over 72 h for these grades); anything larger means a wrong answer, not a slow one
@@ -85,17 +82,13 @@ def main(argv=None):
         result = {"benchmark": "streamed navigate on a long static record", "hours": args.hours,
                   "rate_hz": args.rate_hz, "samples": n, "file_gib": round(path.stat().st_size / 2**30, 2),
                   "write_record_s": round(write_s, 1), "navigate_wall_s": round(wall, 1),
-                  "navigate_samples_per_s": round(n / wall), "navigate_peak_mib": round(peak_kib / 1024, 1),
+                  "navigate_samples_per_s": round(n / wall), "navigate_peak_mib": round(peak_mib, 1),
                   "check_max_horizontal_error_m": err, "output_rows": summary["samples"] // 4 // 40}
         if args.keep:
             kept = (args.dir or Path(".")) / "long.h5"
             path.rename(kept)
             result["record"] = str(kept)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
-    return 0
+    return emit(result, args.json)
 
 
 if __name__ == "__main__":

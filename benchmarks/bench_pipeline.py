@@ -23,9 +23,7 @@ Timings are measured, never asserted. CI runs it on a 20-minute flight
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -56,6 +54,9 @@ from sizefx.scenarios import FlightPlan
 from sizefx.simulate import run as simulate
 from sizefx.telemetry import TelemetryStream, read_telemetry
 from tests import naive
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import emit, run_measured  # (a sibling of this script)
 
 
 def timed(fn, *args, repeat=1, **kw):
@@ -158,16 +159,9 @@ def end_to_end(path: Path, levers_path: Path, cold: bool):
     with tempfile.TemporaryDirectory() as tmp:
         if cold:
             env["NUMBA_CACHE_DIR"] = str(Path(tmp) / "numba-cache")
-        # A small intermediate Python runs the command and reports its child's peak RSS: measured from
-        # this (large) process, a forked child would count our pages as its own until exec.
-        probe = ("import resource, subprocess, sys, time; t0 = time.perf_counter(); "
-                 "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
-                 "print(time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
-        done = subprocess.run([sys.executable, "-c", probe, str(exe), "navigate", str(path), "--levers",
-                               str(levers_path), "-o", str(Path(tmp) / "o.h5"), "--quiet"],
-                              check=True, env=env, capture_output=True, text=True)
-        wall, peak_kib = (float(x) for x in done.stdout.split())
-    return {"wall_s": round(wall, 3), "peak_mib": round(peak_kib / 1024, 1)}
+        wall, peak_mib = run_measured([exe, "navigate", path, "--levers", levers_path, "-o", Path(tmp) / "o.h5",
+                                       "--quiet"], env=env)
+    return {"wall_s": round(wall, 3), "peak_mib": round(peak_mib, 1)}
 
 
 def main(argv=None):
@@ -208,11 +202,7 @@ def main(argv=None):
         result["end_to_end_warm"] = end_to_end(path, levers_path, cold=False)
         result["end_to_end_cold_jit"] = end_to_end(path, levers_path, cold=True)
         result["peak_over_file_size"] = round(result["end_to_end_warm"]["peak_mib"] / result["file_mib"], 2)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
-    return 0
+    return emit(result, args.json)
 
 
 if __name__ == "__main__":
