@@ -116,13 +116,13 @@ class _Errors:
         self.history = {k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps",
                                         "attitude_rad")}
 
-    def add(self, t, q, v, lat, lon, out_rows):
+    def add(self, t, q, v, lat, lon, out_rows, window):
+        """One chunk: navigation steps ``t`` and the reference ``window`` that brackets them."""
         if self.ref is None:
             return
         covered = (t >= self.ref.first_s) & (t <= self.ref.last_s + 1e-9)
         if not covered.any():
             return
-        window = self.ref.window(float(t[covered][0]), float(t[covered][-1]))
         ref_t = window.time_s
         if self.sparse:
             k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
@@ -192,10 +192,11 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
                           reference=st.reference.summary() if st.reference is not None else None)
         init, vertical, stationary = _choose(shell, cfg, t0)
 
-        def reference_shell(t_lo, t_hi):
-            return Telemetry(time_s=np.zeros(1), form=st.form, reference=st.reference.window(t_lo, t_hi))
+        def reference_shell(window):
+            return Telemetry(time_s=np.zeros(1), form=st.form, reference=window)
 
-        ref0 = _reference_at(reference_shell(t0, t0), np.array([t0])) if st.reference is not None else None
+        ref0 = (_reference_at(reference_shell(st.reference.window(t0, t0)), np.array([t0]))
+                if st.reference is not None else None)
         quat0, v0, (lat0, lon0, h0), details = initial_state(
             st.path, cfg, init, ref0, st.site, dt, n_sub, src.n_increments, lambda n: src.increments(0, n)[1:])
         state = pack_state(quat0, v0, lat0, lon0, h0)
@@ -219,9 +220,12 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
                     pending = pool.submit(src.increments, *bounds[c + 1])
                 steps = (j1 - j0) // n_sub
                 t_nav = t_end[n_sub - 1:steps * n_sub:n_sub]
+                # the rows of /reference this chunk spans, read once for the vertical channel and the errors
+                window = (st.reference.window(float(t_nav[0]), float(t_nav[-1]))
+                          if st.reference is not None else None)
                 h_ref = vd_ref = np.zeros(0)
                 if vertical == "reference":
-                    refs = _reference_at(reference_shell(float(t_nav[0]), float(t_nav[-1])), t_nav, attitude=False)
+                    refs = _reference_at(reference_shell(window), t_nav, attitude=False)
                     h_ref = refs["h"]
                     vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
                 k_started = _time.perf_counter()
@@ -235,7 +239,7 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
                         out[key].append(x[rows])
                     elif rows.size:  # the first and the latest output row
                         out[key] = out[key][:1] + [x[rows[-1:]]] if out[key] else [x[rows[:1]], x[rows[-1:]]]
-                errors.add(t_nav, q, v, lat, lon, rows)
+                errors.add(t_nav, q, v, lat, lon, rows, window)
                 if c == 0:
                     t_first_nav = float(t_nav[0])
                 last = (float(t_nav[-1]), float(lat[-1]), float(lon[-1]), float(h[-1]))
