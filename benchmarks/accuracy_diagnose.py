@@ -32,8 +32,8 @@ from sizefx import scenarios
 from sizefx.effects import IDEAL, load_effects
 from sizefx.simulate import simulate_in_memory
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.test_diagnose import BASE, HIDDEN, NOMINAL  # noqa: E402  (the same sizes as the tests)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_diagnose import BASE, HIDDEN, NOMINAL  # noqa: E402  (the same sizes as the tests)
 
 REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
 

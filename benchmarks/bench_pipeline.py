@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+# the NumPy twins of the kernels (tests/naive.py); tests/, not the repository root, so that
+# `sizefx` is the installed package and not the source tree
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from sizefx.compensate import sync_accelerometers
 from sizefx.kernels.increments import rates_to_increments
@@ -53,7 +55,7 @@ from sizefx.pipeline import navigate_file
 from sizefx.scenarios import FlightPlan
 from sizefx.simulate import run as simulate
 from sizefx.telemetry import TelemetryStream, read_telemetry
-from tests import naive
+import naive
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import emit, run_measured  # (a sibling of this script)

@@ -1,47 +1,49 @@
-"""Shared fixtures: a valid minimal telemetry file written with raw h5py, and small simulated records."""
+"""Shared fixtures, and the check that the tests run against what users install.
+
+README command 2 installs sizefx without ``-e`` (``pip install ".[test]"``), exactly as a
+user gets it, and the tests import that copy: a module left out of the wheel fails here,
+not on a user's machine. :func:`_installed_matches_source` refuses to run against the
+source tree (``python -m pytest`` puts it first on ``sys.path``) or against an installed
+copy older than the source, with the command that fixes it.
+"""
 
 from __future__ import annotations
 
-import h5py
-import numpy as np
+from pathlib import Path
+
 import pytest
 
-from sizefx import scenarios
-from sizefx.simulate import run
-
-RATE_HZ = 100.0
-N = 1000
+ROOT = Path(__file__).resolve().parents[1]
+REINSTALL = ".venv/bin/pip install --no-deps --force-reinstall . (or README command 2)"
 
 
-def write_raw(path, *, n=N, rate_hz=RATE_HZ, form="rates", mutate=None, reference=True):
-    """A valid static record written with h5py directly (not with sizefx's writer).
+def _installed_matches_source():
+    import sizefx
 
-    ``mutate(h5)`` may then break it in one way.
-    """
-    rng = np.random.default_rng(1)
-    t = np.arange(n) / rate_hz
-    with h5py.File(path, "w") as h5:
-        h5.attrs["schema"] = "sizefx/telemetry/1"
-        h5.attrs["latitude_deg"] = 57.9825
-        h5.attrs["longitude_deg"] = 55.7089
-        h5.attrs["height_m"] = 120.0
-        imu = h5.create_group("imu")
-        imu.create_dataset("time", data=t).attrs["units"] = "s"
-        w = np.tile([3.9e-5, 0.0, -6.2e-5], (n, 1)) + 1e-6 * rng.standard_normal((n, 3))
-        f = np.tile([0.0, 0.0, -9.817], (n, 1)) + 1e-4 * rng.standard_normal((n, 3))
-        if form == "rates":
-            imu.create_dataset("gyro", data=w).attrs["units"] = "rad/s"
-            imu.create_dataset("accel", data=f).attrs["units"] = "m/s^2"
-        else:
-            imu.create_dataset("dtheta", data=w / rate_hz).attrs["units"] = "rad"
-            imu.create_dataset("dvel", data=f / rate_hz).attrs["units"] = "m/s"
-        if reference:
-            ref = h5.create_group("reference")
-            ref.create_dataset("time", data=t[::10]).attrs["units"] = "s"
-            ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (n // 10, 1)))
-        if mutate is not None:
-            mutate(h5)
-    return path
+    installed = Path(sizefx.__file__).resolve().parent
+    if installed == ROOT / "sizefx":
+        pytest.exit(f"the tests imported sizefx from the source tree ({installed}), not the installed package; "
+                    "run .venv/bin/pytest rather than python -m pytest (which puts the working folder first "
+                    "on sys.path)", returncode=2)
+    # source folder -> its installed home (pyproject.toml's [tool.hatch.build.targets.wheel.sources])
+    homes = {ROOT / "sizefx": installed, ROOT / "cli": installed.parent / "sizefx_cli",
+             ROOT / "data-schemas": installed / "schemas"}
+    for src, home in homes.items():
+        for f in sorted(src.rglob("*")):
+            if f.suffix not in (".py", ".json") or "__pycache__" in f.parts:
+                continue
+            copy = home / f.relative_to(src)
+            if not copy.is_file() or copy.read_bytes() != f.read_bytes():
+                pytest.exit(f"the installed sizefx ({installed}) is not the source: {f.relative_to(ROOT)} "
+                            f"{'is missing' if not copy.is_file() else 'differs'}; reinstall with {REINSTALL}",
+                            returncode=2)
+
+
+def pytest_configure(config):
+    _installed_matches_source()
+
+
+from support import write_raw  # noqa: E402  (numpy and h5py only: no sizefx before the check)
 
 
 @pytest.fixture
@@ -52,6 +54,8 @@ def raw_file(tmp_path):
 @pytest.fixture(scope="session")
 def turntable_file(tmp_path_factory):
     """The full paper turntable plan with default effects (lever arms + noise), seed 0."""
+    from sizefx.simulate import run
+
     path = tmp_path_factory.mktemp("sim") / "turntable.h5"
     run("turntable", path, seed=0)
     return path
@@ -60,4 +64,6 @@ def turntable_file(tmp_path_factory):
 @pytest.fixture(scope="session")
 def short_turntable_plan():
     """One axis (Z), one cycle: a 40 s record for quick checks."""
+    from sizefx import scenarios
+
     return scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1, settle_s=5.0)

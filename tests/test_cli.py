@@ -11,8 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx_cli.main import main
-from tests.conftest import write_raw
-from tests.test_telemetry import BAD_CASES
+from support import write_raw
+from test_telemetry import BAD_CASES
 
 
 @pytest.fixture

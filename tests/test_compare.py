@@ -45,7 +45,7 @@ from sizefx.rotation import (
 )
 from sizefx.simulate import simulate_in_memory
 from sizefx.telemetry import write_telemetry
-from tests.conftest import write_raw
+from support import write_raw
 
 #: Tolerances, per quantity, with their reasons.
 #: Chord against its closed form: float64 ECEF coordinates (6.4e6 m) resolve 1e-9 m; the

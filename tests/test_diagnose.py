@@ -24,7 +24,7 @@ from sizefx import scenarios
 from sizefx.constants import ARCSEC, DEG
 from sizefx.effects import IDEAL, load_effects
 from sizefx.simulate import simulate_in_memory
-from tests.conftest import write_raw
+from support import write_raw
 
 RATE_HZ = 400.0
 DURATION_S = 60.0

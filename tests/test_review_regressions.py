@@ -12,7 +12,7 @@ from sizefx import scenarios
 from sizefx.errors import SourceError
 from sizefx.importers import run_import
 from sizefx_cli.main import main
-from tests.conftest import write_raw
+from support import write_raw
 
 
 def test_short_rate_changes_keep_the_turntable_on_time():

@@ -19,7 +19,7 @@ from sizefx.levers import Levers, levers_from_preset, read_levers, write_levers
 from sizefx.omegadot import central, edges_from_increments, noise_gain, response, savgol
 from sizefx.simulate import simulate_in_memory
 from sizefx_cli.main import main
-from tests import naive
+import naive
 
 H = 1 / 1600
 OFFSET_M = [0.0010, -0.0005, 0.0008]  # triad point 1 mm off the table's centre, as a real mount would be

@@ -9,7 +9,7 @@ import pytest
 from sizefx.errors import OutputError, TelemetryError
 from sizefx.schema import load_schema
 from sizefx.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
-from tests.conftest import N, RATE_HZ, write_raw
+from support import N, RATE_HZ, write_raw
 
 DEG = np.pi / 180
 

@@ -1,1 +1,0 @@
-"""Tests mirror the package; fixtures in conftest.py."""

@@ -1,0 +1,45 @@
+"""Helpers shared by several test modules (fixtures live in conftest.py).
+
+The tests run against the *installed* sizefx (README command 2 installs it without -e),
+so this folder, not the repository root, is on ``sys.path``: ``import support``,
+``import naive``.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+RATE_HZ = 100.0
+N = 1000
+
+
+def write_raw(path, *, n=N, rate_hz=RATE_HZ, form="rates", mutate=None, reference=True):
+    """A valid static record written with h5py directly (not with sizefx's writer).
+
+    ``mutate(h5)`` may then break it in one way.
+    """
+    rng = np.random.default_rng(1)
+    t = np.arange(n) / rate_hz
+    with h5py.File(path, "w") as h5:
+        h5.attrs["schema"] = "sizefx/telemetry/1"
+        h5.attrs["latitude_deg"] = 57.9825
+        h5.attrs["longitude_deg"] = 55.7089
+        h5.attrs["height_m"] = 120.0
+        imu = h5.create_group("imu")
+        imu.create_dataset("time", data=t).attrs["units"] = "s"
+        w = np.tile([3.9e-5, 0.0, -6.2e-5], (n, 1)) + 1e-6 * rng.standard_normal((n, 3))
+        f = np.tile([0.0, 0.0, -9.817], (n, 1)) + 1e-4 * rng.standard_normal((n, 3))
+        if form == "rates":
+            imu.create_dataset("gyro", data=w).attrs["units"] = "rad/s"
+            imu.create_dataset("accel", data=f).attrs["units"] = "m/s^2"
+        else:
+            imu.create_dataset("dtheta", data=w / rate_hz).attrs["units"] = "rad"
+            imu.create_dataset("dvel", data=f / rate_hz).attrs["units"] = "m/s"
+        if reference:
+            ref = h5.create_group("reference")
+            ref.create_dataset("time", data=t[::10]).attrs["units"] = "s"
+            ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (n // 10, 1)))
+        if mutate is not None:
+            mutate(h5)
+    return path
