@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sizefx import compensate as _levers
-from sizefx import correct as _model
 from sizefx.errors import ConfigError
 
 from .options import allow_gaps_option, force_option
@@ -41,6 +39,9 @@ def compensate(file, levers_path, model_path, output, mode, estimator, centripet
     records what was applied in /source. With --model, the model's sensor errors
     are removed as well (see sizefx.correct).
     """
+    from sizefx import compensate as _levers
+    from sizefx import correct as _model
+
     if levers_path and model_path:
         raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
                           "([lever_arm]); give one of them")

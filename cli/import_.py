@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import click
 
-from sizefx.importers import run_import
-from sizefx.importers.broad import DEFAULT_SITE_DEG
+from sizefx.constants import BROAD_SITE_DEG
 
 from .options import force_option, parse_vector
+
+
+def run_import(fmt, source, output, **options):
+    """The library's importer, imported when a command runs (not for ``--help``)."""
+    from sizefx.importers import run_import as _run
+
+    return _run(fmt, source, output, **options)
 
 
 def output_option(f):
@@ -44,7 +50,7 @@ def import_():
 @import_.command()
 @source_argument
 @output_option
-@click.option("--site-deg", default=",".join(map(str, DEFAULT_SITE_DEG)), show_default=True, metavar="LAT,LON,H",
+@click.option("--site-deg", default=",".join(map(str, BROAD_SITE_DEG)), show_default=True, metavar="LAT,LON,H",
               help="Assumed site (latitude [deg], longitude [deg], height [m]); BROAD gives none.")
 @force_option
 def broad(source, output, site_deg, force):

@@ -6,8 +6,6 @@ import json
 
 import click
 
-from sizefx.inspect import format_summary, inspect_file
-
 from .options import allow_gaps_option
 
 
@@ -22,5 +20,7 @@ def inspect(file, allow_gaps, as_json):
     simulated files, the injected effects. Exit code 0 for a valid file, 2
     (with a one-line reason) otherwise.
     """
+    from sizefx.inspect import format_summary, inspect_file
+
     summary = inspect_file(file, allow_gaps=allow_gaps)
     click.echo(json.dumps(summary, indent=2) if as_json else format_summary(summary))

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sizefx.correct import load_model
-from sizefx.navigate import NavConfig, format_summary, run
-
 from .options import Progress, allow_gaps_option, force_option, quiet_option
 
 
@@ -51,6 +48,9 @@ def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical,
     maximum horizontal error [m], drift [nmi/h], final velocity error [m/s],
     attitude error [deg].
     """
+    from sizefx.correct import load_model
+    from sizefx.navigate import NavConfig, format_summary, run
+
     cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
                     output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, levers=levers,
                     model=load_model(model) if model else None, mode=mode)

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import click
 
-from sizefx import scenarios
-from sizefx.effects import effects_template
-from sizefx.simulate import run
+from sizefx.constants import PAPER_AIRFIELD_DEG
 
 from .options import Progress, force_option, parse_overrides, parse_vector, quiet_option
 
@@ -35,11 +33,11 @@ def common_options(f):
                           "(sets lever_arm.r_vehicle_m)."),
         click.option("--reference-rate-hz", type=float,
                      help="Rate of /reference [Hz]; must divide the IMU rate [default: turntable the IMU rate; sway, flight 100]."),
-        click.option("--latitude-deg", default=scenarios.PAPER_AIRFIELD.latitude_deg, show_default=True,
+        click.option("--latitude-deg", default=PAPER_AIRFIELD_DEG[0], show_default=True,
                      type=click.FloatRange(-89.9, 89.9), help="Site or start latitude [deg]."),
-        click.option("--longitude-deg", default=scenarios.PAPER_AIRFIELD.longitude_deg, show_default=True,
+        click.option("--longitude-deg", default=PAPER_AIRFIELD_DEG[1], show_default=True,
                      type=click.FloatRange(-180.0, 360.0), help="Site or start longitude [deg]."),
-        click.option("--height-m", default=scenarios.PAPER_AIRFIELD.height_m, show_default=True, type=float,
+        click.option("--height-m", default=PAPER_AIRFIELD_DEG[2], show_default=True, type=float,
                      help="Site or start height above the WGS-84 ellipsoid [m]."),
         force_option,
         quiet_option,
@@ -51,6 +49,9 @@ def common_options(f):
 
 def _run(scenario, plan, output, rate_hz, form, seed, effects_path, ideal, overrides, geometry, offset_mm,
          reference_rate_hz, latitude_deg, longitude_deg, height_m, force, quiet):
+    from sizefx import scenarios
+    from sizefx.simulate import run
+
     sets = parse_overrides(overrides)
     if geometry:
         sets.setdefault("lever_arm", {})["preset"] = geometry
@@ -79,6 +80,8 @@ def simulate(ctx, print_effects):
     navigation-grade noise (gyro ARW 0.00035 deg/sqrt(h)).
     """
     if print_effects:
+        from sizefx.effects import effects_template
+
         click.echo(effects_template())
         ctx.exit(0)
     if ctx.invoked_subcommand is None:
@@ -102,6 +105,8 @@ def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_
     Each axis: --cycles positive and negative rotations at --peak-rate-dps with
     +-accel in --seconds-per-axis; smooth repositioning between axes.
     """
+    from sizefx import scenarios
+
     plan = scenarios.TurntablePlan(axes=axes.upper(), static_s=static_s, seconds_per_axis=seconds_per_axis,
                                    cycles=cycles, peak_rate_dps=peak_rate_dps, accel_dps2=accel_dps2)
     _run("turntable", plan, **common)
@@ -122,6 +127,8 @@ def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
         amps = tuple(float(a) for a in amplitudes_dps.split(","))
     except ValueError:
         raise click.BadParameter(f"'{amplitudes_dps}' is not a list of numbers", param_hint="--amplitudes-dps") from None
+    from sizefx import scenarios
+
     plan = scenarios.SwayPlan(axis=axis, amplitudes_dps=amps, frequency_hz=frequency_hz, static_s=static_s,
                               segment_s=segment_s)
     _run("sway", plan, **common)
@@ -139,6 +146,8 @@ def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
               help="Main rotor rate [Hz]; vibration at 1, 2 and 4 times it.")
 def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **common):
     """A helicopter flight from the paper's airfield: align, take off, out, turn, back, land."""
+    from sizefx import scenarios
+
     plan = scenarios.FlightPlan(duration_s=duration_h * 3600.0, align_s=align_s, speed_mps=speed_mps,
                                 altitude_m=altitude_m, heading_deg=heading_deg, rotor_hz=rotor_hz)
     _run("flight", plan, **common)
@@ -156,5 +165,7 @@ def tumble(duration_s, axes, **common):
     Gravity sweeps every body axis and the rates reach about 0.7 rad/s, so every
     effect sizefx diagnose knows is observable (with --axes zyx).
     """
+    from sizefx import scenarios
+
     plan = scenarios.TumblePlan(duration_s=duration_s, axes=axes.lower())
     _run("tumble", plan, **common)

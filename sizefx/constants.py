@@ -33,6 +33,15 @@ PPM = 1e-6  #: one part per million [-]
 #: (or is in another convention padded with zeros) misses it by far.
 QUATERNION_NORM_TOLERANCE = 1e-5
 
+#: The paper's airfield "Lugovskoe" (start of the flight test): latitude [deg], longitude [deg],
+#: height [m]. The height is not given in the paper; 120 m is an assumption (the region's
+#: airfields lie at 100-170 m). Kept here, free of numpy, so that the command line can show
+#: it as a default without importing the simulator (``sizefx --help`` stays fast).
+PAPER_AIRFIELD_DEG = (57.9825, 55.7089, 120.0)
+
+#: TU Berlin (approximate), where BROAD was recorded: latitude, longitude [deg], height [m].
+BROAD_SITE_DEG = (52.5125, 13.3269, 40.0)
+
 #: A time step larger than this many nominal sample periods is a gap
 #: (issue 2: "gaps longer than 1.5 sample periods").
 GAP_FACTOR = 1.5

@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .constants import DEG, STANDARD_GRAVITY_MPS2
+from .constants import DEG, PAPER_AIRFIELD_DEG, STANDARD_GRAVITY_MPS2
 from .errors import ConfigError
 from .motion import (
     ConstantProfile,
@@ -39,17 +39,16 @@ E_DOWN = np.array([0.0, 0.0, 1.0])
 class SiteSpec:
     """Site or start position in degrees and metres (CLI units)."""
 
-    latitude_deg: float = 57.9825
-    longitude_deg: float = 55.7089
-    height_m: float = 120.0
+    latitude_deg: float = PAPER_AIRFIELD_DEG[0]
+    longitude_deg: float = PAPER_AIRFIELD_DEG[1]
+    height_m: float = PAPER_AIRFIELD_DEG[2]
 
     def radians(self):
         return self.latitude_deg * DEG, self.longitude_deg * DEG, self.height_m
 
 
-#: The paper's airfield "Lugovskoe" (start of the flight test). The height is
-#: not given in the paper; 120 m is an assumption (the region's airfields lie
-#: at 100-170 m).
+#: The paper's airfield "Lugovskoe" (start of the flight test); see
+#: :data:`sizefx.constants.PAPER_AIRFIELD_DEG`.
 PAPER_AIRFIELD = SiteSpec()
 
 

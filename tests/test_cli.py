@@ -114,3 +114,38 @@ def test_demo_smoke(runner, tmp_path):
                 "diagnosis/spectra.png"):
         assert (out / png).stat().st_size > 10_000, png
     assert f"plots in {out}/" in text
+
+
+#: What ``sizefx --help`` and every ``sizefx CMD --help`` must not import (issue 13: each costs
+#: 0.1-0.5 s of start-up; a command imports what it needs when it runs).
+HEAVY_MODULES = ("numpy", "numba", "scipy", "h5py", "matplotlib", "pyulog")
+
+_HELP_PROBE = """
+import sys
+import click
+from click.testing import CliRunner
+from sizefx_cli.main import main
+
+def walk(cmd, path):
+    yield path
+    if isinstance(cmd, click.Group):
+        for name, sub in cmd.commands.items():
+            yield from walk(sub, path + [name])
+
+runner = CliRunner()
+paths = list(walk(main, []))
+for path in paths:
+    result = runner.invoke(main, path + ["--help"])
+    assert result.exit_code == 0, (path, result.output)
+print(len(paths), ",".join(m for m in {heavy!r} if m in sys.modules))
+"""
+
+
+def test_help_of_every_command_imports_nothing_heavy():
+    """Start-up is kept fast by construction, not measured here (benchmarks/bench_startup.py times it)."""
+    proc = subprocess.run([sys.executable, "-c", _HELP_PROBE.format(heavy=HEAVY_MODULES)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    count, heavy = proc.stdout.split()[0], proc.stdout.split()[1:]
+    assert int(count) >= 18, proc.stdout  # the group, 10 commands, 4 scenarios, 5 importers
+    assert heavy == [], f"--help imports {heavy}; import them inside the command function"

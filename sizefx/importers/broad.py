@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..constants import DEG
+from ..constants import BROAD_SITE_DEG, DEG
 from ..errors import SourceError
 from ..frames import MAT_FRD_FLU, enu_to_ned, geodetic_from_local_ned, quat_nb_from_enu_body
 from ..telemetry import Reference, Site, Telemetry
@@ -30,8 +30,8 @@ from . import as_array, load_mat, provenance
 CREDITS = ("D. Laidig, M. Caruso, A. Cereatti, T. Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "
            "Estimation', Data 6(7):72, 2021; licence CC BY 4.0")
 
-#: TU Berlin (approximate), where BROAD was recorded: latitude, longitude [deg], height [m].
-DEFAULT_SITE_DEG = (52.5125, 13.3269, 40.0)
+#: Where BROAD was recorded (:data:`sizefx.constants.BROAD_SITE_DEG`).
+DEFAULT_SITE_DEG = BROAD_SITE_DEG
 
 
 def load(path: Path, *, site_deg=DEFAULT_SITE_DEG) -> Telemetry:
