@@ -23,13 +23,17 @@ __all__ = ["run_demo"]
 DIAGNOSIS_HIDDEN = {"lever_arm": {"d_y_m": [0.0, 0.0274, -0.001]}, "accel_delay": {"enabled": True, "tau_s": 0.0005}}
 
 
-def run_demo(out_dir: Path, *, seed: int = 0):
-    """Yield the demo's report line by line (the caller prints)."""
+def run_demo(out_dir: Path, *, seed: int = 0, size: str = "reduced"):
+    """Yield the demo's report line by line (the caller prints).
+
+    ``size`` names one of :data:`sizefx.paper.SIZES` for the paper's experiments; ``sizefx demo``
+    runs ``reduced``, the test suite ``smoke``.
+    """
     started = time.perf_counter()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     lines = []
-    res = run_all(out_dir, SIZES["reduced"], seed=seed, log=lines.append)
+    res = run_all(out_dir, SIZES[size], seed=seed, log=lines.append)
     yield from lines
     yield format_results(res)
     # The heart of sizefx: hide effects in a record and find them.

@@ -99,15 +99,17 @@ def test_inspect_valid_file(runner, raw_file):
     assert "valid sizefx/telemetry/1" in result.output and "100 Hz" in result.output
 
 
-def test_demo_smoke(runner, tmp_path):
-    """The README's first command: the three experiments, the table, the diagnosis, the plots."""
+def test_demo_smoke(tmp_path):
+    """The README's first command, every step at the smallest size: the three experiments, the
+    table, the diagnosis, the plots. CI runs the real demo (reduced size) from a fresh clone and
+    checks the same lines (.ci/run)."""
+    from sizefx.demo import run_demo
+
     out = tmp_path / "demo"
-    result = runner.invoke(main, ["demo", "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    text = result.output
-    assert "the paper's experiments in simulation (reduced size)" in text
-    for figure in ("turntable, 3 repeats", "heading sway", "flight 1.8 h"):
-        assert figure in text
+    text = "\n".join(run_demo(out, size="smoke"))
+    assert "the paper's experiments in simulation (smoke size)" in text
+    for figure in ("turntable, 1 repeats", "heading sway", "flight 0.45 h"):
+        assert figure in text, figure
     assert "accelerometer y sits" in text and "lag the gyros by" in text  # diagnose found both hidden effects
     for png in ("fig6_turntable_compensation.png", "fig8_sway_velocity.png", "fig9_sway_position.png",
                 "flight_horizontal_error.png", "flight_ground_speed_error.png", "diagnosis/residuals.png",

@@ -137,18 +137,40 @@ def test_chunked_kernel_equals_whole(short_flight):
 # --------------------------------------------------------------------------- closed forms
 
 
-def test_static_18_hours_stays_put():
-    """Ideal static data, 1.8 h at 1600 Hz at the paper's airfield (issue 4: < 0.01 m, < 1e-6 deg)."""
+def test_static_18_hours_stays_put(tmp_path):
+    """Ideal static data, 1.8 h at 1600 Hz at the paper's airfield (issue 4: < 0.01 m, < 1e-6 deg).
+
+    10.4 million increments go through the streamed path in chunks of 2^18 (the whole-record
+    arrays alone would take 600 MB: issue 13 keeps the suite's peak under 1 GiB). The file
+    stores constant rows gzip-compressed, so it takes a few MiB of disk.
+    """
+    import h5py
+
     traj = static_trajectory(6480.0)
     kin = kinematics(traj, np.array([0.0]), ideal())
     n = int(6480 * 1600)
-    tel = Telemetry(time_s=H_SAMPLE * np.arange(1, n + 1), form="increments",
-                    dtheta_rad=np.tile(kin.omega_ib_b * H_SAMPLE, (n, 1)),
-                    dvel_mps=np.tile(kin.accel_input * H_SAMPLE, (n, 1)),
-                    reference=Reference(np.array([0.0, 6480.0]), np.tile(mat_to_quat(traj.evaluate(np.array([0.0])).mat_nb[0]), (2, 1)),
-                                        np.full(2, LAT), np.full(2, LON), np.full(2, H), np.zeros((2, 3))),
-                    site=Site(LAT, LON, H))
-    res = navigate(tel, NavConfig(subsamples=4))
+    q0 = mat_to_quat(traj.evaluate(np.array([0.0])).mat_nb[0])
+    path = tmp_path / "static_18h.h5"
+    block = 1 << 20
+    with h5py.File(path, "w") as h5:
+        h5.attrs.update({"schema": "sizefx/telemetry/1", "latitude_deg": np.degrees(LAT),
+                         "longitude_deg": np.degrees(LON), "height_m": H})
+        opts = {"chunks": True, "compression": "gzip", "shuffle": True}
+        time = h5.create_dataset("imu/time", shape=(n,), dtype="f8", **opts)
+        dtheta = h5.create_dataset("imu/dtheta", shape=(n, 3), dtype="f8", **opts)
+        dvel = h5.create_dataset("imu/dvel", shape=(n, 3), dtype="f8", **opts)
+        time.attrs["units"], dtheta.attrs["units"], dvel.attrs["units"] = "s", "rad", "m/s"
+        for k0 in range(0, n, block):
+            k1 = min(n, k0 + block)
+            time[k0:k1] = H_SAMPLE * np.arange(k0 + 1, k1 + 1)
+            dtheta[k0:k1] = np.tile(kin.omega_ib_b * H_SAMPLE, (k1 - k0, 1))
+            dvel[k0:k1] = np.tile(kin.accel_input * H_SAMPLE, (k1 - k0, 1))
+        ref = h5.create_group("reference")
+        ref.create_dataset("time", data=[0.0, 6480.0]).attrs["units"] = "s"
+        ref.create_dataset("quaternion", data=np.tile(q0, (2, 1)))
+        ref.create_dataset("position", data=np.tile([np.degrees(LAT), np.degrees(LON), H], (2, 1)))
+        ref.create_dataset("velocity", data=np.zeros((2, 3))).attrs["units"] = "m/s"
+    res = navigate_file(path, NavConfig(subsamples=4), chunk_samples=block // 4)
     assert res.config["vertical"] == "held" and res.config["init"] == "reference"
     assert res.summary["max_horizontal_error_m"] < 0.01
     assert res.summary["max_attitude_error_deg"] < 1e-6
@@ -314,7 +336,7 @@ def test_navigate_command_on_a_simulated_file(tmp_path, short_turntable_plan):
 
 
 def test_navigate_without_position_is_a_clear_error(tmp_path):
-    from tests.conftest import write_raw
+    from support import write_raw
 
     def drop_site(h5):
         for k in ("latitude_deg", "longitude_deg", "height_m"):

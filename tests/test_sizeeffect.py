@@ -183,33 +183,47 @@ def test_known_accelerometer_delay_is_undone(small_plan):
 # --------------------------------------------------------------------------- calibration
 
 
+#: The command test simulates the paper's plan at 400 Hz, not 1600 Hz: four times faster, with
+#: the same standard errors (the noise is a density: the information per second does not depend
+#: on the rate). The estimator tests stay at 1600 Hz: the Savitzky-Golay angular acceleration
+#: has a fixed 41-sample window, 0.1 s at 400 Hz, whose response error biases the arms on the
+#: sways by several sigma (issue 17 removes that bias at its root).
+CAL_RATE_HZ = 400.0
+
+
 @pytest.fixture(scope="module")
 def paper_plan():
-    return scenarios.turntable(scenarios.TurntablePlan())[0]
+    """The paper's plan (Y, X, Z in turn, 20 deg/s, +-10 deg/s^2) shortened to 214 s: 2 cycles in
+    48 s per axis and a 20 s lead-in. The full 7.8 min plan and 20 seeds of it:
+    benchmarks/accuracy_calibrate.py."""
+    return scenarios.turntable(scenarios.TurntablePlan(static_s=20.0, seconds_per_axis=48.0, cycles=2))[0]
 
 
 def _fx(preset="high-precision", **more):
     return load_effects(overrides={"lever_arm": {"preset": preset, "r_vehicle_m": OFFSET_M}, **more})
 
 
-def test_monte_carlo_twenty_seeds_on_the_papers_plan(paper_plan):
-    """Issue 5: all nine components within 3 sigma; spread within 20 % of sigma; sigma of the paper's order."""
+def test_calibration_is_unbiased_with_honest_sigma_over_four_seeds(paper_plan):
+    """Issue 5, in small: all nine components within 3.5 sigma, the scatter matches sigma, no bias.
+
+    The full study (20 seeds of the full plan) is ``benchmarks/accuracy_calibrate.py``; four
+    fixed seeds give 36 z-scores, enough to catch a broken estimator: the pooled RMS of z has
+    a standard error of about 0.12, so a sigma off by half fails, and so does a bias of two
+    sigma on a component (the mean of four z-scores has a standard error of 0.5).
+    """
     fx = _fx()
     truth = fx.arms_total_m()
     z, sigmas = [], []
-    for seed in range(20):
+    for seed in range(4):
         rec = prepare(simulate_in_memory(paper_plan, fx, form="rates", seed=seed))
         res = joint_fit([rec])
         z.append((res.arms - truth) / res.sigma_arms)
         sigmas.append(res.sigma_arms)
     z = np.array(z)
-    sigma_mean = np.mean(sigmas)
-    assert np.abs(z).max() < 3.0, np.abs(z).max()
-    # the spread over seeds against the reported sigma, pooled over the nine components
-    # (180 values: the ratio's own standard error is about 5 %)
-    assert np.sqrt(np.mean(z**2)) == pytest.approx(1.0, abs=0.2)
-    assert np.abs(z.mean(axis=0)).max() < 3.0 / np.sqrt(20)  # unbiased
-    assert sigma_mean < 0.04e-3  # the paper: 0.04 mm on average (from five repeats)
+    assert np.abs(z).max() < 3.5, np.abs(z).max()
+    assert 0.6 < np.sqrt(np.mean(z**2)) < 1.45, np.sqrt(np.mean(z**2))
+    assert np.abs(z.mean(axis=0)).max() < 2.0, z.mean(axis=0)  # unbiased (4 sigma of the mean of four)
+    assert np.mean(sigmas) < 0.04e-3  # the paper: 0.04 mm on average (five repeats of the full plan)
 
 
 def test_table_tilt_is_estimated_and_the_per_rotation_fit_is_biased(paper_plan):
@@ -304,7 +318,8 @@ def test_calibrate_compensate_navigate_commands(tmp_path, paper_plan):
     from sizefx.simulate import run
 
     sim = tmp_path / "tt.h5"
-    run("turntable", sim, overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "level_tilt": {"enabled": True}})
+    run("turntable", sim, overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "level_tilt": {"enabled": True}},
+        rate_hz=CAL_RATE_HZ)
     lev, png = tmp_path / "lev.json", tmp_path / "fig6.png"
     r = CliRunner().invoke(main, ["calibrate", str(sim), "--json", str(lev), "--plot", str(png)])
     assert r.exit_code == 0, r.output
