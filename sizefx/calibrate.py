@@ -199,22 +199,28 @@ def _windows(rec: Record, window_s):
     return idx, n
 
 
-def _rows(rec: Record, i: int, sl: slice, n_bias: int, bias_index, with_tilt: bool, with_delay: bool):
-    """Design rows of channel i for samples ``sl``: [r (9) | biases (3 per window) | tilt (2) | delay (1)].
+def _arm_regressors(omega, omegadot, i: int):
+    """``[n, 3]``: accelerometer i's reading per metre of each component of r_i,
+    ``u_i . (omegadot x r_i + omega x (omega x r_i))`` = ``(e_i x omegadot + omega omega_i - |omega|^2 e_i) . r_i``."""
+    e = np.zeros(3)
+    e[i] = 1.0
+    return np.cross(e, omegadot) + omega * omega[:, i:i + 1] - np.sum(omega * omega, axis=1, keepdims=True) * e
 
-    ``bias_index`` [n] gives each sample's bias window (global over all records).
+
+def _rows(rec: Record, i: int, sl: slice, with_tilt: bool, with_delay: bool):
+    """Design rows of channel i for samples ``sl`` in their active columns only:
+    ``[r_i (3) | bias_i (1) | tilt (2) | delay (1)]``, and the target.
+
+    Every other column of the full design (the other channels' arms, the other bias windows)
+    is zero on these rows, so the normal equations are accumulated from these few columns
+    (see :func:`_columns`): 7 columns a row instead of 9 + 3 * windows + 3.
     """
     w, wd, mat = rec.omega[sl], rec.omegadot[sl], rec.mat_nb[sl]
     n = w.shape[0]
-    cols = 9 + 3 * n_bias + (2 if with_tilt else 0) + (1 if with_delay else 0)
-    H = np.zeros((n, cols))
-    # u_i . (wd x r + w x (w x r)) = row i of ([wd x] + [w x]^2) applied to r_i
-    e = np.zeros(3)
-    e[i] = 1.0
-    # [wd x]^T e_i and ([w x]^2)^T e_i: wd x r . e_i = (e_i x wd) . r ; (w x (w x r)) . e_i = (w (w.e_i) - |w|^2 e_i) . r
-    H[:, 3 * i:3 * i + 3] = np.cross(e, wd) + w * w[:, i:i + 1] - np.sum(w * w, axis=1, keepdims=True) * e
-    H[np.arange(n), 9 + 3 * bias_index[sl] + i] = 1.0
-    c = 9 + 3 * n_bias
+    H = np.zeros((n, 4 + (2 if with_tilt else 0) + (1 if with_delay else 0)))
+    H[:, 0:3] = _arm_regressors(w, wd, i)
+    H[:, 3] = 1.0
+    c = 4
     if with_tilt:
         H[:, c] = -rec.g_down * mat[:, 1, i]  # phi_N
         H[:, c + 1] = rec.g_down * mat[:, 0, i]  # phi_E
@@ -224,6 +230,27 @@ def _rows(rec: Record, i: int, sl: slice, n_bias: int, bias_index, with_tilt: bo
         H[:, c] = np.cross(w, fg)[:, i]
     y = rec.accel[sl, i] + rec.g_down * mat[:, 2, i]  # minus the known gravity term
     return H, y
+
+
+def _columns(i: int, window: int, n_bias: int, with_tilt: bool, with_delay: bool) -> np.ndarray:
+    """Indices in the full parameter vector of :func:`_rows`' columns for channel i, bias window ``window``."""
+    cols = [3 * i, 3 * i + 1, 3 * i + 2, 9 + 3 * window + i]
+    c = 9 + 3 * n_bias
+    if with_tilt:
+        cols += [c, c + 1]
+        c += 2
+    if with_delay:
+        cols.append(c)
+    return np.array(cols)
+
+
+def _spans(bias_index: np.ndarray, chunk: int):
+    """``(window, slice)`` pieces of at most ``chunk`` samples, each inside one bias window
+    (the windows are contiguous runs of samples, in time order)."""
+    edges = np.flatnonzero(np.diff(bias_index)) + 1
+    for s0, s1 in zip(np.r_[0, edges], np.r_[edges, bias_index.size]):
+        for a in range(s0, s1, chunk):
+            yield int(bias_index[s0]), slice(a, min(s1, a + chunk))
 
 
 def _names(window_labels, with_tilt, with_delay):
@@ -260,11 +287,12 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         N = np.zeros((p, p))
         b = np.zeros(p)
         for k, rec in enumerate(records):
-            for i in range(3):
-                for s in range(0, rec.t.size, chunk):
-                    H, y = _rows(rec, i, slice(s, s + chunk), n_bias, bias_index[k], with_tilt, with_delay)
-                    N += H.T @ H / variance[i]
-                    b += H.T @ y / variance[i]
+            for window, sl in _spans(bias_index[k], chunk):
+                for i in range(3):
+                    H, y = _rows(rec, i, sl, with_tilt, with_delay)
+                    cols = _columns(i, window, n_bias, with_tilt, with_delay)
+                    N[np.ix_(cols, cols)] += H.T @ H / variance[i]
+                    b[cols] += H.T @ y / variance[i]
         scale = 1.0 / np.sqrt(np.where(np.diag(N) > 0, np.diag(N), 1.0))
         Ns = N * np.outer(scale, scale)
         eigval, eigvec = np.linalg.eigh(Ns)
@@ -281,10 +309,10 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         ss = np.zeros(3)
         count = np.zeros(3)
         for k, rec in enumerate(records):
-            for i in range(3):
-                for s in range(0, rec.t.size, chunk):
-                    H, y = _rows(rec, i, slice(s, s + chunk), n_bias, bias_index[k], with_tilt, with_delay)
-                    r = y - H @ x
+            for window, sl in _spans(bias_index[k], chunk):
+                for i in range(3):
+                    H, y = _rows(rec, i, sl, with_tilt, with_delay)
+                    r = y - H @ x[_columns(i, window, n_bias, with_tilt, with_delay)]
                     ss[i] += r @ r
                     count[i] += r.size
         variance = ss / np.maximum(count - p / 3.0, 1.0)
