@@ -34,13 +34,11 @@ def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow
     tilt [arcsec] and delay [us].
     """
     from sizefx.calibrate import format_report, run
-    from sizefx.levers import write_levers
 
     out = run(list(records), nominal=nominal, with_tilt=tilt, with_delay=delay, triad=triad_point,
-              allow_gaps=allow_gaps, plot=plot, force=force)
+              allow_gaps=allow_gaps, plot=plot, json_path=json_path, force=force)
     click.echo(format_report(out))
     if json_path:
-        write_levers(json_path, out["levers"], inputs=list(records), force=force)
         click.echo(f"lever arms -> {json_path}")
     if plot:
         click.echo(f"figure -> {plot}")

@@ -35,14 +35,14 @@ from . import earth
 from .compensate import sync_accelerometers
 from .constants import ARCSEC, DEG
 from .errors import SizefxError
-from .fileio import atomic_output, check_output_path
-from .levers import Levers, levers_from_preset, read_levers
-from .omegadot import savgol
-from .rotation import quat_interp, quat_to_mat
+from .fileio import atomic_output, check_outputs
+from .levers import Levers, levers_from_preset, read_levers, write_levers
+from .omegadot import SAVGOL_WINDOW, savgol
+from .rotation import quat_interp, quat_spline, quat_to_mat
 from .telemetry import Telemetry, read_telemetry
 
 __all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_fit", "triad_point",
-           "detect_rotations", "CalibrationResult", "run"]
+           "detect_rotations", "CalibrationResult", "Excitation", "excitation", "preflight", "run"]
 
 #: Fewest samples a record may have: the Savitzky-Golay angular-acceleration window, with room.
 MIN_SAMPLES = 4 * 41
@@ -100,11 +100,29 @@ def prepare(tel: Telemetry, name: str = "") -> Record:
         t, omega, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
     else:  # increments -> mean rates over each interval, stamped at its midpoint
         t, omega, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
-    mat_nb = quat_to_mat(quat_interp(tel.reference.time_s, tel.reference.quat_nb, t))
+    mat_nb = quat_to_mat(reference_attitude(tel.reference.time_s, tel.reference.quat_nb, t))
     lat, h = (tel.site.lat_rad, tel.site.height_m) if tel.site is not None else (
         tel.reference.lat_rad[0], tel.reference.height_m[0])
     return Record(name or str(tel.path), t, accel, omega, savgol(omega, dt), mat_nb,
                   float(earth.gravity_n(lat, h)[2]))
+
+
+#: A reference whose median step exceeds this many IMU steps is interpolated by a C2 rotation
+#: spline instead of slerp (:func:`sizefx.rotation.quat_spline`): gravity's direction between
+#: two reference samples must be known to the accelerometer noise, and slerp's error grows with
+#: the square of the reference step (0.08 mm of arm bias with a 100 Hz reference on a 1 Hz sway).
+#: At the IMU rate slerp is exact at the samples and costs a tenth of the spline.
+SPLINE_REFERENCE_STEPS = 1.5
+
+
+def reference_attitude(t_ref, quat_ref, t):
+    """Reference attitude ``q_nb`` at the IMU times ``t`` [N, 4]: a rotation spline when the
+    reference is slower than the IMU (:data:`SPLINE_REFERENCE_STEPS`), slerp otherwise."""
+    step_ref = float(np.median(np.diff(t_ref)))
+    step_imu = float(np.median(np.diff(t))) if len(t) > 1 else step_ref
+    if len(t_ref) >= 4 and step_ref > SPLINE_REFERENCE_STEPS * step_imu:
+        return quat_spline(t_ref, quat_ref, t)
+    return quat_interp(t_ref, quat_ref, t)
 
 
 # --------------------------------------------------------------------------- the paper's per-rotation fit
@@ -364,6 +382,164 @@ def triad_point(arms: np.ndarray, axes: np.ndarray = np.eye(3), how: str = "norm
     return np.linalg.solve(A, rhs)
 
 
+# --------------------------------------------------------------------------- pre-flight
+
+#: IMU rows the pre-flight pass reads at a time (plus the Savitzky-Golay half window each side).
+PREFLIGHT_ROWS = 1 << 18
+
+
+@dataclass
+class Excitation:
+    """What the motion of one record can reveal about the lever arms: one streamed pass over its
+    IMU rows, before any fit (:func:`excitation`)."""
+
+    path: str
+    samples: int
+    duration_s: float
+    rms_rate_rad_s: np.ndarray  #: [3] per body axis
+    rms_angular_acceleration_rad_s2: np.ndarray  #: [3] per body axis
+    rotating_s: float  #: time with |omega| above ROTATING_RAD_S
+    #: [3, 3, 3] per accelerometer channel i: sum over samples of h h^T, h = d(reading_i)/d(r_i)
+    #: [1/s^2], each bias window's mean removed (the biases absorb it); [1/s^4]
+    arm_information: np.ndarray
+    noise_mps2: np.ndarray  #: [3] per-sample accelerometer noise of the quietest chunk (white-noise estimate)
+
+
+def _noise_floor(accel: np.ndarray) -> np.ndarray:
+    """Per-sample white noise [3] of a chunk from its second differences (robust: MAD):
+    smooth motion contributes the signal's second derivative times dt^2, far below the noise."""
+    d2 = accel[2:] - 2.0 * accel[1:-1] + accel[:-2]
+    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
+    return 1.4826 * mad / np.sqrt(6.0)  # var(d2) = 6 sigma^2 for white noise
+
+
+def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WINDOW_S) -> Excitation:
+    """One streamed pass over the IMU rows of ``path``: rates and angular accelerations per body
+    axis, and the information the motion carries about each lever arm.
+
+    The information is that of :func:`joint_fit`'s arm columns with the bias windows projected
+    out, but not the tilt and the delay: an optimistic bound. A component that even this bound
+    cannot determine is certainly not determined by the fit, so :func:`preflight` can refuse it
+    in seconds instead of after the fit (issue 13: 526 s on a flight record).
+    """
+    from .telemetry import TelemetryStream
+
+    half = SAVGOL_WINDOW // 2
+    with TelemetryStream(path, allow_gaps=allow_gaps) as st:
+        n, dt = st.n_samples, st.sample_period_s
+        sum_w2, sum_wd2 = np.zeros(3), np.zeros(3)
+        rotating = 0
+        noise = np.full(3, np.inf)
+        info = np.zeros((3, 3, 3))
+        win_sum, win_outer, win_n, window = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0, 0
+        t_first = None
+
+        def close_window():
+            nonlocal win_sum, win_outer, win_n
+            if win_n:
+                info[:] += win_outer - np.einsum("ia,ib->iab", win_sum, win_sum) / win_n
+            win_sum, win_outer, win_n = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0
+
+        for k0 in range(0, n, PREFLIGHT_ROWS):
+            k1 = min(n, k0 + PREFLIGHT_ROWS)
+            a0, a1 = max(0, k0 - half), min(n, k1 + half)
+            t, g, a, _ = st.read(a0, a1)
+            if st.form == "increments":
+                t, g, a = t - 0.5 * dt, g / dt, a / dt
+            wd = savgol(g, dt) if g.shape[0] > SAVGOL_WINDOW else np.gradient(g, dt, axis=0)
+            inner = slice(k0 - a0, k0 - a0 + (k1 - k0))
+            t, w, wd, acc = t[inner], g[inner], wd[inner], a[inner]
+            if t_first is None:
+                t_first = float(t[0])
+            sum_w2 += np.sum(w * w, axis=0)
+            sum_wd2 += np.sum(wd * wd, axis=0)
+            rotating += int(np.count_nonzero(np.linalg.norm(w, axis=1) > ROTATING_RAD_S))
+            if acc.shape[0] > 16:
+                noise = np.minimum(noise, _noise_floor(acc))
+            h = np.stack([_arm_regressors(w, wd, i) for i in range(3)])  # [3, n, 3]
+            wid = np.floor((t - t_first) / bias_window_s).astype(int) if bias_window_s else np.zeros(t.size, int)
+            for w_id in np.unique(wid):
+                if w_id != window:
+                    close_window()
+                    window = int(w_id)
+                sel = wid == w_id
+                hs = h[:, sel, :]
+                win_sum += hs.sum(axis=1)
+                win_outer += np.einsum("ina,inb->iab", hs, hs)
+                win_n += int(sel.sum())
+        close_window()
+        duration = float(t[-1] - t_first) if n else 0.0
+    return Excitation(str(path), n, duration, np.sqrt(sum_w2 / max(n, 1)), np.sqrt(sum_wd2 / max(n, 1)),
+                      rotating * dt, info, noise)
+
+
+def _describe_motion(exc: list[Excitation]) -> str:
+    """'it turns about body z (RMS 8.1 deg/s; x 0.02, y 0.03)' for the records together."""
+    n = sum(e.samples for e in exc)
+    rms = np.sqrt(sum(e.rms_rate_rad_s**2 * e.samples for e in exc) / max(n, 1)) / DEG
+    order = np.argsort(rms)[::-1]
+    return "RMS rate about body " + ", ".join(f"{'xyz'[j]} {rms[j]:.3g}" for j in order) + " deg/s"
+
+
+def preflight(paths, *, with_delay: bool = False, allow_gaps: bool = False) -> list[Excitation]:
+    """Everything that can refuse a calibration before the fit, cheapest first.
+
+    1. Each record has ``/reference`` (the attitude the table reports) and a site (normal
+       gravity): read from the file's structure, no IMU rows.
+    2. The motion excites the lever arms: one streamed pass (:func:`excitation`); a record that
+       never rotates, or a component that even the optimistic information bound leaves
+       undetermined (weak direction, or sigma above :data:`UNDETERMINED_SIGMA`), is named with
+       the rotation each axis saw.
+    """
+    from .telemetry import TelemetryStream
+
+    for path in paths:
+        with TelemetryStream(path, allow_gaps=allow_gaps) as st:
+            if st.reference is None:
+                raise CalibrationError(f"{path}: calibration needs /reference attitude (what the table reports); "
+                                       "this record has none (sizefx inspect shows what it holds)")
+            if st.site is None and not st.reference.has_position:
+                raise CalibrationError(f"{path}: no site: normal gravity needs latitude and height; add the root "
+                                       "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
+            if st.n_samples < MIN_SAMPLES:
+                raise CalibrationError(f"{path}: {st.n_samples} samples; calibration needs at least {MIN_SAMPLES}")
+    exc = [excitation(p, allow_gaps=allow_gaps) for p in paths]
+    for e in exc:
+        if e.rotating_s == 0.0:
+            raise CalibrationError(f"{e.path}: the record never rotates (|omega| stays under 1 deg/s; "
+                                   f"{_describe_motion([e])}); no lever arm is observable: record rotations about "
+                                   "at least two body axes")
+    weak, loose = [], []
+    for i in range(3):
+        info = np.zeros((3, 3))
+        for e in exc:
+            if np.all(e.noise_mps2 > 0):
+                info += e.arm_information[i] / e.noise_mps2[i] ** 2
+            else:  # noiseless (simulated ideal) data: only the structure can be judged
+                info += e.arm_information[i]
+        diag = np.diag(info)
+        scale = 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0))
+        eigval, eigvec = np.linalg.eigh(info * np.outer(scale, scale))
+        bad = {j for j in range(3) if diag[j] == 0}
+        for v in eigvec[:, eigval < UNOBSERVABLE_EIG * max(eigval.max(), 1e-300)].T:
+            bad |= {j for j in range(3) if abs(v[j]) > 0.3}
+        weak += [3 * i + j for j in sorted(bad)]
+        if not bad and all(np.all(e.noise_mps2 > 0) for e in exc):
+            sigma = np.sqrt(np.diag(np.linalg.inv(info)))
+            loose += [(3 * i + j, sigma[j]) for j in range(3) if sigma[j] > UNDETERMINED_SIGMA["arm_m"]]
+    if weak or loose:
+        listed = ", ".join([PARAMS_R[j] for j in weak]
+                           + [f"{PARAMS_R[j]} (sigma at least {s * 1e3:.3g} mm)" for j, s in loose])
+        names = ", ".join(Path(e.path).name for e in exc)
+        advice = ("record rotations about at least two body axes (the paper rotates about Y, X and Z in turn)"
+                  if weak else "the rotations are too small: record larger or longer rotations (an arm's sigma "
+                               "falls with the square of the rate and the square root of the time)")
+        raise CalibrationError(f"the rotations in {names} leave unobservable: {listed} ({_describe_motion(exc)}); "
+                               f"{advice}" + (", and rotations about horizontal axes for the delay" if with_delay else "")
+                               + "; found before fitting, from one pass over the gyros")
+    return exc
+
+
 # --------------------------------------------------------------------------- the command
 
 
@@ -374,15 +550,26 @@ def nominal_levers(nominal: str) -> Levers:
 
 
 def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_delay: bool = False,
-        triad: str = "normals", allow_gaps: bool = False, plot=None, force: bool = False) -> dict:
-    """Entry point of ``sizefx calibrate``: fits, decomposition, report figures, and the Levers to write."""
-    if plot:
-        check_output_path(plot, inputs=paths, force=force)  # before the work: folder exists, no silent replace
+        triad: str = "normals", allow_gaps: bool = False, plot=None, json_path=None, force: bool = False) -> dict:
+    """Entry point of ``sizefx calibrate``: pre-flight, fits, decomposition, report figures; writes the
+    lever arms (``json_path``, sizefx/levers/1) and the figure (``plot``) when asked.
+
+    Everything that can refuse the run is checked before the first record is read whole: the
+    outputs (:func:`sizefx.fileio.check_outputs`), the nominal geometry, each record's
+    reference and site, and the motion's excitation of the arms (:func:`preflight`).
+    """
+    paths = [str(p) for p in paths]
+    if len(set(map(lambda p: Path(p).resolve(), paths))) != len(paths):
+        raise CalibrationError("a record is given twice; give each record once")
+    check_outputs({"--json": json_path, "--plot": plot}, inputs=paths, force=force)
+    if triad not in ("normals", "x-accelerometer"):
+        raise CalibrationError(f"triad point '{triad}': use normals or x-accelerometer")
+    nom = nominal_levers(nominal)
+    preflight(paths, with_delay=with_delay, allow_gaps=allow_gaps)
     tels = [read_telemetry(p, allow_gaps=allow_gaps) for p in paths]
     records = [prepare(tel, str(p)) for tel, p in zip(tels, paths)]
     per_rotation = {str(p): per_rotation_fit(rec) for p, rec in zip(paths, records)}
     res = joint_fit(records, with_tilt=with_tilt, with_delay=with_delay)
-    nom = nominal_levers(nominal)
     point = triad_point(res.arms, how=triad)
     levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms,
                     reference_point="rotation-center",
@@ -403,6 +590,8 @@ def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_
         k = with_blocks[0]
         out["figure_spans"] = compensation_figure(records[k], levers, plot,
                                                   title=f"{Path(paths[k]).name}: size effect before and after")
+    if json_path:
+        write_levers(json_path, levers, inputs=paths, force=force)
     return out
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .errors import OutputError
 
-__all__ = ["atomic_output", "check_output_path"]
+__all__ = ["atomic_output", "check_output_path", "check_outputs"]
 
 
 def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
@@ -41,6 +41,20 @@ def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
     if not parent.is_dir():
         raise OutputError(f"{out}: directory {parent} does not exist; create it first")
     return out
+
+
+def check_outputs(outputs: dict, *, inputs=(), force: bool = False) -> None:
+    """Pre-flight for every output of one command, before any work: ``outputs`` maps each option
+    (``"--json"``) to its path or None. Two outputs may not share a path, and each passes
+    :func:`check_output_path` (not an input, not existing without ``force``, folder exists)."""
+    given = {opt: Path(path) for opt, path in outputs.items() if path}
+    seen: dict = {}
+    for opt, path in given.items():
+        key = path.resolve()
+        if key in seen:
+            raise OutputError(f"{path}: given to both {seen[key]} and {opt}; each output needs its own file")
+        seen[key] = opt
+        check_output_path(path, inputs=inputs, force=force)
 
 
 def _umask() -> int:

@@ -24,6 +24,7 @@ __all__ = [
     "euler_to_mat",
     "mat_to_euler",
     "quat_interp",
+    "quat_spline",
     "quat_angle_between",
 ]
 
@@ -212,6 +213,26 @@ def quat_interp(t_ref, quat_ref, t):
     step = np.column_stack([np.cos(half), np.sin(half) * axis])
     out = quat_multiply(q0, step)
     return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def quat_spline(t_ref, quat_ref, t):
+    """Attitude at times ``t`` from a C2 rotation spline through unit quaternions ``quat_ref`` at ``t_ref``.
+
+    scipy's ``RotationSpline`` (cubic in the rotation vector, continuous angular rate and
+    acceleration): its error falls with the fourth power of the reference step, where
+    :func:`quat_interp`'s falls with the second. Use it when the reference is much slower
+    than the times asked for: linear interpolation of a 1 Hz, 30 deg/s sway sampled at
+    100 Hz misplaces gravity by 40 ug, enough to bias calibrated lever arms by 0.08 mm
+    (``tests/test_sizeeffect.py::test_slow_reference_gives_the_same_arms``).
+    ``t`` outside ``[t_ref[0], t_ref[-1]]`` takes the end rows.
+    """
+    from scipy.spatial.transform import Rotation, RotationSpline  # scipy at call time: start-up cost
+
+    t_ref = np.asarray(t_ref, dtype=float)
+    q = np.asarray(quat_ref, dtype=float)
+    # scipy's quaternions are scalar-last (its scalar_first keyword needs scipy 1.14)
+    spline = RotationSpline(t_ref, Rotation.from_quat(q[:, [1, 2, 3, 0]]))
+    return spline(np.clip(np.asarray(t, dtype=float), t_ref[0], t_ref[-1])).as_quat()[:, [3, 0, 1, 2]]
 
 
 def quat_angle_between(q_a, q_b):
