@@ -540,8 +540,15 @@ class _Reader:
         lo, hi = self.schema["plausibility"][key]
         med = float(np.median(np.linalg.norm(values, axis=1)))
         if not lo <= med <= hi:
+            quantity = self.schema["datasets"][name]["quantity"]
+            base = unit_factor(quantity, units)
+            # the units under which the same numbers would be plausible: the data look like those
+            fits = [u for u, factor in self.schema["units"][quantity].items()
+                    if u != units and lo <= med / base * factor <= hi]
+            hint = (f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'" if len(fits) == 1
+                    else "the units attribute is probably wrong")
             self.fail(name, f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
-                            f"plausible {lo:g}..{hi:g}; the units attribute is probably wrong")
+                            f"plausible {lo:g}..{hi:g}; {hint}")
 
 
 def open_hdf5(path: Path, hint: str) -> h5py.File:
