@@ -131,7 +131,7 @@ def format_summary(s: dict) -> str:
         lines.append(f"  segments  {len(segs)} continuous (--segment K of navigate, compensate, diagnose):")
         for seg in segs[:SEGMENTS_SHOWN]:
             last = seg["first_row"] + seg["samples"] - 1
-            lines.append(f"    {seg['number']:4d}  rows {seg['first_row']:>9d}..{last:<9d} {seg['samples']:9d} samples  "
+            lines.append(f"    {seg['number']:4d}  rows {seg['first_row']:>9d}..{last:<9d} {seg['samples']:9d} sample{'s' if seg['samples'] != 1 else ' '}  "
                          f"t = {seg['start_s']:.6f} .. {seg['end_s']:.6f} s ({seg['end_s'] - seg['start_s']:.3f} s)")
         if len(segs) > SEGMENTS_SHOWN:
             lines.append(f"          ... and {len(segs) - SEGMENTS_SHOWN} more (--json lists them all)")

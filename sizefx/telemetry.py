@@ -113,6 +113,11 @@ class Segment:
         return self.stop_row - self.first_row
 
 
+def _count(n: int, noun: str) -> str:
+    """``"1 gap"``, ``"8 gaps"``."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def nominal_period_s(time_s) -> float:
     """The nominal sample period [s]: the median step of the first :data:`NOMINAL_ROWS` rows."""
     return float(np.median(np.diff(np.asarray(time_s[: NOMINAL_ROWS + 1], dtype=float))))
@@ -195,7 +200,7 @@ def refuse_gaps(path, gaps, *, command: str, why: str, bridge: bool):
         ("undeclared" if declared == 0 else f"{declared} of them declared in /imu/gaps")
     first = imu[0]
     raise TelemetryError(path, first.dataset,
-                         f"has {len(imu)} gaps ({what}; the first at row {first.index}, t = {first.time_s:.6f} s); "
+                         f"has {_count(len(imu), 'gap')} ({what}; the first at row {first.index}, t = {first.time_s:.6f} s); "
                          f"{command} {why}: process one continuous segment with --segment K (1..{len(imu) + 1}, "
                          "as sizefx inspect numbers them)" + (", or pass --allow-gaps to bridge the gaps"
                                                               if bridge else ""))
@@ -489,7 +494,8 @@ class _Reader:
         loose = [g for g in gaps if not g.declared]
         if loose and not self.allow_gaps:
             g = loose[0]
-            which = "undeclared gaps" if declared is None else "gaps that /imu/gaps does not declare"
+            noun = "gap" if len(loose) == 1 else "gaps"
+            which = f"undeclared {noun}" if declared is None else f"{noun} that /imu/gaps does not declare"
             self.fail(g.dataset, f"has {len(loose)} {which} longer than {GAP_FACTOR} sample periods "
                                  f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
                                  f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway")

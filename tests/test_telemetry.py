@@ -206,7 +206,7 @@ BAD_CASES = {
     "time goes back": (lambda p: _time_with(lambda t: t.__setitem__(500, t[498])), "/imu/time", "not strictly increasing"),
     "duplicated timestamp": (lambda p: _time_with(lambda t: t.__setitem__(500, t[499])), "/imu/time", "duplicated"),
     "gap": (lambda p: _time_with(lambda t: t.__setitem__(slice(600, None), t[600:] + 0.5)), "/imu/time",
-            "gaps longer than 1.5"),
+            "1 undeclared gap longer than 1.5"),
     "time in milliseconds": (lambda p: _time_with(lambda t: t.__imul__(1000.0)), "/imu/time", "ms or us"),
     "accel in g labelled m/s^2": (lambda p: _scale("imu/accel", 1 / 9.80665), "/imu/accel",
                                   "the data look like g: set the units attribute to 'g'"),
