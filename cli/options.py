@@ -48,8 +48,9 @@ def quiet_option(f):
 
 def allow_gaps_option(f):
     return click.option("--allow-gaps", is_flag=True,
-                        help="Accept time steps longer than 1.5 sample periods (they are reported) "
-                             "instead of refusing the file.")(f)
+                        help="Accept IMU time steps longer than 1.5 sample periods that /imu/gaps does not "
+                             "declare (they are reported) instead of refusing the file; declared gaps need "
+                             "no option.")(f)
 
 
 #: Help of --no-units-check (import and inspect), in one place.
