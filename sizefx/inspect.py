@@ -164,10 +164,14 @@ def format_summary(s: dict) -> str:
 def _units_fix(check) -> str:
     """How to correct a file whose data look like another unit (for the one-line error)."""
     quantity = {"gyro": ("angular_rate", "angle"), "accel": ("acceleration", "velocity")}[check.what]
+    from .sanity import UNITS_OUTSIDE_CONTRACT
+
     if any(check.looks_like in allowed_units(q) for q in quantity):
         return f"set its units attribute to '{check.looks_like}'"
-    return f"convert {check.dataset} to {check.declared}" if check.looks_like else \
-        f"check the units attribute of {check.dataset}"
+    for q in quantity:
+        if check.looks_like in UNITS_OUTSIDE_CONTRACT.get(q, {}):
+            return f"multiply {check.dataset} by {UNITS_OUTSIDE_CONTRACT[q][check.looks_like]:g} to make it {check.declared}"
+    return f"check the units attribute of {check.dataset}"
 
 
 def inspect_file(path, *, allow_gaps: bool = False, check_units: bool = True) -> dict:

@@ -74,7 +74,7 @@ def _units_context(fmt: str, tel):
     records them, and the column names, in ``/source``; the other formats fix their units, so
     a mismatch there means the source is not what its format promises.
     """
-    from ..sanity import FORM_QUANTITIES
+    from ..sanity import FORM_QUANTITIES, UNITS_OUTSIDE_CONTRACT
 
     src = tel.source or {}
     names = dict(zip(("gyro", "accel"), FORM_QUANTITIES[tel.form]))
@@ -93,6 +93,10 @@ def _units_context(fmt: str, tel):
             option = f"--{check.what}-units"
             if check.looks_like in allowed_units(names[check.what]):
                 return f"import with {option} {check.looks_like}"
+            outside = UNITS_OUTSIDE_CONTRACT.get(names[check.what], {})
+            if check.looks_like in outside:
+                return f"multiply the columns by {outside[check.looks_like]:g} to make them {check.declared} " \
+                       f"({option} takes {', '.join(allowed_units(names[check.what]))})"
             return f"convert the columns to {check.declared} before importing ({option} takes " \
                    f"{', '.join(allowed_units(names[check.what]))})"
         return f"the {fmt} format stores {check.declared}; check that the source is a genuine {fmt} file"
