@@ -6,7 +6,7 @@ import click
 
 from sizefx.errors import ConfigError
 
-from .options import allow_gaps_option, force_option
+from .options import allow_gaps_option, force_option, segment_option
 
 
 @click.command()
@@ -28,16 +28,19 @@ from .options import allow_gaps_option, force_option
 @click.option("--accel-delay-us", type=float,
               help="Known delay of the accelerometers behind the gyros [us] (default: from the levers file). "
                    "Only with --levers; a model gives it in [accel_delay].")
+@segment_option
 @allow_gaps_option
 @force_option
-def compensate(file, levers_path, model_path, output, mode, estimator, centripetal_only, accel_delay_us, allow_gaps,
-               force):
+def compensate(file, levers_path, model_path, output, mode, estimator, centripetal_only, accel_delay_us, segment,
+               allow_gaps, force):
     """Remove the size effect (centripetal and tangential terms) from the accelerometers.
 
     Separately stamped accelerometers (/imu/accel_time) and a known delay are
     brought onto the gyro time base first. The output keeps the input's form and
     records what was applied in /source. With --model, the model's sensor errors
-    are removed as well (see sizefx.correct).
+    are removed as well (see sizefx.correct). A record with IMU gaps is compensated
+    one continuous segment at a time (--segment K), or across its gaps with
+    --allow-gaps (the estimates next to each gap are then wrong).
     """
     from sizefx import compensate as _levers
     from sizefx import correct as _model
@@ -50,7 +53,7 @@ def compensate(file, levers_path, model_path, output, mode, estimator, centripet
             raise ConfigError("--centripetal-only and --accel-delay-us apply to --levers; with --model the "
                               "delay comes from the model's [accel_delay] and both terms are removed")
         summary = _model.run(file, model_path, output, mode=mode, estimator=estimator, allow_gaps=allow_gaps,
-                             force=force)
+                             force=force, segment=segment)
         click.echo(f"wrote {summary['path']}: {summary['samples']} samples corrected with {summary['model']}, "
                    f"mode {summary['mode']}, estimator {summary['estimator']}, "
                    f"delay {summary['accel_delay_s'] * 1e6:.1f} us; corrected: "
@@ -63,7 +66,7 @@ def compensate(file, levers_path, model_path, output, mode, estimator, centripet
     summary = _levers.run(file, levers_path, output, mode=mode, estimator=estimator, centripetal=True,
                           tangential=not centripetal_only,
                           accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
-                          allow_gaps=allow_gaps, force=force)
+                          allow_gaps=allow_gaps, force=force, segment=segment)
     click.echo(f"wrote {summary['path']}: {summary['samples']} samples, mode {summary['mode']}, estimator "
                f"{summary['estimator']}, tangential {'on' if summary['tangential'] else 'off'}, "
                f"delay {summary['accel_delay_s'] * 1e6:.1f} us")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 
-from .options import allow_gaps_option, force_option
+from .options import allow_gaps_option, force_option, segment_option
 
 
 @click.command()
@@ -31,10 +31,11 @@ from .options import allow_gaps_option, force_option
 @click.option("--navigation/--no-navigation", default=True, show_default=True,
               help="On records of 10 minutes or more with reference position, also navigate with the start "
                    "and the extended model and report the horizontal error.")
+@segment_option
 @allow_gaps_option
 @force_option
 def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, from_s, to_s, navigation,
-             allow_gaps, force):
+             segment, allow_gaps, force):
     """What the simulation of a record gets wrong: named, fixed, and the gain measured.
 
     Predicts the IMU from the record's /reference motion under the start
@@ -48,7 +49,7 @@ def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz
 
     _, report, doc = run(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
                          model_out=model_out, bandwidth_hz=bandwidth_hz, from_s=from_s, to_s=to_s,
-                         allow_gaps=allow_gaps, force=force, navigation=navigation)
+                         allow_gaps=allow_gaps, force=force, navigation=navigation, segment=segment)
     click.echo(report)
     if json_path:
         click.echo(f"report -> {json_path}")

@@ -6,14 +6,19 @@ import click
 
 from sizefx.constants import BROAD_SITE_DEG
 
-from .options import force_option, parse_vector
+from .options import NO_UNITS_CHECK_HELP, force_option, parse_vector
+
+#: Where --no-units-check leaves its value for :func:`run_import` (click's per-invocation ``meta``).
+NO_UNITS_CHECK = "sizefx.import.no_units_check"
 
 
 def run_import(fmt, source, output, **options):
     """The library's importer, imported when a command runs (not for ``--help``)."""
     from sizefx.importers import run_import as _run
 
-    return _run(fmt, source, output, **options)
+    ctx = click.get_current_context(silent=True)
+    check_units = not (ctx is not None and ctx.meta.get(NO_UNITS_CHECK, False))
+    return _run(fmt, source, output, check_units=check_units, **options)
 
 
 def output_option(f):
@@ -31,8 +36,20 @@ def _report(summary):
              f"{summary['duration_s']:.2f} s; reference rows: {summary['reference_rows']}"
              + (f" ({summary['reference_gaps']} dropouts)" if summary["reference_gaps"] else "")]
     if gaps:
-        lines.append(f"note: {gaps} gaps in the IMU time stamps, the first at t = {summary['first_imu_gap_s']:.6f} s; "
-                     "pass --allow-gaps to the commands that read this file")
+        declared = summary["declared_gaps"]
+        lines.append(f"gaps: {gaps} in the IMU time stamps, {declared} declared in /imu/gaps (the first at t = "
+                     f"{summary['first_imu_gap_s']:.6f} s, the longest {summary['longest_imu_gap_s'] * 1e3:.4g} ms): "
+                     f"{summary['segments']} continuous segments (sizefx inspect lists them); navigate and "
+                     "compensate take --segment K")
+        if declared < gaps:
+            lines.append(f"note: {gaps - declared} gaps only the accelerometer stamps show cannot be declared; "
+                         "pass --allow-gaps to the commands that read this file")
+    units = summary.get("units_check")
+    if units is None:
+        lines.append("units: not checked (--no-units-check)")
+    else:
+        lines.append(f"units: {units['accel']['detail']}")
+        lines.append(f"       {units['gyro']['detail']}")
     for line in lines:
         click.echo(line)
 
@@ -107,7 +124,22 @@ def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, a
 @import_.command()
 @source_argument
 @output_option
+@click.option("--site-deg", metavar="LAT,LON,H",
+              help="Site: latitude [deg], longitude [deg], height [m] (a log has none; navigation needs one).")
 @force_option
-def ulog(source, output, force):
-    """PX4 ULog (sensor_combined, via pyulog): FRD already; dropouts are reported as gaps."""
-    _report(run_import("ulog", source, output, force=force))
+def ulog(source, output, site_deg, force):
+    """PX4 ULog (sensor_combined, via pyulog): FRD already; dropouts are declared as gaps (/imu/gaps)."""
+    _report(run_import("ulog", source, output, force=force,
+                       site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None))
+
+
+def _remember_no_units_check(ctx, param, value):
+    ctx.meta[NO_UNITS_CHECK] = value
+
+
+# Every importer takes --no-units-check. It is added here, once, to each command of the group (a new
+# importer gets it too), and reaches run_import through the context, so the commands keep their own
+# signatures.
+for _command in import_.commands.values():
+    click.option("--no-units-check", is_flag=True, expose_value=False, callback=_remember_no_units_check,
+                 help=NO_UNITS_CHECK_HELP)(_command)

@@ -6,21 +6,24 @@ import json
 
 import click
 
-from .options import allow_gaps_option
+from .options import allow_gaps_option, no_units_check_option
 
 
 @click.command()
 @click.argument("file", type=click.Path(dir_okay=False))
 @allow_gaps_option
+@no_units_check_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON instead of text.")
-def inspect(file, allow_gaps, as_json):
+def inspect(file, allow_gaps, no_units_check, as_json):
     """Validate FILE against sizefx/telemetry/1 and print what it holds.
 
-    Samples, rate [Hz], duration [s], stored units, gaps, reference and, for
+    Samples, rate [Hz], duration [s], stored units and the physics check of
+    them, gaps and the continuous segments between them, reference and, for
     simulated files, the injected effects. Exit code 0 for a valid file, 2
-    (with a one-line reason) otherwise.
+    (with a one-line reason) otherwise: a file whose data look like another
+    unit than they declare is not valid.
     """
     from sizefx.inspect import format_summary, inspect_file
 
-    summary = inspect_file(file, allow_gaps=allow_gaps)
+    summary = inspect_file(file, allow_gaps=allow_gaps, check_units=not no_units_check)
     click.echo(json.dumps(summary, indent=2) if as_json else format_summary(summary))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import Progress, allow_gaps_option, force_option, quiet_option
+from .options import Progress, allow_gaps_option, force_option, quiet_option, segment_option
 
 
 @click.command()
@@ -37,22 +37,24 @@ from .options import Progress, allow_gaps_option, force_option, quiet_option
 @click.option("--chunk-samples", default=1 << 20, show_default=True, type=click.IntRange(min=0),
               help="IMU rows read and processed at a time (memory is bounded by the chunk, results are identical); "
                    "0 reads the whole record into memory.")
+@segment_option
 @allow_gaps_option
 @force_option
 @quiet_option
 def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers, model, mode,
-             chunk_samples, allow_gaps, force, quiet):
+             chunk_samples, segment, allow_gaps, force, quiet):
     """Whole-record strapdown navigation on WGS-84 (Numba).
 
     Prints the errors against /reference when the file has one: final and
     maximum horizontal error [m], drift [nmi/h], final velocity error [m/s],
-    attitude error [deg].
+    attitude error [deg]. A record with IMU gaps is navigated one continuous
+    segment at a time (--segment K): the integration cannot bridge a gap.
     """
     from sizefx.correct import load_model
     from sizefx.navigate import NavConfig, format_summary, run
 
     cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
-                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, levers=levers,
+                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, segment=segment, levers=levers,
                     model=load_model(model) if model else None, mode=mode)
     res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force, chunk_samples=chunk_samples,
               progress=Progress("navigate", quiet))

@@ -48,8 +48,26 @@ def quiet_option(f):
 
 def allow_gaps_option(f):
     return click.option("--allow-gaps", is_flag=True,
-                        help="Accept time steps longer than 1.5 sample periods (they are reported) "
-                             "instead of refusing the file.")(f)
+                        help="Accept IMU time steps longer than 1.5 sample periods that /imu/gaps does not "
+                             "declare (they are reported) instead of refusing the file; declared gaps need "
+                             "no option.")(f)
+
+
+#: Help of --no-units-check (import and inspect), in one place.
+NO_UNITS_CHECK_HELP = ("Skip the physics check of the units (specific force at rest against gravity, gyros against "
+                       "the reference attitude or the tilt the accelerometers see), which refuses data that look like "
+                       "deg/s labelled rad/s or g labelled m/s^2. For a record you know is right that the check "
+                       "misjudges (an IMU on a centrifuge, in free fall or in orbit); say so when you share the file.")
+
+
+def no_units_check_option(f):
+    return click.option("--no-units-check", is_flag=True, help=NO_UNITS_CHECK_HELP)(f)
+
+
+def segment_option(f):
+    return click.option("--segment", type=click.IntRange(min=1), metavar="K",
+                        help="Process only continuous segment K of a record with IMU gaps (1-based, in time "
+                             "order, as sizefx inspect lists them).")(f)
 
 
 class Progress:

@@ -25,7 +25,7 @@ from .errors import ConfigError
 from .kernels.sizeeffect import compensate_increments, compensate_increments_edges, compensate_rates
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
-from .telemetry import Telemetry, read_telemetry, write_telemetry
+from .telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
 
 __all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "compensate", "compensate_arrays_increments", "run"]
 
@@ -123,12 +123,39 @@ def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator
     return new
 
 
+#: Why compensation refuses a record with IMU gaps unless told to bridge them (--allow-gaps).
+GAPS_WHY = ("estimates angular acceleration and increment edges from neighbouring samples, which a gap "
+            "separates")
+
+
+def read_continuous(path, *, allow_gaps: bool, segment: int | None, command: str) -> Telemetry:
+    """A record for a command that works on neighbouring samples: segment ``segment`` of ``path``, or
+    the whole record if it has no IMU gaps, or (``allow_gaps``) across its gaps; else a one-line refusal
+    that offers ``--segment``. Shared by ``compensate --levers`` and ``compensate --model``."""
+    tel = read_telemetry(path, allow_gaps=allow_gaps, segment=segment)
+    if not allow_gaps:
+        refuse_gaps(path, tel.gaps, command=command, why=GAPS_WHY, bridge=True)
+    return tel
+
+
+def segment_note(tel: Telemetry) -> dict:
+    """What ``/source`` records of the segment a record was cut to (empty for a whole record)."""
+    seg = tel.segment
+    if seg is None:
+        return {}
+    return {"segment": seg.number, "segment_of": seg.of, "segment_rows": [seg.first_row, seg.stop_row],
+            "segment_time_s": [seg.start_s, seg.end_s]}
+
+
 def run(path, levers_path, out, *, mode="triad", estimator=None, centripetal=True, tangential=True,
-        accel_delay_s=None, allow_gaps=False, force=False) -> dict:
+        accel_delay_s=None, allow_gaps=False, force=False, segment: int | None = None) -> dict:
     """Entry point of ``sizefx compensate``."""
-    tel = read_telemetry(path, allow_gaps=allow_gaps)
+    tel = read_continuous(path, allow_gaps=allow_gaps, segment=segment, command="compensate")
     levers = read_levers(levers_path)
     new = compensate(tel, levers, mode, estimator=estimator, centripetal=centripetal, tangential=tangential,
                      accel_delay_s=accel_delay_s)
+    if tel.segment is not None:
+        applied = {**json.loads(new.source["compensation_json"]), **segment_note(tel)}
+        new.source["compensation_json"] = json.dumps(applied)
     write_telemetry(out, new, inputs=[path, levers_path], force=force)
     return {"path": str(out), "samples": new.n_samples, **json.loads(new.source["compensation_json"])}

@@ -63,11 +63,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from .compensate import compensate, sync_accelerometers
+from .compensate import compensate, read_continuous, segment_note, sync_accelerometers
 from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
 from .levers import Levers
-from .telemetry import Telemetry, read_telemetry, write_telemetry
+from .telemetry import Telemetry, write_telemetry
 
 __all__ = ["CORRECTED_SECTIONS", "IGNORED_SECTIONS", "correct_imu", "load_model", "run"]
 
@@ -201,11 +201,14 @@ def correct_imu(tel: Telemetry, fx: EffectModel, *, mode: str = "center", estima
 
 
 def run(path, model_path, out, *, mode: str = "triad", estimator: str | None = None, allow_gaps: bool = False,
-        force: bool = False) -> dict:
+        force: bool = False, segment: int | None = None) -> dict:
     """Entry point of ``sizefx compensate --model``: read, correct, write ``out`` (same form)."""
-    tel = read_telemetry(path, allow_gaps=allow_gaps)
+    tel = read_continuous(path, allow_gaps=allow_gaps, segment=segment, command="compensate")
     fx = load_model(model_path)
     new = correct_imu(tel, fx, mode=mode, estimator=estimator)
+    if tel.segment is not None:
+        new.source["correction_json"] = json.dumps({**json.loads(new.source["correction_json"]),
+                                                    **segment_note(tel)})
     write_telemetry(out, new, inputs=[path, model_path], force=force)
     applied = json.loads(new.source["correction_json"])
     return {"path": str(out), "samples": new.n_samples,

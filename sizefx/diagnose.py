@@ -1261,6 +1261,8 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
     """
     if tel.reference is None or not tel.reference.has_position or tel.duration_s < NAVIGATION_MIN_S:
         return None
+    if any(g.dataset.startswith("/imu") for g in tel.gaps):
+        return None  # navigation cannot bridge an IMU gap; diagnose --segment K navigates one segment
     import tempfile
 
     from .navigate import NavConfig, navigate
@@ -1304,7 +1306,7 @@ def crop(tel: Telemetry, from_s: float | None, to_s: float | None) -> Telemetry:
 
 def run(path, *, nominal: str | None = None, model: str | None = None, json_path=None, plots=None,
         model_out=None, bandwidth_hz: float | None = None, from_s: float | None = None, to_s: float | None = None,
-        allow_gaps: bool = False, force: bool = False, navigation: bool = True):
+        allow_gaps: bool = False, force: bool = False, navigation: bool = True, segment: int | None = None):
     """Entry point of ``sizefx diagnose``: returns ``(Diagnosis, report text, json document)``."""
     inputs = [path] + ([model] if model else [])
     if model_out is None:
@@ -1316,8 +1318,11 @@ def run(path, *, nominal: str | None = None, model: str | None = None, json_path
         check_output_path(out, inputs=inputs, force=force)
     if plots and any(Path(plots).resolve() == Path(p).resolve() for p in inputs):
         raise ConfigError(f"{plots}: --plots names an input file; give a folder")
+    if segment is not None and (from_s is not None or to_s is not None):
+        raise ConfigError(f"{path}: --segment {segment} and --from-s/--to-s both choose the span; give one "
+                          "(sizefx inspect lists each segment's times)")
     theta0, start = start_model(nominal, model)
-    tel = read_telemetry(path, allow_gaps=allow_gaps)
+    tel = read_telemetry(path, allow_gaps=allow_gaps, segment=segment)
     if tel.reference is None:
         raise DiagnoseError(f"{path}: diagnose needs /reference motion (attitude at least) to predict the IMU "
                             "from; record it, or import it with sizefx import")

@@ -13,6 +13,7 @@ __all__ = [
     "ConfigError",
     "OutputError",
     "SourceError",
+    "UnitsError",
 ]
 
 
@@ -57,3 +58,23 @@ class SourceError(SizefxError):
         self.path = str(path)
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
+
+
+class UnitsError(SizefxError):
+    """Data whose magnitudes contradict their declared units (:mod:`sizefx.sanity`).
+
+    Parameters
+    ----------
+    path : str
+        The file (the source of an import, or the telemetry file).
+    where : str
+        The dataset or columns concerned (``"/imu/gyro"``, ``"gyro columns gx, gy, gz"``).
+    problem : str
+        The figures, the unit the data look like, and how to fix it.
+    """
+
+    def __init__(self, path, where: str, problem: str):
+        self.path = str(path)
+        self.where = where
+        self.problem = problem
+        super().__init__(f"{self.path}: {where}: {problem}")

@@ -7,10 +7,13 @@ from pathlib import Path
 import numpy as np
 
 from .constants import ARCSEC, MICRO_G, PPM
-from .schema import TELEMETRY_SCHEMA
-from .telemetry import Telemetry, read_telemetry
+from .schema import TELEMETRY_SCHEMA, allowed_units
+from .telemetry import Telemetry, imu_segments, read_telemetry
 
 __all__ = ["summarize", "format_summary", "inspect_file"]
+
+#: Segments listed one per line in the text summary (all of them are in --json).
+SEGMENTS_SHOWN = 12
 
 
 def _effects_found(sim: dict) -> list[str]:
@@ -75,8 +78,12 @@ def summarize(tel: Telemetry) -> dict:
         "stored_units": tel.stored_units,
         "stored_dtypes": tel.stored_dtypes,
         "accel_time": tel.accel_time_s is not None,
-        "gaps": [{"dataset": g.dataset, "row": g.index, "time_s": g.time_s, "duration_s": g.duration_s}
-                 for g in tel.gaps],
+        "gaps": [{"dataset": g.dataset, "row": g.index, "time_s": g.time_s, "duration_s": g.duration_s,
+                  "declared": g.declared} for g in tel.gaps],
+        "segments": [{"number": seg.number, "first_row": seg.first_row, "samples": seg.samples,
+                      "start_s": seg.start_s, "end_s": seg.end_s}
+                     for seg in imu_segments(tel.n_samples, tel.gaps, tel.time_s.__getitem__)],
+        "units_check": None,
         "site": None if tel.site is None else {
             "latitude_deg": float(np.degrees(tel.site.lat_rad)), "longitude_deg": float(np.degrees(tel.site.lon_rad)),
             "height_m": float(tel.site.height_m)},
@@ -102,12 +109,36 @@ def format_summary(s: dict) -> str:
              "  units     " + ", ".join(f"{k} [{v}] {s['stored_dtypes'][k]}" for k, v in s["stored_units"].items())]
     if s["accel_time"]:
         lines.append("  accel     separate time stamps (/imu/accel_time)")
-    if s["gaps"]:
-        g = s["gaps"][0]
-        lines.append(f"  gaps      {len(s['gaps'])}, the first in {g['dataset']} at row {g['row']} "
-                     f"(t = {g['time_s']:.6f} s, {g['duration_s'] * 1e3:.4g} ms)")
+    units = s.get("units_check")
+    if units is None:
+        lines.append("  checked   units not checked (--no-units-check)")
+    else:
+        lines.append(f"  checked   {units['accel']['detail']}")
+        lines.append(f"            {units['gyro']['detail']}")
+    imu = [g for g in s["gaps"] if g["dataset"].startswith("/imu")]
+    ref = [g for g in s["gaps"] if not g["dataset"].startswith("/imu")]
+    if imu:
+        declared = sum(g["declared"] for g in imu)
+        state = ("declared in /imu/gaps" if declared == len(imu) else
+                 "undeclared, accepted with --allow-gaps" if declared == 0 else
+                 f"{declared} declared in /imu/gaps, {len(imu) - declared} accepted with --allow-gaps")
+        first = imu[0]
+        big = max(imu, key=lambda g: g["duration_s"])
+        lines.append(f"  gaps      {len(imu)} in the IMU time stamps ({state}); the first at row {first['row']} "
+                     f"(t = {first['time_s']:.6f} s, {first['duration_s'] * 1e3:.4g} ms), the longest at row "
+                     f"{big['row']} (t = {big['time_s']:.6f} s, {big['duration_s'] * 1e3:.4g} ms)")
+        segs = s["segments"]
+        lines.append(f"  segments  {len(segs)} continuous (--segment K of navigate, compensate, diagnose):")
+        for seg in segs[:SEGMENTS_SHOWN]:
+            last = seg["first_row"] + seg["samples"] - 1
+            lines.append(f"    {seg['number']:4d}  rows {seg['first_row']:>9d}..{last:<9d} {seg['samples']:9d} sample{'s' if seg['samples'] != 1 else ' '}  "
+                         f"t = {seg['start_s']:.6f} .. {seg['end_s']:.6f} s ({seg['end_s'] - seg['start_s']:.3f} s)")
+        if len(segs) > SEGMENTS_SHOWN:
+            lines.append(f"          ... and {len(segs) - SEGMENTS_SHOWN} more (--json lists them all)")
     else:
         lines.append("  gaps      none")
+    if ref:
+        lines.append(f"  dropouts  {len(ref)} in {ref[0]['dataset']} (accepted: the reference is only compared)")
     if s["site"]:
         st = s["site"]
         lines.append(f"  site      {st['latitude_deg']:.6f} deg N, {st['longitude_deg']:.6f} deg E, {st['height_m']:.1f} m")
@@ -130,5 +161,28 @@ def format_summary(s: dict) -> str:
     return "\n".join(lines)
 
 
-def inspect_file(path, *, allow_gaps: bool = False) -> dict:
-    return summarize(read_telemetry(Path(path), allow_gaps=allow_gaps))
+def _units_fix(check) -> str:
+    """How to correct a file whose data look like another unit (for the one-line error)."""
+    quantity = {"gyro": ("angular_rate", "angle"), "accel": ("acceleration", "velocity")}[check.what]
+    from .sanity import UNITS_OUTSIDE_CONTRACT
+
+    if any(check.looks_like in allowed_units(q) for q in quantity):
+        return f"set its units attribute to '{check.looks_like}'"
+    for q in quantity:
+        if check.looks_like in UNITS_OUTSIDE_CONTRACT.get(q, {}):
+            return f"multiply {check.dataset} by {UNITS_OUTSIDE_CONTRACT[q][check.looks_like]:g} to make it {check.declared}"
+    return f"check the units attribute of {check.dataset}"
+
+
+def inspect_file(path, *, allow_gaps: bool = False, check_units: bool = True) -> dict:
+    """Validate ``path`` and summarise it; with ``check_units`` (default) also check its units against
+    physics (:mod:`sizefx.sanity`) and refuse data that look like another unit."""
+    from .sanity import check_units as units_of, refuse_wrong_units
+
+    tel = read_telemetry(Path(path), allow_gaps=allow_gaps, check_plausibility=check_units)
+    summary = summarize(tel)
+    if check_units:
+        report = units_of(tel)
+        refuse_wrong_units(report, path, fix=_units_fix)
+        summary["units_check"] = report.as_dict()
+    return summary

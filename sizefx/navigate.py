@@ -53,7 +53,7 @@ from .rotation import (
     quat_to_mat,
     rotvec_to_mat,
 )
-from .telemetry import Telemetry, read_telemetry
+from .telemetry import Telemetry, read_telemetry, refuse_gaps
 
 __all__ = ["NavConfig", "NavResult", "navigate", "run", "coarse_alignment", "increments_of", "METRES_PER_NMI"]
 
@@ -61,6 +61,14 @@ METRES_PER_NMI = 1852.0
 VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
 #: A reference whose position spans less than this [m] is a stationary site: vertical channel held.
 STATIONARY_SPAN_M = 1.0
+#: Navigation integrates on the uniform grid ``t_first + k dt``; every stamp must lie within this many
+#: periods of its grid point. Then each sample is unambiguously the k-th, and treating it as on the grid
+#: misplaces it by at most this fraction of a period. Logged stamps jitter: PX4's sensor_combined has
+#: steps of 3.94 to 4.84 ms around 4.02 ms and leaves its grid by up to 0.40 periods; a rate change or a
+#: lost sample leaves it by more, and grows.
+GRID_TOLERANCE = 0.5
+#: Why navigation refuses a record with IMU gaps (:func:`sizefx.telemetry.refuse_gaps`).
+GAPS_WHY = "integrates every sample and cannot bridge a gap (--allow-gaps does not help here)"
 
 
 @dataclass
@@ -71,6 +79,8 @@ class NavConfig:
     align_s: float = 300.0  #: alignment window [s] when init is align
     output_rate_hz: float | None = 10.0  #: rate of the written solution (None: every interval)
     allow_gaps: bool = False
+    #: navigate only this continuous segment (1-based, between IMU gaps, as sizefx inspect numbers them)
+    segment: int | None = None
     levers: str | None = None  #: sizefx/levers/1 file: compensate the size effect before navigating
     #: effect model (sizefx.correct.load_model): correct the IMU errors and the size effect before
     #: navigating (sizefx.correct.correct_imu); not together with ``levers``
@@ -106,20 +116,28 @@ def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
     return (float(t_last) - float(t_first)) / (n - 1)
 
 
-def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0):
+def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None,
+                  row0: int = 0):
     """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form.
 
     ``dt``: the record's period when ``tel`` is a chunk of it (default: ``tel``'s own span);
-    ``first_row``: the absolute row of ``tel``'s first sample, for messages.
+    ``first_row``: the row of ``tel``'s first sample counted from the record's first, whose time is
+    ``t_first`` (default: ``tel``'s own first); ``row0``: the file row of the record's first sample
+    (a segment's), for messages. The stamps must lie on the uniform grid within
+    :data:`GRID_TOLERANCE` periods.
     """
     if dt is None:
         dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
-    steps = np.diff(tel.time_s)
-    if steps.size and np.abs(steps - dt).max() > 1e-3 * dt:
-        worst = int(np.argmax(np.abs(steps - dt)))
-        raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform (step {steps[worst]:.6g} s at row "
-                                                    f"{first_row + worst + 1}, nominal {dt:.6g} s); navigation "
-                                                    "needs a uniform rate")
+    if t_first is None:
+        t_first = float(tel.time_s[0]) - first_row * dt
+    off_grid = (tel.time_s - (t_first + (first_row + np.arange(tel.n_samples)) * dt)) / dt
+    worst = int(np.argmax(np.abs(off_grid)))
+    if abs(off_grid[worst]) > GRID_TOLERANCE:
+        raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
+                                                    f"is {off_grid[worst]:+.3g} periods off the uniform grid of "
+                                                    f"{dt:.6g} s; navigation integrates on that grid and accepts "
+                                                    f"jitter up to {GRID_TOLERANCE} period (resample the record, "
+                                                    "or cut it where the rate changes)")
     if tel.form == "increments":
         return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt
     n = tel.n_samples
@@ -367,11 +385,21 @@ def _summary(tel: Telemetry, res: NavResult, samples: int) -> dict:
     return out
 
 
+def _segment_config(seg) -> dict:
+    """What the configuration records of the segment navigated."""
+    return {"segment_of": seg.of, "segment_rows": [seg.first_row, seg.stop_row],
+            "segment_time_s": [seg.start_s, seg.end_s]}
+
+
 def format_summary(path, res: NavResult) -> str:
     s, c = res.summary, res.config
     lines = [f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / 3600:.3f} h), "
-             f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s",
-             f"  initial state from {c['init']}; vertical channel {c['vertical']}"]
+             f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s"]
+    if c.get("segment"):
+        a, b = c["segment_rows"]
+        t0, t1 = c["segment_time_s"]
+        lines.append(f"  segment {c['segment']} of {c['segment_of']}: rows {a}..{b - 1}, t = {t0:.6f} .. {t1:.6f} s")
+    lines.append(f"  initial state from {c['init']}; vertical channel {c['vertical']}")
     if c.get("correction"):
         corr = c["correction"]
         lines.append(f"  IMU corrected with the effect model {corr['model']} ({corr['mode']}): "
@@ -513,10 +541,11 @@ def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot
         if out:
             check_output_path(out, inputs=[path], force=force)  # before the work: folder exists, no silent replace
     if chunk_samples == 0:
-        tel = read_telemetry(path, allow_gaps=cfg.allow_gaps)
-        if tel.gaps and any(g.dataset.startswith("/imu") for g in tel.gaps):
-            raise TelemetryError(path, "/imu/time", "has gaps; navigation needs continuous samples (cut the record)")
+        tel = read_telemetry(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment)
+        refuse_gaps(path, tel.gaps, command="navigate", why=GAPS_WHY, bridge=False)
         res = navigate(tel, cfg)
+        if tel.segment is not None:
+            res.config.update(_segment_config(tel.segment))
     else:
         writer = NavigationWriter(output, input_file=path, force=force) if output else None
         try:

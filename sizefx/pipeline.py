@@ -42,6 +42,7 @@ from .errors import ConfigError, TelemetryError
 from .kernels.strapdown import coning_coefficients, pack_state
 from .levers import read_levers
 from .navigate import (
+    GAPS_WHY,
     METRES_PER_NMI,
     VERTICAL_MODES,
     NavConfig,
@@ -51,10 +52,11 @@ from .navigate import (
     _run_kernel,
     increments_of,
     initial_state,
+    _segment_config,
     uniform_period_s,
 )
 from .rotation import quat_angle_between
-from .telemetry import Telemetry, TelemetryStream
+from .telemetry import Telemetry, TelemetryStream, refuse_gaps
 
 __all__ = ["CHUNK_SAMPLES", "MARGIN", "navigate_file"]
 
@@ -73,6 +75,7 @@ class _Source:
         self.st, self.cfg, self.levers = st, cfg, levers
         first, last = st.read(0, 1)[0][0], st.read(st.n_samples - 1, st.n_samples)[0][0]
         self.dt = uniform_period_s(first, last, st.n_samples)  # as navigate.increments_of
+        self.t_first = float(first)  # the grid every chunk's stamps are checked against
         self.rates = st.form == "rates"
         self.n_increments = st.n_samples - 1 if self.rates else st.n_samples
         self.correction = None  #: what the model corrected (from the first chunk), for the configuration
@@ -95,7 +98,8 @@ class _Source:
                 del self.correction["effects"]  # in the model file; the configuration names it
         else:
             tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
-        t_end, dtheta, dvel, _ = increments_of(tel, dt=dt, first_row=lo)
+        t_end, dtheta, dvel, _ = increments_of(tel, dt=dt, first_row=lo, t_first=self.t_first,
+                                               row0=st.first_row)
         if self.levers:
             dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
         keep = slice(j0 - lo, j1 - lo)
@@ -178,7 +182,9 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
     levers = read_levers(cfg.levers) if cfg.levers else None
     n_sub = int(cfg.subsamples)
     coning_coefficients(n_sub)  # validates
-    with TelemetryStream(path, allow_gaps=cfg.allow_gaps) as st:
+    with TelemetryStream(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment) as st:
+        # before any work: the stream found every gap at open (a segment has none)
+        refuse_gaps(st.path, st.gaps, command="navigate", why=GAPS_WHY, bridge=False)
         src = _Source(st, cfg, levers)
         dt = src.dt
         n_steps = src.n_increments // n_sub
@@ -255,7 +261,8 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
               "input_form": form,
               "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / T,
               "dropped_trailing_samples": int(src.n_increments - n_steps * n_sub), "streamed": True,
-              "chunk_samples": chunk, "output_stride": stride, **details}
+              "chunk_samples": chunk, "output_stride": stride, **details,
+              **(_segment_config(st.segment) if st.segment is not None else {})}
     res = NavResult(*(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")), config, {})
     duration = last[0] - t_first_nav + T
     summary = {"samples": int(n_steps * n_sub), "duration_s": duration, "final_horizontal_error_m": None,

@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 
 from .constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
-from .errors import TelemetryError
+from .errors import ConfigError, TelemetryError
 from .fileio import atomic_output
 from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
 
@@ -33,11 +33,28 @@ __all__ = [
     "TelemetryWriter",
     "write_telemetry",
     "Gap",
+    "Segment",
+    "nominal_period_s",
+    "find_imu_gaps",
+    "imu_segments",
+    "refuse_gaps",
 ]
 
 #: HDF5 chunk length (rows) of written datasets: 2^16 rows of 3 float64 is
 #: 1.5 MiB, large enough for fast sequential reads and small enough to stream.
 WRITE_CHUNK_ROWS = 1 << 16
+
+#: The nominal sample period is the median step of the first this many rows: one definition for a
+#: whole read and a streamed one (which must know it before it has read the record), and for the
+#: importers. 2^16 steps (41 s at 1600 Hz) make the median as good as the whole record's.
+NOMINAL_ROWS = 1 << 16
+
+#: A declared gap matches one in the data when its time and its length agree within this
+#: fraction of the nominal period (the declaration cannot then name the neighbouring step).
+GAP_MATCH_TOLERANCE = 0.5
+
+#: Rows read at a time when a stream scans /imu/time for gaps at open (8 MiB of float64).
+SCAN_ROWS = 1 << 20
 
 
 @dataclass
@@ -67,12 +84,126 @@ class Reference:
 
 @dataclass
 class Gap:
-    """A time step longer than ``GAP_FACTOR`` nominal periods."""
+    """A time step longer than ``GAP_FACTOR`` nominal periods.
+
+    IMU gaps are counted once per row: a dropout that both ``/imu/time`` and
+    ``/imu/accel_time`` show is one gap (named after ``/imu/time``).
+    """
 
     dataset: str
     index: int  #: sample k: the gap lies between time[k-1] and time[k]
     time_s: float  #: time[k-1]
     duration_s: float  #: time[k] - time[k-1]
+    declared: bool = False  #: listed in /imu/gaps (a known property of the record)
+
+
+@dataclass
+class Segment:
+    """A continuous piece of an IMU record between gaps: rows ``[first_row, stop_row)``."""
+
+    number: int  #: 1-based, in time order (``--segment K``)
+    first_row: int
+    stop_row: int
+    start_s: float  #: time of the first row
+    end_s: float  #: time of the last row
+    of: int  #: how many segments the record has
+
+    @property
+    def samples(self) -> int:
+        return self.stop_row - self.first_row
+
+
+def _count(n: int, noun: str) -> str:
+    """``"1 gap"``, ``"8 gaps"``."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def nominal_period_s(time_s) -> float:
+    """The nominal sample period [s]: the median step of the first :data:`NOMINAL_ROWS` rows."""
+    return float(np.median(np.diff(np.asarray(time_s[: NOMINAL_ROWS + 1], dtype=float))))
+
+
+def _gap_rows(time_s: np.ndarray, nominal_s: float) -> np.ndarray:
+    """Rows k of ``time_s`` with ``time[k] - time[k-1] > GAP_FACTOR * nominal``: the one definition of a gap."""
+    return np.flatnonzero(np.diff(time_s) > GAP_FACTOR * nominal_s) + 1
+
+
+def find_imu_gaps(time_s, accel_time_s=None, *, declared: bool = False) -> list[Gap]:
+    """The IMU gaps of a record in memory, one per row, as the reader counts them.
+
+    ``declared``: mark the gaps of ``/imu/time`` as declared (an importer that writes them to
+    ``/imu/gaps``). A gap only the accelerometer stamps show cannot be declared (``/imu/gaps``
+    lists ``/imu/time`` steps) and stays undeclared.
+    """
+    time_s = np.asarray(time_s, dtype=float)
+    if time_s.shape[0] < 2:
+        return []  # the reader refuses such a record, with its own message
+    nominal = nominal_period_s(time_s)
+    out = {}
+    for name, t in (("/imu/time", time_s), ("/imu/accel_time", accel_time_s)):
+        if t is None:
+            continue
+        t = np.asarray(t, dtype=float)
+        for k in _gap_rows(t, nominal):
+            if int(k) not in out:
+                out[int(k)] = Gap(name, int(k), float(t[k - 1]), float(t[k] - t[k - 1]),
+                                  declared=declared and name == "/imu/time")
+    return [out[k] for k in sorted(out)]
+
+
+def _segment_bounds(n_samples: int, gaps) -> list[tuple[int, int]]:
+    cuts = sorted({g.index for g in gaps if g.dataset.startswith("/imu")})
+    return list(zip([0] + cuts, cuts + [n_samples]))
+
+
+def imu_segments(n_samples: int, gaps, time_at) -> list[Segment]:
+    """The continuous segments an IMU record of ``n_samples`` rows is cut into by its ``gaps``.
+
+    ``time_at(row)`` returns the time of a row (an array lookup, or a dataset read).
+    """
+    bounds = _segment_bounds(n_samples, gaps)
+    return [Segment(k + 1, a, b, float(time_at(a)), float(time_at(b - 1)), len(bounds))
+            for k, (a, b) in enumerate(bounds)]
+
+
+def _choose_segment(path, n_samples: int, gaps, number: int, time_at) -> Segment:
+    """Segment ``number`` (1-based), or a one-line error naming the option and the file.
+
+    Only the chosen segment's two end rows are looked up (a stream reads them from the file).
+    """
+    bounds = _segment_bounds(n_samples, gaps)
+    n = len(bounds)
+    if not 1 <= number <= n:
+        listing = "it has no gaps: one segment, the whole record" if n == 1 else \
+            f"its {n} continuous segments are numbered 1..{n} (sizefx inspect lists them)"
+        raise ConfigError(f"--segment {number}: {path}: {listing}; give one of them")
+    a, b = bounds[number - 1]
+    seg = Segment(number, a, b, float(time_at(a)), float(time_at(b - 1)), n)
+    if seg.samples < 2:
+        raise ConfigError(f"--segment {number}: segment {number} of {path} holds {seg.samples} sample (row "
+                          f"{seg.first_row}, t = {seg.start_s:.6f} s) between two gaps; choose a longer one "
+                          "(sizefx inspect lists them)")
+    return seg
+
+
+def refuse_gaps(path, gaps, *, command: str, why: str, bridge: bool):
+    """One line for a command that cannot work across an IMU gap: what it cannot do, and the offer.
+
+    ``bridge``: say that ``--allow-gaps`` would process the record across its gaps anyway.
+    Returns quietly when ``gaps`` holds no IMU gap.
+    """
+    imu = [g for g in gaps if g.dataset.startswith("/imu")]
+    if not imu:
+        return
+    declared = sum(g.declared for g in imu)
+    what = "declared in /imu/gaps" if declared == len(imu) else \
+        ("undeclared" if declared == 0 else f"{declared} of them declared in /imu/gaps")
+    first = imu[0]
+    raise TelemetryError(path, first.dataset,
+                         f"has {_count(len(imu), 'gap')} ({what}; the first at row {first.index}, t = {first.time_s:.6f} s); "
+                         f"{command} {why}: process one continuous segment with --segment K (1..{len(imu) + 1}, "
+                         "as sizefx inspect numbers them)" + (", or pass --allow-gaps to bridge the gaps"
+                                                              if bridge else ""))
 
 
 @dataclass
@@ -101,6 +232,8 @@ class Telemetry:
     stored_units: dict = field(default_factory=dict)
     stored_dtypes: dict = field(default_factory=dict)
     gaps: list = field(default_factory=list)
+    #: the continuous segment this record holds (read with ``segment=K``), or None: the whole record
+    segment: Segment | None = None
 
     @property
     def n_samples(self) -> int:
@@ -297,35 +430,108 @@ class _Reader:
         self.dtypes[name] = dset.dtype.name
         return dset, factor
 
-    def check_time(self, name: str, t: np.ndarray):
-        if t.shape[0] < 2:
+    def check_time(self, name: str, t: np.ndarray, first_row: int = 0, nominal: float | None = None):
+        """Check time stamps ``t`` (rows ``first_row ...`` of dataset ``name``); return ``(nominal, gaps)``.
+
+        Strictly increasing, and (from row 0) at a plausible rate. ``nominal``: the record's nominal
+        period when ``t`` is a later chunk (default: :func:`nominal_period_s` of ``t``). Gaps of a
+        dataset whose policy is "report" are kept in ``self.gaps``; IMU gaps are returned to be
+        settled together (:meth:`settle_imu_gaps`).
+        """
+        if first_row == 0 and t.shape[0] < 2:
             self.fail(name, f"holds {t.shape[0]} sample; at least 2 are needed to know the sample rate")
         dt = np.diff(t)
         dup = np.flatnonzero(dt == 0.0)
         if dup.size:
             k = int(dup[0]) + 1
-            self.fail(name, f"has {dup.size} duplicated time stamps, the first at row {k} (t = {t[k]:.6f} s); "
-                            "drop the repeated samples")
+            self.fail(name, f"has {dup.size} duplicated time stamps, the first at row {k + first_row} "
+                            f"(t = {t[k]:.6f} s); drop the repeated samples")
         back = np.flatnonzero(dt < 0.0)
         if back.size:
             k = int(back[0]) + 1
-            self.fail(name, f"is not strictly increasing: time goes back at row {k} "
+            self.fail(name, f"is not strictly increasing: time goes back at row {k + first_row} "
                             f"({t[k - 1]:.6f} s -> {t[k]:.6f} s), {back.size} times in all; sort or split the record")
-        nominal = float(np.median(dt))
-        lo, hi = self.schema["plausibility"]["sample_rate_hz"]
-        rate_check = self.schema["datasets"][name]["rate_check"]
-        if self.check_plausibility and rate_check and not lo <= 1.0 / nominal <= hi:
-            self.fail(name, f"median time step is {nominal:g} s ({1.0 / nominal:g} Hz), outside "
-                            f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
-        gap_idx = np.flatnonzero(dt > GAP_FACTOR * nominal)
-        if gap_idx.size:
-            gaps = [Gap(name, int(k) + 1, float(t[k]), float(dt[k])) for k in gap_idx]
-            if self.schema["datasets"][name]["gaps"] == "refuse" and not self.allow_gaps:
-                g = gaps[0]
-                self.fail(name, f"has {len(gaps)} gaps longer than {GAP_FACTOR} sample periods "
-                                f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
-                                f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway")
+        spec = self.schema["datasets"][name]
+        if first_row == 0:
+            own = nominal_period_s(t)
+            lo, hi = self.schema["plausibility"]["sample_rate_hz"]
+            if self.check_plausibility and spec["rate_check"] and not lo <= 1.0 / own <= hi:
+                self.fail(name, f"median time step is {own:g} s ({1.0 / own:g} Hz), outside "
+                                f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
+            nominal = own if nominal is None else nominal
+        gaps = [Gap(name, int(k) + first_row, float(t[k - 1]), float(t[k] - t[k - 1])) for k in _gap_rows(t, nominal)]
+        if spec["gaps"] == "report":
             self.gaps.extend(gaps)
+        return nominal, gaps
+
+    def declared_gaps(self, n_samples: int):
+        """``/imu/gaps`` as ``[G, 2]`` seconds (time before the gap, length), or None when absent."""
+        handle = self.handle("/imu/gaps", required=False)
+        if handle is None:
+            return None
+        rows = handle[0].shape[0]
+        if rows == 0:
+            return np.zeros((0, 2))
+        if rows > n_samples - 1:
+            self.fail("/imu/gaps", f"declares {rows} gaps in a record of {n_samples} samples; there can be at "
+                                   f"most {n_samples - 1} (one per step)")
+        return self.rows("/imu/gaps", handle, slice(None))
+
+    def settle_imu_gaps(self, found: list, nominal: float, declared):
+        """Count the IMU gaps once per row, match them with ``/imu/gaps``, refuse the undeclared ones
+        (unless gaps are allowed), and keep them (first) in ``self.gaps``.
+
+        ``found``: the gaps of ``/imu/time``, then those of ``/imu/accel_time`` (a dropout both show
+        is one gap, named after ``/imu/time``). A declaration that does not match ``/imu/time``
+        exactly is an error even with ``--allow-gaps``: the file contradicts itself.
+        """
+        by_row: dict[int, Gap] = {}
+        for g in found:
+            by_row.setdefault(g.index, g)
+        gaps = [by_row[k] for k in sorted(by_row)]
+        if declared is not None:
+            self.match_declared_gaps(gaps, declared, nominal)
+        loose = [g for g in gaps if not g.declared]
+        if loose and not self.allow_gaps:
+            g = loose[0]
+            noun = "gap" if len(loose) == 1 else "gaps"
+            which = f"undeclared {noun}" if declared is None else f"{noun} that /imu/gaps does not declare"
+            self.fail(g.dataset, f"has {len(loose)} {which} longer than {GAP_FACTOR} sample periods "
+                                 f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
+                                 f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway")
+        self.gaps[:0] = gaps
+
+    def match_declared_gaps(self, gaps: list, declared: np.ndarray, nominal: float):
+        """Mark the gaps ``/imu/gaps`` declares; fail, naming both, where it and ``/imu/time`` differ."""
+        tol = GAP_MATCH_TOLERANCE * nominal
+        on_time = [g for g in gaps if g.dataset == "/imu/time"]
+        t_found = np.array([g.time_s for g in on_time])
+        fix = ("re-import the source (sizefx import writes /imu/gaps from the data it finds), or delete /imu/gaps "
+               "and pass --allow-gaps")
+        for i, (t_d, length_d) in enumerate(declared):
+            said = f"row {i} declares a gap after t = {t_d:.6f} s lasting {length_d * 1e3:.4g} ms"
+            if not length_d > 0.0:
+                self.fail("/imu/gaps", f"{said}; gap lengths are positive (columns: time before the gap [s], "
+                                       "length [s])")
+            if i and not t_d > declared[i - 1, 0]:
+                self.fail("/imu/gaps", f"{said}, not after row {i - 1} (t = {declared[i - 1, 0]:.6f} s); "
+                                       "rows are in time order")
+            k = int(np.argmin(np.abs(t_found - t_d))) if t_found.size else -1
+            if k < 0 or abs(t_found[k] - t_d) > tol:
+                self.fail("/imu/gaps", f"{said}, but /imu/time has no gap there (its gaps: {t_found.size}); {fix}")
+            g = on_time[k]
+            if g.declared:
+                self.fail("/imu/gaps", f"{said}, the same gap as row {i - 1}; declare each gap once")
+            if abs(g.duration_s - length_d) > tol:
+                self.fail("/imu/gaps", f"{said}, but the gap of /imu/time there (row {g.index}) lasts "
+                                       f"{g.duration_s * 1e3:.4g} ms; {fix}")
+            g.declared = True
+        missing = [g for g in on_time if not g.declared]
+        if missing:
+            g = missing[0]
+            self.fail("/imu/gaps", f"declares {declared.shape[0]} gaps but /imu/time has {len(on_time)}: the gap "
+                                   f"at row {g.index} (t = {g.time_s:.6f} s, {g.duration_s * 1e3:.4g} ms) is not "
+                                   f"declared; {fix}")
 
     def check_unit_quaternions(self, name: str, q: np.ndarray):
         err = np.abs(np.linalg.norm(q, axis=1) - 1.0)
@@ -340,8 +546,15 @@ class _Reader:
         lo, hi = self.schema["plausibility"][key]
         med = float(np.median(np.linalg.norm(values, axis=1)))
         if not lo <= med <= hi:
+            quantity = self.schema["datasets"][name]["quantity"]
+            base = unit_factor(quantity, units)
+            # the units under which the same numbers would be plausible: the data look like those
+            fits = [u for u, factor in self.schema["units"][quantity].items()
+                    if u != units and lo <= med / base * factor <= hi]
+            hint = (f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'" if len(fits) == 1
+                    else "the units attribute is probably wrong")
             self.fail(name, f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
-                            f"plausible {lo:g}..{hi:g}; the units attribute is probably wrong")
+                            f"plausible {lo:g}..{hi:g}; {hint}")
 
 
 def open_hdf5(path: Path, hint: str) -> h5py.File:
@@ -369,7 +582,8 @@ def open_hdf5(path: Path, hint: str) -> h5py.File:
                                         "the file is truncated or corrupt") from None
 
 
-def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True) -> Telemetry:
+def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True,
+                   segment: int | None = None) -> Telemetry:
     """Read and validate a ``sizefx/telemetry/1`` file; return SI arrays.
 
     Parameters
@@ -377,36 +591,51 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
     path : str or Path
         The HDF5 file.
     allow_gaps : bool
-        Accept time steps longer than 1.5 nominal periods (they are listed in
-        ``Telemetry.gaps``) instead of refusing the file.
+        Accept IMU time steps longer than 1.5 nominal periods that ``/imu/gaps`` does not
+        declare (all gaps are listed in ``Telemetry.gaps``) instead of refusing the file.
+        Declared gaps are accepted without it.
     check_plausibility : bool
         Refuse data whose magnitudes betray wrong units (see the schema's
         ``plausibility`` section).
+    segment : int, optional
+        Read only the IMU rows of continuous segment ``segment`` (1-based, between gaps, as
+        ``sizefx inspect`` numbers them); ``/reference`` is read whole.
 
     Raises
     ------
     TelemetryError
         For every violation of the contract, with a one-line message.
+    ConfigError
+        For a ``segment`` the record does not have.
     """
     path = Path(path)
     with open_hdf5(path, "convert it with sizefx import") as h5:
         r, attrs, form = _open_structure(path, h5, allow_gaps, check_plausibility)
         schema = r.schema
         time_s = r.dataset("/imu/time", required=True)
-        r.check_time("/imu/time", time_s)
-        gyro_name, accel_name = schema["forms"][form]["datasets"]
-        gyro = r.dataset(gyro_name, required=True)
-        accel = r.dataset(accel_name, required=True)
+        nominal, found = r.check_time("/imu/time", time_s)
         accel_time = r.dataset("/imu/accel_time", required=False)
         if accel_time is not None:
-            r.check_time("/imu/accel_time", accel_time)
+            found += r.check_time("/imu/accel_time", accel_time, nominal=nominal)[1]
+        r.settle_imu_gaps(found, nominal, r.declared_gaps(time_s.shape[0]))
+        rows, seg, gaps = slice(None), None, r.gaps
+        if segment is not None:
+            seg = _choose_segment(path, time_s.shape[0], r.gaps, segment, time_s.__getitem__)
+            rows = slice(seg.first_row, seg.stop_row)
+            time_s = time_s[rows]
+            accel_time = None if accel_time is None else accel_time[rows]
+            gaps = [g for g in r.gaps if not g.dataset.startswith("/imu")]  # none inside a segment
+        gyro_name, accel_name = schema["forms"][form]["datasets"]
+        first = rows.start or 0
+        gyro = r.rows(gyro_name, r.handle(gyro_name, required=True), rows, first)
+        accel = r.rows(accel_name, r.handle(accel_name, required=True), rows, first)
         if check_plausibility:
-            _check_magnitudes(r, form, time_s, gyro, accel)
+            _check_magnitudes(r, form, nominal, gyro, accel)
         reference, source, simulation = _side_groups(r, h5)
     tel = Telemetry(
         time_s=time_s, form=form, accel_time_s=accel_time, reference=reference, site=_site(attrs),
         description=attrs.get("description", ""), simulation=simulation, source=source, path=str(path),
-        stored_units=r.units, stored_dtypes=r.dtypes, gaps=r.gaps,
+        stored_units=r.units, stored_dtypes=r.dtypes, gaps=gaps, segment=seg,
     )
     if form == "rates":
         tel.gyro_rad_s, tel.accel_mps2 = gyro, accel
@@ -441,9 +670,8 @@ def _open_structure(path, h5, allow_gaps, check_plausibility):
     return r, attrs, complete[0]
 
 
-def _check_magnitudes(r, form, time_s, gyro, accel):
+def _check_magnitudes(r, form, period, gyro, accel):
     gyro_name, accel_name = r.schema["forms"][form]["datasets"]
-    period = float(np.median(np.diff(time_s)))
     f_est = accel if form == "rates" else accel / period
     w_est = gyro if form == "rates" else gyro / period
     r.check_plausible(accel_name, f_est, "median_specific_force_mps2", "specific force", r.units[accel_name])
@@ -570,16 +798,20 @@ class TelemetryStream:
     """A telemetry file read in chunks of IMU rows, validated as it is read.
 
     At open: the structure, root attributes, IMU form, units, ``/reference`` as a
-    :class:`ReferenceStream` (read by time window), ``/source`` and ``/simulation``; the sample period and the magnitude
-    check come from the first :data:`PROBE_ROWS` rows. :meth:`read` returns rows
-    ``[k0, k1)`` in SI units after the same checks :func:`read_telemetry` makes (finite
-    values; time strictly increasing, no gap, across chunk boundaries too), with
-    messages naming absolute rows. Memory: the chunk, not the record.
+    :class:`ReferenceStream` (read by time window), ``/source`` and ``/simulation``; the time
+    stamps scanned in chunks of :data:`SCAN_ROWS` (strictly increasing, and the gaps, matched
+    with ``/imu/gaps`` and refused unless declared or allowed, exactly as :func:`read_telemetry`
+    does); the magnitude check from the first :data:`PROBE_ROWS` rows. With ``segment=K`` the
+    stream holds only the rows of continuous segment K (row 0 is the segment's first row;
+    messages name absolute rows). :meth:`read` returns rows ``[k0, k1)`` in SI units after the
+    same checks :func:`read_telemetry` makes (finite values; time strictly increasing, no gap,
+    across chunk boundaries too). Memory: the chunk, not the record.
     """
 
     PROBE_ROWS = 1 << 16
 
-    def __init__(self, path, *, allow_gaps: bool = False, check_plausibility: bool = True):
+    def __init__(self, path, *, allow_gaps: bool = False, check_plausibility: bool = True,
+                 segment: int | None = None):
         self.path = Path(path)
         self.h5 = open_hdf5(self.path, "convert it with sizefx import")
         try:
@@ -590,23 +822,48 @@ class TelemetryStream:
             self.names = ("/imu/time", gyro_name, accel_name)
             self._handles = [r.handle(name, required=True) for name in self.names]
             self._accel_time = r.handle("/imu/accel_time", required=False)
-            self.n_samples = int(self._handles[0][0].shape[0])
-            probe = slice(0, min(self.n_samples, self.PROBE_ROWS))
-            t = r.rows("/imu/time", self._handles[0], probe)
-            r.check_time("/imu/time", t)  # rate plausibility, and the first chunk's checks
-            self.sample_period_s = float(np.median(np.diff(t)))
+            n_all = int(self._handles[0][0].shape[0])
+            head = r.rows("/imu/time", self._handles[0], slice(0, min(n_all, NOMINAL_ROWS + 1)))
+            nominal, _ = r.check_time("/imu/time", head)  # >= 2 samples, a plausible rate
+            found = self._scan("/imu/time", self._handles[0], n_all, nominal)
+            if self._accel_time is not None:
+                found += self._scan("/imu/accel_time", self._accel_time, n_all, nominal)
+            r.settle_imu_gaps(found, nominal, r.declared_gaps(n_all))
+            self.gaps = r.gaps
+            self.n_segments = len(_segment_bounds(n_all, self.gaps))
+            self.segment = None
+            self.first_row = 0  #: the file row of stream row 0 (a segment's first)
+            self.n_samples = n_all
+            if segment is not None:
+                self.segment = _choose_segment(self.path, n_all, self.gaps, segment, self._time_at)
+                self.first_row = self.segment.first_row
+                self.n_samples = self.segment.samples
+                self.gaps = []  # none inside a segment (the stream reads no reference gaps)
+            self.sample_period_s = nominal
             if check_plausibility:
-                _check_magnitudes(r, form, t, r.rows(gyro_name, self._handles[1], probe),
-                                  r.rows(accel_name, self._handles[2], probe))
+                probe = slice(self.first_row, self.first_row + min(self.n_samples, self.PROBE_ROWS))
+                _check_magnitudes(r, form, nominal, r.rows(gyro_name, self._handles[1], probe, self.first_row),
+                                  r.rows(accel_name, self._handles[2], probe, self.first_row))
             self.reference = ReferenceStream(r, self.h5) if "/reference" in self.h5 else None
             _, self.source, self.simulation = _side_groups(r, self.h5, reference=False)
             self.site = _site(attrs)
             self.description = attrs.get("description", "")
-            self.gaps = r.gaps
             self._last_t = None
         except BaseException:
             self.h5.close()
             raise
+
+    def _time_at(self, row: int) -> float:
+        return float(self._r.rows("/imu/time", self._handles[0], slice(row, row + 1), row)[0])
+
+    def _scan(self, name: str, handle, n: int, nominal: float) -> list:
+        """The gaps of a time dataset, read in chunks that overlap by one row (each step seen once)."""
+        gaps = []
+        for k0 in range(0, n, SCAN_ROWS):
+            lo = max(0, k0 - 1)
+            t = self._r.rows(name, handle, slice(lo, min(n, k0 + SCAN_ROWS)), lo)
+            gaps += self._r.check_time(name, t, first_row=lo, nominal=nominal)[1]
+        return gaps
 
     def __enter__(self):
         return self
@@ -624,26 +881,27 @@ class TelemetryStream:
         (margins) are checked within the chunk.
         """
         r = self._r
-        rows = slice(k0, k1)
-        t = r.rows("/imu/time", self._handles[0], rows, k0)
+        a0 = k0 + self.first_row  # the absolute row (in the file) of stream row k0
+        rows = slice(a0, k1 + self.first_row)
+        t = r.rows("/imu/time", self._handles[0], rows, a0)
         before = self._last_t if (self._last_t is not None and self._last_t[0] == k0 - 1) else None
         full = t if before is None else np.concatenate([[before[1]], t])
         if full.size >= 2:
             dt = np.diff(full)
             bad = np.flatnonzero(dt <= 0.0)
             if bad.size:
-                k = int(bad[0]) + k0 + (0 if before is not None else 1)
+                k = int(bad[0]) + a0 + (0 if before is not None else 1)
                 r.fail("/imu/time", f"is not strictly increasing at row {k}; sort or split the record")
             gap = np.flatnonzero(dt > GAP_FACTOR * self.sample_period_s)
-            if gap.size:
-                k = int(gap[0]) + k0 + (0 if before is not None else 1)
-                r.fail("/imu/time", f"has a gap at row {k} ({dt[gap[0]] * 1e3:.4g} ms); navigation needs "
-                                    "continuous samples (cut the record)")
+            if gap.size:  # the callers refuse gaps at open (refuse_gaps); this guards a reader that did not
+                k = int(gap[0]) + a0 + (0 if before is not None else 1)
+                r.fail("/imu/time", f"has a gap at row {k} ({dt[gap[0]] * 1e3:.4g} ms); this needs continuous "
+                                    "samples: process one segment (--segment K)")
         if k1 > k0:
             self._last_t = (k1 - 1, float(t[-1]))
-        g = r.rows(self.names[1], self._handles[1], rows, k0)
-        a = r.rows(self.names[2], self._handles[2], rows, k0)
-        ta = None if self._accel_time is None else r.rows("/imu/accel_time", self._accel_time, rows, k0)
+        g = r.rows(self.names[1], self._handles[1], rows, a0)
+        a = r.rows(self.names[2], self._handles[2], rows, a0)
+        ta = None if self._accel_time is None else r.rows("/imu/accel_time", self._accel_time, rows, a0)
         return t, g, a, ta
 
 
@@ -666,7 +924,7 @@ class TelemetryWriter:
                  reference_position: bool = False, reference_velocity: bool = False,
                  accel_time: bool = False, site: Site | None = None, description: str = "",
                  simulation: dict | None = None, source: dict | None = None, inputs=(), force: bool = False,
-                 dtype=np.float64):
+                 dtype=np.float64, gaps=None):
         self.schema = load_schema(TELEMETRY_SCHEMA)
         self.source = source
         if form not in self.schema["forms"]:
@@ -681,6 +939,8 @@ class TelemetryWriter:
         self.inputs = inputs
         self.force = force
         self.dtype = np.dtype(dtype)
+        #: declared IMU gaps, [G, 2] s (time before the gap, length), written whole at creation
+        self.gaps = None if gaps is None or len(gaps) == 0 else np.asarray(gaps, dtype=np.float64).reshape(-1, 2)
         self._plan = {"/imu/time": n_samples}
         for name in self.schema["forms"][form]["datasets"]:
             self._plan[name] = n_samples
@@ -719,11 +979,15 @@ class TelemetryWriter:
             spec = self.schema["datasets"][name]
             shape = tuple(rows if isinstance(s, str) else s for s in spec["shape"])
             chunks = (min(rows, WRITE_CHUNK_ROWS),) + shape[1:] if rows else None
-            dtype = np.float64 if spec.get("time_axis") else self.dtype  # time keeps full precision
+            dtype = np.float64 if spec["quantity"] == "time" else self.dtype  # time keeps full precision
             dset = h5.create_dataset(name, shape=shape, dtype=dtype, chunks=chunks)
             units = spec.get("default_units") or next(iter(self.schema["units"][spec["quantity"]]))
             if spec["quantity"] != "dimensionless":
                 dset.attrs["units"] = units
+        if self.gaps is not None:
+            spec = self.schema["datasets"]["/imu/gaps"]
+            dset = h5.create_dataset("/imu/gaps", data=self.gaps, dtype=np.float64)
+            dset.attrs["units"] = next(iter(self.schema["units"][spec["quantity"]]))
         if self.source is not None:
             g = h5.create_group("source")
             for key, value in self.source.items():
@@ -789,6 +1053,7 @@ def write_telemetry(path, tel: Telemetry, *, inputs=(), force: bool = False, dty
         reference_velocity=bool(ref is not None and ref.velocity_n_mps is not None),
         accel_time=tel.accel_time_s is not None, site=tel.site, description=tel.description,
         simulation=tel.simulation, source=tel.source, inputs=inputs, force=force, dtype=dtype,
+        gaps=[(g.time_s, g.duration_s) for g in tel.gaps if g.declared and g.dataset == "/imu/time"],
     )
     with writer as w:
         g, a = tel.imu_arrays()

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from sizefx import earth
 from sizefx.constants import DEG, OMEGA_EARTH_RAD_S
-from sizefx.errors import SourceError
+from sizefx.errors import SourceError, UnitsError
 from sizefx.frames import MAT_FRD_FLU, enu_to_ned, mat_nb_from_enu_body, psins_mat_enu_rfu, MAT_FRD_RFU
 from sizefx.importers import run_import
 from sizefx.importers.table import axis_matrix
@@ -30,6 +30,8 @@ IMUCAL = dict(time="n_samples", time_units="samples", rate_hz=102.4, gyro=("gyr_
               gyro_units="deg/s", accel=("acc_x", "acc_y", "acc_z"), accel_units="m/s^2")
 REAL_FILES = {
     "broad07": ("broad", "broad/07_undisturbed_fast_rotation_B.mat", {}),
+    "broad09": ("broad", "broad/09_undisturbed_fast_rotation_with_breaks_B.mat", {}),
+    "broad16": ("broad", "broad/16_undisturbed_fast_translation_B.mat", {}),
     "broad21": ("broad", "broad/21_undisturbed_fast_combined.mat", {}),
     "lasergyro": ("psins-imu", "psins/lasergyro.imu", {}),
     "fog_mems": ("psins-mat", "psins/transfer_align_fog_mems.mat", {}),
@@ -62,6 +64,30 @@ def test_every_real_file_imports_and_validates(imported, name):
 
 
 # --------------------------------------------------------------------------- physical sanity
+
+#: How the units check judges each real file's gyros (issue 13, item 6): against the motion capture or
+#: the FOG-INS attitude, against the tilts between imucal's static faces, or not at all (with the reason
+#: given) where nothing rotates against a reference and nothing tilts by 20 deg.
+GYRO_CHECK = {"broad07": "reference", "broad09": "reference", "broad16": "reference", "broad21": "reference",
+              "lasergyro": None, "fog_mems": "reference", "imucal": "tilt", "px4": None}
+#: Real, partly uncalibrated sensors: imucal's raw accelerometers read 1.054 g at rest, BROAD's gyros
+#: 0.98 of the motion capture's rate; a unit mistake is a factor 9.8 or 57.3.
+REAL_RATIO_TOL = 0.08
+
+
+@needs_real
+@pytest.mark.parametrize("name", list(REAL_FILES))
+def test_units_check_passes_every_real_file(imported, name):
+    units = imported[name][0]["units_check"]
+    assert units["accel"]["verdict"] == "ok", units["accel"]["detail"]
+    assert units["accel"]["ratio"] == pytest.approx(1.0, abs=REAL_RATIO_TOL)
+    gyro = units["gyro"]
+    if GYRO_CHECK[name] is None:
+        assert gyro["verdict"] == "unchecked" and "not checked" in gyro["detail"]
+    else:
+        assert gyro["verdict"] == "ok" and gyro["method"] == GYRO_CHECK[name], gyro["detail"]
+        assert gyro["ratio"] == pytest.approx(1.0, abs=REAL_RATIO_TOL)
+
 
 
 @needs_real
@@ -172,13 +198,28 @@ def test_imucal_rotations_are_minus_360_deg_and_faces_read_g(imported):
 @needs_real
 def test_px4_dropouts_are_gaps_and_accelerometers_have_their_own_stamps(imported, tmp_path):
     summary, tel = imported["px4"]
-    assert [g.dataset for g in tel.gaps].count("/imu/time") == 8
+    # issue 13, item 9: one count, one per dropout (the gyro and accelerometer stamps show each once)
+    assert [g.dataset for g in tel.gaps].count("/imu/time") == 8 == len(tel.gaps) == summary["imu_gaps"]
+    assert summary["declared_gaps"] == 8 and all(g.declared for g in tel.gaps)
     assert tel.accel_time_s is not None and np.all(tel.accel_time_s >= tel.time_s)
     assert np.linalg.norm(np.median(tel.accel_mps2, axis=0)) == pytest.approx(9.8, abs=0.3)
-    from sizefx.errors import TelemetryError
+    # declared gaps are a property of the record: read without --allow-gaps (tests/test_gaps.py has the rest)
+    assert len(read_telemetry(summary["path"]).gaps) == 8
 
-    with pytest.raises(TelemetryError, match="--allow-gaps"):
-        read_telemetry(summary["path"])
+
+@needs_real
+def test_real_imucal_csv_mislabelled_as_rad_s_is_refused(tmp_path):
+    """The raw imucal gyros are in deg/s (no reference: the tilts between its static faces decide)."""
+    src = REAL / "imucal/example_ferraris_session.csv"
+    with pytest.raises(UnitsError) as info:
+        run_import("csv", src, tmp_path / "o.h5", **{**IMUCAL, "gyro_units": "rad/s"})
+    msg = str(info.value)
+    assert msg.startswith(f"{src}: gyro columns gyr_x, gyr_y, gyr_z: explains the 5 tilt changes"), msg
+    assert "the data look like deg/s, not rad/s: import with --gyro-units deg/s" in msg
+    with pytest.raises(UnitsError, match="accel columns acc_x, acc_y, acc_z: reads 101.3 m/s.2 at rest .* "
+                                         "the data look like m/s\\^2, not g: import with --accel-units m/s\\^2"):
+        run_import("csv", src, tmp_path / "o.h5", **{**IMUCAL, "accel_units": "g"})
+    assert not (tmp_path / "o.h5").exists()
 
 
 # --------------------------------------------------------------------------- conversions in closed form

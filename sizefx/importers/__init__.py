@@ -3,8 +3,11 @@
 Each module exposes ``load(path, **options) -> Telemetry`` that converts axes to
 body FRD, the reference to NED, and units to SI, and records where the data
 came from in ``Telemetry.source`` (written to ``/source``). :func:`run_import`
-writes the result atomically and reads it back through the validating reader,
-so an importer can never produce a file the rest of sizefx refuses.
+declares the IMU gaps it finds in ``/imu/gaps`` (the reader's own definition of a
+gap, :func:`sizefx.telemetry.find_imu_gaps`), writes the result atomically, reads it
+back through the validating reader and checks its units against physics
+(:mod:`sizefx.sanity`), so an importer can never produce a file the rest of sizefx
+refuses, nor one whose rates are 57 times wrong.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ import numpy as np
 from .. import __version__
 from ..errors import SourceError
 from ..fileio import atomic_output
-from ..telemetry import read_telemetry, write_telemetry
+from ..schema import allowed_units
+from ..telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
 __all__ = ["FORMATS", "run_import", "provenance"]
 
@@ -63,13 +67,64 @@ def load_source(fmt: str, path, **options):
     return loader(check_source(path), **options)
 
 
-def run_import(fmt: str, source, out, *, force: bool = False, **options) -> dict:
-    """Import ``source`` into ``out``; validate the written file; return a summary."""
+def _units_context(fmt: str, tel):
+    """What the source declared, for the units check: ``(declared units, names, fix)``.
+
+    The CSV importer takes the units from the user (``--gyro-units``, ``--accel-units``) and
+    records them, and the column names, in ``/source``; the other formats fix their units, so
+    a mismatch there means the source is not what its format promises.
+    """
+    from ..sanity import FORM_QUANTITIES, UNITS_OUTSIDE_CONTRACT
+
+    src = tel.source or {}
+    names = dict(zip(("gyro", "accel"), FORM_QUANTITIES[tel.form]))
+    datasets = {"gyro": "/imu/gyro" if tel.form == "rates" else "/imu/dtheta",
+                "accel": "/imu/accel" if tel.form == "rates" else "/imu/dvel"}
+    declared, where = {}, {}
+    for what, dataset in datasets.items():
+        if src.get(f"{what}_units"):
+            declared[dataset] = str(src[f"{what}_units"])
+        columns = src.get(f"{what}_columns")
+        if columns:
+            where[dataset] = f"{what} columns {', '.join(map(str, columns))}"
+
+    def fix(check):
+        if fmt == "csv":
+            option = f"--{check.what}-units"
+            if check.looks_like in allowed_units(names[check.what]):
+                return f"import with {option} {check.looks_like}"
+            outside = UNITS_OUTSIDE_CONTRACT.get(names[check.what], {})
+            if check.looks_like in outside:
+                return f"multiply the columns by {outside[check.looks_like]:g} to make them {check.declared} " \
+                       f"({option} takes {', '.join(allowed_units(names[check.what]))})"
+            return f"convert the columns to {check.declared} before importing ({option} takes " \
+                   f"{', '.join(allowed_units(names[check.what]))})"
+        return f"the {fmt} format stores {check.declared}; check that the source is a genuine {fmt} file"
+
+    return declared, where, fix
+
+
+def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool = True, **options) -> dict:
+    """Import ``source`` into ``out``; validate the written file; return a summary.
+
+    ``check_units``: check the magnitudes against physics (:func:`sizefx.sanity.check_units`) and
+    refuse data that look like another unit (``--no-units-check`` turns it off).
+    """
+    from ..sanity import check_units as units_of, refuse_wrong_units
+
     tel = load_source(fmt, source, **options)
-    # write and validate the temporary file: a file the reader refuses never reaches OUT
+    tel.gaps = find_imu_gaps(tel.time_s, tel.accel_time_s, declared=True)  # written to /imu/gaps
+    report = None
+    # write and validate the temporary file: a file the reader or the units check refuses never reaches OUT
     with atomic_output(out, inputs=[source], force=force) as tmp:
         write_telemetry(tmp, tel, force=True)
-        back = read_telemetry(tmp, allow_gaps=True)
+        # gaps only the accelerometer stamps show cannot be declared: allowed here, reported below;
+        # the magnitudes are judged by the units check (its messages speak of the import's options)
+        back = read_telemetry(tmp, allow_gaps=True, check_plausibility=False)
+        if check_units:
+            declared, where, fix = _units_context(fmt, back)
+            report = units_of(back, declared=declared)
+            refuse_wrong_units(report, source, where=where, fix=fix)
     back.path = str(out)
     imu_gaps = [g for g in back.gaps if g.dataset.startswith("/imu")]
     ref_gaps = [g for g in back.gaps if g.dataset.startswith("/reference")]
@@ -81,11 +136,15 @@ def run_import(fmt: str, source, out, *, force: bool = False, **options) -> dict
         "rate_hz": back.sample_rate_hz,
         "duration_s": back.duration_s,
         "imu_gaps": len(imu_gaps),
+        "declared_gaps": sum(g.declared for g in imu_gaps),
         "first_imu_gap_s": imu_gaps[0].time_s if imu_gaps else None,
+        "longest_imu_gap_s": max((g.duration_s for g in imu_gaps), default=None),
+        "segments": len(imu_gaps) + 1,
         "reference_rows": 0 if back.reference is None else int(back.reference.time_s.shape[0]),
         "reference_gaps": len(ref_gaps),
         "accel_time": back.accel_time_s is not None,
         "site": back.site is not None,
+        "units_check": None if report is None else report.as_dict(),
     }
 
 

@@ -3,8 +3,11 @@
 PX4's body frame is FRD already; ``gyro_rad`` [rad/s] and
 ``accelerometer_m_s2`` [m/s^2] are sampled at ``timestamp`` [us]; the
 accelerometers at ``timestamp + accelerometer_timestamp_relative`` (written
-to ``/imu/accel_time``). Logging dropouts stay in the record: the reader
-reports them as gaps (``--allow-gaps`` to process anyway).
+to ``/imu/accel_time``). Logging dropouts stay in the record as gaps, declared
+in ``/imu/gaps`` by :func:`sizefx.importers.run_import`: ``sizefx inspect`` lists
+the continuous segments between them, and the commands that cannot work across
+a gap take ``--segment K``. A log has no surveyed site; ``site_deg`` gives one
+(navigation needs it).
 
 pyulog is PX4's own reference parser of the format; it is an optional
 dependency (``pip install sizefx[ulog]``).
@@ -16,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import DEG
 from ..errors import SourceError
-from ..telemetry import Telemetry
+from ..telemetry import Site, Telemetry, find_imu_gaps, nominal_period_s
 from . import provenance
 
 #: PX4's RELATIVE_TIMESTAMP_INVALID: the accelerometer stamp is not available
@@ -25,7 +29,7 @@ RELATIVE_TIMESTAMP_INVALID = 2147483647
 TOPIC = "sensor_combined"
 
 
-def load(path: Path) -> Telemetry:
+def load(path: Path, *, site_deg=None) -> Telemetry:
     try:
         from pyulog import ULog
     except ImportError:
@@ -52,11 +56,13 @@ def load(path: Path) -> Telemetry:
     if rel is not None and not np.any(np.asarray(rel) == RELATIVE_TIMESTAMP_INVALID):
         accel_time = (t_us + np.asarray(rel, dtype=np.int64)) * 1e-6
     t = t_us * 1e-6
-    dt = np.diff(t)
-    nominal = float(np.median(dt))
-    gaps = int(np.sum(dt > 1.5 * nominal))
+    if t.size < 2:
+        raise SourceError(path, f"topic '{TOPIC}' holds {t.size} sample; at least 2 are needed")
+    nominal = nominal_period_s(t)
+    gaps = len(find_imu_gaps(t, accel_time))  # the reader's count: one per dropout
+    site = None if site_deg is None else Site(site_deg[0] * DEG, site_deg[1] * DEG, float(site_deg[2]))
     return Telemetry(
-        time_s=t, form="rates", gyro_rad_s=gyro, accel_mps2=accel, accel_time_s=accel_time,
+        time_s=t, form="rates", gyro_rad_s=gyro, accel_mps2=accel, accel_time_s=accel_time, site=site,
         description=(f"PX4 ULog {Path(path).name}, topic {TOPIC}: {t.size} samples at {1 / nominal:g} Hz, "
                      f"body FRD, {gaps} logging dropouts (gaps); no reference (the autopilot's estimate is not truth)"),
         source=provenance(path, "ulog", topic=TOPIC, dropouts=gaps, px4_start_timestamp_us=int(t_us[0])),
