@@ -296,10 +296,12 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
     n_bias = first
     names = _names(labels, with_tilt, with_delay)
     p = len(names)
-    for rec in records:
-        if not np.any(np.linalg.norm(rec.omega, axis=1) > ROTATING_RAD_S):
-            raise CalibrationError(f"{rec.name}: the record never rotates (|omega| stays under 1 deg/s); "
-                                   "no lever arm is observable: record rotations about at least two body axes")
+    # a record (or a segment between gaps) at rest adds to the biases and the tilt; only a fit in
+    # which nothing rotates has nothing to say about the arms
+    if not any(np.any(np.linalg.norm(rec.omega, axis=1) > ROTATING_RAD_S) for rec in records):
+        names = ", ".join(rec.name for rec in records)
+        raise CalibrationError(f"{names}: the record never rotates (|omega| stays under 1 deg/s); "
+                               "no lever arm is observable: record rotations about at least two body axes")
     variance = np.ones(3)
     for _ in range(2):  # unweighted, then weighted with each channel's residual variance
         N = np.zeros((p, p))
@@ -418,7 +420,8 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
     axis, and the information the motion carries about each lever arm.
 
     The information is that of :func:`joint_fit`'s arm columns with the bias windows projected
-    out, but not the tilt and the delay: an optimistic bound. A component that even this bound
+    out, but not the tilt and the delay: an optimistic bound. A record with IMU gaps is read one
+    continuous segment at a time, as the fit takes it. A component that even this bound
     cannot determine is certainly not determined by the fit, so :func:`preflight` can refuse it
     in seconds instead of after the fit (issue 13: 526 s on a flight record).
     """
@@ -426,50 +429,63 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
 
     half = SAVGOL_WINDOW // 2
     with TelemetryStream(path, allow_gaps=allow_gaps) as st:
-        n, dt = st.n_samples, st.sample_period_s
-        sum_w2, sum_wd2 = np.zeros(3), np.zeros(3)
-        rotating = 0
-        noise = np.full(3, np.inf)
-        info = np.zeros((3, 3, 3))
-        win_sum, win_outer, win_n, window = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0, 0
-        t_first = None
+        n_segments = st.n_segments
+    sum_w2, sum_wd2 = np.zeros(3), np.zeros(3)
+    rotating = n_total = 0
+    noise = np.full(3, np.inf)
+    info = np.zeros((3, 3, 3))
+    win_sum, win_outer, win_n, window = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0, 0
+    t_first = t_last = None
+    dt = None
 
-        def close_window():
-            nonlocal win_sum, win_outer, win_n
-            if win_n:
-                info[:] += win_outer - np.einsum("ia,ib->iab", win_sum, win_sum) / win_n
-            win_sum, win_outer, win_n = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0
+    def close_window():
+        nonlocal win_sum, win_outer, win_n
+        if win_n:
+            info[:] += win_outer - np.einsum("ia,ib->iab", win_sum, win_sum) / win_n
+        win_sum, win_outer, win_n = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0
 
-        for k0 in range(0, n, PREFLIGHT_ROWS):
-            k1 = min(n, k0 + PREFLIGHT_ROWS)
-            a0, a1 = max(0, k0 - half), min(n, k1 + half)
-            t, g, a, _ = st.read(a0, a1)
-            if st.form == "increments":
-                t, g, a = t - 0.5 * dt, g / dt, a / dt
-            wd = savgol(g, dt) if g.shape[0] > SAVGOL_WINDOW else np.gradient(g, dt, axis=0)
-            inner = slice(k0 - a0, k0 - a0 + (k1 - k0))
-            t, w, wd, acc = t[inner], g[inner], wd[inner], a[inner]
-            if t_first is None:
-                t_first = float(t[0])
-            sum_w2 += np.sum(w * w, axis=0)
-            sum_wd2 += np.sum(wd * wd, axis=0)
-            rotating += int(np.count_nonzero(np.linalg.norm(w, axis=1) > ROTATING_RAD_S))
-            if acc.shape[0] > 16:
-                noise = np.minimum(noise, _noise_floor(acc))
-            h = np.stack([_arm_regressors(w, wd, i) for i in range(3)])  # [3, n, 3]
-            wid = np.floor((t - t_first) / bias_window_s).astype(int) if bias_window_s else np.zeros(t.size, int)
-            for w_id in np.unique(wid):
-                if w_id != window:
-                    close_window()
-                    window = int(w_id)
-                sel = wid == w_id
-                hs = h[:, sel, :]
-                win_sum += hs.sum(axis=1)
-                win_outer += np.einsum("ina,inb->iab", hs, hs)
-                win_n += int(sel.sum())
-        close_window()
-        duration = float(t[-1] - t_first) if n else 0.0
-    return Excitation(str(path), n, duration, np.sqrt(sum_w2 / max(n, 1)), np.sqrt(sum_wd2 / max(n, 1)),
+    # each continuous segment on its own: the angular acceleration is not estimated across a gap
+    for number in (range(1, n_segments + 1) if n_segments > 1 else [None]):
+        with TelemetryStream(path, allow_gaps=allow_gaps, segment=number) as st:
+            n, dt = st.n_samples, st.sample_period_s
+            if n < MIN_SAMPLES:
+                continue  # as the fit: too short for its angular acceleration
+            for k0 in range(0, n, PREFLIGHT_ROWS):
+                k1 = min(n, k0 + PREFLIGHT_ROWS)
+                a0, a1 = max(0, k0 - half), min(n, k1 + half)
+                t, g, a, _ = st.read(a0, a1)
+                if st.form == "increments":
+                    t, g, a = t - 0.5 * dt, g / dt, a / dt
+                wd = savgol(g, dt)
+                inner = slice(k0 - a0, k0 - a0 + (k1 - k0))
+                t, w, wd, acc = t[inner], g[inner], wd[inner], a[inner]
+                if t_first is None:
+                    t_first = float(t[0])
+                t_last = float(t[-1])
+                n_total += t.size
+                sum_w2 += np.sum(w * w, axis=0)
+                sum_wd2 += np.sum(wd * wd, axis=0)
+                rotating += int(np.count_nonzero(np.linalg.norm(w, axis=1) > ROTATING_RAD_S))
+                if acc.shape[0] > 16:
+                    noise = np.minimum(noise, _noise_floor(acc))
+                h = np.stack([_arm_regressors(w, wd, i) for i in range(3)])  # [3, n, 3]
+                wid = (np.floor((t - t_first) / bias_window_s).astype(int) if bias_window_s
+                       else np.zeros(t.size, int))
+                for w_id in np.unique(wid):
+                    if w_id != window:
+                        close_window()
+                        window = int(w_id)
+                    sel = wid == w_id
+                    hs = h[:, sel, :]
+                    win_sum += hs.sum(axis=1)
+                    win_outer += np.einsum("ina,inb->iab", hs, hs)
+                    win_n += int(sel.sum())
+    close_window()
+    if n_total == 0:
+        raise CalibrationError(f"{path}: no continuous segment holds {MIN_SAMPLES} samples; calibration needs "
+                               "that many between gaps")
+    n = n_total
+    return Excitation(str(path), n, t_last - t_first, np.sqrt(sum_w2 / n), np.sqrt(sum_wd2 / n),
                       rotating * dt, info, noise)
 
 
@@ -504,11 +520,11 @@ def preflight(paths, *, with_delay: bool = False, allow_gaps: bool = False) -> l
             if st.n_samples < MIN_SAMPLES:
                 raise CalibrationError(f"{path}: {st.n_samples} samples; calibration needs at least {MIN_SAMPLES}")
     exc = [excitation(p, allow_gaps=allow_gaps) for p in paths]
-    for e in exc:
-        if e.rotating_s == 0.0:
-            raise CalibrationError(f"{e.path}: the record never rotates (|omega| stays under 1 deg/s; "
-                                   f"{_describe_motion([e])}); no lever arm is observable: record rotations about "
-                                   "at least two body axes")
+    if all(e.rotating_s == 0.0 for e in exc):
+        names = ", ".join(e.path for e in exc)
+        raise CalibrationError(f"{names}: the record never rotates (|omega| stays under 1 deg/s; "
+                               f"{_describe_motion(exc)}); no lever arm is observable: record rotations about "
+                               "at least two body axes")
     weak, loose = [], []
     for i in range(3):
         info = np.zeros((3, 3))
@@ -566,9 +582,16 @@ def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_
         raise CalibrationError(f"triad point '{triad}': use normals or x-accelerometer")
     nom = nominal_levers(nominal)
     preflight(paths, with_delay=with_delay, allow_gaps=allow_gaps)
-    tels = [read_telemetry(p, allow_gaps=allow_gaps) for p in paths]
-    records = [prepare(tel, str(p)) for tel, p in zip(tels, paths)]
-    per_rotation = {str(p): per_rotation_fit(rec) for p, rec in zip(paths, records)}
+    records, skipped = [], []
+    for p in paths:
+        pieces = read_telemetry(p, allow_gaps=allow_gaps).continuous_pieces()
+        for seg, piece in pieces:
+            name = p if len(pieces) == 1 else f"{p} segment {seg.number}/{seg.of}"
+            if piece.n_samples < MIN_SAMPLES:
+                skipped.append(f"{name} ({piece.n_samples} samples)")
+                continue
+            records.append(prepare(piece, name))
+    per_rotation = {rec.name: per_rotation_fit(rec) for rec in records}
     res = joint_fit(records, with_tilt=with_tilt, with_delay=with_delay)
     point = triad_point(res.arms, how=triad)
     levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms,
@@ -581,15 +604,17 @@ def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_
                            "accel_bias_mps2": res.biases.tolist(), "condition_number": res.condition,
                            "residual_rms_mps2": res.residual_rms.tolist(), "samples": res.samples,
                            "nominal": nominal, "difference_from_nominal_m": (res.arms - nom.arms_total).tolist(),
-                           "per_rotation": per_rotation, "records": [str(p) for p in paths]})
-    out = {"levers": levers, "result": res, "per_rotation": per_rotation, "nominal": nom, "records": records}
+                           "per_rotation": per_rotation, "records": [str(p) for p in paths],
+                           "segments": [rec.name for rec in records], "segments_too_short": skipped})
+    out = {"levers": levers, "result": res, "per_rotation": per_rotation, "nominal": nom, "records": records,
+           "skipped": skipped}
     if plot:
         with_blocks = [k for k, rec in enumerate(records) if detect_rotations(rec)]
         if not with_blocks:
             raise CalibrationError("--plot draws rotation blocks about vertical axes, and none of the records has one")
         k = with_blocks[0]
         out["figure_spans"] = compensation_figure(records[k], levers, plot,
-                                                  title=f"{Path(paths[k]).name}: size effect before and after")
+                                                  title=f"{Path(records[k].name).name}: size effect before and after")
     if json_path:
         write_levers(json_path, levers, inputs=paths, force=force)
     return out
@@ -607,6 +632,11 @@ def format_report(out: dict) -> str:
                      + " ".join(f"{v * mm:7.4f}" for v in res.sigma_arms[i]) + "   "
                      + " ".join(f"{v * mm:7.4f}" for v in (res.arms[i] - nom.arms_total[i])))
     lines.append(f"  sigma: mean {res.sigma_arms.mean() * mm:.4f} mm, max {res.sigma_arms.max() * mm:.4f} mm")
+    segmented = [rec.name for rec in out["records"] if " segment " in rec.name]
+    if segmented or out.get("skipped"):
+        lines.append(f"  records cut at their IMU gaps, each continuous segment fitted on its own: {len(segmented)} "
+                     "segments used" + (f"; left out, shorter than {MIN_SAMPLES} samples: {', '.join(out['skipped'])}"
+                                        if out.get("skipped") else ""))
     lines.append(f"  triad point ({lev.extra['triad_point']}) from the rotation centre [mm]: "
                  + " ".join(f"{v * mm:.4f}" for v in lev.offset))
     for i, a in enumerate("xyz"):

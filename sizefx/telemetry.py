@@ -11,7 +11,7 @@ a simulator or importer can stream a long record without holding it all.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import h5py
@@ -257,6 +257,20 @@ class Telemetry:
         if self.form == "rates":
             return self.gyro_rad_s, self.accel_mps2
         return self.dtheta_rad, self.dvel_mps
+
+    def continuous_pieces(self) -> list[tuple[Segment, "Telemetry"]]:
+        """The record cut at its IMU gaps: each continuous segment with a record of its IMU rows
+        (views, not copies; ``/reference``, site and provenance shared). One piece, the record
+        itself, when it has no IMU gap."""
+        imu_gaps = [g for g in self.gaps if g.dataset.startswith("/imu")]
+        segments = imu_segments(self.n_samples, imu_gaps, self.time_s.__getitem__)
+        if len(segments) == 1:
+            return [(segments[0], self)]
+        names = ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")
+        others = [g for g in self.gaps if not g.dataset.startswith("/imu")]
+        return [(s, replace(self, gaps=others, segment=s,
+                            **{k: getattr(self, k)[s.first_row:s.stop_row] for k in names if getattr(self, k) is not None}))
+                for s in segments]
 
 
 # --------------------------------------------------------------------------- reading
