@@ -116,6 +116,17 @@ def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
     return (float(t_last) - float(t_first)) / (n - 1)
 
 
+#: Time stamps further than this from the uniform grid [periods] are reported in the summary: the
+#: samples are integrated at their grid points, and a user should know by how much they were moved.
+JITTER_REPORTED = 0.05
+
+
+def grid_offsets_periods(time_s, t_first: float, dt: float, first_row: int = 0) -> np.ndarray:
+    """How far each stamp lies from its point of the uniform grid ``t_first + k dt`` [periods];
+    ``first_row`` is the grid index of ``time_s[0]``."""
+    return (np.asarray(time_s) - (t_first + (first_row + np.arange(len(time_s))) * dt)) / dt
+
+
 def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None,
                   row0: int = 0):
     """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form.
@@ -130,7 +141,7 @@ def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *
         dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
     if t_first is None:
         t_first = float(tel.time_s[0]) - first_row * dt
-    off_grid = (tel.time_s - (t_first + (first_row + np.arange(tel.n_samples)) * dt)) / dt
+    off_grid = grid_offsets_periods(tel.time_s, t_first, dt, first_row)
     worst = int(np.argmax(np.abs(off_grid)))
     if abs(off_grid[worst]) > GRID_TOLERANCE:
         raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
@@ -332,7 +343,9 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     config = {**asdict(replace(cfg, model=None)), "model": cfg.model.source if cfg.model is not None else None,
               "correction": correction, "init": init, "vertical": vertical, "stationary_reference": stationary,
               "input_form": tel.form, "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / (n_sub * dt),
-              "dropped_trailing_samples": int(dtheta.shape[0] - n_steps * n_sub), **details}
+              "dropped_trailing_samples": int(dtheta.shape[0] - n_steps * n_sub),
+              "time_jitter_periods": float(np.abs(grid_offsets_periods(tel.time_s, tel.time_s[0], dt)).max()),
+              **details}
     result = NavResult(t_nav, q, v, lat, lon, h, config, {})
     result.summary = _summary(tel, result, n_steps * n_sub)
     result.summary["kernel_s"] = kernel_s
@@ -400,6 +413,10 @@ def format_summary(path, res: NavResult) -> str:
         t0, t1 = c["segment_time_s"]
         lines.append(f"  segment {c['segment']} of {c['segment_of']}: rows {a}..{b - 1}, t = {t0:.6f} .. {t1:.6f} s")
     lines.append(f"  initial state from {c['init']}; vertical channel {c['vertical']}")
+    if c.get("time_jitter_periods", 0.0) > JITTER_REPORTED:
+        lines.append(f"  time stamps up to {c['time_jitter_periods']:.2f} periods off the uniform grid of "
+                     f"{1e3 / c['sample_rate_hz']:.4g} ms (logging jitter): each sample was integrated at its "
+                     "grid point")
     if c.get("correction"):
         corr = c["correction"]
         lines.append(f"  IMU corrected with the effect model {corr['model']} ({corr['mode']}): "

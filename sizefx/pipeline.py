@@ -50,6 +50,7 @@ from .navigate import (
     _choose,
     _reference_at,
     _run_kernel,
+    grid_offsets_periods,
     increments_of,
     initial_state,
     _segment_config,
@@ -76,6 +77,7 @@ class _Source:
         first, last = st.read(0, 1)[0][0], st.read(st.n_samples - 1, st.n_samples)[0][0]
         self.dt = uniform_period_s(first, last, st.n_samples)  # as navigate.increments_of
         self.t_first = float(first)  # the grid every chunk's stamps are checked against
+        self.jitter = 0.0  #: the largest distance of a stamp from the grid [periods], for the configuration
         self.rates = st.form == "rates"
         self.n_increments = st.n_samples - 1 if self.rates else st.n_samples
         self.correction = None  #: what the model corrected (from the first chunk), for the configuration
@@ -100,6 +102,7 @@ class _Source:
             tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
         t_end, dtheta, dvel, _ = increments_of(tel, dt=dt, first_row=lo, t_first=self.t_first,
                                                row0=st.first_row)
+        self.jitter = max(self.jitter, float(np.abs(grid_offsets_periods(t, self.t_first, dt, lo)).max()))
         if self.levers:
             dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
         keep = slice(j0 - lo, j1 - lo)
@@ -261,7 +264,7 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
               "input_form": form,
               "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / T,
               "dropped_trailing_samples": int(src.n_increments - n_steps * n_sub), "streamed": True,
-              "chunk_samples": chunk, "output_stride": stride, **details,
+              "chunk_samples": chunk, "output_stride": stride, "time_jitter_periods": src.jitter, **details,
               **(_segment_config(st.segment) if st.segment is not None else {})}
     res = NavResult(*(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")), config, {})
     duration = last[0] - t_first_nav + T
