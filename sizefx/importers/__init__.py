@@ -67,7 +67,7 @@ def run_import(fmt: str, source, out, *, force: bool = False, **options) -> dict
     """Import ``source`` into ``out``; validate the written file; return a summary."""
     tel = load_source(fmt, source, **options)
     # write and validate the temporary file: a file the reader refuses never reaches OUT
-    with atomic_output(out, inputs=[source], force=force) as tmp:
+    with atomic_output(out, inputs=[source, options.get("reference_file")], force=force) as tmp:
         write_telemetry(tmp, tel, force=True)
         back = read_telemetry(tmp, allow_gaps=True)
     back.path = str(out)
