@@ -104,7 +104,7 @@ class _Table:
                                          f"columns are: {', '.join(self.header)}")
 
     @staticmethod
-    def _is_data(line: str) -> bool:
+    def is_data(line: str) -> bool:
         """What :func:`numpy.loadtxt` reads as a row: not blank once a ``#`` comment is cut."""
         return bool(line.split("#", 1)[0].strip())
 
@@ -112,7 +112,7 @@ class _Table:
         """File line (1-based, the header is line 1) of data row ``row``."""
         k = -1
         for number, line in enumerate(self.lines[1:], start=2):
-            if self._is_data(line):
+            if self.is_data(line):
                 k += 1
                 if k == row:
                     return number
@@ -139,7 +139,7 @@ class _Table:
     def _raise_bad_cell(self, names, idx, option_of, empty_is_nan):
         need = max(idx) + 1
         for number, line in enumerate(self.lines[1:], start=2):
-            if not self._is_data(line):
+            if not self.is_data(line):
                 continue
             fields = line.split("#", 1)[0].split(self.delimiter)
             if len(fields) < need:
@@ -277,9 +277,9 @@ def _reference_rows(table: _Table, spec: _ReferenceColumns, imu_time_s):
         t, values = raw[:, 0] * TIME_UNITS[spec.time_units], raw[:, 1:]
     else:
         t, values = np.asarray(imu_time_s, dtype=float), raw
-    if t.shape[0] != values.shape[0]:  # cannot happen: one text, one row count
-        raise SourceError(table.path, "the reference and IMU columns have different row counts")
     finite = np.isfinite(values).all(axis=1) & np.isfinite(t)
+    # a row of empty cells is no reference row (the IMU file between reference rows); one partly filled
+    # (or with a time stamp but no values) is a dropout
     is_row = np.isfinite(values).any(axis=1) | (np.isfinite(raw[:, 0]) if spec.time else False)
     rows = np.flatnonzero(finite)
     dropouts = int(np.count_nonzero(is_row & ~finite))
@@ -422,7 +422,7 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
     wanted = [time, *gyro, *accel]
     option_of = {time: "--time"} | dict.fromkeys(gyro, "--gyro") | dict.fromkeys(accel, "--accel")
     table.require(wanted, option_of)
-    if not any(table._is_data(line) for line in table.lines[1:]):
+    if not any(table.is_data(line) for line in table.lines[1:]):
         raise SourceError(path, "has 0 data rows; at least 2 are needed")
     data = table.numbers(wanted, option_of)
     if data.shape[0] < 2:
