@@ -93,6 +93,11 @@ def psins_mat(source, output, force):
     _report(run_import("psins-mat", source, output, force=force))
 
 
+def _names(text):
+    """``"a,b,c"`` -> ``("a", "b", "c")``; None stays None (the library counts and checks them)."""
+    return None if text is None else tuple(text.split(","))
+
+
 @import_.command()
 @source_argument
 @output_option
@@ -108,17 +113,58 @@ def psins_mat(source, output, force):
 @click.option("--accel", required=True, metavar="X,Y,Z", help="Accelerometer (or dvel) column names.")
 @click.option("--accel-units", default="m/s^2", show_default=True, help="m/s^2 or g (increments: m/s).")
 @click.option("--axes", default="x,y,z", show_default=True,
-              help="Body FRD axes in sensor axes, e.g. y,x,-z for a right-forward-up sensor.")
+              help="Body FRD axes in sensor axes, e.g. y,x,-z for a right-forward-up sensor, x,-y,-z for "
+                   "forward-left-up. Applies to the reference attitude too.")
 @click.option("--delimiter", default=",", show_default=True, help="Field separator.")
 @click.option("--site-deg", metavar="LAT,LON,H", help="Site: latitude [deg], longitude [deg], height [m].")
+@click.option("--reference-file", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Read the reference columns from this CSV (same delimiter), with its own time column at its "
+                   "own rate; without it they are read from SOURCE.")
+@click.option("--reference-time", metavar="COLUMN",
+              help="Time column of the reference, on the IMU clock [default: --time]. In SOURCE, the reference is "
+                   "read from the rows where it is filled (empty cells elsewhere); without it, from the rows "
+                   "where the reference columns are filled, at the IMU time.")
+@click.option("--reference-time-units", metavar="UNITS",
+              help="s, ms, us or ns [default: --time-units].")
+@click.option("--reference-quaternion", metavar="W,X,Y,Z",
+              help="Reference attitude: quaternion columns in scalar-first order, rotating sensor-axis vectors "
+                   "into the reference frame (--reference-frame).")
+@click.option("--reference-euler", metavar="ROLL,PITCH,HEADING",
+              help="Reference attitude: z-y-x Euler angles of the sensor axes in NED, "
+                   "mat = Rz(heading) Ry(pitch) Rx(roll) (NED only).")
+@click.option("--reference-euler-units", default="deg", show_default=True, metavar="UNITS", help="deg or rad.")
+@click.option("--reference-velocity", metavar="X,Y,Z",
+              help="Reference velocity [m/s] in the frame's axis order: north,east,down (ned) or "
+                   "east,north,up (enu).")
+@click.option("--reference-position", metavar="LAT,LON,H",
+              help="Reference latitude, longitude and height above the WGS-84 ellipsoid [m].")
+@click.option("--reference-position-units", default="deg", show_default=True, metavar="UNITS",
+              help="Units of latitude and longitude: deg or rad.")
+@click.option("--reference-frame", default="ned", show_default=True, metavar="ned|enu",
+              help="Navigation frame of the reference quaternion and velocity; enu (East-North-Up, as ROS and "
+                   "motion capture write it) is converted to NED.")
 @force_option
 def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, accel, accel_units, axes,
-        delimiter, site_deg, force):
-    """Generic CSV with a column map and units."""
+        delimiter, site_deg, reference_file, reference_time, reference_time_units, reference_quaternion,
+        reference_euler, reference_euler_units, reference_velocity, reference_position, reference_position_units,
+        reference_frame, force):
+    """Generic CSV with a column map and units, and optionally a reference.
+
+    \b
+    The reference (attitude, and optionally velocity and position) makes the
+    record usable by calibrate, diagnose and compare. Its attitude describes the
+    same sensor axes as the IMU columns (--axes maps both into body FRD). Rows
+    with an empty or NaN reference cell are dropouts: left out and reported.
+    """
     _report(run_import("csv", source, output, force=force, time=time_col, time_units=time_units, rate_hz=rate_hz,
-                       form=form, gyro=tuple(gyro.split(",")), gyro_units=gyro_units, accel=tuple(accel.split(",")),
-                       accel_units=accel_units, axes=tuple(axes.split(",")), delimiter=delimiter,
-                       site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None))
+                       form=form, gyro=_names(gyro), gyro_units=gyro_units, accel=_names(accel),
+                       accel_units=accel_units, axes=_names(axes), delimiter=delimiter,
+                       site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
+                       reference_file=reference_file, reference_time=reference_time,
+                       reference_time_units=reference_time_units, reference_quaternion=_names(reference_quaternion),
+                       reference_euler=_names(reference_euler), reference_euler_units=reference_euler_units,
+                       reference_velocity=_names(reference_velocity), reference_position=_names(reference_position),
+                       reference_position_units=reference_position_units, reference_frame=reference_frame))
 
 
 @import_.command()

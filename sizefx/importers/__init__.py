@@ -116,7 +116,7 @@ def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool 
     tel.gaps = find_imu_gaps(tel.time_s, tel.accel_time_s, declared=True)  # written to /imu/gaps
     report = None
     # write and validate the temporary file: a file the reader or the units check refuses never reaches OUT
-    with atomic_output(out, inputs=[source], force=force) as tmp:
+    with atomic_output(out, inputs=[source, options.get("reference_file")], force=force) as tmp:
         write_telemetry(tmp, tel, force=True)
         # gaps only the accelerometer stamps show cannot be declared: allowed here, reported below;
         # the magnitudes are judged by the units check (its messages speak of the import's options)
