@@ -647,6 +647,8 @@ def format_report(out: dict) -> str:
     if res.delay_s is not None:
         lines.append(f"  accelerometer delay: {res.delay_s * 1e6:.2f} +- {res.sigma_delay_s * 1e6:.2f} us")
     for path, rows in out["per_rotation"].items():
+        if not rows:  # no block of rotation about one vertical axis (a tumble, a flight): nothing to show
+            continue
         lines.append(f"the paper's per-rotation fit ({Path(path).name}; ignores the tilt) [mm]:")
         for row in rows:
             i, j = "xyz".index(row["channel"]), "xyz".index(row["other_component"])

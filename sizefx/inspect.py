@@ -138,7 +138,12 @@ def format_summary(s: dict) -> str:
     else:
         lines.append("  gaps      none")
     if ref:
-        lines.append(f"  dropouts  {len(ref)} in {ref[0]['dataset']} (accepted: the reference is only compared)")
+        g = ref[0]
+        longest = max(ref, key=lambda x: x["duration_s"])
+        lines.append(f"  dropouts  {len(ref)} in {g['dataset']} at row {g['row']} (t = {g['time_s']:.6f} s, "
+                     f"{g['duration_s'] * 1e3:.4g} ms)" + ("" if len(ref) == 1 else
+                                                           f" first; the longest {longest['duration_s'] * 1e3:.4g} ms")
+                     + " (accepted: the reference is only compared)")
     if s["site"]:
         st = s["site"]
         lines.append(f"  site      {st['latitude_deg']:.6f} deg N, {st['longitude_deg']:.6f} deg E, {st['height_m']:.1f} m")
