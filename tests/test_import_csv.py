@@ -382,3 +382,18 @@ def test_samples_time_needs_explicit_reference_time_units(tmp_path):
     tel, _ = _import(tmp_path, src, time_units="samples", rate_hz=RATE_HZ, reference_file=ref,
                      reference_time_units="s", **_ref_opts())
     _assert_truth(tel.reference)
+
+
+def test_a_contract_violation_found_after_conversion_names_the_csv_not_a_temporary_file(tmp_path):
+    """Issue 13 (and 16): the importer validates what it wrote to a temporary file; the message must
+    name the user's CSV, never the temporary file that is gone by the time it is read."""
+    src = tmp_path / "backwards.csv"
+    rows = ["t,gx,gy,gz,ax,ay,az"] + [f"{t},0,0,0,0,0,-9.81" for t in (0.00, 0.01, 0.02, 0.015, 0.03)]
+    src.write_text("\n".join(rows) + "\n")
+    result = CliRunner().invoke(main, ["import", "csv", str(src), "-o", str(tmp_path / "out.h5"), "--time", "t",
+                                       "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"])
+    assert result.exit_code == 2, result.output
+    line = result.output.strip()
+    assert line.count("\n") == 0 and str(src) in line and ".tmp" not in line, line
+    assert "not strictly increasing" in line
+    assert not (tmp_path / "out.h5").exists() and not list(tmp_path.glob(".out.h5.*"))

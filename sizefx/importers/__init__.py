@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..errors import SourceError
+from ..errors import SourceError, TelemetryError
 from ..fileio import atomic_output
 from ..schema import allowed_units
 from ..telemetry import find_imu_gaps, read_telemetry, write_telemetry
@@ -120,7 +120,11 @@ def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool 
         write_telemetry(tmp, tel, force=True)
         # gaps only the accelerometer stamps show cannot be declared: allowed here, reported below;
         # the magnitudes are judged by the units check (its messages speak of the import's options)
-        back = read_telemetry(tmp, allow_gaps=True, check_plausibility=False)
+        try:
+            back = read_telemetry(tmp, allow_gaps=True, check_plausibility=False)
+        except TelemetryError as exc:  # name the user's file, never the temporary one
+            raise SourceError(source, f"converts to a record that breaks sizefx/telemetry/1: {exc.dataset}: "
+                                      f"{exc.problem}") from None
         if check_units:
             declared, where, fix = _units_context(fmt, back)
             report = units_of(back, declared=declared)
