@@ -85,15 +85,22 @@ class Record:
         return -self.g_down * self.mat_nb[:, 2, :]
 
 
+def _require_reference_site_samples(path, reference, site, n_samples: int):
+    """What a record must hold to be calibrated: /reference attitude, a site (or reference
+    position) for normal gravity, and enough samples; a one-line refusal otherwise."""
+    if reference is None:
+        raise CalibrationError(f"{path}: calibration needs /reference attitude (what the table reports); "
+                               "this record has none (sizefx inspect shows what it holds)")
+    if site is None and not reference.has_position:
+        raise CalibrationError(f"{path}: no site: normal gravity needs latitude and height; add the root "
+                               "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
+    if n_samples < MIN_SAMPLES:
+        raise CalibrationError(f"{path}: {n_samples} samples; calibration needs at least {MIN_SAMPLES}")
+
+
 def prepare(tel: Telemetry, name: str = "") -> Record:
     """Rates, angular acceleration and reference attitude on the IMU samples of a record."""
-    if tel.reference is None:
-        raise CalibrationError(f"{tel.path}: calibration needs /reference attitude (what the table reports)")
-    if tel.site is None and not tel.reference.has_position:
-        raise CalibrationError(f"{tel.path}: no site: normal gravity needs latitude and height; add the root "
-                               "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
-    if tel.n_samples < MIN_SAMPLES:
-        raise CalibrationError(f"{tel.path}: {tel.n_samples} samples; calibration needs at least {MIN_SAMPLES}")
+    _require_reference_site_samples(tel.path, tel.reference, tel.site, tel.n_samples)
     tel = sync_accelerometers(tel)  # on the gyro time base before any conversion
     dt = tel.sample_period_s
     if tel.form == "rates":
@@ -415,7 +422,8 @@ def _noise_floor(accel: np.ndarray) -> np.ndarray:
     return 1.4826 * mad / np.sqrt(6.0)  # var(d2) = 6 sigma^2 for white noise
 
 
-def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WINDOW_S) -> Excitation:
+def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WINDOW_S,
+               n_segments: int | None = None) -> Excitation:
     """One streamed pass over the IMU rows of ``path``: rates and angular accelerations per body
     axis, and the information the motion carries about each lever arm.
 
@@ -428,8 +436,9 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
     from .telemetry import TelemetryStream
 
     half = SAVGOL_WINDOW // 2
-    with TelemetryStream(path, allow_gaps=allow_gaps) as st:
-        n_segments = st.n_segments
+    if n_segments is None:  # preflight passes it from the open it checks the record with
+        with TelemetryStream(path, allow_gaps=allow_gaps) as st:
+            n_segments = st.n_segments
     sum_w2, sum_wd2 = np.zeros(3), np.zeros(3)
     rotating = n_total = 0
     noise = np.full(3, np.inf)
@@ -509,17 +518,12 @@ def preflight(paths, *, with_delay: bool = False, allow_gaps: bool = False) -> l
     """
     from .telemetry import TelemetryStream
 
-    for path in paths:
+    segments = []
+    for path in paths:  # every record's structure first: the cheapest refusals before any pass
         with TelemetryStream(path, allow_gaps=allow_gaps) as st:
-            if st.reference is None:
-                raise CalibrationError(f"{path}: calibration needs /reference attitude (what the table reports); "
-                                       "this record has none (sizefx inspect shows what it holds)")
-            if st.site is None and not st.reference.has_position:
-                raise CalibrationError(f"{path}: no site: normal gravity needs latitude and height; add the root "
-                                       "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
-            if st.n_samples < MIN_SAMPLES:
-                raise CalibrationError(f"{path}: {st.n_samples} samples; calibration needs at least {MIN_SAMPLES}")
-    exc = [excitation(p, allow_gaps=allow_gaps) for p in paths]
+            _require_reference_site_samples(path, st.reference, st.site, st.n_samples)
+            segments.append(st.n_segments)
+    exc = [excitation(p, allow_gaps=allow_gaps, n_segments=k) for p, k in zip(paths, segments)]
     if all(e.rotating_s == 0.0 for e in exc):
         names = ", ".join(e.path for e in exc)
         raise CalibrationError(f"{names}: the record never rotates (|omega| stays under 1 deg/s; "
