@@ -62,7 +62,7 @@ def main(argv=None):
         navigate_s = time.perf_counter() - t0
         err = res.summary["final_horizontal_error_m"]
         assert err is not None and err < 1.0, f"wrong answer: final horizontal error {err} m"
-        _, dtheta, dvel, dt = increments_of(tel)
+        _, dtheta, dvel, dt, _ = increments_of(tel)
         result = {"benchmark": "navigate kernel, 1.8 h flight at 1600 Hz", "samples": int(dtheta.shape[0]),
                   "check_final_horizontal_error_m": err, "first_call_s": round(first_call_s, 3),
                   "navigate_in_memory_s": round(navigate_s, 3)}

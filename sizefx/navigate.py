@@ -129,13 +129,13 @@ def grid_offsets_periods(time_s, t_first: float, dt: float, first_row: int = 0) 
 
 def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None,
                   row0: int = 0):
-    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt)`` for a record of either form.
+    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt, jitter)`` for a record of either form.
 
     ``dt``: the record's period when ``tel`` is a chunk of it (default: ``tel``'s own span);
     ``first_row``: the row of ``tel``'s first sample counted from the record's first, whose time is
     ``t_first`` (default: ``tel``'s own first); ``row0``: the file row of the record's first sample
     (a segment's), for messages. The stamps must lie on the uniform grid within
-    :data:`GRID_TOLERANCE` periods.
+    :data:`GRID_TOLERANCE` periods; ``jitter`` is the largest distance of one from it [periods].
     """
     if dt is None:
         dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
@@ -143,6 +143,7 @@ def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *
         t_first = float(tel.time_s[0]) - first_row * dt
     off_grid = grid_offsets_periods(tel.time_s, t_first, dt, first_row)
     worst = int(np.argmax(np.abs(off_grid)))
+    jitter = float(abs(off_grid[worst]))
     if abs(off_grid[worst]) > GRID_TOLERANCE:
         raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
                                                     f"is {off_grid[worst]:+.3g} periods off the uniform grid of "
@@ -150,13 +151,13 @@ def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *
                                                     f"jitter up to {GRID_TOLERANCE} period (resample the record, "
                                                     "or cut it where the rate changes)")
     if tel.form == "increments":
-        return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt
+        return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt, jitter
     n = tel.n_samples
     dtheta = np.empty((n - 1, 3))
     dvel = np.empty((n - 1, 3))
     rates_to_increments(np.ascontiguousarray(tel.gyro_rad_s), dt, dtheta)
     rates_to_increments(np.ascontiguousarray(tel.accel_mps2), dt, dvel)
-    return tel.time_s[1:], dtheta, dvel, dt
+    return tel.time_s[1:], dtheta, dvel, dt, jitter
 
 
 # --------------------------------------------------------------------------- alignment
@@ -319,7 +320,7 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
         del correction["effects"]  # in the model file; the configuration names it
     else:
         tel = sync_accelerometers(tel, (levers.accel_delay_s or 0.0) if levers else 0.0)
-    t_end, dtheta, dvel, dt = increments_of(tel)
+    t_end, dtheta, dvel, dt, jitter = increments_of(tel)
     if levers:
         dvel = compensate_arrays_increments(dtheta, dvel, dt, levers, cfg.mode)
     n_sub = int(cfg.subsamples)
@@ -344,7 +345,7 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
               "correction": correction, "init": init, "vertical": vertical, "stationary_reference": stationary,
               "input_form": tel.form, "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / (n_sub * dt),
               "dropped_trailing_samples": int(dtheta.shape[0] - n_steps * n_sub),
-              "time_jitter_periods": float(np.abs(grid_offsets_periods(tel.time_s, tel.time_s[0], dt)).max()),
+              "time_jitter_periods": jitter,
               **details}
     result = NavResult(t_nav, q, v, lat, lon, h, config, {})
     result.summary = _summary(tel, result, n_steps * n_sub)

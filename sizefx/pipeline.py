@@ -50,7 +50,6 @@ from .navigate import (
     _choose,
     _reference_at,
     _run_kernel,
-    grid_offsets_periods,
     increments_of,
     initial_state,
     _segment_config,
@@ -100,9 +99,9 @@ class _Source:
                 del self.correction["effects"]  # in the model file; the configuration names it
         else:
             tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
-        t_end, dtheta, dvel, _ = increments_of(tel, dt=dt, first_row=lo, t_first=self.t_first,
-                                               row0=st.first_row)
-        self.jitter = max(self.jitter, float(np.abs(grid_offsets_periods(t, self.t_first, dt, lo)).max()))
+        t_end, dtheta, dvel, _, jitter = increments_of(tel, dt=dt, first_row=lo, t_first=self.t_first,
+                                                       row0=st.first_row)
+        self.jitter = max(self.jitter, jitter)
         if self.levers:
             dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
         keep = slice(j0 - lo, j1 - lo)
