@@ -44,12 +44,11 @@ def _report(summary):
         if declared < gaps:
             lines.append(f"note: {gaps - declared} gaps only the accelerometer stamps show cannot be declared; "
                          "pass --allow-gaps to the commands that read this file")
-    units = summary.get("units_check")
-    if units is None:
-        lines.append("units: not checked (--no-units-check)")
-    else:
-        lines.append(f"units: {units['accel']['detail']}")
-        lines.append(f"       {units['gyro']['detail']}")
+    from sizefx.sanity import report_lines  # the command has run: its library is loaded already
+
+    checked = report_lines(summary.get("units_check"))
+    lines.append(f"units: {checked[0]}")
+    lines.extend(f"       {line}" for line in checked[1:])
     for line in lines:
         click.echo(line)
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .constants import ARCSEC, MICRO_G, PPM
+from .sanity import report_lines
 from .schema import TELEMETRY_SCHEMA, allowed_units
 from .telemetry import Telemetry, imu_segments, read_telemetry
 
@@ -109,12 +110,9 @@ def format_summary(s: dict) -> str:
              "  units     " + ", ".join(f"{k} [{v}] {s['stored_dtypes'][k]}" for k, v in s["stored_units"].items())]
     if s["accel_time"]:
         lines.append("  accel     separate time stamps (/imu/accel_time)")
-    units = s.get("units_check")
-    if units is None:
-        lines.append("  checked   units not checked (--no-units-check)")
-    else:
-        lines.append(f"  checked   {units['accel']['detail']}")
-        lines.append(f"            {units['gyro']['detail']}")
+    checked = report_lines(s.get("units_check"))
+    lines.append(f"  checked   {'units ' if s.get('units_check') is None else ''}{checked[0]}")
+    lines.extend(f"            {line}" for line in checked[1:])
     imu = [g for g in s["gaps"] if g["dataset"].startswith("/imu")]
     ref = [g for g in s["gaps"] if not g["dataset"].startswith("/imu")]
     if imu:

@@ -41,7 +41,7 @@ from .errors import UnitsError
 from .rotation import quat_angle_between, rotvec_to_mat
 from .schema import TELEMETRY_SCHEMA, load_schema, unit_factor
 
-__all__ = ["Check", "UnitsReport", "check_units", "refuse_wrong_units", "looks_like"]
+__all__ = ["Check", "UnitsReport", "check_units", "refuse_wrong_units", "looks_like", "report_lines"]
 
 # --------------------------------------------------------------------------- windows and rest
 
@@ -540,6 +540,14 @@ def check_units(tel, *, declared: dict | None = None) -> UnitsReport:
             reasons.append(gyro)
             gyro = Check("gyro", gyro_name, d_gyro, "unchecked", "gyro: not checked: " + "; ".join(reasons))
     return UnitsReport(accel, gyro)
+
+
+def report_lines(doc: dict | None) -> list[str]:
+    """What a person is told of the check (its ``UnitsReport.as_dict()``, None when skipped): one
+    line per sensor, for ``sizefx import`` and ``sizefx inspect`` alike."""
+    if doc is None:
+        return ["not checked (--no-units-check)"]
+    return [doc["accel"]["detail"], doc["gyro"]["detail"]]
 
 
 def refuse_wrong_units(report: UnitsReport, path, *, where: dict | None = None, fix=None):
