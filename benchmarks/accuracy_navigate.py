@@ -61,7 +61,7 @@ def static_check():
     from sizefx.motion import ConstantProfile, RotationChain, StaticSite, Trajectory
     from sizefx.rotation import mat_to_quat
     from sizefx.simulate import kinematics
-    from sizefx.telemetry import Reference, Site, Telemetry
+    from sizefx.io.telemetry import Reference, Site, Telemetry
 
     site = scenarios.PAPER_AIRFIELD
     lat, lon, h = site.radians()
@@ -97,7 +97,7 @@ def schuler_check():
     from sizefx.effects import IDEAL, load_effects
     from sizefx.motion import ConstantProfile, RotationChain, StaticSite, Trajectory
     from sizefx.simulate import kinematics
-    from sizefx.telemetry import Reference, Site, Telemetry
+    from sizefx.io.telemetry import Reference, Site, Telemetry
     from sizefx.theory import schuler_peak_error_m, schuler_period_s
 
     lat, lon, h = scenarios.PAPER_AIRFIELD.radians()

@@ -23,7 +23,7 @@ import numpy as np
 
 from sizefx import earth
 from sizefx.constants import DEG
-from sizefx.telemetry import Site, TelemetryWriter
+from sizefx.io.telemetry import Site, TelemetryWriter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import emit, run_measured  # noqa: E402  (a sibling of this script)

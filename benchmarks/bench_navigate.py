@@ -23,7 +23,7 @@ import numpy as np
 from sizefx.kernels.strapdown import VERTICAL_REFERENCE, coning_coefficients, pack_state, strapdown
 from sizefx.navigate import NavConfig, increments_of, navigate
 from sizefx.simulate import run as simulate
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 
 
 def time_kernel(dtheta, dvel, dt, n_sub, repeat):

@@ -51,10 +51,10 @@ from sizefx.kernels.strapdown import (
 from sizefx.levers import levers_from_preset, write_levers
 from sizefx.navigate import NavConfig, navigate, write_navigation
 from sizefx.omegadot import edges_from_increments, savgol
-from sizefx.pipeline import navigate_file
+from sizefx.navigate.stream import navigate_file
 from sizefx.scenarios import FlightPlan
 from sizefx.simulate import run as simulate
-from sizefx.telemetry import TelemetryStream, read_telemetry
+from sizefx.io.telemetry import TelemetryStream, read_telemetry
 import naive
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

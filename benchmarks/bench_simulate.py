@@ -20,7 +20,7 @@ import numpy as np
 
 from sizefx import earth, scenarios
 from sizefx.simulate import run
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 
 
 def main(argv=None):

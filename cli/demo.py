@@ -20,7 +20,7 @@ def demo(out_dir, seed):
     diagnosis of a record with hidden effects. About two minutes on two cores;
     plots go to --out. Full size: sizefx paper all.
     """
-    from sizefx.demo import run_demo
+    from sizefx.experiments.demo import run_demo
 
     for line in run_demo(Path(out_dir), seed=seed):
         click.echo(line)

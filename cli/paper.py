@@ -34,7 +34,7 @@ def paper(experiment, size, out_dir, json_path, seed, keep_records):
     docs/paper/ holds the full-size figures, made by:
     sizefx paper all --size full --out docs/paper --json docs/paper/results.json --no-keep-records
     """
-    from sizefx.paper import SIZES, format_results, run_all, to_json
+    from sizefx.experiments.paper import SIZES, format_results, run_all, to_json
 
     which = ("turntable", "sway", "flight") if experiment == "all" else (experiment,)
     res = run_all(Path(out_dir), SIZES[size], which=which, seed=seed, log=click.echo, keep_records=keep_records)

@@ -41,7 +41,7 @@ import numpy as np
 
 from sizefx.frames import MAT_FRD_FLU, MAT_NED_ENU
 from sizefx.rotation import mat_to_quat, quat_to_mat
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 
 HERE = Path(__file__).resolve().parent
 SIMULATE = ["simulate", "tumble", "--rate-hz", "100", "--reference-rate-hz", "50", "--seed", "0",

@@ -35,13 +35,14 @@ from . import earth
 from .compensate import sync_accelerometers
 from .constants import ARCSEC, DEG
 from .errors import SizefxError
-from .fileio import atomic_output, check_outputs
+from .geometry import triad_point
+from .io.files import atomic_output, check_outputs
 from .levers import Levers, levers_from_preset, read_levers, write_levers
 from .omegadot import SAVGOL_WINDOW, savgol
 from .rotation import quat_interp, quat_spline, quat_to_mat
-from .telemetry import Telemetry, read_telemetry
+from .io.telemetry import Telemetry, read_telemetry
 
-__all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_fit", "triad_point",
+__all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_fit",
            "detect_rotations", "CalibrationResult", "Excitation", "excitation", "preflight", "run"]
 
 #: Fewest samples a record may have: the Savitzky-Golay angular-acceleration window, with room.
@@ -371,26 +372,6 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
     return res
 
 
-def triad_point(arms: np.ndarray, axes: np.ndarray = np.eye(3), how: str = "normals") -> np.ndarray:
-    """The triad point C as a vector from the reference point [m].
-
-    ``normals``: the point nearest (least squares) to the three lines through each
-    accelerometer along its sensitive axis (the paper's point C, where the normals
-    meet); ``x-accelerometer``: accelerometer x itself (the paper's alternative).
-    """
-    if how == "x-accelerometer":
-        return arms[0].copy()
-    if how != "normals":
-        raise CalibrationError(f"triad point '{how}': use normals or x-accelerometer")
-    A = np.zeros((3, 3))
-    rhs = np.zeros(3)
-    for r, u in zip(arms, axes):
-        P = np.eye(3) - np.outer(u, u)
-        A += P
-        rhs += P @ r
-    return np.linalg.solve(A, rhs)
-
-
 # --------------------------------------------------------------------------- pre-flight
 
 #: IMU rows the pre-flight pass reads at a time (plus the Savitzky-Golay half window each side).
@@ -433,7 +414,7 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
     cannot determine is certainly not determined by the fit, so :func:`preflight` can refuse it
     in seconds instead of after the fit (issue 13: 526 s on a flight record).
     """
-    from .telemetry import TelemetryStream
+    from .io.telemetry import TelemetryStream
 
     half = SAVGOL_WINDOW // 2
     if n_segments is None:  # preflight passes it from the open it checks the record with
@@ -516,7 +497,7 @@ def preflight(paths, *, with_delay: bool = False, allow_gaps: bool = False) -> l
        undetermined (weak direction, or sigma above :data:`UNDETERMINED_SIGMA`), is named with
        the rotation each axis saw.
     """
-    from .telemetry import TelemetryStream
+    from .io.telemetry import TelemetryStream
 
     segments = []
     for path in paths:  # every record's structure first: the cheapest refusals before any pass
@@ -575,7 +556,7 @@ def run(paths, *, nominal: str = "high-precision", with_tilt: bool = True, with_
     lever arms (``json_path``, sizefx/levers/1) and the figure (``plot``) when asked.
 
     Everything that can refuse the run is checked before the first record is read whole: the
-    outputs (:func:`sizefx.fileio.check_outputs`), the nominal geometry, each record's
+    outputs (:func:`sizefx.io.files.check_outputs`), the nominal geometry, each record's
     reference and site, and the motion's excitation of the arms (:func:`preflight`).
     """
     paths = [str(p) for p in paths]

@@ -25,7 +25,7 @@ from .errors import ConfigError
 from .kernels.sizeeffect import compensate_increments, compensate_increments_edges, compensate_rates
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
-from .telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
+from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
 
 __all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "compensate", "compensate_arrays_increments", "run"]
 

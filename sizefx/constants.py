@@ -45,3 +45,6 @@ BROAD_SITE_DEG = (52.5125, 13.3269, 40.0)
 #: A time step larger than this many nominal sample periods is a gap
 #: (issue 2: "gaps longer than 1.5 sample periods").
 GAP_FACTOR = 1.5
+
+#: One international nautical mile [m] (drift is quoted in nmi/h).
+METRES_PER_NMI = 1852.0

@@ -67,7 +67,7 @@ from .compensate import compensate, read_continuous, segment_note, sync_accelero
 from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
 from .levers import Levers
-from .telemetry import Telemetry, write_telemetry
+from .io.telemetry import Telemetry, write_telemetry
 
 __all__ = ["CORRECTED_SECTIONS", "IGNORED_SECTIONS", "correct_imu", "load_model", "run"]
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .geometry import preset_arms_m
-from .schema import load_schema
+from .io.schema import load_schema
 
 __all__ = ["EffectModel", "load_effects", "effects_template", "EFFECTS_SCHEMA", "IDEAL"]
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from .errors import ConfigError
 
-__all__ = ["PRESETS", "preset_arms_m"]
+__all__ = ["PRESETS", "preset_arms_m", "triad_point"]
 
 PRESETS = {
     # High-precision INS: each mass 24.9 mm out along its own axis.
@@ -29,3 +29,23 @@ def preset_arms_m(name: str) -> np.ndarray:
         return PRESETS[name].copy()
     except KeyError:
         raise ConfigError(f"unknown geometry preset '{name}'; use one of {', '.join(PRESETS)}") from None
+
+
+def triad_point(arms: np.ndarray, axes: np.ndarray = np.eye(3), how: str = "normals") -> np.ndarray:
+    """The triad point C as a vector from the reference point [m].
+
+    ``normals``: the point nearest (least squares) to the three lines through each
+    accelerometer along its sensitive axis (the paper's point C, where the normals
+    meet); ``x-accelerometer``: accelerometer x itself (the paper's alternative).
+    """
+    if how == "x-accelerometer":
+        return arms[0].copy()
+    if how != "normals":
+        raise ConfigError(f"triad point '{how}': use normals or x-accelerometer")
+    A = np.zeros((3, 3))
+    rhs = np.zeros(3)
+    for r, u in zip(arms, axes):
+        P = np.eye(3) - np.outer(u, u)
+        A += P
+        rhs += P @ r
+    return np.linalg.solve(A, rhs)

@@ -8,8 +8,8 @@ import numpy as np
 
 from .constants import ARCSEC, MICRO_G, PPM
 from .sanity import report_lines
-from .schema import TELEMETRY_SCHEMA, allowed_units
-from .telemetry import Telemetry, imu_segments, read_telemetry
+from .io.schema import TELEMETRY_SCHEMA, allowed_units
+from .io.telemetry import Telemetry, imu_segments, read_telemetry
 
 __all__ = ["summarize", "format_summary", "inspect_file"]
 

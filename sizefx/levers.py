@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
-from .fileio import atomic_output
+from .io.files import atomic_output
 from .geometry import preset_arms_m
-from .schema import load_schema
+from .io.schema import load_schema
 
 __all__ = ["Levers", "read_levers", "write_levers", "levers_from_preset", "LEVERS_SCHEMA"]
 

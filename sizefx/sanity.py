@@ -39,7 +39,7 @@ from . import earth
 from .constants import DEG, GAP_FACTOR, STANDARD_GRAVITY_MPS2
 from .errors import UnitsError
 from .rotation import quat_angle_between, rotvec_to_mat
-from .schema import TELEMETRY_SCHEMA, load_schema, unit_factor
+from .io.schema import TELEMETRY_SCHEMA, load_schema, unit_factor
 
 __all__ = ["Check", "UnitsReport", "check_units", "refuse_wrong_units", "looks_like", "report_lines"]
 
@@ -517,7 +517,7 @@ def check_units(tel, *, declared: dict | None = None) -> UnitsReport:
 
     Parameters
     ----------
-    tel : sizefx.telemetry.Telemetry
+    tel : sizefx.io.telemetry.Telemetry
         The record, its IMU arrays converted to SI with the declared units.
     declared : dict, optional
         Dataset name -> the units the data were read in (``tel.stored_units`` by default; an

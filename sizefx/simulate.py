@@ -34,7 +34,7 @@ from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
 from .motion import Trajectory
 from .rotation import mat_to_quat, rotvec_to_mat
-from .telemetry import Reference, Site, Telemetry, TelemetryWriter
+from .io.telemetry import Reference, Site, Telemetry, TelemetryWriter
 
 __all__ = ["ImuKinematics", "kinematics", "ImuSynthesizer", "simulate_to_file", "GAUSS_NODES", "GAUSS_WEIGHTS"]
 
@@ -303,7 +303,7 @@ def run(scenario: str, out, *, plan=None, site=None, effects_path=None, override
 
 def simulate_in_memory(traj: Trajectory, effects: EffectModel | None = None, *, rate_hz: float = 1600.0,
                        form: str = "increments", seed: int = 0):
-    """A whole record as a :class:`~sizefx.telemetry.Telemetry` in memory, reference at the IMU rate.
+    """A whole record as a :class:`~sizefx.io.telemetry.Telemetry` in memory, reference at the IMU rate.
 
     For short records (algorithm checks, diagnosis experiments); files go through
     :func:`simulate_to_file`.

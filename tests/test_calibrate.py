@@ -156,7 +156,7 @@ def test_a_record_with_declared_gaps_is_fitted_segment_by_segment(tmp_path):
     """Issue 13, item 9: gaps an importer declared are a property of the record. Calibration
     estimates the angular acceleration within each continuous segment (never across a gap) and
     fits the segments jointly; the arms agree with the gapless record's."""
-    from sizefx.telemetry import find_imu_gaps, write_telemetry
+    from sizefx.io.telemetry import find_imu_gaps, write_telemetry
 
     fx = load_effects(overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}})
     tel = simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], fx, form="rates", seed=5, rate_hz=400.0)

@@ -103,7 +103,7 @@ def test_demo_smoke(tmp_path):
     """The README's first command, every step at the smallest size: the three experiments, the
     table, the diagnosis, the plots. CI runs the real demo (reduced size) from a fresh clone and
     checks the same lines (.ci/run)."""
-    from sizefx.demo import run_demo
+    from sizefx.experiments.demo import run_demo
 
     out = tmp_path / "demo"
     text = "\n".join(run_demo(out, size="smoke"))

@@ -44,7 +44,7 @@ from sizefx.rotation import (
     quat_to_mat,
 )
 from sizefx.simulate import simulate_in_memory
-from sizefx.telemetry import write_telemetry
+from sizefx.io.telemetry import write_telemetry
 from support import write_raw
 
 #: Tolerances, per quantity, with their reasons.

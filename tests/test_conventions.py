@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 import sizefx
 from sizefx import rotation as rot
-from sizefx.schema import load_schema
+from sizefx.io.schema import load_schema
 
 unit_quats = st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4).filter(
     lambda q: np.linalg.norm(q) > 0.1).map(lambda q: np.asarray(q) / np.linalg.norm(q))

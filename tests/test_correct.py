@@ -19,7 +19,7 @@ from sizefx.motion import RotationChain, Sinusoids, StaticSite, Trajectory
 from sizefx.navigate import NavConfig, navigate
 from sizefx.omegadot import SAVGOL_WINDOW
 from sizefx.simulate import simulate_in_memory
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 
 RATE_HZ = 1600.0
 #: Samples left out at each end: the Savitzky-Golay fit and np.gradient are one-sided there,

@@ -164,7 +164,7 @@ def test_nothing_is_found_in_an_ideal_record_at_200_hz(form):
 def test_imu_gaps_are_left_out(tmp_path):
     """A second of IMU data missing (accepted with --allow-gaps): the samples around it are not fitted."""
     tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, rate_hz=200.0, duration_s=20.0, seed=12)
-    from sizefx.telemetry import read_telemetry, write_telemetry
+    from sizefx.io.telemetry import read_telemetry, write_telemetry
 
     keep = (tel.time_s < 9.0) | (tel.time_s > 10.0)
     tel.time_s, tel.gyro_rad_s, tel.accel_mps2 = tel.time_s[keep], tel.gyro_rad_s[keep], tel.accel_mps2[keep]

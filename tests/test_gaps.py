@@ -17,7 +17,7 @@ from support import RATE_HZ, write_raw
 
 from sizefx.errors import ConfigError, TelemetryError
 from sizefx.levers import levers_from_preset, write_levers
-from sizefx.telemetry import TelemetryStream, find_imu_gaps, read_telemetry, write_telemetry
+from sizefx.io.telemetry import TelemetryStream, find_imu_gaps, read_telemetry, write_telemetry
 from sizefx_cli.main import main
 
 GAP_ROW = 600  #: write_raw's record (1000 rows at 100 Hz) loses 0.5 s before this row

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from sizefx.errors import SourceError
 from sizefx.importers import run_import
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 from sizefx_cli.main import main
 
 RATE_HZ = 100.0

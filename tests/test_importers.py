@@ -17,7 +17,7 @@ from sizefx.frames import MAT_FRD_FLU, enu_to_ned, mat_nb_from_enu_body, psins_m
 from sizefx.importers import run_import
 from sizefx.importers.table import axis_matrix
 from sizefx.rotation import mat_to_euler, quat_multiply, quat_to_mat
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 from sizefx_cli.main import main
 
 REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))

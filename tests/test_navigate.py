@@ -32,10 +32,10 @@ from sizefx.motion import (
     Trajectory,
 )
 from sizefx.navigate import NavConfig, navigate
-from sizefx.pipeline import navigate_file
+from sizefx.navigate.stream import navigate_file
 from sizefx.rotation import mat_to_quat
 from sizefx.simulate import ImuSynthesizer, kinematics, simulate_in_memory
-from sizefx.telemetry import Reference, Site, Telemetry
+from sizefx.io.telemetry import Reference, Site, Telemetry
 from sizefx.theory import coning_residual_rad_s, schuler_peak_error_m, schuler_period_s, sculling_residual_mps2
 from sizefx_cli.main import main
 import naive

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sizefx.paper import PAPER, format_results, schuler_response
+from sizefx.experiments.paper import PAPER, format_results, schuler_response
 
 OMEGA_S = 2 * np.pi / (84.4 * 60.0)
 
@@ -43,7 +43,7 @@ def test_offset_to_the_table_centre_does_not_rectify(tmp_path):
     from sizefx import scenarios
     from sizefx.navigate import NavConfig, navigate
     from sizefx.simulate import run
-    from sizefx.telemetry import read_telemetry
+    from sizefx.io.telemetry import read_telemetry
 
     plan = scenarios.SwayPlan(static_s=60.0, segment_s=300.0, amplitudes_dps=(30.0,))
     errors = {}
@@ -58,7 +58,7 @@ def test_offset_to_the_table_centre_does_not_rectify(tmp_path):
 
 
 def test_sway_experiment_takes_the_seed_and_agrees_with_its_closed_form(tmp_path):
-    from sizefx.paper import SIZES, Size, sway_experiment
+    from sizefx.experiments.paper import SIZES, Size, sway_experiment
 
     small = Size("test", 1, 400.0, 400.0, 60.0, 120.0, 400.0, 0.1)
     runs = []

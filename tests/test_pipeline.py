@@ -10,9 +10,9 @@ from sizefx import scenarios
 from sizefx.errors import TelemetryError
 from sizefx.levers import levers_from_preset, write_levers
 from sizefx.navigate import NavConfig, navigate
-from sizefx.pipeline import navigate_file
+from sizefx.navigate.stream import navigate_file
 from sizefx.simulate import run
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 
 FIELDS = ("time_s", "quat_nb", "v_n", "lat_rad", "lon_rad", "height_m")
 
@@ -88,7 +88,7 @@ def test_stamps_far_from_zero_give_the_same_period_whole_and_streamed(tmp_path):
     """Stamps k/1600 + 2007 s cross 2048 s after 41 s, where their spacing starts rounding the
     other way: the median step of the whole record and of the stream's first 65536 rows differ in
     the 10th digit. Both runs take the span over the count instead, and agree."""
-    from sizefx.telemetry import TelemetryStream, write_telemetry
+    from sizefx.io.telemetry import TelemetryStream, write_telemetry
 
     path = tmp_path / "sway.h5"
     run("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=40.0, amplitudes_dps=(20.0,)),

@@ -20,7 +20,7 @@ from sizefx import sanity, scenarios
 from sizefx.constants import STANDARD_GRAVITY_MPS2
 from sizefx.errors import UnitsError
 from sizefx.simulate import run as simulate
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 from sizefx_cli.main import main
 
 DEG_PER_RAD = 180.0 / math.pi

@@ -14,7 +14,7 @@ from sizefx.effects import IDEAL, load_effects
 from sizefx.motion import ProfileBuilder, RotationChain, StaticSite, Trajectory
 from sizefx.rotation import quat_to_mat
 from sizefx.simulate import GAUSS_NODES, ImuSynthesizer, kinematics, run, simulate_to_file
-from sizefx.telemetry import read_telemetry
+from sizefx.io.telemetry import read_telemetry
 
 SITE0 = scenarios.SiteSpec(57.9825, 55.7089, 0.0)  # height 0: pure Somigliana gravity
 

@@ -9,7 +9,8 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx import scenarios
-from sizefx.calibrate import CalibrationError, joint_fit, per_rotation_fit, prepare, triad_point
+from sizefx.calibrate import CalibrationError, joint_fit, per_rotation_fit, prepare
+from sizefx.geometry import triad_point
 from sizefx.compensate import compensate, resample_increments, resample_onto
 from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import IDEAL, load_effects
@@ -330,7 +331,7 @@ def test_calibrate_compensate_navigate_commands(tmp_path, paper_plan):
     out = tmp_path / "comp.h5"
     r = CliRunner().invoke(main, ["compensate", str(sim), "--levers", str(lev), "-o", str(out), "--mode", "center"])
     assert r.exit_code == 0, r.output
-    from sizefx.telemetry import read_telemetry
+    from sizefx.io.telemetry import read_telemetry
 
     comp = read_telemetry(out)
     assert json.loads(comp.source["compensation_json"])["mode"] == "center"

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from sizefx.errors import OutputError, TelemetryError
-from sizefx.schema import load_schema
-from sizefx.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
+from sizefx.io.schema import load_schema
+from sizefx.io.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
 from support import N, RATE_HZ, write_raw
 
 DEG = np.pi / 180
@@ -305,7 +305,7 @@ def test_outputs_get_ordinary_file_permissions(tmp_path):
     """mkstemp makes 0600 files; a finished output must be readable like any new file (umask applied)."""
     import os
 
-    from sizefx.fileio import atomic_output
+    from sizefx.io.files import atomic_output
 
     out = tmp_path / "o.txt"
     with atomic_output(out) as tmp:

@@ -4,7 +4,7 @@ Each module exposes ``load(path, **options) -> Telemetry`` that converts axes to
 body FRD, the reference to NED, and units to SI, and records where the data
 came from in ``Telemetry.source`` (written to ``/source``). :func:`run_import`
 declares the IMU gaps it finds in ``/imu/gaps`` (the reader's own definition of a
-gap, :func:`sizefx.telemetry.find_imu_gaps`), writes the result atomically, reads it
+gap, :func:`sizefx.io.telemetry.find_imu_gaps`), writes the result atomically, reads it
 back through the validating reader and checks its units against physics
 (:mod:`sizefx.sanity`), so an importer can never produce a file the rest of sizefx
 refuses, nor one whose rates are 57 times wrong.
@@ -19,9 +19,9 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SourceError, TelemetryError
-from ..fileio import atomic_output
-from ..schema import allowed_units
-from ..telemetry import find_imu_gaps, read_telemetry, write_telemetry
+from ..io.files import atomic_output
+from ..io.schema import allowed_units
+from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
 __all__ = ["FORMATS", "run_import", "provenance"]
 
@@ -57,7 +57,7 @@ def check_source(path) -> Path:
 
 
 def load_source(fmt: str, path, **options):
-    """Convert ``path`` of format ``fmt`` into a :class:`~sizefx.telemetry.Telemetry` (not written)."""
+    """Convert ``path`` of format ``fmt`` into a :class:`~sizefx.io.telemetry.Telemetry` (not written)."""
     import importlib
 
     if fmt not in FORMATS:

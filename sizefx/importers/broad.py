@@ -24,7 +24,7 @@ import numpy as np
 from ..constants import BROAD_SITE_DEG, DEG
 from ..errors import SourceError
 from ..frames import MAT_FRD_FLU, enu_to_ned, geodetic_from_local_ned, quat_nb_from_enu_body
-from ..telemetry import Reference, Site, Telemetry
+from ..io.telemetry import Reference, Site, Telemetry
 from . import as_array, load_mat, provenance
 
 CREDITS = ("D. Laidig, M. Caruso, A. Cereatti, T. Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "

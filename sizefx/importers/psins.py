@@ -16,7 +16,7 @@ from ..constants import ARCSEC, DEG
 from ..errors import SourceError
 from ..frames import MAT_FRD_RFU, enu_to_ned, mat_nb_from_enu_body, psins_mat_enu_rfu
 from ..rotation import mat_to_quat
-from ..telemetry import Reference, Site, Telemetry
+from ..io.telemetry import Reference, Site, Telemetry
 from . import as_array, load_mat, provenance
 
 CREDITS = "PSINS toolbox sample data, Yan Gongmin (psins.org.cn); BSD-2 licence"

@@ -38,8 +38,8 @@ from ..constants import DEG, QUATERNION_NORM_TOLERANCE
 from ..errors import SourceError
 from ..frames import enu_to_ned, quat_nb_from_enu_body
 from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
-from ..schema import allowed_units, unit_factor
-from ..telemetry import Reference, Site, Telemetry
+from ..io.schema import allowed_units, unit_factor
+from ..io.telemetry import Reference, Site, Telemetry
 from . import provenance
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -383,7 +383,7 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
          reference_quaternion=None, reference_euler=None, reference_euler_units: str = "deg",
          reference_velocity=None, reference_position=None, reference_position_units: str = "deg",
          reference_frame: str = "ned") -> Telemetry:
-    """A CSV record (and its reference) as :class:`~sizefx.telemetry.Telemetry` in SI, body FRD, NED.
+    """A CSV record (and its reference) as :class:`~sizefx.io.telemetry.Telemetry` in SI, body FRD, NED.
 
     Column arguments are tuples of header names; see the module docstring for
     the rules and :func:`sizefx.importers.run_import` for writing the result.

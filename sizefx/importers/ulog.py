@@ -21,7 +21,7 @@ import numpy as np
 
 from ..constants import DEG
 from ..errors import SourceError
-from ..telemetry import Site, Telemetry, find_imu_gaps, nominal_period_s
+from ..io.telemetry import Site, Telemetry, find_imu_gaps, nominal_period_s
 from . import provenance
 
 #: PX4's RELATIVE_TIMESTAMP_INVALID: the accelerometer stamp is not available

@@ -66,15 +66,15 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from . import __version__, earth
-from .constants import ARCSEC, DEG, STANDARD_GRAVITY_MPS2
-from .effects import EFFECTS_SCHEMA, IDEAL, EffectModel, load_effects
-from .errors import ConfigError, SizefxError
-from .fileio import atomic_output, check_output_path
-from .omegadot import savgol
-from .rotation import rotvec_to_mat
-from .schema import check_document
-from .telemetry import Telemetry, read_telemetry
+from .. import __version__, earth
+from ..constants import ARCSEC, DEG, STANDARD_GRAVITY_MPS2
+from ..effects import EFFECTS_SCHEMA, IDEAL, EffectModel, load_effects
+from ..errors import ConfigError, SizefxError
+from ..io.files import atomic_output, check_output_path
+from ..omegadot import savgol
+from ..rotation import rotvec_to_mat
+from ..io.schema import check_document
+from ..io.telemetry import Telemetry, read_telemetry
 
 __all__ = ["CANDIDATES", "DIAGNOSIS_SCHEMA", "PARAMS", "DiagnoseError", "Diagnosis", "diagnose", "format_report",
            "model_toml", "run", "start_model", "theta_from_model", "to_json"]
@@ -317,7 +317,7 @@ class _Predictor:
         if tel.site is None and not tel.reference.has_position:
             raise DiagnoseError(f"{tel.path}: no site: gravity needs latitude and height; add the root attributes "
                                 "latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
-        from .compensate import sync_accelerometers
+        from ..compensate import sync_accelerometers
 
         if tel.reference.time_s.size < MIN_REFERENCE_ROWS:
             raise DiagnoseError(f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
@@ -1046,7 +1046,7 @@ def model_toml(theta: np.ndarray, source: str = "") -> str:
     arms = theta[LEVER].reshape(3, 3)
     # r_i = r + d_i with r the triad point (where the accelerometer normals meet, as calibrate
     # splits them), so that navigate/compensate --mode triad and center keep their meaning
-    from .calibrate import triad_point
+    from ..geometry import triad_point
 
     axes = _axes(theta[A_MIS])
     offset = triad_point(arms, axes) if np.any(arms) else np.zeros(3)
@@ -1099,7 +1099,7 @@ def start_model(nominal: str | None = None, model: str | None = None):
         raise ConfigError("give --nominal or --model, not both: a model file carries its own lever arms")
     if model is not None:
         return theta_from_model(load_effects(model, base=IDEAL)), f"model {model}"
-    from .calibrate import nominal_levers
+    from ..calibrate import nominal_levers
 
     name = nominal or "high-precision"
     th = np.zeros(NP)
@@ -1265,7 +1265,7 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
         return None  # navigation cannot bridge an IMU gap; diagnose --segment K navigates one segment
     import tempfile
 
-    from .navigate import NavConfig, navigate
+    from ..navigate import NavConfig, navigate
 
     out = {"duration_s": float(tel.duration_s)}
     with tempfile.TemporaryDirectory() as tmp:

@@ -1,6 +1,6 @@
 """The demo behind ``sizefx demo``: the paper's three experiments and a diagnosis, on built-in data.
 
-Everything is simulated here, at the reduced size (:data:`sizefx.paper.SIZES`): the
+Everything is simulated here, at the reduced size (:data:`sizefx.experiments.paper.SIZES`): the
 turntable calibration (three repeats at 400 Hz), the heading sway (40 min at 1600 Hz,
 three navigations), the 1.8 h helicopter flight at 400 Hz, then ``diagnose`` on a two-minute tumble
 record with a hidden lever-arm error and accelerometer delay. It prints the comparison
@@ -12,9 +12,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import diagnose, scenarios
+from .. import diagnose, scenarios
 from .paper import SIZES, format_results, run_all
-from .simulate import run
+from ..simulate import run
 
 __all__ = ["run_demo"]
 
@@ -26,7 +26,7 @@ DIAGNOSIS_HIDDEN = {"lever_arm": {"d_y_m": [0.0, 0.0274, -0.001]}, "accel_delay"
 def run_demo(out_dir: Path, *, seed: int = 0, size: str = "reduced"):
     """Yield the demo's report line by line (the caller prints).
 
-    ``size`` names one of :data:`sizefx.paper.SIZES` for the paper's experiments; ``sizefx demo``
+    ``size`` names one of :data:`sizefx.experiments.paper.SIZES` for the paper's experiments; ``sizefx demo``
     runs ``reduced``, the test suite ``smoke``.
     """
     started = time.perf_counter()

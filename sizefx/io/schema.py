@@ -1,7 +1,7 @@
 """Access to the file contracts in ``data-schemas/`` (installed as ``sizefx.schemas``).
 
 The JSON files are the single source of truth for dataset names, shapes,
-dtypes and units; :mod:`sizefx.telemetry` and the other readers and writers
+dtypes and units; :mod:`sizefx.io.telemetry` and the other readers and writers
 take everything from here.
 """
 

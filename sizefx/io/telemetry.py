@@ -1,10 +1,10 @@
 """Read, validate and write ``sizefx/telemetry/1`` HDF5 files.
 
 Everything about names, shapes, dtypes and units comes from
-``data-schemas/telemetry-1.json`` via :mod:`sizefx.schema`. The reader converts
+``data-schemas/telemetry-1.json`` via :mod:`sizefx.io.schema`. The reader converts
 to SI and refuses bad input with a :class:`~sizefx.errors.TelemetryError`
 whose message names the file, the dataset and the problem, and says how to fix
-it. The writer writes atomically (see :mod:`sizefx.fileio`) and in chunks, so
+it. The writer writes atomically (see :mod:`sizefx.io.files`) and in chunks, so
 a simulator or importer can stream a long record without holding it all.
 """
 
@@ -17,9 +17,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
-from .errors import ConfigError, TelemetryError
-from .fileio import atomic_output
+from ..constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
+from ..errors import ConfigError, TelemetryError
+from .files import atomic_output
 from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
 
 __all__ = [

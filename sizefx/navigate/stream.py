@@ -1,6 +1,6 @@
 """Streaming navigation of a telemetry file: ``sizefx navigate`` on records of any length.
 
-The record is read in chunks of IMU rows (:class:`sizefx.telemetry.TelemetryStream`).
+The record is read in chunks of IMU rows (:class:`sizefx.io.telemetry.TelemetryStream`).
 Each chunk goes through the same steps as whole-record :func:`sizefx.navigate.navigate`:
 
 1. sync of the accelerometers (``/imu/accel_time``, or the delay of ``--levers``) or the
@@ -35,15 +35,15 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
-from . import earth
-from .compensate import compensate_arrays_increments, sync_accelerometers
-from .correct import correct_imu
-from .errors import ConfigError, TelemetryError
-from .kernels.strapdown import coning_coefficients, pack_state
-from .levers import read_levers
-from .navigate import (
+from .. import earth
+from ..compensate import compensate_arrays_increments, sync_accelerometers
+from ..correct import correct_imu
+from ..constants import METRES_PER_NMI
+from ..errors import ConfigError, TelemetryError
+from ..kernels.strapdown import coning_coefficients, pack_state
+from ..levers import read_levers
+from . import (
     GAPS_WHY,
-    METRES_PER_NMI,
     VERTICAL_MODES,
     NavConfig,
     NavResult,
@@ -55,8 +55,8 @@ from .navigate import (
     _segment_config,
     uniform_period_s,
 )
-from .rotation import quat_angle_between
-from .telemetry import Telemetry, TelemetryStream, refuse_gaps
+from ..rotation import quat_angle_between
+from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 
 __all__ = ["CHUNK_SAMPLES", "MARGIN", "navigate_file"]
 

@@ -28,24 +28,23 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
-from . import earth, scenarios
-from .calibrate import (
+from .. import earth, scenarios
+from ..calibrate import (
     compensation_figure,
     joint_fit,
     per_rotation_fit,
     prepare,
-    triad_point,
 )
-from .compare import horizontal_offset_m
-from .constants import ARCSEC
-from .effects import IDEAL, load_effects
-from .errors import ConfigError
-from .geometry import preset_arms_m
-from .levers import Levers, write_levers
-from .navigate import METRES_PER_NMI, NavConfig, navigate
-from .simulate import run as simulate_run
-from .simulate import simulate_in_memory
-from .telemetry import read_telemetry
+from ..compare import horizontal_offset_m
+from ..constants import ARCSEC, METRES_PER_NMI
+from ..effects import IDEAL, load_effects
+from ..errors import ConfigError
+from ..geometry import preset_arms_m, triad_point
+from ..levers import Levers, write_levers
+from ..navigate import NavConfig, navigate
+from ..simulate import run as simulate_run
+from ..simulate import simulate_in_memory
+from ..io.telemetry import read_telemetry
 
 __all__ = [
     "PAPER",
@@ -110,7 +109,7 @@ def _true_arms_d():
 
 
 def _plt():
-    from .compare_plots import pyplot
+    from ..compare.plots import pyplot
 
     return pyplot()
 
@@ -217,7 +216,7 @@ def _means(t, x, window_s):
 def _period_mean_error_n(traj, d_arms, t0, freq_hz, nodes: int = 4096):
     """North and east accelerometer error of the spread ``d_arms``, in NED, averaged over the first sway
     period after ``t0``: ``C_nb (u_i . (omegadot x d_i + omega x (omega x d_i)))_i``."""
-    from .simulate import kinematics
+    from ..simulate import kinematics
 
     t = t0 + (np.arange(nodes) + 0.5) / (nodes * freq_hz)
     st = traj.evaluate(t)

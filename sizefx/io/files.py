@@ -14,7 +14,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from .errors import OutputError
+from ..errors import OutputError
 
 __all__ = ["atomic_output", "check_output_path", "check_outputs"]
 
@@ -40,6 +40,8 @@ def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise OutputError(f"{out}: directory {parent} does not exist; create it first")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{out}: directory {parent} is not writable; choose another output folder")
     return out
 
 

@@ -14,7 +14,7 @@ truth. This module answers it for any two tracks:
 3. *Report* (:func:`format_comparison`, :func:`to_json`, :func:`run`): text, a
    ``sizefx/comparison/1`` JSON document checked against
    ``data-schemas/comparison-1.json``, atomic outputs; the figures are drawn by
-   :mod:`sizefx.compare_plots`.
+   :mod:`sizefx.compare.plots`.
 
 Differences are always A minus B. Attitude differences compare each solution's
 ``q_nb`` in its own local NED frame, as the navigation error reports of
@@ -31,21 +31,20 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__, earth
-from .compare_plots import plot_names, pyplot, write_plots
-from .constants import QUATERNION_NORM_TOLERANCE, WGS84_A_M, WGS84_E2
-from .errors import OutputError, TelemetryError
-from .fileio import atomic_output, check_output_path
-from .navigate import METRES_PER_NMI
-from .rotation import (
+from .. import __version__, earth
+from .plots import plot_names, pyplot, write_plots
+from ..constants import METRES_PER_NMI, QUATERNION_NORM_TOLERANCE, WGS84_A_M, WGS84_E2
+from ..errors import OutputError, TelemetryError
+from ..io.files import atomic_output, check_output_path
+from ..rotation import (
     mat_to_euler,
     quat_conjugate,
     quat_interp,
     quat_multiply,
     quat_to_mat,
 )
-from .schema import TELEMETRY_SCHEMA, check_document, load_schema, normalise_units
-from .telemetry import open_hdf5, read_telemetry
+from ..io.schema import TELEMETRY_SCHEMA, check_document, load_schema, normalise_units
+from ..io.telemetry import open_hdf5, read_telemetry
 
 __all__ = [
     "COMPARISON_SCHEMA",
@@ -162,7 +161,7 @@ def read_track(path) -> Track:
     The root attribute ``schema`` decides: ``sizefx/navigation/1`` (checked against
     ``data-schemas/navigation-1.json``: ``/time`` [s], ``/position`` [deg, deg, m],
     ``/velocity`` NED [m/s], ``/quaternion`` q_nb) or ``sizefx/telemetry/1`` (read by
-    :func:`sizefx.telemetry.read_telemetry` with gaps allowed; ``/reference/position``
+    :func:`sizefx.io.telemetry.read_telemetry` with gaps allowed; ``/reference/position``
     required, velocity and attitude taken when present).
 
     Raises

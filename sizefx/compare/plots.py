@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import earth
-from .errors import ConfigError
-from .fileio import atomic_output
+from .. import earth
+from ..errors import ConfigError
+from ..io.files import atomic_output
 
 __all__ = ["PLOT_NAMES", "plot_names", "pyplot", "write_plots"]
 

@@ -29,14 +29,15 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__, earth
-from .compensate import compensate_arrays_increments, sync_accelerometers
-from .correct import correct_imu
-from .effects import EffectModel
-from .errors import ConfigError, TelemetryError
-from .fileio import atomic_output
-from .kernels.increments import rates_to_increments
-from .kernels.strapdown import (
+from .. import __version__, earth
+from ..compensate import compensate_arrays_increments, sync_accelerometers
+from ..correct import correct_imu
+from ..effects import EffectModel
+from ..constants import METRES_PER_NMI
+from ..errors import ConfigError, TelemetryError
+from ..io.files import atomic_output
+from ..kernels.increments import rates_to_increments
+from ..kernels.strapdown import (
     VERTICAL_FREE,
     VERTICAL_HELD,
     VERTICAL_REFERENCE,
@@ -44,8 +45,8 @@ from .kernels.strapdown import (
     pack_state,
     strapdown,
 )
-from .levers import read_levers
-from .rotation import (
+from ..levers import read_levers
+from ..rotation import (
     mat_to_euler,
     mat_to_quat,
     quat_angle_between,
@@ -53,11 +54,10 @@ from .rotation import (
     quat_to_mat,
     rotvec_to_mat,
 )
-from .telemetry import Telemetry, read_telemetry, refuse_gaps
+from ..io.telemetry import Telemetry, read_telemetry, refuse_gaps
 
-__all__ = ["NavConfig", "NavResult", "navigate", "run", "coarse_alignment", "increments_of", "METRES_PER_NMI"]
+__all__ = ["NavConfig", "NavResult", "navigate", "run", "coarse_alignment", "increments_of"]
 
-METRES_PER_NMI = 1852.0
 VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
 #: A reference whose position spans less than this [m] is a stationary site: vertical channel held.
 STATIONARY_SPAN_M = 1.0
@@ -67,7 +67,7 @@ STATIONARY_SPAN_M = 1.0
 #: steps of 3.94 to 4.84 ms around 4.02 ms and leaves its grid by up to 0.40 periods; a rate change or a
 #: lost sample leaves it by more, and grows.
 GRID_TOLERANCE = 0.5
-#: Why navigation refuses a record with IMU gaps (:func:`sizefx.telemetry.refuse_gaps`).
+#: Why navigation refuses a record with IMU gaps (:func:`sizefx.io.telemetry.refuse_gaps`).
 GAPS_WHY = "integrates every sample and cannot bridge a gap (--allow-gaps does not help here)"
 
 
@@ -548,11 +548,11 @@ def run(path, cfg: NavConfig | None = None, *, output=None, json_path=None, plot
         chunk_samples: int | None = None, progress=None):
     """Entry point of ``sizefx navigate``: returns the result; writes what was asked.
 
-    The file is streamed in chunks (:func:`sizefx.pipeline.navigate_file`, identical results,
+    The file is streamed in chunks (:func:`sizefx.navigate.stream.navigate_file`, identical results,
     memory bounded by the chunk); ``chunk_samples=0`` reads it whole and navigates in memory.
     """
-    from .fileio import check_output_path
-    from .pipeline import CHUNK_SAMPLES, navigate_file
+    from ..io.files import check_output_path
+    from .stream import CHUNK_SAMPLES, navigate_file
 
     cfg = cfg or NavConfig()
     for out in (output, json_path, plot):

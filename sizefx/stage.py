@@ -1,0 +1,46 @@
+"""The shape every stage shares, and the pre-flight each one runs before any work.
+
+A stage is one of ``simulate``, ``import``, ``inspect``, ``calibrate``, ``compensate``,
+``navigate``, ``diagnose`` and ``compare``. Each exposes the same three things:
+
+- a **config**: a frozen dataclass with everything the stage needs, input and output paths,
+  ``force`` and the options, in SI units where they are quantities;
+- a **result**: a dataclass of what it found and wrote, with ``report() -> str`` (the lines the
+  command line prints) and ``to_json() -> dict``;
+- ``run(config, *, progress=None) -> result``, which calls :func:`preflight` first.
+
+The command line builds the config from its options, calls ``run`` and prints
+``result.report()``; a Python caller makes the same call. ``progress(done, total)``, when
+given, is called as the work advances (:class:`sizefx.progress.Progress` on a terminal).
+
+The config names its files by the option a user gave them with (``inputs()`` and
+``outputs()`` map ``"FILE"``, ``"--levers"``, ``"-o"`` ... to paths), so that every refusal
+names both the path and the option.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from .errors import ConfigError
+from .io.files import check_outputs
+
+__all__ = ["preflight"]
+
+
+def preflight(*, inputs: Mapping[str, object], outputs: Mapping[str, object], force: bool = False) -> None:
+    """Refuse, before any work, what would fail later or destroy something.
+
+    ``inputs`` and ``outputs`` map the option that named each file to its path (None: not
+    given). Every input must be an existing file. Every output must be new (or ``force``),
+    writable, in an existing folder, distinct from the other outputs and from every input,
+    also through links (:func:`sizefx.io.files.check_outputs`).
+    """
+    given = {opt: Path(p) for opt, p in inputs.items() if p is not None and str(p) != ""}
+    for opt, path in given.items():
+        if not path.exists():
+            raise ConfigError(f"{path}: {opt}: no such file; check the path")
+        if path.is_dir():
+            raise ConfigError(f"{path}: {opt}: is a directory; give a file")
+    check_outputs(dict(outputs), inputs=list(given.values()), force=force)
