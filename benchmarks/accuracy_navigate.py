@@ -20,7 +20,7 @@ import numpy as np
 
 from sizefx import scenarios
 from sizefx.constants import DEG
-from sizefx.navigate import NavConfig, navigate, run
+from sizefx.navigate import NavConfig, NavigateConfig, navigate, run
 from sizefx.simulate import run as simulate, simulate_in_memory
 from sizefx.theory import coning_residual_rad_s, sculling_residual_mps2
 
@@ -121,7 +121,7 @@ def flight_check():
         t0 = time.perf_counter()
         simulate("flight", path, ideal=True)
         sim_s = time.perf_counter() - t0
-        res = run(path, NavConfig(subsamples=4))
+        res = run(NavigateConfig(input=str(path), options=NavConfig(subsamples=4)))
         return {**{k: res.summary[k] for k in ("samples", "duration_s", "final_horizontal_error_m",
                                                 "max_horizontal_error_m", "drift_nmi_per_h", "final_velocity_error_mps",
                                                 "final_attitude_error_deg")}, "simulate_s": sim_s}

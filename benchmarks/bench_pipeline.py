@@ -49,9 +49,8 @@ from sizefx.kernels.strapdown import (
     strapdown,
 )
 from sizefx.levers import levers_from_preset, write_levers
-from sizefx.navigate import NavConfig, navigate, write_navigation
+from sizefx.navigate import NavConfig, navigate, navigate_file, write_navigation
 from sizefx.omegadot import edges_from_increments, savgol
-from sizefx.navigate.stream import navigate_file
 from sizefx.scenarios import FlightPlan
 from sizefx.simulate import run as simulate
 from sizefx.io.telemetry import TelemetryStream, read_telemetry

@@ -50,18 +50,11 @@ def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical,
     attitude error [deg]. A record with IMU gaps is navigated one continuous
     segment at a time (--segment K): the integration cannot bridge a gap.
     """
-    from sizefx.correct import load_model
-    from sizefx.navigate import NavConfig, format_summary, run
+    from sizefx.navigate import NavConfig, NavigateConfig, run
 
-    cfg = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
-                    output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, segment=segment, levers=levers,
-                    model=load_model(model) if model else None, mode=mode)
-    res = run(file, cfg, output=output, json_path=json_path, plot=plot, force=force, chunk_samples=chunk_samples,
-              progress=Progress("navigate", quiet))
-    click.echo(format_summary(file, res))
-    if json_path:
-        click.echo(f"summary -> {json_path}")
-    if output:
-        click.echo(f"solution -> {output}")
-    if plot:
-        click.echo(f"plot -> {plot}")
+    options = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
+                        output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, segment=segment, levers=levers,
+                        mode=mode)
+    config = NavigateConfig(input=file, options=options, model=model, output=output, json_path=json_path, plot=plot,
+                            force=force, chunk_samples=chunk_samples)
+    click.echo(run(config, progress=Progress("navigate", quiet)).report())

@@ -35,7 +35,8 @@ from sizefx.motion import (
     RotationChain,
     Trajectory,
 )
-from sizefx.navigate import METRES_PER_NMI, NavConfig, navigate, write_navigation
+from sizefx.constants import METRES_PER_NMI
+from sizefx.navigate import NavConfig, navigate, write_navigation
 from sizefx.rotation import (
     axis_angle_mat,
     euler_to_mat,

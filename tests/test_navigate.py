@@ -31,8 +31,7 @@ from sizefx.motion import (
     StaticSite,
     Trajectory,
 )
-from sizefx.navigate import NavConfig, navigate
-from sizefx.navigate.stream import navigate_file
+from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.rotation import mat_to_quat
 from sizefx.simulate import ImuSynthesizer, kinematics, simulate_in_memory
 from sizefx.io.telemetry import Reference, Site, Telemetry

@@ -9,8 +9,7 @@ import pytest
 from sizefx import scenarios
 from sizefx.errors import TelemetryError
 from sizefx.levers import levers_from_preset, write_levers
-from sizefx.navigate import NavConfig, navigate
-from sizefx.navigate.stream import navigate_file
+from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.simulate import run
 from sizefx.io.telemetry import read_telemetry
 
@@ -106,12 +105,12 @@ def test_stamps_far_from_zero_give_the_same_period_whole_and_streamed(tmp_path):
 
 
 def test_streamed_output_file_is_written_chunk_by_chunk_and_equals_the_whole_one(sway, tmp_path):
-    from sizefx.navigate import run as navigate_run
+    from sizefx.navigate import NavigateConfig, run
 
     path, levers = sway
     cfg = NavConfig(levers=str(levers), mode="triad")
-    navigate_run(path, cfg, output=tmp_path / "whole.h5", chunk_samples=0)
-    navigate_run(path, cfg, output=tmp_path / "streamed.h5", chunk_samples=3000)
+    run(NavigateConfig(input=path, options=cfg, output=tmp_path / "whole.h5", chunk_samples=0))
+    run(NavigateConfig(input=path, options=cfg, output=tmp_path / "streamed.h5", chunk_samples=3000))
     with h5py.File(tmp_path / "whole.h5") as a, h5py.File(tmp_path / "streamed.h5") as b:
         for name in ("time", "position", "velocity", "quaternion", "euler"):
             np.testing.assert_array_equal(b[name][()], a[name][()], err_msg=name)
@@ -120,7 +119,7 @@ def test_streamed_output_file_is_written_chunk_by_chunk_and_equals_the_whole_one
 
 
 def test_a_failing_stream_leaves_no_output(sway, tmp_path):
-    from sizefx.navigate import run as navigate_run
+    from sizefx.navigate import NavigateConfig, run
 
     path, _ = sway
     bad = tmp_path / "bad.h5"
@@ -128,5 +127,5 @@ def test_a_failing_stream_leaves_no_output(sway, tmp_path):
     with h5py.File(bad, "r+") as h5:
         h5["imu/gyro"][40_000, 0] = np.inf
     with pytest.raises(TelemetryError, match="row 40000"):
-        navigate_run(bad, NavConfig(), output=tmp_path / "out.h5", chunk_samples=5000)
+        run(NavigateConfig(input=bad, output=tmp_path / "out.h5", chunk_samples=5000))
     assert not list(tmp_path.glob("out.h5*")) and not list(tmp_path.glob(".out.h5*"))

@@ -1,0 +1,94 @@
+"""What a navigation run is asked (:class:`NavConfig`) and what it returns (:class:`NavResult`).
+
+The constants that decide how a record is navigated live here too, each with its reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..effects import EffectModel
+from ..kernels.strapdown import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
+
+__all__ = ["NavConfig", "NavResult", "VERTICAL_MODES", "GAPS_WHY", "GRID_TOLERANCE", "JITTER_REPORTED",
+           "STATIONARY_SPAN_M", "CHUNK_SAMPLES", "MARGIN", "MIN_ROWS"]
+
+VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
+#: A reference whose position spans less than this [m] is a stationary site: vertical channel held.
+STATIONARY_SPAN_M = 1.0
+#: Navigation integrates on the uniform grid ``t_first + k dt``; every stamp must lie within this many
+#: periods of its grid point. Then each sample is unambiguously the k-th, and treating it as on the grid
+#: misplaces it by at most this fraction of a period. Logged stamps jitter: PX4's sensor_combined has
+#: steps of 3.94 to 4.84 ms around 4.02 ms and leaves its grid by up to 0.40 periods; a rate change or a
+#: lost sample leaves it by more, and grows.
+GRID_TOLERANCE = 0.5
+#: Time stamps further than this from the uniform grid [periods] are reported in the summary: the
+#: samples are integrated at their grid points, and a user should know by how much they were moved.
+JITTER_REPORTED = 0.05
+#: Why navigation refuses a record with IMU gaps (:func:`sizefx.io.telemetry.refuse_gaps`).
+GAPS_WHY = "integrates every sample and cannot bridge a gap (--allow-gaps does not help here)"
+
+#: Default IMU rows per chunk (2^20: 24 MiB of rates, a few hundred MiB of working set).
+CHUNK_SAMPLES = 1 << 20
+#: Extra rows read on each side of a chunk, so that every filter sees the neighbours it sees in a
+#: whole-record run: the four-point increment stencil, the edge rates of the increment-domain
+#: compensation, the Savitzky-Golay window (20 rows) of a rates-domain model correction, and the
+#: not-a-knot sync spline, whose dependence on a sample k rows away decays as (2 - sqrt(3))^k
+#: (1e-37 at 64 rows).
+MARGIN = 64
+#: Fewest rows read for any chunk: the rates-domain compensation of a model needs 164.
+MIN_ROWS = 512
+
+
+@dataclass(frozen=True)
+class NavConfig:
+    """The options of a navigation run (the file and the outputs are the stage's, :mod:`sizefx.navigate`)."""
+
+    subsamples: int = 4  #: sub-samples per navigation interval (1..4)
+    vertical: str = "auto"  #: auto | free | held | reference
+    init: str = "auto"  #: auto | reference | align
+    align_s: float = 300.0  #: alignment window [s] when init is align
+    output_rate_hz: float | None = 10.0  #: rate of the written solution (None: every interval)
+    allow_gaps: bool = False
+    #: navigate only this continuous segment (1-based, between IMU gaps, as sizefx inspect numbers them)
+    segment: int | None = None
+    levers: str | None = None  #: sizefx/levers/1 file: compensate the size effect before navigating
+    #: effect model (sizefx.correct.load_model): correct the IMU errors and the size effect before
+    #: navigating (sizefx.correct.correct_imu); not together with ``levers``
+    model: EffectModel | None = None
+    mode: str = "triad"  #: triad | center (see sizefx.compensate)
+
+
+@dataclass
+class NavResult:
+    """A navigation solution: the output rows, what was done, and the errors against ``/reference``."""
+
+    time_s: np.ndarray  #: [M] end of each navigation interval
+    quat_nb: np.ndarray  #: [M, 4]
+    v_n: np.ndarray  #: [M, 3]
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+    height_m: np.ndarray
+    config: dict
+    summary: dict
+    #: histories against the reference at errors["time_s"]: horizontal_m, north_m, east_m,
+    #: velocity_mps [.., 3], attitude_rad (only where the reference has samples)
+    errors: dict | None = None
+    path: str | None = None  #: the record navigated
+    written: dict | None = None  #: option -> path of each file the stage wrote
+
+    def report(self) -> str:
+        """The lines ``sizefx navigate`` prints."""
+        from .output import format_summary
+
+        lines = [format_summary(self.path, self)]
+        names = {"--json": "summary", "-o": "solution", "--plot": "plot"}
+        for opt, path in (self.written or {}).items():
+            lines.append(f"{names[opt]} -> {path}")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        """The summary with the configuration, as ``--json`` writes it."""
+        return {**self.summary, "configuration": self.config}

@@ -1,0 +1,238 @@
+"""The one navigation loop: read a chunk, correct it, integrate it, write it.
+
+Every navigation goes through :func:`navigate_source`: a file streamed in chunks of IMU rows
+(:func:`navigate_file`, a :class:`sizefx.io.telemetry.TelemetryStream`) and a record in memory
+(:func:`navigate`, one chunk of a :class:`MemorySource`) alike. Each chunk goes through:
+
+1. sync of the accelerometers (``/imu/accel_time``, or the delay of ``--levers``) or the
+   effect-model correction (``--model``);
+2. rates to increments (fourth order);
+3. size-effect compensation (``--levers``);
+4. the strapdown kernel, whose state (with its Kahan terms) is carried to the next chunk;
+5. the output rows to the writer (or the result), the errors against ``/reference``.
+
+Each chunk is read with :data:`MARGIN` extra rows on both sides, so every filter sees the
+same neighbours it sees in a single-chunk run; results do not depend on the chunk size
+(``tests/test_pipeline.py``: to 1e-12 relative, in practice bit for bit).
+
+Memory is the chunk, the window of ``/reference`` it spans, and the output rows at
+``output_rate_hz``; the navigation steps themselves are not kept. The summary's final and
+maximum errors are taken over every navigation step the reference has a sample at.
+
+While the kernel integrates chunk k on one core, a worker thread reads and prepares
+chunk k + 1 on the other (the Numba kernels release the GIL; h5py reads hold it).
+"""
+
+from __future__ import annotations
+
+import json
+import time as _time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, replace
+
+import numpy as np
+
+from ..compensate import compensate_arrays_increments, sync_accelerometers
+from ..correct import correct_imu
+from ..errors import ConfigError, TelemetryError
+from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
+from ..kernels.strapdown import coning_coefficients, pack_state
+from ..levers import read_levers
+from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig, NavResult
+from .initial import choose, initial_state
+from .reference import Errors, MemoryReference, reference_at
+from .steps import increments_of, integrate, uniform_period_s
+
+__all__ = ["MemorySource", "navigate", "navigate_file", "navigate_source"]
+
+
+class MemorySource:
+    """A :class:`Telemetry` in memory behind the interface of :class:`TelemetryStream`."""
+
+    def __init__(self, tel: Telemetry):
+        self.tel = tel
+        self.path = tel.path
+        self.form = tel.form
+        self.site, self.source = tel.site, tel.source
+        self.n_samples = tel.n_samples
+        self.gaps, self.segment = tel.gaps, tel.segment
+        self.first_row = tel.segment.first_row if tel.segment is not None else 0
+        self.reference = MemoryReference(tel.reference) if tel.reference is not None else None
+        self._gyro, self._accel = tel.imu_arrays()
+
+    def read(self, k0: int, k1: int):
+        ta = None if self.tel.accel_time_s is None else self.tel.accel_time_s[k0:k1]
+        return self.tel.time_s[k0:k1], self._gyro[k0:k1], self._accel[k0:k1], ta
+
+
+class _Prepared:
+    """Increments ``[j0, j1)`` of a source, synced or corrected, and compensated: steps 1-3."""
+
+    def __init__(self, src, cfg: NavConfig, levers):
+        self.src, self.cfg, self.levers = src, cfg, levers
+        first, last = src.read(0, 1)[0][0], src.read(src.n_samples - 1, src.n_samples)[0][0]
+        self.dt = uniform_period_s(first, last, src.n_samples)
+        self.t_first = float(first)  # the grid every chunk's stamps are checked against
+        self.jitter = 0.0  #: the largest distance of a stamp from the grid [periods], for the configuration
+        self.rates = src.form == "rates"
+        self.n_increments = src.n_samples - 1 if self.rates else src.n_samples
+        self.correction = None  #: what the model corrected (from the first chunk), for the configuration
+
+    def increments(self, j0: int, j1: int):
+        src, dt = self.src, self.dt
+        extra = 1 if self.rates else 0  # increment j spans rows j and j + 1 of a rates record
+        hi = min(src.n_samples, j1 + extra + MARGIN)
+        lo = max(0, min(j0 - MARGIN, hi - MIN_ROWS))  # a short last chunk reads more history, not less
+        t, g, a, ta = src.read(lo, hi)
+        tel = Telemetry(time_s=t, form=src.form, accel_time_s=ta, site=src.site,
+                        path=None if src.path is None else str(src.path), source=src.source)
+        if self.rates:
+            tel.gyro_rad_s, tel.accel_mps2 = g, a
+        else:
+            tel.dtheta_rad, tel.dvel_mps = g, a
+        if self.cfg.model is not None:
+            tel = correct_imu(tel, self.cfg.model, mode=self.cfg.mode)  # syncs the accelerometers itself
+            if self.correction is None:
+                self.correction = json.loads(tel.source["correction_json"])
+                del self.correction["effects"]  # in the model file; the configuration names it
+        else:
+            tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
+        t_end, dtheta, dvel, _, jitter = increments_of(tel, dt=dt, first_row=lo, t_first=self.t_first,
+                                                       row0=src.first_row)
+        self.jitter = max(self.jitter, jitter)
+        if self.levers:
+            dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
+        keep = slice(j0 - lo, j1 - lo)
+        return t_end[keep], np.ascontiguousarray(dtheta[keep]), np.ascontiguousarray(dvel[keep])
+
+
+def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
+                    threads: bool = True, writer=None, decimate: bool = True) -> NavResult:
+    """Navigate ``src`` (a :class:`TelemetryStream` or a :class:`MemorySource`) chunk by chunk.
+
+    ``decimate``: keep only the rows at ``cfg.output_rate_hz`` (a file's run) or every
+    navigation step (a record in memory; the writer decimates). ``writer`` (a
+    :class:`sizefx.navigate.output.NavigationWriter`) receives the output rows chunk by chunk;
+    the result then keeps only the first and the last row (memory stays bounded on any length).
+    ``progress(done, total)`` is called after each chunk (IMU samples).
+    """
+    started = _time.perf_counter()
+    if cfg.levers and cfg.model is not None:
+        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
+                          "([lever_arm]); give one of them")
+    levers = read_levers(cfg.levers) if cfg.levers else None
+    n_sub = int(cfg.subsamples)
+    coning_coefficients(n_sub)  # validates
+    # before any work: a stream found every gap at open (a segment has none)
+    refuse_gaps(src.path, src.gaps, command="navigate", why=GAPS_WHY, bridge=False)
+    prep = _Prepared(src, cfg, levers)
+    dt = prep.dt
+    n_steps = prep.n_increments // n_sub
+    if n_steps < 1:
+        raise TelemetryError(src.path, "/imu/time", f"{src.n_samples} samples: too few for one navigation step")
+    t_head = src.read(0, min(2, src.n_samples))[0]
+    t0 = (t_head[1] if prep.rates else t_head[0]) - dt  # start of the first increment
+    # the reference is read by time window: a summary decides the initialisation and the vertical
+    # channel, and each chunk reads the rows it needs
+    approximate = bool(src.source and src.source.get("reference_is_approximate"))
+    ref = src.reference
+    init, vertical, stationary = choose(src.path, ref.summary() if ref is not None else None, approximate, cfg, t0)
+    ref0 = reference_at(ref.window(t0, t0), np.array([t0])) if ref is not None else None
+    quat0, v0, (lat0, lon0, h0), details = initial_state(
+        src.path, cfg, init, ref0, src.site, dt, n_sub, prep.n_increments, lambda n: prep.increments(0, n)[1:])
+    state = pack_state(quat0, v0, lat0, lon0, h0)
+    mode = VERTICAL_MODES[vertical]
+    T = n_sub * dt
+    stride = 1
+    if decimate and cfg.output_rate_hz:
+        stride = max(1, int(round(1.0 / (T * cfg.output_rate_hz))))
+    chunk = max(n_sub, (int(chunk_samples) // (n_sub * stride)) * n_sub * stride)
+    bounds = [(j0, min(j0 + chunk, n_steps * n_sub)) for j0 in range(0, n_steps * n_sub, chunk)]
+    out = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
+    errors = Errors(ref, approximate, T)
+    kernel_s = 0.0
+    step0 = 0
+    pool = ThreadPoolExecutor(max_workers=1) if threads and len(bounds) > 1 else None
+    try:
+        pending = pool.submit(prep.increments, *bounds[0]) if pool else None
+        for c, (j0, j1) in enumerate(bounds):
+            t_end, dtheta, dvel = pending.result() if pool else prep.increments(j0, j1)
+            if pool and c + 1 < len(bounds):
+                pending = pool.submit(prep.increments, *bounds[c + 1])
+            steps = (j1 - j0) // n_sub
+            t_nav = t_end[n_sub - 1:steps * n_sub:n_sub]  # the file's own stamps: no accumulated rounding
+            # the rows of /reference this chunk spans, read once for the vertical channel and the errors
+            window = ref.window(float(t_nav[0]), float(t_nav[-1])) if ref is not None else None
+            h_ref = vd_ref = np.zeros(0)
+            if vertical == "reference":
+                refs = reference_at(window, t_nav, attitude=False)
+                h_ref = refs["h"]
+                vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
+            k_started = _time.perf_counter()
+            q, v, lat, lon, h = integrate(dtheta, dvel, n_sub, dt, state, mode, h0, h_ref, vd_ref)
+            kernel_s += _time.perf_counter() - k_started
+            rows = (np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0) if stride > 1
+                    else np.arange(steps))
+            if writer is not None:
+                writer.append(t_nav[rows], lat[rows], lon[rows], h[rows], v[rows], q[rows])
+            for key, x in zip(("t", "q", "v", "lat", "lon", "h"), (t_nav, q, v, lat, lon, h)):
+                if writer is None:
+                    out[key].append(x[rows] if stride > 1 else x)
+                elif rows.size:  # the first and the latest output row
+                    out[key] = out[key][:1] + [x[rows[-1:]]] if out[key] else [x[rows[:1]], x[rows[-1:]]]
+            errors.add(t_nav, q, v, lat, lon, rows, window)
+            if c == 0:
+                t_first_nav = float(t_nav[0])
+            last = (float(t_nav[-1]), float(lat[-1]), float(lon[-1]), float(h[-1]))
+            step0 += steps
+            if progress is not None:
+                progress(min(src.n_samples, j1 + 1), src.n_samples)
+    finally:
+        if pool:
+            pool.shutdown(wait=True, cancel_futures=True)
+    config = {**asdict(replace(cfg, model=None)), "model": cfg.model.source if cfg.model is not None else None,
+              "correction": prep.correction, "init": init, "vertical": vertical, "stationary_reference": stationary,
+              "input_form": src.form, "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / T,
+              "dropped_trailing_samples": int(prep.n_increments - n_steps * n_sub), "streamed": decimate,
+              "chunk_samples": chunk, "output_stride": stride, "time_jitter_periods": prep.jitter, **details,
+              **(segment_config(src.segment) if src.segment is not None else {})}
+    res = NavResult(*(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")), config, {},
+                    path=None if src.path is None else str(src.path))
+    duration = last[0] - t_first_nav + T
+    summary = {"samples": int(n_steps * n_sub), "duration_s": duration, "final_horizontal_error_m": None,
+               "max_horizontal_error_m": None, "drift_nmi_per_h": None, "final_velocity_error_mps": None,
+               "final_attitude_error_deg": None, "max_attitude_error_deg": None,
+               "final_latitude_deg": float(np.degrees(last[1])), "final_longitude_deg": float(np.degrees(last[2])),
+               "final_height_m": last[3]}
+    res.summary = errors.into(summary, duration)
+    res.summary["kernel_s"] = kernel_s
+    res.summary["wall_s"] = _time.perf_counter() - started
+    res.errors = errors.errors()
+    return res
+
+
+def segment_config(seg) -> dict:
+    """What the configuration records of the segment navigated."""
+    return {"segment_of": seg.of, "segment_rows": [seg.first_row, seg.stop_row],
+            "segment_time_s": [seg.start_s, seg.end_s]}
+
+
+def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
+    """Navigate a record in memory: the loop with one chunk; the result keeps every navigation step."""
+    src = MemorySource(tel)
+    return navigate_source(src, cfg or NavConfig(), chunk_samples=max(src.n_samples, 1), threads=False,
+                           decimate=False)
+
+
+def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
+                  threads: bool = True, writer=None) -> NavResult:
+    """Navigate a telemetry file chunk by chunk; the result holds the output rows only.
+
+    ``threads``: prepare the next chunk in a worker thread while the kernel runs.
+    """
+    cfg = cfg or NavConfig()
+    if chunk_samples < 1000:
+        raise ConfigError(f"--chunk-samples {chunk_samples}: use at least 1000")
+    with TelemetryStream(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment) as st:
+        return navigate_source(st, cfg, chunk_samples=chunk_samples, progress=progress, threads=threads,
+                               writer=writer)

@@ -1,0 +1,128 @@
+"""``/reference`` during navigation: read by time window, interpolated at the navigation steps,
+and the errors of the solution against it accumulated chunk by chunk."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import earth
+from ..constants import METRES_PER_NMI
+from ..io.telemetry import Reference
+from ..rotation import quat_angle_between, quat_interp
+
+__all__ = ["reference_at", "MemoryReference", "Errors"]
+
+
+def reference_at(ref: Reference, t, attitude: bool = True) -> dict:
+    """The reference at times ``t``: ``quat_nb`` (slerp), ``lat``, ``lon``, ``h``, ``v_n`` (linear)."""
+    out = {"quat_nb": quat_interp(ref.time_s, ref.quat_nb, t)} if attitude else {}
+    if ref.has_position:
+        out["lat"] = np.interp(t, ref.time_s, ref.lat_rad)
+        out["lon"] = np.interp(t, ref.time_s, ref.lon_rad)
+        out["h"] = np.interp(t, ref.time_s, ref.height_m)
+    if ref.velocity_n_mps is not None:
+        out["v_n"] = np.column_stack([np.interp(t, ref.time_s, ref.velocity_n_mps[:, i]) for i in range(3)])
+    return out
+
+
+class MemoryReference:
+    """A :class:`Reference` in memory behind the interface of
+    :class:`sizefx.io.telemetry.ReferenceStream`, so that the navigation loop reads both alike."""
+
+    HEAD_ROWS = 1 << 16  #: the median step is taken over as many rows as the stream takes it
+
+    def __init__(self, ref: Reference):
+        self.ref = ref
+        self.n = int(ref.time_s.shape[0])
+        self.first_s, self.last_s = float(ref.time_s[0]), float(ref.time_s[-1])
+        self.has_position = ref.has_position
+        self.has_velocity = ref.velocity_n_mps is not None
+        self.median_step_s = float(np.median(np.diff(ref.time_s[:self.HEAD_ROWS])))
+
+    def window(self, t_lo: float, t_hi: float) -> Reference:
+        """The rows that bracket ``[t_lo, t_hi]``, one more on each side (as the stream's)."""
+        last_at_or_before = lambda t: max(0, int(np.searchsorted(self.ref.time_s, t, side="right")) - 1)  # noqa: E731
+        rows = slice(max(0, last_at_or_before(t_lo) - 1), min(self.n, last_at_or_before(t_hi) + 3))
+        r = self.ref
+        pick = lambda x: None if x is None else x[rows]  # noqa: E731
+        return Reference(time_s=r.time_s[rows], quat_nb=r.quat_nb[rows], lat_rad=pick(r.lat_rad),
+                         lon_rad=pick(r.lon_rad), height_m=pick(r.height_m), velocity_n_mps=pick(r.velocity_n_mps))
+
+    def summary(self) -> Reference:
+        return self.ref
+
+
+class Errors:
+    """Errors against the reference at the navigation steps it has samples at: running final and
+    maximum, and the history at the output rows.
+
+    ``ref`` is a :class:`sizefx.io.telemetry.ReferenceStream` or a :class:`MemoryReference`.
+    A reference sparser than the solution is compared only where it has samples:
+    interpolating it (e.g. 100 Hz through 32 Hz rotor vibration) would be the error shown.
+    """
+
+    def __init__(self, ref, approximate: bool, res_dt: float):
+        self.ref = ref
+        self.approximate = approximate  #: attitude approximate (an importer's note): not compared
+        self.sparse = ref is not None and ref.n > 2 and ref.median_step_s > 1.5 * res_dt
+        self.res_dt = res_dt
+        self.final = {}
+        self.max = {"horizontal": None, "attitude": None}
+        self.history = {k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps",
+                                        "attitude_rad")}
+
+    def add(self, t, q, v, lat, lon, out_rows, window):
+        """One chunk: navigation steps ``t`` and the reference ``window`` that brackets them."""
+        if self.ref is None:
+            return
+        covered = (t >= self.ref.first_s) & (t <= self.ref.last_s + 1e-9)
+        if not covered.any():
+            return
+        ref_t = window.time_s
+        if self.sparse:
+            k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
+            nearest = np.minimum(np.abs(ref_t[k] - t), np.abs(ref_t[k - 1] - t))
+            covered &= nearest < 1e-3 * self.res_dt
+        idx = np.flatnonzero(covered)
+        if idx.size == 0:
+            return
+        ref = reference_at(window, t[idx])
+        hist = np.isin(idx, out_rows)
+        self.history["time_s"].append(t[idx][hist])
+        if "lat" in ref:
+            r_mer, r_tr = earth.radii_m(ref["lat"])
+            dn = (lat[idx] - ref["lat"]) * (r_mer + ref["h"])
+            de = (lon[idx] - ref["lon"]) * (r_tr + ref["h"]) * np.cos(ref["lat"])
+            horiz = np.hypot(dn, de)
+            self.final["horizontal"] = float(horiz[-1])
+            self.max["horizontal"] = max(self.max["horizontal"] or 0.0, float(horiz.max()))
+            for name, x in (("north_m", dn), ("east_m", de), ("horizontal_m", horiz)):
+                self.history[name].append(x[hist])
+        if "v_n" in ref:
+            dv = v[idx] - ref["v_n"]
+            self.final["velocity"] = float(np.linalg.norm(dv[-1]))
+            self.history["velocity_mps"].append(dv[hist])
+        if not self.approximate:
+            att = quat_angle_between(ref["quat_nb"], q[idx])
+            self.final["attitude"] = float(att[-1])
+            self.max["attitude"] = max(self.max["attitude"] or 0.0, float(att.max()))
+            self.history["attitude_rad"].append(att[hist])
+
+    def errors(self):
+        """The histories (None without a reference)."""
+        if self.ref is None:
+            return None
+        return {k: np.concatenate(v) for k, v in self.history.items() if v}
+
+    def into(self, summary: dict, duration_s: float) -> dict:
+        """``summary`` with the final and maximum errors and the drift filled in."""
+        if "horizontal" in self.final:
+            summary["final_horizontal_error_m"] = self.final["horizontal"]
+            summary["max_horizontal_error_m"] = self.max["horizontal"]
+            summary["drift_nmi_per_h"] = self.final["horizontal"] / METRES_PER_NMI / (duration_s / 3600.0)
+        if "velocity" in self.final:
+            summary["final_velocity_error_mps"] = self.final["velocity"]
+        if "attitude" in self.final:
+            summary["final_attitude_error_deg"] = float(np.degrees(self.final["attitude"]))
+            summary["max_attitude_error_deg"] = float(np.degrees(self.max["attitude"]))
+        return summary

@@ -1,0 +1,79 @@
+"""The per-chunk steps of navigation: the sampling grid, rates to increments, the strapdown kernel."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import TelemetryError
+from ..io.telemetry import Telemetry
+from ..kernels.increments import rates_to_increments
+from ..kernels.strapdown import coning_coefficients, strapdown
+from .config import GRID_TOLERANCE
+
+__all__ = ["uniform_period_s", "grid_offsets_periods", "increments_of", "integrate"]
+
+
+def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
+    """The sample period of a uniformly sampled record: its span over ``n - 1`` steps.
+
+    Not the median step: stamps like k / 1600 round differently along a long record, and
+    the median of the whole record and of its first chunk differ in the 11th digit, which
+    a streamed run must not.
+    """
+    return (float(t_last) - float(t_first)) / (n - 1)
+
+
+def grid_offsets_periods(time_s, t_first: float, dt: float, first_row: int = 0) -> np.ndarray:
+    """How far each stamp lies from its point of the uniform grid ``t_first + k dt`` [periods];
+    ``first_row`` is the grid index of ``time_s[0]``."""
+    return (np.asarray(time_s) - (t_first + (first_row + np.arange(len(time_s))) * dt)) / dt
+
+
+def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None,
+                  row0: int = 0):
+    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt, jitter)`` for a record of either form.
+
+    ``dt``: the record's period when ``tel`` is a chunk of it (default: ``tel``'s own span);
+    ``first_row``: the row of ``tel``'s first sample counted from the record's first, whose time is
+    ``t_first`` (default: ``tel``'s own first); ``row0``: the file row of the record's first sample
+    (a segment's), for messages. The stamps must lie on the uniform grid within
+    :data:`GRID_TOLERANCE` periods; ``jitter`` is the largest distance of one from it [periods].
+    """
+    if dt is None:
+        dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
+    if t_first is None:
+        t_first = float(tel.time_s[0]) - first_row * dt
+    off_grid = grid_offsets_periods(tel.time_s, t_first, dt, first_row)
+    worst = int(np.argmax(np.abs(off_grid)))
+    jitter = float(abs(off_grid[worst]))
+    if abs(off_grid[worst]) > GRID_TOLERANCE:
+        raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
+                                                    f"is {off_grid[worst]:+.3g} periods off the uniform grid of "
+                                                    f"{dt:.6g} s; navigation integrates on that grid and accepts "
+                                                    f"jitter up to {GRID_TOLERANCE} period (resample the record, "
+                                                    "or cut it where the rate changes)")
+    if tel.form == "increments":
+        return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt, jitter
+    n = tel.n_samples
+    dtheta = np.empty((n - 1, 3))
+    dvel = np.empty((n - 1, 3))
+    rates_to_increments(np.ascontiguousarray(tel.gyro_rad_s), dt, dtheta)
+    rates_to_increments(np.ascontiguousarray(tel.accel_mps2), dt, dvel)
+    return tel.time_s[1:], dtheta, dvel, dt, jitter
+
+
+def integrate(dtheta, dvel, n_sub, dt, state, mode, h_hold, h_ref, vd_ref):
+    """The strapdown kernel over whole navigation intervals of ``n_sub`` increments each.
+
+    ``state`` (:func:`sizefx.kernels.strapdown.pack_state`) is updated in place, so the next
+    call continues where this one stopped. Returns ``(quat_nb, v_n, lat, lon, h)`` per interval.
+    """
+    n_steps = dtheta.shape[0] // n_sub
+    out_q = np.empty((n_steps, 4))
+    out_v = np.empty((n_steps, 3))
+    out_lat = np.empty(n_steps)
+    out_lon = np.empty(n_steps)
+    out_h = np.empty(n_steps)
+    strapdown(dtheta, dvel, n_sub, coning_coefficients(n_sub), n_sub * dt, state, mode, h_hold,
+              h_ref, vd_ref, out_q, out_v, out_lat, out_lon, out_h)
+    return out_q, out_v, out_lat, out_lon, out_h
