@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import earth
 from ..constants import METRES_PER_NMI
 from ..io.telemetry import Reference
-from ..rotation import quat_angle_between, quat_interp
+from ..kernels.errors import navigation_errors
+from ..rotation import quat_interp
 
 __all__ = ["reference_at", "MemoryReference", "Errors"]
 
@@ -72,38 +72,48 @@ class Errors:
                                         "attitude_rad")}
 
     def add(self, t, q, v, lat, lon, out_rows, window):
-        """One chunk: navigation steps ``t`` and the reference ``window`` that brackets them."""
+        """One chunk: navigation steps ``t``, the indices ``out_rows`` of the output rows among them,
+        and the reference ``window`` that brackets them."""
         if self.ref is None:
             return
         covered = (t >= self.ref.first_s) & (t <= self.ref.last_s + 1e-9)
         if not covered.any():
             return
         ref_t = window.time_s
-        if self.sparse:
+        if self.sparse and ref_t.size > 1:
             k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
             nearest = np.minimum(np.abs(ref_t[k] - t), np.abs(ref_t[k - 1] - t))
             covered &= nearest < 1e-3 * self.res_dt
         idx = np.flatnonzero(covered)
         if idx.size == 0:
             return
-        ref = reference_at(window, t[idx])
-        hist = np.isin(idx, out_rows)
+        ref_t = window.time_s
+        if ref_t.size < 2:  # one reference row: the kernel interpolates between two
+            window = _doubled(window)
+        none1, none3 = np.zeros(2), np.zeros((2, 3))
+        has_pos, has_vel = window.has_position, window.velocity_n_mps is not None
+        out = np.empty((idx.size, 7))
+        navigation_errors(t[idx], np.ascontiguousarray(q[idx]), np.ascontiguousarray(v[idx]), lat[idx], lon[idx],
+                          window.time_s, np.ascontiguousarray(window.quat_nb),
+                          *((window.lat_rad, window.lon_rad, window.height_m) if has_pos else (none1,) * 3),
+                          np.ascontiguousarray(window.velocity_n_mps) if has_vel else none3,
+                          has_pos, has_vel, not self.approximate, out)
+        is_output = np.zeros(t.size, dtype=bool)
+        is_output[out_rows] = True
+        hist = is_output[idx]
         self.history["time_s"].append(t[idx][hist])
-        if "lat" in ref:
-            r_mer, r_tr = earth.radii_m(ref["lat"])
-            dn = (lat[idx] - ref["lat"]) * (r_mer + ref["h"])
-            de = (lon[idx] - ref["lon"]) * (r_tr + ref["h"]) * np.cos(ref["lat"])
-            horiz = np.hypot(dn, de)
+        if has_pos:
+            horiz = out[:, 2]
             self.final["horizontal"] = float(horiz[-1])
             self.max["horizontal"] = max(self.max["horizontal"] or 0.0, float(horiz.max()))
-            for name, x in (("north_m", dn), ("east_m", de), ("horizontal_m", horiz)):
-                self.history[name].append(x[hist])
-        if "v_n" in ref:
-            dv = v[idx] - ref["v_n"]
+            for name, col in (("north_m", 0), ("east_m", 1), ("horizontal_m", 2)):
+                self.history[name].append(out[hist, col])
+        if has_vel:
+            dv = out[:, 3:6]
             self.final["velocity"] = float(np.linalg.norm(dv[-1]))
             self.history["velocity_mps"].append(dv[hist])
         if not self.approximate:
-            att = quat_angle_between(ref["quat_nb"], q[idx])
+            att = out[:, 6]
             self.final["attitude"] = float(att[-1])
             self.max["attitude"] = max(self.max["attitude"] or 0.0, float(att.max()))
             self.history["attitude_rad"].append(att[hist])
@@ -126,3 +136,11 @@ class Errors:
             summary["final_attitude_error_deg"] = float(np.degrees(self.final["attitude"]))
             summary["max_attitude_error_deg"] = float(np.degrees(self.max["attitude"]))
         return summary
+
+
+def _doubled(ref: Reference) -> Reference:
+    """A one-row reference as two equal rows one second apart (the same value at every time)."""
+    two = lambda x: None if x is None else np.concatenate([x, x])  # noqa: E731
+    return Reference(time_s=np.array([ref.time_s[0], ref.time_s[0] + 1.0]), quat_nb=two(ref.quat_nb),
+                     lat_rad=two(ref.lat_rad), lon_rad=two(ref.lon_rad), height_m=two(ref.height_m),
+                     velocity_n_mps=two(ref.velocity_n_mps))
