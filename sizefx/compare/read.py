@@ -10,9 +10,10 @@ The root attribute ``schema`` decides how a file is read:
   units compared with the contract's and converted to SI by the contract's units table
   (:func:`sizefx.io.schema.unit_factor`), no value taken from anywhere else.
 
-The structural checks of a navigation dataset (links to other files, shape, shared time
-axis, dtype, finite values) are written here because the io layer checks telemetry datasets
-only, inside its private reader; they follow the same rules and messages.
+The structural checks of a navigation dataset (no data in other files, the contract's shape,
+one time axis, numbers, finite values, unit quaternions) are written here because the io layer
+makes them for telemetry datasets only, inside its private reader; they follow its rules, and
+their messages name the file, the dataset and the problem as its do.
 """
 
 from __future__ import annotations
