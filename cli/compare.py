@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-
 from .options import force_option
 
 
@@ -30,11 +29,7 @@ def compare(a, b, reference, json_path, plots_dir, force):
     parts [m] (ahead and right of B's track positive), the drift [nmi/h],
     height [m], velocity [m/s] and attitude [deg] differences.
     """
-    from sizefx.compare import format_report, run
+    from sizefx.compare import CompareConfig, run
 
-    report = run(a, b, reference=reference, json_path=json_path, plots_dir=plots_dir, force=force)
-    click.echo(format_report(report))
-    if json_path:
-        click.echo(f"comparison -> {json_path}")
-    for png in report.plots:
-        click.echo(f"figure -> {png}")
+    result = run(CompareConfig(a, b, reference=reference, json_path=json_path, plots_dir=plots_dir, force=force))
+    click.echo(result.report())

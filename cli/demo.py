@@ -7,7 +7,6 @@ from pathlib import Path
 import click
 
 
-
 @click.command()
 @click.option("--out", "out_dir", default="sizefx-demo", show_default=True, type=click.Path(file_okay=False),
               help="Folder for the demo's files (created; the demo replaces only its own files there).")

@@ -35,11 +35,17 @@ def paper(experiment, size, out_dir, json_path, seed, keep_records):
     sizefx paper all --size full --out docs/paper --json docs/paper/results.json --no-keep-records
     """
     from sizefx.experiments.paper import SIZES, format_results, run_all, to_json
+    from sizefx.io.files import atomic_output
+    from sizefx.stage import preflight
 
+    # --json is replaced when it exists (docs/paper/results.json is regenerated in place), but
+    # a folder that does not exist or cannot be written is refused now, not after an hour's run.
+    preflight(inputs={}, outputs={"--json": json_path}, force=True)
     which = ("turntable", "sway", "flight") if experiment == "all" else (experiment,)
     res = run_all(Path(out_dir), SIZES[size], which=which, seed=seed, log=click.echo, keep_records=keep_records)
     click.echo(format_results(res))
     if json_path:
-        Path(json_path).write_text(json.dumps(to_json(res), indent=2))
+        with atomic_output(json_path, force=True) as tmp:
+            Path(tmp).write_text(json.dumps(to_json(res), indent=2))
         click.echo(f"figures -> {json_path}")
     click.echo(f"plots and records -> {out_dir}/")

@@ -10,6 +10,7 @@ Closed forms used:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 
@@ -23,6 +24,8 @@ from sizefx_cli.compare import compare as compare_command
 from sizefx_cli.main import SizefxGroup
 
 from sizefx import compare as C
+from sizefx.compare import report as R
+from sizefx.compare.plots import PLOT_NAMES
 from sizefx import earth
 from sizefx.constants import WGS84_A_M
 from sizefx.effects import IDEAL, load_effects
@@ -309,7 +312,7 @@ def test_document_check_catches_a_missing_key():
     assert doc["schema"] == "sizefx/comparison/1"
     del doc["comparisons"][0]["velocity_mps"]["ground_speed"]["rms"]
     with pytest.raises(AssertionError, match=r"comparisons\[0\]\.velocity_mps\.ground_speed\.rms"):
-        C._check_document(doc)
+        R._check_document(doc)
 
 
 # --------------------------------------------------------------------------- files
@@ -432,10 +435,45 @@ def test_cli_without_reference_and_no_overwrite_of_inputs(flight_files):
     assert clash.exit_code == 2 and "would overwrite the input" in clash.stderr
 
 
+def test_result_reports_what_the_cli_prints_and_holds_what_it_writes(flight_files, tmp_path):
+    f = flight_files
+    out_json = tmp_path / "cmp.json"
+    calls = []
+    config = C.CompareConfig(f["a"], f["b"], reference=f["ref"], json_path=out_json)
+    result = C.run(config, progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(1, 5), (2, 5), (3, 5), (4, 5), (5, 5)]  # A, B, REF, the comparisons, the outputs
+    assert result.to_json() == json.loads(out_json.read_text())
+    assert [c.label for c in result.comparisons] == ["A vs REF", "B vs REF", "A vs B"]
+    assert result.report().splitlines()[-1] == f"comparison -> {out_json}"
+    args = ["compare", str(f["a"]), str(f["b"]), "--reference", str(f["ref"]), "--json", str(out_json), "--force"]
+    printed = CliRunner().invoke(cli(), args)
+    assert printed.exit_code == 0, printed.output
+    assert printed.stdout == result.report() + "\n"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        config.force = True
+
+
+def test_preflight_refuses_before_reading_anything(flight_files, tmp_path):
+    f = flight_files
+    figs = tmp_path / "figs"
+    figs.mkdir()
+    clash = C.CompareConfig(f["a"], f["b"], json_path=figs / "velocity.png", plots_dir=figs)
+    assert set(clash.outputs()) == {"--json", *(f"--plots {n}" for n in PLOT_NAMES)}
+    with pytest.raises(OutputError, match="given to both --json and --plots velocity.png"):
+        C.run(clash)
+    (figs / "attitude.png").write_bytes(b"")  # an earlier run's figure is not replaced without --force
+    with pytest.raises(OutputError, match="attitude.png: output exists; pass --force"):
+        C.run(C.CompareConfig(f["a"], f["b"], plots_dir=figs))
+    with pytest.raises(ConfigError, match="--reference: no such file"):
+        C.run(C.CompareConfig(f["a"], f["b"], reference=tmp_path / "missing.h5", json_path=tmp_path / "c.json"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["figs"]
+    assert [p.name for p in figs.iterdir()] == ["attitude.png"] and (figs / "attitude.png").stat().st_size == 0
+
+
 def test_plots_without_matplotlib_is_a_config_error(flight_files, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
     with pytest.raises(ConfigError, match=r"plots need matplotlib: pip install 'sizefx\[plots\]'"):
-        C.run(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "figs")
+        C.run(C.CompareConfig(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "figs"))
     assert not (tmp_path / "figs").exists()
 
 
@@ -489,7 +527,7 @@ def test_bad_input_exits_2_with_one_line(flight_files, tmp_path, make):
     assert len(lines) == 1 and "Traceback" not in result.output and result.stdout == ""
     assert lines[0].startswith("sizefx: error: ") and str(bad) in lines[0] and words in lines[0], lines[0]
     with pytest.raises(SizefxError):
-        C.run(flight_files["a"], bad)
+        C.run(C.CompareConfig(flight_files["a"], bad))
 
 
 def test_approximate_reference_attitude_is_left_out(flight_files, tmp_path):
@@ -508,10 +546,10 @@ def test_approximate_reference_attitude_is_left_out(flight_files, tmp_path):
 
 def test_plot_directory_needs_an_existing_parent(flight_files, tmp_path):
     with pytest.raises(OutputError, match="does not exist; create it first"):
-        C.run(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "no" / "figs")
+        C.run(C.CompareConfig(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "no" / "figs"))
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="needs a directory"):
-        C.run(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "file")
+        C.run(C.CompareConfig(flight_files["a"], flight_files["b"], plots_dir=tmp_path / "file"))
 
 
 def test_a_vs_b_takes_the_track_direction_from_the_reference():

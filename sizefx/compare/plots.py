@@ -1,6 +1,6 @@
 """Figures of ``sizefx compare``: one PNG per question, axes labelled with units.
 
-Kept apart from the numerics of :mod:`sizefx.compare`, whose ``run`` calls
+Kept apart from the numerics (:mod:`sizefx.compare.metrics`); :func:`sizefx.compare.run` calls
 :func:`write_plots` with its :class:`~sizefx.compare.Comparison` and
 :class:`~sizefx.compare.Track` objects. matplotlib is imported only inside
 :func:`pyplot`, when figures are asked for.
