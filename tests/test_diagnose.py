@@ -184,7 +184,7 @@ def test_prediction_with_the_true_model_reproduces_the_simulation():
     fx = load_effects(base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"}
                       | {"lever_arm": {"enabled": True}})
     tel = simulate_in_memory(scenarios.tumble(20.0), fx, rate_hz=200.0, form="rates")
-    pred = D._Predictor(tel)
+    pred = D.Predictor(tel)
     r = (pred.measured - pred.predict(D.theta_from_model(fx)))[pred.mask]
     assert np.abs(r[:, :3]).max() < 1e-8
     assert np.abs(r[:, 3:]).max() < 1e-9
@@ -197,9 +197,9 @@ def test_analytic_jacobian_matches_its_numerical_twin():
     fx = load_effects(base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"}
                       | {"lever_arm": {"enabled": True}})
     tel = simulate_in_memory(scenarios.tumble(20.0), fx, rate_hz=200.0, form="rates")
-    pred = D._Predictor(tel)
+    pred = D.Predictor(tel)
     th = D.theta_from_model(fx)
-    fast, slow = pred.jacobian(th), pred.jacobian(th, numeric=True)
+    fast, slow = D.jacobian_columns(th, pred.terms(th), pred.t), D.numeric_jacobian(pred.predict, th, pred.mask)
     m = pred.mask
     for j, p in enumerate(D.PARAMS):
         ch, col = fast[j]
