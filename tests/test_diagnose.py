@@ -227,6 +227,19 @@ def test_model_file_round_trip_and_second_pass_finds_nothing(tmp_path):
         assert again.rms_before[c] == pytest.approx(d.rms_after[c], rel=1e-9)
 
 
+def test_model_document_loads_in_memory_as_the_same_vector():
+    """The extended model goes to navigation as a document, no file in between: random vectors
+    (every section on, arms of centimetres) come back through ``load_effects(overrides=...)``
+    as written (to the rounding of the unit conversions and the triad-point split)."""
+    rng = np.random.default_rng(21)
+    for _ in range(5):
+        theta = rng.normal(scale=[p.per_unit * 20.0 for p in D.PARAMS])
+        theta[D.LEVER] = rng.normal(scale=0.03, size=9)
+        back = D.theta_from_model(load_effects(base=IDEAL, overrides=D.model_document(theta)))
+        np.testing.assert_allclose(back, theta, rtol=1e-12, atol=1e-18)
+    assert tomllib.loads(D.model_toml(theta)) == D.model_document(theta)
+
+
 def test_units_of_the_named_parameters():
     tel, _ = record({"level_tilt": HIDDEN["level_tilt"], "accel_delay": HIDDEN["accel_delay"],
                          "gyro_scale_factor": HIDDEN["gyro_scale_factor"]}, seed=3)

@@ -35,13 +35,15 @@ from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
 from ..io.files import atomic_output, check_output_path
 from ..io.telemetry import Telemetry, read_telemetry
+from ..io.toml import write_toml
 from .candidates import CANDIDATES, PRIORITY, Candidate, jacobian_columns, numeric_jacobian
 from .fit import KAPPA_BLOCK_S, MAX_PASSES, Diagnosis, diagnose
 from .naming import Effect
 from .predictor import Predictor, predict_readings
 from .reference import (EDGE_REFERENCE_PERIODS, EDGE_S, MAX_SAMPLES, MIN_REFERENCE_ROWS, MIN_SAMPLES,
                         REFERENCE_GAP_FACTOR, DiagnoseError, ReferenceMotion, crop, require_reference)
-from .report import DIAGNOSIS_SCHEMA, PLOT_FILES, format_report, model_toml, plot, to_json
+from .report import (DIAGNOSIS_SCHEMA, PLOT_FILES, format_report, model_document, model_header, model_toml, plot,
+                     to_json)
 from .selection import FOLD_BLOCK_S, FOLDS, MAX_ROWS
 from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, NP, PARAMS, TAU_A,
                     TAU_R, TILT, UG, Param, theta_from_model)
@@ -52,7 +54,7 @@ __all__ = [
     # the library under it
     "diagnose", "Diagnosis", "Effect", "DiagnoseError", "crop", "ReferenceMotion", "Predictor", "predict_readings",
     "Candidate", "CANDIDATES", "PRIORITY", "jacobian_columns", "numeric_jacobian",
-    "format_report", "to_json", "plot", "model_toml", "DIAGNOSIS_SCHEMA", "PLOT_FILES",
+    "format_report", "to_json", "plot", "model_document", "model_toml", "DIAGNOSIS_SCHEMA", "PLOT_FILES",
     # the model vector
     "Param", "PARAMS", "NP", "theta_from_model", "CHANNELS", "UG", "DEG_PER_H",
     "A_BIAS", "A_SF", "A_MIS", "A_K2", "LEVER", "TAU_A", "TAU_R", "TILT", "G_BIAS", "G_SF", "G_MIS", "G_G",
@@ -87,24 +89,20 @@ def start_model(nominal: str | None = None, model: str | None = None):
 def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> dict | None:
     """Free-inertial horizontal error against ``/reference`` with the start and the extended model.
 
-    Only for navigation-length records (10 minutes or more, reference with position).
+    Only for navigation-length records (:data:`NAVIGATION_MIN_S` or more, reference with
+    position, no IMU gap). The models go to navigation in memory (:func:`model_document`).
     """
     if tel.reference is None or not tel.reference.has_position or tel.duration_s < NAVIGATION_MIN_S:
         return None
     if any(g.dataset.startswith("/imu") for g in tel.gaps):
         return None  # navigation cannot bridge an IMU gap; diagnose --segment K navigates one segment
-    import tempfile
-
     from ..navigate import NavConfig, navigate
 
     out = {"duration_s": float(tel.duration_s)}
-    with tempfile.TemporaryDirectory() as tmp:
-        for name, th in (("before", theta0), ("after", theta)):
-            path = Path(tmp) / f"{name}.toml"
-            path.write_text(model_toml(th))
-            res = navigate(tel, NavConfig(model=load_effects(path, base=IDEAL)))
-            err = np.asarray(res.errors["horizontal_m"])
-            out[name] = {"final_m": float(err[-1]), "max_m": float(np.max(err))}
+    for name, th in (("before", theta0), ("after", theta)):
+        model = load_effects(base=IDEAL, overrides=model_document(th))
+        err = np.asarray(navigate(tel, NavConfig(model=model)).errors["horizontal_m"])
+        out[name] = {"final_m": float(err[-1]), "max_m": float(np.max(err))}
     return out
 
 
@@ -129,8 +127,7 @@ def run(path, *, nominal: str | None = None, model: str | None = None, json_path
     tel = read_telemetry(path, allow_gaps=allow_gaps, segment=segment)
     require_reference(tel)
     d = diagnose(crop(tel, from_s, to_s), theta0, bandwidth_hz=bandwidth_hz, keep_series=bool(plots))
-    with atomic_output(model_out, force=force) as tmp:
-        Path(tmp).write_text(model_toml(d.theta, source=str(path)))
+    write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs, force=force)
     d.model_path = str(model_out)
     if navigation:
         d.navigation = navigation_gain(tel, theta0, d.theta)

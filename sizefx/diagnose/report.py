@@ -1,6 +1,8 @@
 """What diagnose writes and prints: the extended model, the JSON report, the text report, the plots.
 
-- :func:`model_toml`: the model vector as a complete ``sizefx/effects/1`` TOML;
+- :func:`model_document` / :func:`model_toml`: the model vector as a complete ``sizefx/effects/1``
+  document (written with :mod:`sizefx.io.toml`; loaded in memory with
+  ``load_effects(base=IDEAL, overrides=model_document(theta))``, no file in between);
 - :func:`to_json`: the ``sizefx/diagnosis/1`` document (``data-schemas/diagnosis-1.json``);
 - :func:`format_report`: the lines ``sizefx diagnose`` prints;
 - :func:`plot`: residuals before and after (time series, 0.1 s means) and their spectra, PNG.
@@ -19,12 +21,13 @@ from ..errors import ConfigError
 from ..geometry import triad_point
 from ..io.files import atomic_output
 from ..io.schema import check_document
+from ..io.toml import dumps_toml
 from .fit import Diagnosis
 from .selection import block_means
 from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, OFFDIAG, TAU_A,
                     TAU_R, TILT, UG, misaligned_axes)
 
-__all__ = ["DIAGNOSIS_SCHEMA", "PLOT_FILES", "format_report", "model_toml", "plot", "to_json"]
+__all__ = ["DIAGNOSIS_SCHEMA", "PLOT_FILES", "format_report", "model_document", "model_toml", "plot", "to_json"]
 
 DIAGNOSIS_SCHEMA = "sizefx/diagnosis/1"
 #: The files :func:`plot` writes into the ``--plots`` folder.
@@ -34,63 +37,70 @@ PLOT_FILES = ("residuals.png", "spectra.png")
 # --------------------------------------------------------------------------- the extended model
 
 
-def model_toml(theta: np.ndarray, source: str = "") -> str:
-    """The model vector as a complete ``sizefx/effects/1`` TOML (every deterministic section explicit).
+def _matrix(offdiag=None, full=None) -> list:
+    """A 3x3 list of lists: ``full``, or zeros with the six misalignment terms ``offdiag`` off the diagonal."""
+    m = np.zeros((3, 3)) if full is None else np.array(full, dtype=float)
+    if offdiag is not None:
+        for (i, j), v in zip(OFFDIAG, offdiag):
+            m[i, j] = v
+    return m.tolist()
 
-    Noise and quantisation are switched off: the file states what the IMU gets wrong
-    deterministically, which ``navigate --model`` and ``compensate --model`` undo.
+
+def model_document(theta: np.ndarray) -> dict:
+    """The model vector [NP] as a complete ``sizefx/effects/1`` document (every deterministic section explicit).
+
+    Noise and quantisation are switched off: the document states what the IMU gets wrong
+    deterministically, which ``navigate --model`` and ``compensate --model`` undo. The arms
+    ``r_i = r + d_i`` are split at the triad point ``r`` (where the accelerometer normals meet,
+    as calibrate splits them), so that navigate/compensate ``--mode triad`` and ``center``
+    keep their meaning: ``d_i`` from the triad point, ``r_vehicle_m`` the triad point.
     """
-    def vec(v):
-        return "[" + ", ".join(repr(float(x)) for x in v) + "]"
-
-    def mat(offdiag=None, full=None):
-        m = np.zeros((3, 3)) if full is None else np.asarray(full)
-        if offdiag is not None:
-            for (i, j), v in zip(OFFDIAG, offdiag):
-                m[i, j] = v
-        return "[" + ", ".join(vec(r) for r in m) + "]"
-
+    theta = np.asarray(theta, dtype=float)
     arms = theta[LEVER].reshape(3, 3)
-    # r_i = r + d_i with r the triad point (where the accelerometer normals meet, as calibrate
-    # splits them), so that navigate/compensate --mode triad and center keep their meaning
-    axes = misaligned_axes(theta[A_MIS])
-    offset = triad_point(arms, axes) if np.any(arms) else np.zeros(3)
+    offset = triad_point(arms, misaligned_axes(theta[A_MIS])) if np.any(arms) else np.zeros(3)
     d_arms = arms - offset
     on = {name: bool(np.any(theta[idx] != 0.0)) for name, idx in
           (("accel_bias", A_BIAS), ("accel_scale_factor", A_SF), ("accel_misalignment", A_MIS),
            ("accel_quadratic", A_K2), ("accel_delay", [TAU_A]), ("reference_delay", [TAU_R]),
            ("level_tilt", TILT), ("gyro_bias", G_BIAS), ("gyro_scale_factor", G_SF),
            ("gyro_misalignment", G_MIS), ("gyro_g_sensitivity", G_G))}
-    def t(flag):
-        return "true" if flag else "false"
-
     k2_unit = UG / STANDARD_GRAVITY_MPS2**2
     g_unit = DEG_PER_H / STANDARD_GRAVITY_MPS2
-    lines = [f"# sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
-             "# Arms r_i from the reference point of the motion (body axes x forward, y right, z down).",
-             f'schema = "{EFFECTS_SCHEMA}"', "",
-             "[lever_arm]", "enabled = true", 'preset = "none"',
-             "# d_i: triad point to accelerometer i; r_vehicle_m: reference point to the triad point"] + \
-            [f"d_{a}_m = {vec(d_arms[i])}" for i, a in enumerate("xyz")] + [
-        "r0_m = [0.0, 0.0, 0.0]", "r_plate_m = [0.0, 0.0, 0.0]", f"r_vehicle_m = {vec(offset)}", "",
-        "[accel_delay]", f"enabled = {t(on['accel_delay'])}", f"tau_s = {float(theta[TAU_A])!r}", "",
-        "[reference_delay]", f"enabled = {t(on['reference_delay'])}", f"tau_s = {float(theta[TAU_R])!r}", "",
-        "[level_tilt]", f"enabled = {t(on['level_tilt'])}", f"north_arcsec = {float(theta[TILT[0]] / ARCSEC)!r}",
-        f"east_arcsec = {float(theta[TILT[1]] / ARCSEC)!r}", "",
-        "[accel_bias]", f"enabled = {t(on['accel_bias'])}", f"bias_ug = {vec(theta[A_BIAS] / UG)}", "",
-        "[accel_scale_factor]", f"enabled = {t(on['accel_scale_factor'])}", f"ppm = {vec(theta[A_SF] * 1e6)}", "",
-        "[accel_misalignment]", f"enabled = {t(on['accel_misalignment'])}",
-        f"arcsec = {mat(offdiag=theta[A_MIS] / ARCSEC)}", "",
-        "[accel_quadratic]", f"enabled = {t(on['accel_quadratic'])}", f"ug_per_g2 = {vec(theta[A_K2] / k2_unit)}", "",
-        "[gyro_bias]", f"enabled = {t(on['gyro_bias'])}", f"deg_per_h = {vec(theta[G_BIAS] / DEG_PER_H)}", "",
-        "[gyro_scale_factor]", f"enabled = {t(on['gyro_scale_factor'])}", f"ppm = {vec(theta[G_SF] * 1e6)}", "",
-        "[gyro_misalignment]", f"enabled = {t(on['gyro_misalignment'])}",
-        f"arcsec = {mat(offdiag=theta[G_MIS] / ARCSEC)}", "",
-        "[gyro_g_sensitivity]", f"enabled = {t(on['gyro_g_sensitivity'])}",
-        f"deg_per_h_per_g = {mat(full=theta[G_G].reshape(3, 3) / g_unit)}", "",
-        "[accel_noise]", "enabled = false", "", "[gyro_noise]", "enabled = false", "",
-        "[quantisation]", "enabled = false", ""]
-    return "\n".join(lines)
+    return {
+        "schema": EFFECTS_SCHEMA,
+        "lever_arm": {"enabled": True, "preset": "none",
+                      **{f"d_{a}_m": d_arms[i].tolist() for i, a in enumerate("xyz")},
+                      "r0_m": [0.0, 0.0, 0.0], "r_plate_m": [0.0, 0.0, 0.0], "r_vehicle_m": offset.tolist()},
+        "accel_delay": {"enabled": on["accel_delay"], "tau_s": float(theta[TAU_A])},
+        "reference_delay": {"enabled": on["reference_delay"], "tau_s": float(theta[TAU_R])},
+        "level_tilt": {"enabled": on["level_tilt"], "north_arcsec": float(theta[TILT[0]] / ARCSEC),
+                       "east_arcsec": float(theta[TILT[1]] / ARCSEC)},
+        "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / UG).tolist()},
+        "accel_scale_factor": {"enabled": on["accel_scale_factor"], "ppm": (theta[A_SF] * 1e6).tolist()},
+        "accel_misalignment": {"enabled": on["accel_misalignment"], "arcsec": _matrix(offdiag=theta[A_MIS] / ARCSEC)},
+        "accel_quadratic": {"enabled": on["accel_quadratic"], "ug_per_g2": (theta[A_K2] / k2_unit).tolist()},
+        "gyro_bias": {"enabled": on["gyro_bias"], "deg_per_h": (theta[G_BIAS] / DEG_PER_H).tolist()},
+        "gyro_scale_factor": {"enabled": on["gyro_scale_factor"], "ppm": (theta[G_SF] * 1e6).tolist()},
+        "gyro_misalignment": {"enabled": on["gyro_misalignment"], "arcsec": _matrix(offdiag=theta[G_MIS] / ARCSEC)},
+        "gyro_g_sensitivity": {"enabled": on["gyro_g_sensitivity"],
+                               "deg_per_h_per_g": _matrix(full=theta[G_G].reshape(3, 3) / g_unit)},
+        "accel_noise": {"enabled": False},
+        "gyro_noise": {"enabled": False},
+        "quantisation": {"enabled": False},
+    }
+
+
+def model_header(source: str = "") -> str:
+    """The comment lines above the extended model's TOML."""
+    return "\n".join([f"sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
+                      "Arms r_i from the reference point of the motion (body axes x forward, y right, z down):",
+                      "[lever_arm] d_i from the triad point to accelerometer i, r_vehicle_m from the reference "
+                      "point to the triad point."])
+
+
+def model_toml(theta: np.ndarray, source: str = "") -> str:
+    """:func:`model_document` as TOML text, with a header naming the record it was found in."""
+    return dumps_toml(model_document(theta), header=model_header(source))
 
 
 # --------------------------------------------------------------------------- the reports
