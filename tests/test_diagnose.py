@@ -23,6 +23,7 @@ from sizefx import diagnose as D
 from sizefx import scenarios
 from sizefx.constants import ARCSEC, DEG
 from sizefx.effects import IDEAL, load_effects
+from sizefx.errors import ConfigError, OutputError
 from sizefx.simulate import simulate_in_memory
 from support import write_raw
 
@@ -302,6 +303,32 @@ def test_cli_bad_input_is_one_line(tmp_path):
     assert len(lines) == 1 and "noref.h5" in lines[0] and "/reference" in lines[0]
     both = CliRunner().invoke(main, ["diagnose", str(no_ref), "--nominal", "compact", "--model", "x.toml"])
     assert both.exit_code == 2 and "not both" in both.output
+    for option, value, words in (("--bandwidth-hz", "0", "positive frequency"), ("--to-s", "-1", "span is empty")):
+        bad = CliRunner().invoke(main, ["diagnose", str(no_ref), "--from-s", "0", option, value])
+        assert bad.exit_code == 2 and words in bad.output, bad.output
+
+
+def test_outputs_are_refused_before_any_work(tmp_path):
+    """Pre-flight: each plot is an output like --json and --model-out. Two outputs may not share a
+    path, an existing plot is replaced only with --force, and --plots must name a folder. The
+    record has no /reference: passing the pre-flight would fail on that instead."""
+    rec = write_raw(tmp_path / "rec.h5", reference=False)
+    plots = tmp_path / "plots"
+    plots.mkdir()
+    same = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots),
+                                     "--json", str(plots / "spectra.png")])
+    assert same.exit_code == 2 and "given to both --json and --plots (spectra.png)" in same.output, same.output
+    (plots / "residuals.png").write_bytes(b"an earlier plot")
+    old = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots)])
+    assert old.exit_code == 2 and "residuals.png: output exists; pass --force" in old.output, old.output
+    forced = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots), "--force"])
+    assert forced.exit_code == 2 and "/reference" in forced.output, forced.output  # past the pre-flight
+    with pytest.raises(ConfigError, match="--plots names an input file"):
+        D.run(D.DiagnoseConfig(rec, plots=rec))
+    model = tmp_path / "start.toml"
+    model.write_text(D.model_toml(NOMINAL))
+    with pytest.raises(OutputError, match="would overwrite the input"):
+        D.run(D.DiagnoseConfig(rec, model=model, model_out=model, force=True))
 
 
 def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
@@ -313,7 +340,12 @@ def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
     path = tmp_path / "sway.h5"
     run("sway", path, plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0), rate_hz=200.0, seed=4,
         overrides={"lever_arm": {"d_y_m": [0.0, 0.0273, 0.0]}, "accel_delay": {"enabled": True}})
-    d, report, doc = D.run(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml")
+    passes = []
+    res = D.run(D.DiagnoseConfig(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml"),
+                progress=lambda done, total: passes.append((done, total)))
+    d, report, doc = res.diagnosis, res.report(), res.to_json()
+    settled = [D.MAX_PASSES] if d.passes < D.MAX_PASSES else []  # progress ends at done == total
+    assert passes == [(k, D.MAX_PASSES) for k in list(range(1, d.passes + 1)) + settled], passes
     lever = [e for e in d.effects if e.id == "lever_arm"]
     assert [e.channel for e in lever] == ["accel_y"]
     j = D.LEVER[4]  # r_y[y]
@@ -348,9 +380,9 @@ def broad_diagnoses(tmp_path_factory):
     for trial, name in (("07", "07_undisturbed_fast_rotation_B.mat"), ("21", "21_undisturbed_fast_combined.mat")):
         h5 = folder / f"broad{trial}.h5"
         run_import("broad", REAL / "broad" / name, h5)
-        d, report, doc = D.run(h5, nominal="none", bandwidth_hz=BROAD_BANDWIDTH_HZ, json_path=folder / f"{trial}.json",
-                               navigation=False)
-        out[trial] = (d, report, doc)
+        res = D.run(D.DiagnoseConfig(h5, nominal="none", bandwidth_hz=BROAD_BANDWIDTH_HZ,
+                                     json_path=folder / f"{trial}.json", navigation=False))
+        out[trial] = (res.diagnosis, res.report(), res.to_json())
     return out
 
 

@@ -21,21 +21,27 @@ The package, from the bottom up (each module imports only those above it in this
 - :mod:`.fit`: the Gauss-Newton loop, :func:`diagnose` (one record in memory -> :class:`Diagnosis`);
 - :mod:`.report`: the extended model (``sizefx/effects/1``), the ``sizefx/diagnosis/1`` JSON, the
   text report, the plots;
-- here: :func:`run`, as ``sizefx diagnose`` calls it; the start model; the navigation before and after.
+- here: the stage as ``sizefx diagnose`` calls it: :class:`DiagnoseConfig`, :func:`run`,
+  :class:`DiagnoseResult`; the start model; the navigation before and after.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import os
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
-from ..io.files import atomic_output, check_output_path
+from ..geometry import PRESETS
+from ..io.files import atomic_output
 from ..io.telemetry import Telemetry, read_telemetry
 from ..io.toml import write_toml
+from ..stage import preflight
 from .candidates import CANDIDATES, PRIORITY, Candidate, jacobian_columns, numeric_jacobian
 from .fit import KAPPA_BLOCK_S, MAX_PASSES, Diagnosis, diagnose
 from .naming import Effect
@@ -50,7 +56,7 @@ from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G,
 
 __all__ = [
     # the stage
-    "run", "start_model", "navigation_gain", "NAVIGATION_MIN_S",
+    "DiagnoseConfig", "DiagnoseResult", "run", "start_model", "navigation_gain", "NAVIGATION_MIN_S",
     # the library under it
     "diagnose", "Diagnosis", "Effect", "DiagnoseError", "crop", "ReferenceMotion", "Predictor", "predict_readings",
     "Candidate", "CANDIDATES", "PRIORITY", "jacobian_columns", "numeric_jacobian",
@@ -67,6 +73,91 @@ __all__ = [
 NAVIGATION_MIN_S = 600.0
 
 
+@dataclass(frozen=True)
+class DiagnoseConfig:
+    """``sizefx diagnose MEASURED``: the record, the start model, the fit's options, the outputs.
+
+    Options that contradict each other or themselves (``--nominal`` with ``--model``, ``--segment``
+    with ``--from-s/--to-s``, an empty span, a bandwidth that is no frequency) are refused here,
+    when the config is made; the files are checked by :func:`run`'s pre-flight.
+    """
+
+    input: str | Path  #: MEASURED: the record (``sizefx/telemetry/1`` with ``/reference``)
+    nominal: str | None = None  #: ``--nominal``: a geometry preset or a ``sizefx/levers/1`` file [high-precision]
+    model: str | Path | None = None  #: ``--model``: start from this ``sizefx/effects/1`` TOML instead
+    json_path: str | Path | None = None  #: ``--json``: the report, ``sizefx/diagnosis/1``
+    plots: str | Path | None = None  #: ``--plots``: a folder for :data:`PLOT_FILES`
+    model_out: str | Path | None = None  #: ``--model-out``: the extended model [MEASURED with .model.toml]
+    bandwidth_hz: float | None = None  #: ``--bandwidth-hz``: fit the residual low-passed here [Hz]
+    from_s: float | None = None  #: ``--from-s``: diagnose from this time on [s, IMU clock]
+    to_s: float | None = None  #: ``--to-s``: up to this time [s]
+    segment: int | None = None  #: ``--segment``: one continuous segment of a record with gaps
+    allow_gaps: bool = False  #: ``--allow-gaps``
+    navigation: bool = True  #: ``--navigation/--no-navigation``: navigate before and after (long records)
+    force: bool = False  #: ``--force``: replace existing outputs (never an input)
+
+    def __post_init__(self):
+        _one_start_model(self.nominal, self.model)
+        if self.segment is not None and (self.from_s is not None or self.to_s is not None):
+            raise ConfigError(f"{self.input}: --segment {self.segment} and --from-s/--to-s both choose the span; "
+                              "give one (sizefx inspect lists each segment's times)")
+        if self.bandwidth_hz is not None and not (math.isfinite(self.bandwidth_hz) and self.bandwidth_hz > 0.0):
+            raise ConfigError(f"--bandwidth-hz {self.bandwidth_hz:g} must be a positive frequency [Hz] (below 0.8 "
+                              "times the record's Nyquist frequency)")
+        if self.from_s is not None and self.to_s is not None and not self.from_s < self.to_s:
+            raise ConfigError(f"--from-s {self.from_s:g} and --to-s {self.to_s:g}: the span is empty; give --from-s "
+                              "before --to-s")
+
+    @property
+    def model_out_path(self) -> Path:
+        """``--model-out``, or MEASURED with its suffix replaced by ``.model.toml``."""
+        if self.model_out is not None:
+            return Path(self.model_out)
+        return Path(str(Path(self.input).with_suffix("")) + ".model.toml")
+
+    def inputs(self) -> dict:
+        levers_file = self.nominal if self.nominal is not None and self.nominal not in PRESETS else None
+        return {"MEASURED": self.input, "--model": self.model, "--nominal": levers_file}
+
+    def outputs(self) -> dict:
+        """Every file :func:`run` writes, by option: each plot too, once its folder exists (a folder
+        still to be made holds nothing to collide with)."""
+        out = {"--json": self.json_path, "--model-out": self.model_out_path}
+        if self.plots and Path(self.plots).is_dir():
+            out.update({f"--plots ({name})": Path(self.plots) / name for name in PLOT_FILES})
+        return out
+
+
+@dataclass
+class DiagnoseResult:
+    """What :func:`run` found and wrote. ``report()`` is what ``sizefx diagnose`` prints."""
+
+    diagnosis: Diagnosis
+    start: str  #: what the prediction started from, in words
+    document: dict  #: the ``sizefx/diagnosis/1`` document (``plots`` added when plots were written)
+    json_path: str | None = None
+    plots: list = field(default_factory=list)  #: the PNG files written
+
+    @property
+    def model_path(self) -> str:
+        return self.diagnosis.model_path
+
+    def report(self) -> str:
+        lines = [format_report(self.diagnosis, self.start)]
+        if self.json_path:
+            lines.append(f"report -> {self.json_path}")
+        lines += [f"plot -> {path}" for path in self.plots]
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        return self.document
+
+
+def _one_start_model(nominal, model) -> None:
+    if model is not None and nominal is not None:
+        raise ConfigError("give --nominal or --model, not both: a model file carries its own lever arms")
+
+
 def start_model(nominal: str | None = None, model: str | None = None):
     """The model vector the diagnosis starts from, and a phrase saying what it is.
 
@@ -74,8 +165,7 @@ def start_model(nominal: str | None = None, model: str | None = None):
     ``nominal`` geometry (a preset or a ``sizefx/levers/1`` file; default high-precision)
     with no delays and no sensor errors.
     """
-    if model is not None and nominal is not None:
-        raise ConfigError("give --nominal or --model, not both: a model file carries its own lever arms")
+    _one_start_model(nominal, model)
     if model is not None:
         return theta_from_model(load_effects(model, base=IDEAL)), f"model {model}"
     from ..calibrate import nominal_levers
@@ -106,35 +196,54 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
     return out
 
 
-def run(path, *, nominal: str | None = None, model: str | None = None, json_path=None, plots=None,
-        model_out=None, bandwidth_hz: float | None = None, from_s: float | None = None, to_s: float | None = None,
-        allow_gaps: bool = False, force: bool = False, navigation: bool = True, segment: int | None = None):
-    """Entry point of ``sizefx diagnose``: returns ``(Diagnosis, report text, json document)``."""
-    inputs = [path] + ([model] if model else [])
-    if model_out is None:
-        model_out = str(Path(path).with_suffix("")) + ".model.toml"
-    outs = [o for o in (json_path, model_out) if o]
-    if len({Path(o).resolve() for o in outs}) < len(outs):
-        raise ConfigError(f"{json_path}: --json and --model-out name the same file; give two")
-    for out in outs:
-        check_output_path(out, inputs=inputs, force=force)
-    if plots and any(Path(plots).resolve() == Path(p).resolve() for p in inputs):
-        raise ConfigError(f"{plots}: --plots names an input file; give a folder")
-    if segment is not None and (from_s is not None or to_s is not None):
-        raise ConfigError(f"{path}: --segment {segment} and --from-s/--to-s both choose the span; give one "
-                          "(sizefx inspect lists each segment's times)")
-    theta0, start = start_model(nominal, model)
-    tel = read_telemetry(path, allow_gaps=allow_gaps, segment=segment)
+def _check_plot_folder(config: DiagnoseConfig) -> None:
+    """``--plots`` names a folder: an existing one, or one that can be made where it is asked for."""
+    folder = Path(config.plots)
+    if folder.exists():
+        if not folder.is_dir():
+            what = "an input file" if folder.resolve() in {Path(p).resolve() for p in config.inputs().values()
+                                                          if p is not None} else "a file"
+            raise ConfigError(f"{folder}: --plots names {what}; give a folder")
+        return
+    parent = folder.absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ConfigError(f"{folder}: --plots: {parent} is a file; give a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(f"{folder}: --plots: cannot create it in {parent} (not writable); choose another folder")
+
+
+def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
+    """Diagnose ``config.input``; write the extended model, and the report and plots when asked.
+
+    Pre-flight first (:func:`sizefx.stage.preflight`): the record and any model or levers file
+    exist; every output (``--json``, ``--model-out``, each plot) is new or ``force``d, writable,
+    and distinct from the others and from every input. ``progress(done, total)`` follows the
+    Gauss-Newton passes.
+    """
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
+    if config.plots:
+        _check_plot_folder(config)
+    theta0, start = start_model(config.nominal, None if config.model is None else str(config.model))
+    path = config.input
+    tel = read_telemetry(path, allow_gaps=config.allow_gaps, segment=config.segment)
     require_reference(tel)
-    d = diagnose(crop(tel, from_s, to_s), theta0, bandwidth_hz=bandwidth_hz, keep_series=bool(plots))
-    write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs, force=force)
+    d = diagnose(crop(tel, config.from_s, config.to_s), theta0, bandwidth_hz=config.bandwidth_hz,
+                 keep_series=bool(config.plots), progress=progress)
+    inputs = [p for p in config.inputs().values() if p is not None]
+    model_out = config.model_out_path
+    write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs,
+               force=config.force)
     d.model_path = str(model_out)
-    if navigation:
+    if config.navigation:
         d.navigation = navigation_gain(tel, theta0, d.theta)
     doc = to_json(d, start)
-    if json_path:
-        with atomic_output(json_path, force=force) as tmp:
+    if config.json_path:
+        with atomic_output(config.json_path, inputs=inputs, force=config.force) as tmp:
             Path(tmp).write_text(json.dumps(doc, indent=2))
-    if plots:
-        doc["plots"] = plot(d, plots)
-    return d, format_report(d, start), doc
+    written = plot(d, config.plots, force=config.force) if config.plots else []
+    if written:
+        doc["plots"] = written
+    return DiagnoseResult(diagnosis=d, start=start, document=doc,
+                          json_path=None if not config.json_path else str(config.json_path), plots=written)

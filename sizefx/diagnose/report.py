@@ -200,10 +200,10 @@ def format_report(d: Diagnosis, start: str) -> str:
     return "\n".join(lines)
 
 
-def plot(d: Diagnosis, folder) -> list[str]:
+def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
     """Residuals before/after (time series, 0.1 s means) and their spectra (Welch): the files
-    :data:`PLOT_FILES` in ``folder`` (created if need be). ``d`` must keep its series
-    (``diagnose(..., keep_series=True)``)."""
+    :data:`PLOT_FILES` in ``folder`` (created if need be; an existing file replaced only with ``force``).
+    ``d`` must keep its series (``diagnose(..., keep_series=True)``)."""
     try:
         import matplotlib
     except ImportError:
@@ -229,7 +229,7 @@ def plot(d: Diagnosis, folder) -> list[str]:
     axes[0].legend(loc="upper right", fontsize=8)
     axes[0].set_title(f"{Path(d.path).name}: measured minus predicted (0.1 s means)")
     axes[-1].set_xlabel("time [s]")
-    written.append(_save(fig, folder / PLOT_FILES[0]))
+    written.append(_save(fig, folder / PLOT_FILES[0], force))
     plt.close(fig)
     fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
     nper = int(min(m.sum(), 2 ** int(np.log2(max(16, 20.0 / dt)))))
@@ -243,13 +243,13 @@ def plot(d: Diagnosis, folder) -> list[str]:
         ax.grid(alpha=0.3, which="both")
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"{Path(d.path).name}: residual amplitude spectral density")
-    written.append(_save(fig, folder / PLOT_FILES[1]))
+    written.append(_save(fig, folder / PLOT_FILES[1], force))
     plt.close(fig)
     return written
 
 
-def _save(fig, path: Path) -> str:
-    with atomic_output(path, force=True) as tmp:  # run() checked the folder against the inputs
+def _save(fig, path: Path, force: bool) -> str:
+    with atomic_output(path, force=force) as tmp:  # run()'s pre-flight checked each file against the inputs
         fig.savefig(tmp, dpi=100, format="png")
     return str(path)
 
