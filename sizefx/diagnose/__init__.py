@@ -124,7 +124,7 @@ class DiagnoseConfig:
         still to be made holds nothing to collide with)."""
         out = {"--json": self.json_path, "--model-out": self.model_out_path}
         if self.plots and Path(self.plots).is_dir():
-            out.update({f"--plots ({name})": Path(self.plots) / name for name in PLOT_FILES})
+            out.update({f"--plots {name}": Path(self.plots) / name for name in PLOT_FILES})
         return out
 
 
