@@ -111,8 +111,9 @@ def broad():
         for trial, name in (("07", "07_undisturbed_fast_rotation_B.mat"), ("21", "21_undisturbed_fast_combined.mat")):
             h5 = Path(tmp) / f"{trial}.h5"
             run_import("broad", REAL / "broad" / name, h5)
-            d, _, doc = D.run(h5, nominal="none", bandwidth_hz=10.0, navigation=False,
-                              model_out=Path(tmp) / f"{trial}.toml")
+            res = D.run(D.DiagnoseConfig(h5, nominal="none", bandwidth_hz=10.0, navigation=False,
+                                         model_out=Path(tmp) / f"{trial}.toml"))
+            d, doc = res.diagnosis, res.to_json()
             s = d.sigma_theta
             out[trial] = {
                 "arms_mm": (d.theta[D.LEVER] * 1e3).reshape(3, 3).round(3).tolist(),

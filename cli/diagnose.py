@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-
 from .options import allow_gaps_option, force_option, segment_option
 
 
@@ -18,7 +17,8 @@ from .options import allow_gaps_option, force_option, segment_option
                    "sections it omits are off.")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the report (sizefx/diagnosis/1).")
 @click.option("--plots", type=click.Path(file_okay=False),
-              help="Write residual time series and spectra, before and after (PNG), into this folder.")
+              help="Write residual time series and spectra, before and after, into this folder (residuals.png, "
+                   "spectra.png; existing ones are replaced only with --force).")
 @click.option("--model-out", type=click.Path(dir_okay=False),
               help="Where to write the extended model [default: MEASURED with .model.toml].")
 @click.option("--bandwidth-hz", type=float,
@@ -45,13 +45,9 @@ def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz
     with its standard error, says what the record cannot reveal, writes the
     extended model and reports the residual RMS per channel before and after.
     """
-    from sizefx.diagnose import run
+    from sizefx.diagnose import DiagnoseConfig, run
 
-    _, report, doc = run(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
-                         model_out=model_out, bandwidth_hz=bandwidth_hz, from_s=from_s, to_s=to_s,
-                         allow_gaps=allow_gaps, force=force, navigation=navigation, segment=segment)
-    click.echo(report)
-    if json_path:
-        click.echo(f"report -> {json_path}")
-    for path in doc.get("plots", []):
-        click.echo(f"plot -> {path}")
+    config = DiagnoseConfig(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
+                            model_out=model_out, bandwidth_hz=bandwidth_hz, from_s=from_s, to_s=to_s,
+                            segment=segment, allow_gaps=allow_gaps, navigation=navigation, force=force)
+    click.echo(run(config).report())

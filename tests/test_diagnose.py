@@ -23,6 +23,7 @@ from sizefx import diagnose as D
 from sizefx import scenarios
 from sizefx.constants import ARCSEC, DEG
 from sizefx.effects import IDEAL, load_effects
+from sizefx.errors import ConfigError, OutputError
 from sizefx.simulate import simulate_in_memory
 from support import write_raw
 
@@ -184,7 +185,7 @@ def test_prediction_with_the_true_model_reproduces_the_simulation():
     fx = load_effects(base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"}
                       | {"lever_arm": {"enabled": True}})
     tel = simulate_in_memory(scenarios.tumble(20.0), fx, rate_hz=200.0, form="rates")
-    pred = D._Predictor(tel)
+    pred = D.Predictor(tel)
     r = (pred.measured - pred.predict(D.theta_from_model(fx)))[pred.mask]
     assert np.abs(r[:, :3]).max() < 1e-8
     assert np.abs(r[:, 3:]).max() < 1e-9
@@ -197,9 +198,9 @@ def test_analytic_jacobian_matches_its_numerical_twin():
     fx = load_effects(base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"}
                       | {"lever_arm": {"enabled": True}})
     tel = simulate_in_memory(scenarios.tumble(20.0), fx, rate_hz=200.0, form="rates")
-    pred = D._Predictor(tel)
+    pred = D.Predictor(tel)
     th = D.theta_from_model(fx)
-    fast, slow = pred.jacobian(th), pred.jacobian(th, numeric=True)
+    fast, slow = D.jacobian_columns(th, pred.terms(th), pred.t), D.numeric_jacobian(pred.predict, th, pred.mask)
     m = pred.mask
     for j, p in enumerate(D.PARAMS):
         ch, col = fast[j]
@@ -225,6 +226,19 @@ def test_model_file_round_trip_and_second_pass_finds_nothing(tmp_path):
     assert not again.effects, again.log
     for c in D.CHANNELS:
         assert again.rms_before[c] == pytest.approx(d.rms_after[c], rel=1e-9)
+
+
+def test_model_document_loads_in_memory_as_the_same_vector():
+    """The extended model goes to navigation as a document, no file in between: random vectors
+    (every section on, arms of centimetres) come back through ``load_effects(overrides=...)``
+    as written (to the rounding of the unit conversions and the triad-point split)."""
+    rng = np.random.default_rng(21)
+    for _ in range(5):
+        theta = rng.normal(scale=[p.per_unit * 20.0 for p in D.PARAMS])
+        theta[D.LEVER] = rng.normal(scale=0.03, size=9)
+        back = D.theta_from_model(load_effects(base=IDEAL, overrides=D.model_document(theta)))
+        np.testing.assert_allclose(back, theta, rtol=1e-12, atol=1e-18)
+    assert tomllib.loads(D.model_toml(theta)) == D.model_document(theta)
 
 
 def test_units_of_the_named_parameters():
@@ -289,6 +303,32 @@ def test_cli_bad_input_is_one_line(tmp_path):
     assert len(lines) == 1 and "noref.h5" in lines[0] and "/reference" in lines[0]
     both = CliRunner().invoke(main, ["diagnose", str(no_ref), "--nominal", "compact", "--model", "x.toml"])
     assert both.exit_code == 2 and "not both" in both.output
+    for option, value, words in (("--bandwidth-hz", "0", "positive frequency"), ("--to-s", "-1", "span is empty")):
+        bad = CliRunner().invoke(main, ["diagnose", str(no_ref), "--from-s", "0", option, value])
+        assert bad.exit_code == 2 and words in bad.output, bad.output
+
+
+def test_outputs_are_refused_before_any_work(tmp_path):
+    """Pre-flight: each plot is an output like --json and --model-out. Two outputs may not share a
+    path, an existing plot is replaced only with --force, and --plots must name a folder. The
+    record has no /reference: passing the pre-flight would fail on that instead."""
+    rec = write_raw(tmp_path / "rec.h5", reference=False)
+    plots = tmp_path / "plots"
+    plots.mkdir()
+    same = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots),
+                                     "--json", str(plots / "spectra.png")])
+    assert same.exit_code == 2 and "given to both --json and --plots spectra.png" in same.output, same.output
+    (plots / "residuals.png").write_bytes(b"an earlier plot")
+    old = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots)])
+    assert old.exit_code == 2 and "residuals.png: output exists; pass --force" in old.output, old.output
+    forced = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots), "--force"])
+    assert forced.exit_code == 2 and "/reference" in forced.output, forced.output  # past the pre-flight
+    with pytest.raises(ConfigError, match="--plots names an input file"):
+        D.run(D.DiagnoseConfig(rec, plots=rec))
+    model = tmp_path / "start.toml"
+    model.write_text(D.model_toml(NOMINAL))
+    with pytest.raises(OutputError, match="would overwrite the input"):
+        D.run(D.DiagnoseConfig(rec, model=model, model_out=model, force=True))
 
 
 def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
@@ -300,7 +340,12 @@ def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
     path = tmp_path / "sway.h5"
     run("sway", path, plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0), rate_hz=200.0, seed=4,
         overrides={"lever_arm": {"d_y_m": [0.0, 0.0273, 0.0]}, "accel_delay": {"enabled": True}})
-    d, report, doc = D.run(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml")
+    passes = []
+    res = D.run(D.DiagnoseConfig(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml"),
+                progress=lambda done, total: passes.append((done, total)))
+    d, report, doc = res.diagnosis, res.report(), res.to_json()
+    settled = [D.MAX_PASSES] if d.passes < D.MAX_PASSES else []  # progress ends at done == total
+    assert passes == [(k, D.MAX_PASSES) for k in list(range(1, d.passes + 1)) + settled], passes
     lever = [e for e in d.effects if e.id == "lever_arm"]
     assert [e.channel for e in lever] == ["accel_y"]
     j = D.LEVER[4]  # r_y[y]
@@ -335,9 +380,9 @@ def broad_diagnoses(tmp_path_factory):
     for trial, name in (("07", "07_undisturbed_fast_rotation_B.mat"), ("21", "21_undisturbed_fast_combined.mat")):
         h5 = folder / f"broad{trial}.h5"
         run_import("broad", REAL / "broad" / name, h5)
-        d, report, doc = D.run(h5, nominal="none", bandwidth_hz=BROAD_BANDWIDTH_HZ, json_path=folder / f"{trial}.json",
-                               navigation=False)
-        out[trial] = (d, report, doc)
+        res = D.run(D.DiagnoseConfig(h5, nominal="none", bandwidth_hz=BROAD_BANDWIDTH_HZ,
+                                     json_path=folder / f"{trial}.json", navigation=False))
+        out[trial] = (res.diagnosis, res.report(), res.to_json())
     return out
 
 

@@ -1,0 +1,153 @@
+"""The record's ``/reference``: what diagnose requires of it, and the motion it describes.
+
+- :func:`require_reference`, :func:`check_record`: the refusals, each naming the file and the fix;
+- :class:`ReferenceMotion`: attitude, rates and specific force of the reference point as smooth
+  functions of time (C2 splines: scipy's ``RotationSpline`` for attitude, whose rates come out in
+  body axes; ``CubicSpline`` for position and velocity);
+- :func:`usable_mask`: the IMU samples far enough from the reference's ends, its gaps and the IMU's;
+- :func:`crop`: the part of a record between two times.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation, RotationSpline
+
+from .. import earth
+from ..errors import SizefxError
+from ..io.telemetry import Telemetry
+
+__all__ = ["DiagnoseError", "ReferenceMotion", "check_record", "crop", "require_reference", "usable_mask",
+           "MIN_SAMPLES", "MIN_REFERENCE_ROWS", "MAX_SAMPLES", "EDGE_S", "EDGE_REFERENCE_PERIODS",
+           "REFERENCE_GAP_FACTOR"]
+
+#: Fewest usable samples: the gyro derivative window with room, and enough blocks for the folds.
+MIN_SAMPLES = 400
+#: Samples this close to the ends of the reference, or to a reference or IMU gap, are left out [s]:
+#: room for delays up to 50 ms; and at least :data:`EDGE_REFERENCE_PERIODS` reference periods, where
+#: the splines' end conditions still pull (5e-3 rad/s at one 20 Hz period from the end).
+EDGE_S = 0.05
+EDGE_REFERENCE_PERIODS = 10
+#: Fewest reference rows: a spline through fewer cannot stand for the motion.
+MIN_REFERENCE_ROWS = 20
+#: Most IMU samples diagnosed at once: the prediction and regressors take about 3 kB per sample.
+MAX_SAMPLES = 3_000_000
+#: A reference step longer than this many median periods is a gap (motion-capture dropout).
+REFERENCE_GAP_FACTOR = 3.0
+
+
+class DiagnoseError(SizefxError):
+    """The record cannot be diagnosed (no reference, too short, no overlap)."""
+
+
+def require_reference(tel: Telemetry) -> None:
+    """Refuse a record without ``/reference``: there is nothing to predict the IMU from."""
+    if tel.reference is None:
+        raise DiagnoseError(f"{tel.path}: diagnose needs /reference motion (attitude at least) to predict the IMU "
+                            "from; record it, or import it with sizefx import")
+
+
+def check_record(tel: Telemetry) -> None:
+    """Everything the prediction needs of a (cropped) record: a reference, a site, enough rows, not too many."""
+    require_reference(tel)
+    if tel.site is None and not tel.reference.has_position:
+        raise DiagnoseError(f"{tel.path}: no site: gravity needs latitude and height; add the root attributes "
+                            "latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
+    if tel.reference.time_s.size < MIN_REFERENCE_ROWS:
+        raise DiagnoseError(f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
+                            f"least {MIN_REFERENCE_ROWS} to interpolate the motion from")
+    if tel.n_samples > MAX_SAMPLES:
+        raise DiagnoseError(f"{tel.path}: {tel.n_samples} IMU samples; diagnose holds about 3 kB per sample and "
+                            f"takes at most {MAX_SAMPLES}: give a part of the record with --from-s/--to-s "
+                            "(e.g. 20 minutes)")
+
+
+class ReferenceMotion:
+    """The record's ``/reference`` as smooth functions of time (IMU clock).
+
+    ``evaluate(t)`` gives ``C_bn`` (untilted), ``omega_nb_b``, ``omega_in_n`` and the
+    specific force ``f_n`` of the reference point. Without position the site is static.
+    """
+
+    def __init__(self, tel: Telemetry):
+        ref = tel.reference
+        self.t = ref.time_s
+        self.rot = RotationSpline(ref.time_s, Rotation.from_quat(ref.quat_nb[:, [1, 2, 3, 0]]))
+        if ref.has_position:
+            self.lat = CubicSpline(ref.time_s, ref.lat_rad)
+            self.h = CubicSpline(ref.time_s, ref.height_m)
+            if ref.velocity_n_mps is not None:
+                v = ref.velocity_n_mps
+            else:  # from the position spline's derivative
+                rn, re = earth.radii_m(ref.lat_rad)
+                lon = CubicSpline(ref.time_s, np.unwrap(ref.lon_rad))
+                v = np.column_stack([(rn + ref.height_m) * self.lat(ref.time_s, 1),
+                                     (re + ref.height_m) * np.cos(ref.lat_rad) * lon(ref.time_s, 1),
+                                     -self.h(ref.time_s, 1)])
+            self.v = CubicSpline(ref.time_s, v, axis=0)
+            self.static = None
+        else:
+            site = tel.site
+            self.static = (site.lat_rad, site.height_m)
+
+    def evaluate(self, t) -> dict:
+        """At the times ``t`` [n]: ``C_bn`` [n, 3, 3], ``w_nb`` [n, 3] (rad/s, body), ``w_in`` and ``f_n``
+        [n, 3] (rad/s and m/s^2, NED)."""
+        mat_nb = self.rot(t).as_matrix()
+        w_nb = self.rot(t, 1)
+        if self.static is None:
+            lat, h, v, vdot = self.lat(t), self.h(t), self.v(t), self.v(t, 1)
+        else:
+            lat = np.full(t.shape, self.static[0])
+            h = np.full(t.shape, self.static[1])
+            v = np.zeros((t.size, 3))
+            vdot = np.zeros((t.size, 3))
+        w_ie = earth.omega_ie_n(lat)
+        w_en = earth.omega_en_n(lat, h, v)
+        f_n = vdot + np.cross(2.0 * w_ie + w_en, v) - earth.gravity_n(lat, h)
+        return {"C_bn": np.swapaxes(mat_nb, 1, 2), "w_nb": w_nb, "w_in": w_ie + w_en, "f_n": f_n}
+
+
+def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float) -> np.ndarray:
+    """Which IMU samples (times ``t`` [n], s) the fit may use: inside the reference's span minus
+    :data:`EDGE_S` (or :data:`EDGE_REFERENCE_PERIODS` periods) at its ends and gaps, away from IMU
+    gaps by the gyro derivative's ``window`` (samples of period ``dt``), and not at the series' ends."""
+    rt = tel.reference.time_s
+    steps = np.diff(rt)
+    edge = max(EDGE_S, EDGE_REFERENCE_PERIODS * float(np.median(steps)))
+    ok = (t >= rt[0] + edge) & (t <= rt[-1] - edge)
+    limit = REFERENCE_GAP_FACTOR * np.median(steps)
+    for k in np.flatnonzero(steps > limit):
+        ok &= ~((t > rt[k] - edge) & (t < rt[k + 1] + edge))
+    # IMU gaps (accepted with --allow-gaps): the derivative window and the splines span them
+    margin = EDGE_S + window * dt
+    for gap in tel.gaps:
+        if gap.dataset.startswith("/imu"):
+            ok &= ~((t > gap.time_s - margin) & (t < gap.time_s + gap.duration_s + margin))
+    half = (window - 1) // 2
+    ok[:half + 2] = False  # the gyro derivative's end fits, and the shifts' spline ends
+    ok[-half - 2:] = False
+    return ok
+
+
+def crop(tel: Telemetry, from_s: float | None, to_s: float | None) -> Telemetry:
+    """The part of a record between two times [s] (IMU and reference alike)."""
+    if from_s is None and to_s is None:
+        return tel
+    lo = -np.inf if from_s is None else from_s
+    hi = np.inf if to_s is None else to_s
+    keep = (tel.time_s >= lo) & (tel.time_s <= hi)
+    if keep.sum() < MIN_SAMPLES:
+        raise DiagnoseError(f"{tel.path}: --from-s/--to-s keep {int(keep.sum())} IMU samples; diagnose needs "
+                            f"{MIN_SAMPLES}")
+    fields = {k: (getattr(tel, k)[keep] if getattr(tel, k) is not None else None)
+              for k in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")}
+    ref = tel.reference
+    rk = (ref.time_s >= lo - 1.0) & (ref.time_s <= hi + 1.0)  # a second more of reference for the splines
+    ref = replace(ref, **{k: getattr(ref, k)[rk] for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m",
+                                                           "velocity_n_mps") if getattr(ref, k) is not None})
+    gaps = [g for g in tel.gaps if lo <= g.time_s <= hi]
+    return replace(tel, reference=ref, gaps=gaps, **fields)

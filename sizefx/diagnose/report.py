@@ -1,0 +1,255 @@
+"""What diagnose writes and prints: the extended model, the JSON report, the text report, the plots.
+
+- :func:`model_document` / :func:`model_toml`: the model vector as a complete ``sizefx/effects/1``
+  document (written with :mod:`sizefx.io.toml`; loaded in memory with
+  ``load_effects(base=IDEAL, overrides=model_document(theta))``, no file in between);
+- :func:`to_json`: the ``sizefx/diagnosis/1`` document (``data-schemas/diagnosis-1.json``);
+- :func:`format_report`: the lines ``sizefx diagnose`` prints;
+- :func:`plot`: residuals before and after (time series, 0.1 s means) and their spectra, PNG.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..constants import ARCSEC, STANDARD_GRAVITY_MPS2
+from ..effects import EFFECTS_SCHEMA
+from ..errors import ConfigError
+from ..geometry import triad_point
+from ..io.files import atomic_output
+from ..io.schema import check_document
+from ..io.toml import dumps_toml
+from .fit import Diagnosis
+from .selection import block_means
+from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, OFFDIAG, TAU_A,
+                    TAU_R, TILT, UG, misaligned_axes)
+
+__all__ = ["DIAGNOSIS_SCHEMA", "PLOT_FILES", "format_report", "model_document", "model_toml", "plot", "to_json"]
+
+DIAGNOSIS_SCHEMA = "sizefx/diagnosis/1"
+#: The files :func:`plot` writes into the ``--plots`` folder.
+PLOT_FILES = ("residuals.png", "spectra.png")
+
+
+# --------------------------------------------------------------------------- the extended model
+
+
+def _matrix(offdiag=None, full=None) -> list:
+    """A 3x3 list of lists: ``full``, or zeros with the six misalignment terms ``offdiag`` off the diagonal."""
+    m = np.zeros((3, 3)) if full is None else np.array(full, dtype=float)
+    if offdiag is not None:
+        for (i, j), v in zip(OFFDIAG, offdiag):
+            m[i, j] = v
+    return m.tolist()
+
+
+def model_document(theta: np.ndarray) -> dict:
+    """The model vector [NP] as a complete ``sizefx/effects/1`` document (every deterministic section explicit).
+
+    Noise and quantisation are switched off: the document states what the IMU gets wrong
+    deterministically, which ``navigate --model`` and ``compensate --model`` undo. The arms
+    ``r_i = r + d_i`` are split at the triad point ``r`` (where the accelerometer normals meet,
+    as calibrate splits them), so that navigate/compensate ``--mode triad`` and ``center``
+    keep their meaning: ``d_i`` from the triad point, ``r_vehicle_m`` the triad point.
+    """
+    theta = np.asarray(theta, dtype=float)
+    arms = theta[LEVER].reshape(3, 3)
+    offset = triad_point(arms, misaligned_axes(theta[A_MIS])) if np.any(arms) else np.zeros(3)
+    d_arms = arms - offset
+    on = {name: bool(np.any(theta[idx] != 0.0)) for name, idx in
+          (("accel_bias", A_BIAS), ("accel_scale_factor", A_SF), ("accel_misalignment", A_MIS),
+           ("accel_quadratic", A_K2), ("accel_delay", [TAU_A]), ("reference_delay", [TAU_R]),
+           ("level_tilt", TILT), ("gyro_bias", G_BIAS), ("gyro_scale_factor", G_SF),
+           ("gyro_misalignment", G_MIS), ("gyro_g_sensitivity", G_G))}
+    k2_unit = UG / STANDARD_GRAVITY_MPS2**2
+    g_unit = DEG_PER_H / STANDARD_GRAVITY_MPS2
+    return {
+        "schema": EFFECTS_SCHEMA,
+        "lever_arm": {"enabled": True, "preset": "none",
+                      **{f"d_{a}_m": d_arms[i].tolist() for i, a in enumerate("xyz")},
+                      "r0_m": [0.0, 0.0, 0.0], "r_plate_m": [0.0, 0.0, 0.0], "r_vehicle_m": offset.tolist()},
+        "accel_delay": {"enabled": on["accel_delay"], "tau_s": float(theta[TAU_A])},
+        "reference_delay": {"enabled": on["reference_delay"], "tau_s": float(theta[TAU_R])},
+        "level_tilt": {"enabled": on["level_tilt"], "north_arcsec": float(theta[TILT[0]] / ARCSEC),
+                       "east_arcsec": float(theta[TILT[1]] / ARCSEC)},
+        "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / UG).tolist()},
+        "accel_scale_factor": {"enabled": on["accel_scale_factor"], "ppm": (theta[A_SF] * 1e6).tolist()},
+        "accel_misalignment": {"enabled": on["accel_misalignment"], "arcsec": _matrix(offdiag=theta[A_MIS] / ARCSEC)},
+        "accel_quadratic": {"enabled": on["accel_quadratic"], "ug_per_g2": (theta[A_K2] / k2_unit).tolist()},
+        "gyro_bias": {"enabled": on["gyro_bias"], "deg_per_h": (theta[G_BIAS] / DEG_PER_H).tolist()},
+        "gyro_scale_factor": {"enabled": on["gyro_scale_factor"], "ppm": (theta[G_SF] * 1e6).tolist()},
+        "gyro_misalignment": {"enabled": on["gyro_misalignment"], "arcsec": _matrix(offdiag=theta[G_MIS] / ARCSEC)},
+        "gyro_g_sensitivity": {"enabled": on["gyro_g_sensitivity"],
+                               "deg_per_h_per_g": _matrix(full=theta[G_G].reshape(3, 3) / g_unit)},
+        "accel_noise": {"enabled": False},
+        "gyro_noise": {"enabled": False},
+        "quantisation": {"enabled": False},
+    }
+
+
+def model_header(source: str = "") -> str:
+    """The comment lines above the extended model's TOML."""
+    return "\n".join([f"sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
+                      "Arms r_i from the reference point of the motion (body axes x forward, y right, z down):",
+                      "[lever_arm] d_i from the triad point to accelerometer i, r_vehicle_m from the reference "
+                      "point to the triad point."])
+
+
+def model_toml(theta: np.ndarray, source: str = "") -> str:
+    """:func:`model_document` as TOML text, with a header naming the record it was found in."""
+    return dumps_toml(model_document(theta), header=model_header(source))
+
+
+# --------------------------------------------------------------------------- the reports
+
+
+def to_json(d: Diagnosis, start: str) -> dict:
+    """The ``sizefx/diagnosis/1`` document (checked against ``data-schemas/diagnosis-1.json``)."""
+    doc = {
+        "schema": DIAGNOSIS_SCHEMA,
+        "sizefx_version": __version__,
+        "record": d.path,
+        "start_model": start,
+        "effects": [{"id": e.id, "channel": e.channel, "parameters": e.params, "sigma": e.sigma,
+                     "nominal": e.nominal, "explained_fraction": e.explained_fraction, "sentence": e.sentence,
+                     "not_revealed": e.hidden} for e in d.effects],
+        "not_revealed": d.unrevealed,
+        "residual_rms_before": d.rms_before,
+        "residual_rms_after": d.rms_after,
+        "bandwidth_hz": d.bandwidth_hz,
+        "residual_rms_full_band_before": d.rms_full_before,
+        "residual_rms_full_band_after": d.rms_full_after,
+        "units": {"gyro": "rad/s", "accel": "m/s^2", "lever_arm": "m", "tau_s": "s", "bias_mps2": "m/s^2",
+                  "bias_rad_s": "rad/s"},
+        "model": d.model_path,
+        "samples": d.samples,
+        "block_samples": d.block,
+        "noise_sigma": dict(zip(CHANNELS, d.weights_sigma.tolist())),
+        "kappa": dict(zip(CHANNELS, d.kappa.tolist())),
+        "passes": d.passes,
+        "selection_log": d.log,
+        "navigation": d.navigation,
+        "wall_s": d.wall_s,
+    }
+    check_document(doc, DIAGNOSIS_SCHEMA)  # our writer against our contract: a bug if it fails
+    return doc
+
+
+def _rms_line(name, before, after):
+    """One channel's residual RMS, start -> extended model, in deg/h or ug."""
+    if name.startswith("gyro"):
+        return f"  {name:8s} {before / DEG_PER_H:12.5g} -> {after / DEG_PER_H:12.5g} deg/h   ({_gain(before, after)})"
+    return f"  {name:8s} {before / UG:12.5g} -> {after / UG:12.5g} ug      ({_gain(before, after)})"
+
+
+def _gain(before, after):
+    """How much lower the residual became, in words."""
+    if before <= 0:
+        return "no residual"
+    change = 100.0 * (1.0 - after / before)
+    if abs(change) < 0.05:
+        return "unchanged"
+    return f"{change:.1f} % lower" if change > 0 else f"{-change:.1f} % higher"
+
+
+def format_report(d: Diagnosis, start: str) -> str:
+    """The report ``sizefx diagnose`` prints: the effects found, what the record cannot reveal, the
+    residual RMS per channel before and after, the navigation gain and where the model went."""
+    how = (f", low-passed at {d.bandwidth_hz:g} Hz (every {d.block} samples)" if d.bandwidth_hz
+           else f" in blocks of {d.block}" if d.block > 1 else "")
+    lines = [f"sizefx diagnose {d.path}: {d.samples} samples{how}; start: {start}"]
+    if d.effects:
+        lines.append(f"found {len(d.effects)} effect(s) (forward selection: information criterion and 5-fold "
+                     f"cross-validation, {d.passes} Gauss-Newton passes):")
+        for k, e in enumerate(d.effects, 1):
+            where = f"{e.id}" + (f", {e.channel}" if e.channel else "")
+            lines.append(f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
+                         "residual in its channels]")
+    else:
+        loud = [c for c in CHANNELS if d.white_sigma and d.rms_after[c] > 1.5 * d.white_sigma[c]]
+        if loud:
+            lines.append("found nothing the data supports beyond the start model; but the residual on "
+                         + ", ".join(f"{c} ({d.rms_after[c] / d.white_sigma[c]:.1f} times its sample-to-sample noise)"
+                                     for c in loud)
+                         + " is more than noise: an effect outside the candidates, or too little motion or data")
+        else:
+            lines.append("found nothing beyond the start model: the residual is consistent with sensor noise")
+    if d.unrevealed:
+        lines.append("not revealed by this record (kept at the start model; record more motion to see them):")
+        for u in d.unrevealed:
+            where = u["id"] + (f" {u['channel']}" if u["channel"] else "")
+            lines.append(f"  - {where} ({', '.join(u['parameters'])}): {u['reason']}")
+    band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
+    lines.append(f"residual RMS per channel{band}, start model -> extended model:")
+    for name in CHANNELS:
+        lines.append(_rms_line(name, d.rms_before[name], d.rms_after[name]))
+    if d.bandwidth_hz:
+        lines.append("full band (the reference's differentiated noise included):")
+        for name in CHANNELS:
+            lines.append(_rms_line(name, d.rms_full_before[name], d.rms_full_after[name]))
+    if d.navigation:
+        nav = d.navigation
+        lines.append(f"navigation over {nav['duration_s']:.0f} s (free inertial, against /reference): final "
+                     f"horizontal error {nav['before']['final_m']:.2f} m -> {nav['after']['final_m']:.2f} m, "
+                     f"maximum {nav['before']['max_m']:.2f} m -> {nav['after']['max_m']:.2f} m")
+    if d.model_path:
+        lines.append(f"extended model -> {d.model_path} (sizefx navigate/compensate/diagnose --model accept it)")
+    return "\n".join(lines)
+
+
+def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
+    """Residuals before/after (time series, 0.1 s means) and their spectra (Welch): the files
+    :data:`PLOT_FILES` in ``folder`` (created if need be; an existing file replaced only with ``force``).
+    ``d`` must keep its series (``diagnose(..., keep_series=True)``)."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise ConfigError("plots need matplotlib: pip install 'sizefx[plots]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from scipy.signal import welch
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    t, m = d.t[d.mask], d.mask
+    dt = float(np.median(np.diff(d.t)))
+    scale = [1 / DEG_PER_H] * 3 + [1 / UG] * 3
+    units = ["deg/h"] * 3 + ["ug"] * 3
+    L = max(1, round(0.1 / dt))
+    written = []
+    fig, axes = plt.subplots(6, 1, figsize=(10, 12), sharex=True, constrained_layout=True)
+    for c, ax in enumerate(axes):
+        for res, label, lw in ((d.residual_before, "start model", 0.6), (d.residual_after, "extended model", 0.8)):
+            ax.plot(block_means(t, L), block_means(res[m, c], L) * scale[c], lw=lw, label=label)
+        ax.set_ylabel(f"{CHANNELS[c]} [{units[c]}]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].set_title(f"{Path(d.path).name}: measured minus predicted (0.1 s means)")
+    axes[-1].set_xlabel("time [s]")
+    written.append(_save(fig, folder / PLOT_FILES[0], force))
+    plt.close(fig)
+    fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
+    nper = int(min(m.sum(), 2 ** int(np.log2(max(16, 20.0 / dt)))))
+    for c, ax in enumerate(axes.ravel()):
+        for res, label in ((d.residual_before, "start model"), (d.residual_after, "extended model")):
+            f, pxx = welch(res[m, c] * scale[c], fs=1.0 / dt, nperseg=nper)
+            ax.loglog(f[1:], np.sqrt(pxx[1:]), lw=0.8, label=label)
+        ax.set_title(CHANNELS[c])
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel(f"[{units[c]}/sqrt(Hz)]")
+        ax.grid(alpha=0.3, which="both")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{Path(d.path).name}: residual amplitude spectral density")
+    written.append(_save(fig, folder / PLOT_FILES[1], force))
+    plt.close(fig)
+    return written
+
+
+def _save(fig, path: Path, force: bool) -> str:
+    with atomic_output(path, force=force) as tmp:  # run()'s pre-flight checked each file against the inputs
+        fig.savefig(tmp, dpi=100, format="png")
+    return str(path)
+
