@@ -1,6 +1,7 @@
 """Files in and out: the contracts of ``data-schemas/``, the readers and writers that follow them.
 
-- :mod:`sizefx.io.schema`: the contracts (dataset names, units, JSON Schemas), loaded once.
+- :mod:`sizefx.io.schema`: the contracts (dataset names, units, JSON Schemas), loaded once, and the
+  JSON Schema validation of every JSON document sizefx writes or reads (``jsonschema``).
 - :mod:`sizefx.io.telemetry`: ``sizefx/telemetry/1`` records, read whole or streamed, and written;
   the facade of :mod:`~sizefx.io.records`, :mod:`~sizefx.io.gaps`, :mod:`~sizefx.io.contract`,
   :mod:`~sizefx.io.reader` and :mod:`~sizefx.io.writer` (import from it).
