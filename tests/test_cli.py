@@ -151,3 +151,42 @@ def test_help_of_every_command_imports_nothing_heavy():
     count, heavy = proc.stdout.split()[0], proc.stdout.split()[1:]
     assert int(count) >= 18, proc.stdout  # the group, 10 commands, 4 scenarios, 5 importers
     assert heavy == [], f"--help imports {heavy}; import them inside the command function"
+
+
+# --------------------------------------------------------------------------- progress (issue 14)
+
+
+class _Terminal:
+    """A stand-in for stderr on a terminal, keeping what is written."""
+
+    def __init__(self):
+        self.text = ""
+
+    def isatty(self):
+        return True
+
+    def write(self, text):
+        self.text += text
+
+    def flush(self):
+        pass
+
+
+def test_progress_is_a_bar_on_a_terminal_and_silent_when_quiet_or_piped(monkeypatch):
+    from sizefx_cli.options import Progress
+
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    bar = Progress("navigate", quiet=False)
+    for done in (0, 2500, 5000, 10000):
+        bar(done, 10000)
+    assert "navigate" in term.text and "100%" in term.text and "10.0k/10.0k" in term.text, term.text
+    assert term.text.endswith("\n")  # closed at the end, on its own line
+    term.text = ""
+    quiet = Progress("navigate", quiet=True)
+    quiet(10, 10)
+    assert term.text == ""
+    monkeypatch.setattr(term, "isatty", lambda: False)  # piped or redirected
+    piped = Progress("navigate", quiet=False)
+    piped(10, 10)
+    assert term.text == ""
