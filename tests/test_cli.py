@@ -153,7 +153,22 @@ def test_help_of_every_command_imports_nothing_heavy():
     assert heavy == [], f"--help imports {heavy}; import them inside the command function"
 
 
-# --------------------------------------------------------------------------- progress (issue 14)
+# --------------------------------------------------------------------------- stages and progress (issue 14)
+
+
+def test_inspect_is_a_stage_whose_report_the_command_prints(runner, raw_file, tmp_path):
+    from sizefx.errors import ConfigError
+    from sizefx.inspect import InspectConfig, run
+
+    res = run(InspectConfig(raw_file))
+    text = runner.invoke(main, ["inspect", str(raw_file)])
+    assert text.exit_code == 0 and text.output == res.report() + "\n"
+    assert res.report().startswith(f"{raw_file}: valid sizefx/telemetry/1\n  IMU       1000 samples of rates, 100 Hz")
+    as_json = runner.invoke(main, ["inspect", str(raw_file), "--json"])
+    assert json.loads(as_json.output) == json.loads(json.dumps(res.to_json()))
+    assert res.to_json()["units_check"]["accel"]["verdict"] == "ok"
+    with pytest.raises(ConfigError, match="FILE: no such file"):  # the shared pre-flight
+        run(InspectConfig(tmp_path / "none.h5"))
 
 
 class _Terminal:
