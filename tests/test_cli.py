@@ -116,6 +116,18 @@ def test_demo_smoke(tmp_path):
                 "diagnosis/spectra.png"):
         assert (out / png).stat().st_size > 10_000, png
     assert f"plots in {out}/" in text
+    # the table's paper column holds the paper's figures (sizefx.experiments.paper.PAPER, checked
+    # against the paper's own tables in tests/test_paper.py)
+    from sizefx.experiments.paper import PAPER
+
+    tt, fl = PAPER["turntable"], PAPER["flight"]
+    for label, figure in (("|signed mean| [mm]", tt["diff_mean_mm"]), ("  max [mm]", tt["diff_max_mm"]),
+                          ("spread over repeats, mean [mm]", tt["sigma_mean_mm"]),
+                          ("spread over repeats, max [mm]", tt["sigma_max_mm"]),
+                          ("compensated vs uncompensated [km]", PAPER["sway"]["divergence_km"]),
+                          ("final error removed [km]", fl["gain_km"]), ("as a drift rate [nmi/h]", fl["gain_nmi_per_h"])):
+        row = next(line for line in text.splitlines() if label in line)
+        assert float(row.split(label, 1)[1].split()[0]) == figure, (label, row)
 
 
 #: What ``sizefx --help`` and every ``sizefx CMD --help`` must not import (issue 13: each costs
