@@ -103,12 +103,13 @@ def test_check_document_lists_every_problem_and_reads_numpy_values_as_json():
     doc["r_x"] = np.array([0.01, 0.0, 0.0])
     doc["tilt_arcsec"] = (np.int64(-11), np.int64(-6))
     check_document(doc, "sizefx/levers/1")
-    del doc["d_y"]
+    del doc["d_y"], doc["offset"]
     doc["r_z"] = [0.0, 0.0]
-    assert schema_errors(doc, "sizefx/levers/1") == ["$.d_y: key 'd_y' is missing",
+    assert schema_errors(doc, "sizefx/levers/1") == ["$.offset: key 'offset' is missing",
+                                                     "$.d_y: key 'd_y' is missing",
                                                      "$.r_z must be a list of 3 numbers, got [0.0, 0.0]"]
-    with pytest.raises(AssertionError, match=r"document breaks sizefx/levers/1: \$\.d_y: key 'd_y' is missing; "
-                                             r"\$\.r_z must be"):
+    with pytest.raises(AssertionError, match=r"document breaks sizefx/levers/1: \$\.offset: key 'offset' is missing; "
+                                             r"\$\.d_y: key 'd_y' is missing; \$\.r_z must be"):
         check_document(doc, "sizefx/levers/1")
 
 

@@ -128,30 +128,28 @@ def _describe(node: dict, root: dict) -> str | None:
     return " or ".join(out)
 
 
-def _problem(error, root: dict) -> str:
-    """One ``jsonschema`` error as a clause a user can act on, starting with its JSON path:
-    ``$.r_y must be a list of 3 numbers, got [0.0, 0.02]``, ``$.r_z: key 'r_z' is missing``."""
+def _problems(error, root: dict) -> list[str]:
+    """One ``jsonschema`` error as clauses a user can act on, each starting with its JSON path:
+    ``$.r_y must be a list of 3 numbers, got [0.0, 0.02]``, ``$.r_z: key 'r_z' is missing``
+    (a ``required`` error of an object missing several keys: one clause per key)."""
     where = error.json_path
     if error.validator == "required":
-        missing = [k for k in error.validator_value if isinstance(error.instance, dict) and k not in error.instance]
-        key = missing[0] if missing else "?"
-        return f"{where}.{key}: key '{key}' is missing"
+        instance = error.instance if isinstance(error.instance, dict) else {}
+        return [f"{where}.{key}: key '{key}' is missing" for key in error.validator_value if key not in instance]
     wanted = _describe(error.schema, root) if isinstance(error.schema, dict) else None
     if wanted and error.validator in ("type", "minItems", "maxItems", "const", "enum"):
-        return f"{where} must be {wanted}, got {_quote(error.instance)}"
+        return [f"{where} must be {wanted}, got {_quote(error.instance)}"]
     message = error.message if len(error.message) <= 2 * QUOTED_CHARS else error.message[: 2 * QUOTED_CHARS] + "..."
-    return f"{where}: {message}"
+    return [f"{where}: {message}"]
 
 
 def schema_errors(doc, name: str) -> list[str]:
-    """Every way ``doc`` breaks the JSON Schema ``name``, one clause each (:func:`_problem`), in document order."""
+    """Every way ``doc`` breaks the JSON Schema ``name``, one clause each (:func:`_problems`), in document order."""
     errors = sorted(_validator(name).iter_errors(_as_json(doc)), key=lambda e: [str(p) for p in e.absolute_path])
     root = load_schema(name)
     out: list[str] = []
     for error in errors:
-        clause = _problem(error, root)
-        if clause not in out:
-            out.append(clause)
+        out += [clause for clause in _problems(error, root) if clause not in out]
     return out
 
 
@@ -177,5 +175,5 @@ def validate_input(doc, name: str, path) -> None:
     if best is None:
         return
     _, kind, version = name.split("/")
-    raise ConfigError(f"{path}: {_problem(best, load_schema(name))} (the {name} contract: "
+    raise ConfigError(f"{path}: {_problems(best, load_schema(name))[0]} (the {name} contract: "
                       f"data-schemas/{kind}-{version}.json)")
