@@ -12,13 +12,15 @@ from .options import NO_UNITS_CHECK_HELP, force_option, parse_vector
 NO_UNITS_CHECK = "sizefx.import.no_units_check"
 
 
-def run_import(fmt, source, output, **options):
-    """The library's importer, imported when a command runs (not for ``--help``)."""
-    from sizefx.importers import run_import as _run
+def run_import(fmt, source, output, *, force, **options):
+    """Build the stage's config from the options, run it, print its report (the library is imported
+    when a command runs, not for ``--help``)."""
+    from sizefx.importers import ImportConfig, run
 
     ctx = click.get_current_context(silent=True)
     check_units = not (ctx is not None and ctx.meta.get(NO_UNITS_CHECK, False))
-    return _run(fmt, source, output, check_units=check_units, **options)
+    result = run(ImportConfig(fmt, source, output, force=force, check_units=check_units, options=options))
+    click.echo(result.report())
 
 
 def output_option(f):
@@ -28,29 +30,6 @@ def output_option(f):
 
 def source_argument(f):
     return click.argument("source", type=click.Path(dir_okay=False))(f)
-
-
-def _report(summary):
-    gaps = summary["imu_gaps"]
-    lines = [f"wrote {summary['path']}: {summary['samples']} {summary['form']} samples at {summary['rate_hz']:.6g} Hz, "
-             f"{summary['duration_s']:.2f} s; reference rows: {summary['reference_rows']}"
-             + (f" ({summary['reference_gaps']} dropouts)" if summary["reference_gaps"] else "")]
-    if gaps:
-        declared = summary["declared_gaps"]
-        lines.append(f"gaps: {gaps} in the IMU time stamps, {declared} declared in /imu/gaps (the first at t = "
-                     f"{summary['first_imu_gap_s']:.6f} s, the longest {summary['longest_imu_gap_s'] * 1e3:.4g} ms): "
-                     f"{summary['segments']} continuous segments (sizefx inspect lists them); navigate and "
-                     "compensate take --segment K")
-        if declared < gaps:
-            lines.append(f"note: {gaps - declared} gaps only the accelerometer stamps show cannot be declared; "
-                         "pass --allow-gaps to the commands that read this file")
-    from sizefx.sanity import report_lines  # the command has run: its library is loaded already
-
-    checked = report_lines(summary.get("units_check"))
-    lines.append(f"units: {checked[0]}")
-    lines.extend(f"       {line}" for line in checked[1:])
-    for line in lines:
-        click.echo(line)
 
 
 @click.group(name="import")
@@ -71,7 +50,7 @@ def import_():
 @force_option
 def broad(source, output, site_deg, force):
     """BROAD benchmark trial (.mat, 285.7 Hz): IMU FLU -> FRD, motion capture ENU -> NED."""
-    _report(run_import("broad", source, output, force=force, site_deg=parse_vector(site_deg, "--site-deg")))
+    run_import("broad", source, output, force=force, site_deg=parse_vector(site_deg, "--site-deg"))
 
 
 @import_.command("psins-imu")
@@ -80,7 +59,7 @@ def broad(source, output, site_deg, force):
 @force_option
 def psins_imu(source, output, force):
     """PSINS text log of integer increments (RFU -> FRD; header site and attitude kept)."""
-    _report(run_import("psins-imu", source, output, force=force))
+    run_import("psins-imu", source, output, force=force)
 
 
 @import_.command("psins-mat")
@@ -89,7 +68,7 @@ def psins_imu(source, output, force):
 @force_option
 def psins_mat(source, output, force):
     """PSINS MEMS + FOG-INS record (.mat): increments, reference attitude, velocity, position, biases."""
-    _report(run_import("psins-mat", source, output, force=force))
+    run_import("psins-mat", source, output, force=force)
 
 
 def _names(text):
@@ -155,15 +134,15 @@ def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, a
     same sensor axes as the IMU columns (--axes maps both into body FRD). Rows
     with an empty or NaN reference cell are dropouts: left out and reported.
     """
-    _report(run_import("csv", source, output, force=force, time=time_col, time_units=time_units, rate_hz=rate_hz,
-                       form=form, gyro=_names(gyro), gyro_units=gyro_units, accel=_names(accel),
-                       accel_units=accel_units, axes=_names(axes), delimiter=delimiter,
-                       site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
-                       reference_file=reference_file, reference_time=reference_time,
-                       reference_time_units=reference_time_units, reference_quaternion=_names(reference_quaternion),
-                       reference_euler=_names(reference_euler), reference_euler_units=reference_euler_units,
-                       reference_velocity=_names(reference_velocity), reference_position=_names(reference_position),
-                       reference_position_units=reference_position_units, reference_frame=reference_frame))
+    run_import("csv", source, output, force=force, time=time_col, time_units=time_units, rate_hz=rate_hz,
+               form=form, gyro=_names(gyro), gyro_units=gyro_units, accel=_names(accel),
+               accel_units=accel_units, axes=_names(axes), delimiter=delimiter,
+               site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
+               reference_file=reference_file, reference_time=reference_time,
+               reference_time_units=reference_time_units, reference_quaternion=_names(reference_quaternion),
+               reference_euler=_names(reference_euler), reference_euler_units=reference_euler_units,
+               reference_velocity=_names(reference_velocity), reference_position=_names(reference_position),
+               reference_position_units=reference_position_units, reference_frame=reference_frame)
 
 
 @import_.command()
@@ -174,8 +153,8 @@ def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, a
 @force_option
 def ulog(source, output, site_deg, force):
     """PX4 ULog (sensor_combined, via pyulog): FRD already; dropouts are declared as gaps (/imu/gaps)."""
-    _report(run_import("ulog", source, output, force=force,
-                       site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None))
+    run_import("ulog", source, output, force=force,
+               site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None)
 
 
 def _remember_no_units_check(ctx, param, value):

@@ -23,7 +23,7 @@ def inspect(file, allow_gaps, no_units_check, as_json):
     (with a one-line reason) otherwise: a file whose data look like another
     unit than they declare is not valid.
     """
-    from sizefx.inspect import format_summary, inspect_file
+    from sizefx.inspect import InspectConfig, run
 
-    summary = inspect_file(file, allow_gaps=allow_gaps, check_units=not no_units_check)
-    click.echo(json.dumps(summary, indent=2) if as_json else format_summary(summary))
+    result = run(InspectConfig(file, allow_gaps=allow_gaps, check_units=not no_units_check))
+    click.echo(json.dumps(result.to_json(), indent=2) if as_json else result.report())

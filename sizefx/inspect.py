@@ -1,7 +1,12 @@
-"""What a telemetry file holds: ``sizefx inspect``."""
+"""What a telemetry file holds: ``sizefx inspect``.
+
+The stage (:mod:`sizefx.stage`): :class:`InspectConfig` -> :func:`run` -> :class:`InspectResult`,
+whose ``report()`` is the text the command prints and ``to_json()`` what ``--json`` prints.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +16,7 @@ from .sanity import report_lines
 from .io.schema import TELEMETRY_SCHEMA, allowed_units
 from .io.telemetry import Telemetry, imu_segments, read_telemetry
 
-__all__ = ["summarize", "format_summary", "inspect_file"]
+__all__ = ["InspectConfig", "InspectResult", "run", "summarize", "format_summary", "inspect_file"]
 
 #: Segments listed one per line in the text summary (all of them are in --json).
 SEGMENTS_SHOWN = 12
@@ -177,15 +182,75 @@ def _units_fix(check) -> str:
     return f"check the units attribute of {check.dataset}"
 
 
-def inspect_file(path, *, allow_gaps: bool = False, check_units: bool = True) -> dict:
-    """Validate ``path`` and summarise it; with ``check_units`` (default) also check its units against
-    physics (:mod:`sizefx.sanity`) and refuse data that look like another unit."""
-    from .sanity import check_units as units_of, refuse_wrong_units
+@dataclass(frozen=True)
+class InspectConfig:
+    """What ``sizefx inspect FILE`` is asked to do (see :mod:`sizefx.stage`)."""
 
-    tel = read_telemetry(Path(path), allow_gaps=allow_gaps, check_plausibility=check_units)
+    file: str | Path  #: the sizefx/telemetry/1 file
+    allow_gaps: bool = False  #: accept undeclared IMU gaps (they are listed)
+    #: check the units against physics (:mod:`sizefx.sanity`) and refuse data that look like another unit
+    check_units: bool = True
+
+    def inputs(self) -> dict:
+        return {"FILE": self.file}
+
+    def outputs(self) -> dict:
+        return {}
+
+
+@dataclass
+class InspectResult:
+    """What a valid record holds: the fields of :func:`summarize` (``to_json()`` is what ``--json`` prints)."""
+
+    path: str
+    schema: str
+    form: str
+    samples: int
+    sample_rate_hz: float
+    duration_s: float
+    start_s: float
+    stored_units: dict
+    stored_dtypes: dict
+    accel_time: bool
+    gaps: list  #: every gap: dataset, row, time_s, duration_s, declared
+    segments: list  #: the continuous IMU segments: number, first_row, samples, start_s, end_s
+    units_check: dict | None  #: :meth:`sizefx.sanity.UnitsReport.as_dict`, None when not checked
+    site: dict | None
+    reference: dict | None
+    description: str
+    simulation: dict | None
+
+    def to_json(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def report(self) -> str:
+        """The text ``sizefx inspect`` prints."""
+        return format_summary(self.to_json())
+
+
+def run(config: InspectConfig, *, progress=None) -> InspectResult:
+    """Validate ``config.file`` and describe it; with ``check_units`` (default) also check its units
+    against physics (:mod:`sizefx.sanity`) and refuse data that look like another unit.
+
+    Pre-flight first (:func:`sizefx.stage.preflight`: the file exists). ``progress`` is accepted
+    for the shape every stage shares and not called: the reader validates the whole record in
+    one pass.
+    """
+    from .sanity import check_units as units_of, refuse_wrong_units
+    from .stage import preflight
+
+    preflight(inputs=config.inputs(), outputs=config.outputs())
+    path = Path(config.file)
+    tel = read_telemetry(path, allow_gaps=config.allow_gaps, check_plausibility=config.check_units)
     summary = summarize(tel)
-    if check_units:
+    if config.check_units:
         report = units_of(tel)
         refuse_wrong_units(report, path, fix=_units_fix)
         summary["units_check"] = report.as_dict()
-    return summary
+    return InspectResult(**summary)
+
+
+def inspect_file(path, *, allow_gaps: bool = False, check_units: bool = True) -> dict:
+    """``run(InspectConfig(path, allow_gaps, check_units)).to_json()``: the call scripts made before the
+    stage shape; kept so they keep working."""
+    return run(InspectConfig(path, allow_gaps=allow_gaps, check_units=check_units)).to_json()

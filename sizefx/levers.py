@@ -1,25 +1,30 @@
 """The lever-arm file ``sizefx/levers/1`` (JSON): reading, validating, writing.
 
 The JSON Schema in ``data-schemas/levers-1.json`` lists the required keys and
-their shapes; :func:`read_levers` checks a file against exactly that list.
+their shapes; :func:`read_levers` checks a file against it with ``jsonschema``
+(:func:`sizefx.io.schema.validate_input`), and :func:`write_levers` checks what it writes.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .errors import ConfigError
-from .io.files import atomic_output
 from .geometry import preset_arms_m
-from .io.schema import load_schema
+from .io.files import atomic_output
+from .io.schema import check_document, load_schema, validate_input
 
 __all__ = ["Levers", "read_levers", "write_levers", "levers_from_preset", "LEVERS_SCHEMA"]
 
 LEVERS_SCHEMA = "sizefx/levers/1"
+#: A row of ``axes`` shorter than this is no direction (a typo, a zero row); rows are normalised,
+#: so any length near 1 is accepted.
+MIN_AXIS_NORM = 0.5
 
 
 @dataclass
@@ -63,79 +68,80 @@ class Levers:
         return out
 
 
-def _check(doc, path):
-    schema = load_schema(LEVERS_SCHEMA)
-    if not isinstance(doc, dict):
-        raise ConfigError(f"{path}: a levers file is a JSON object")
-    missing = [k for k in schema["required"] if k not in doc]
-    if missing:
-        raise ConfigError(f"{path}: key '{missing[0]}' is missing (sizefx/levers/1 requires "
-                          f"{', '.join(schema['required'])})")
-    if doc["schema"] != LEVERS_SCHEMA:
-        raise ConfigError(f"{path}: schema is {doc['schema']!r}, expected {LEVERS_SCHEMA!r}")
-    allowed = schema["properties"]["reference_point"]["enum"]
-    if doc["reference_point"] not in allowed:
-        raise ConfigError(f"{path}: reference_point {doc['reference_point']!r} must be one of {', '.join(allowed)}")
-    for key, rule in schema["properties"].items():
-        if key not in doc or "$ref" not in rule:
-            continue
-        nullable = rule["$ref"].endswith("or_null")
-        value = doc[key]
-        if value is None and nullable:
-            continue
-        try:
-            arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise ConfigError(f"{path}: {key} = {value!r} is not a list of 3 numbers (metres)") from None
-        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-            raise ConfigError(f"{path}: {key} must be a list of 3 finite numbers (metres), got {value!r}")
+class _NotFinite(ValueError):
+    """A number JSON cannot hold (NaN, Infinity, or one that overflows a float), met while parsing."""
 
 
-def _check_extras(doc, path):
-    delay = doc["accel_delay_s"]
-    if delay is not None and (isinstance(delay, bool) or not isinstance(delay, (int, float)) or not np.isfinite(delay)):
-        raise ConfigError(f"{path}: accel_delay_s = {delay!r} must be a number of seconds or null")
-    tilt = doc["tilt_arcsec"]
-    if tilt is not None:
-        try:
-            ok = np.asarray(tilt, dtype=float).shape == (2,)
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise ConfigError(f"{path}: tilt_arcsec = {tilt!r} must be [north, east] in arcsec or null")
-    if "axes" in doc:
-        try:
-            axes = np.asarray(doc["axes"], dtype=float)
-        except (TypeError, ValueError):
-            axes = np.zeros(0)
-        if axes.shape != (3, 3) or not np.all(np.isfinite(axes)) or np.any(np.linalg.norm(axes, axis=1) < 0.5):
-            raise ConfigError(f"{path}: axes must be three rows of three numbers, the sensitive axes u_x, u_y, u_z")
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise _NotFinite(f"the number {text} overflows a float")
+    return value
+
+
+def _finite_int(text: str) -> int:
+    try:
+        value = int(text)
+        float(value)
+    except (ValueError, OverflowError):
+        raise _NotFinite(f"the number {text[:20]}{'...' if len(text) > 20 else ''} overflows a float") from None
+    return value
+
+
+def _no_constant(name: str):
+    raise _NotFinite(f"{name} is not a JSON number")
+
+
+def _parse(path: Path):
+    """The JSON document in ``path``; every number in it finite (Python's json reads NaN and
+    Infinity, which JSON does not allow, and 1e999 as inf): a one-line ConfigError otherwise."""
+    try:
+        return json.loads(path.read_text("utf-8"), parse_float=_finite_float, parse_int=_finite_int,
+                          parse_constant=_no_constant)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: levers file does not exist") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory; give a levers file (sizefx/levers/1 JSON)") from None
+    except _NotFinite as exc:
+        raise ConfigError(f"{path}: {exc}; write finite numbers (null where the contract allows it)") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: not valid JSON ({exc})") from None
 
 
 def read_levers(path) -> Levers:
+    """Read a ``sizefx/levers/1`` file, checked against ``data-schemas/levers-1.json`` (``jsonschema``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the JSON path and the problem (a missing key, a vector
+        that is not 3 numbers, an unknown ``reference_point``, an axis that is no direction).
+    """
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text("utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: levers file does not exist") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: not valid JSON ({exc})") from None
-    _check(doc, path)
-    _check_extras(doc, path)
+    doc = _parse(path)
+    validate_input(doc, LEVERS_SCHEMA, path)
+    axes = np.asarray(doc.get("axes", np.eye(3)), dtype=float)
+    norms = np.linalg.norm(axes, axis=1)
+    if np.any(norms < MIN_AXIS_NORM):
+        i = int(np.argmin(norms))
+        raise ConfigError(f"{path}: $.axes[{i}] has length {norms[i]:.3g}; axes are the sensitive directions "
+                          "u_x, u_y, u_z, one unit vector per row")
     rows = lambda prefix: np.array([doc[f"{prefix}_{a}"] for a in "xyz"], dtype=float)  # noqa: E731
     sigma = None if any(doc[f"sigma_{a}"] is None for a in "xyz") else rows("sigma")
-    axes = np.asarray(doc.get("axes", np.eye(3)), dtype=float)
-    axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
     known = set(load_schema(LEVERS_SCHEMA)["properties"])
     return Levers(arms_total=rows("r"), offset=np.asarray(doc["offset"], dtype=float), arms_triad=rows("d"),
                   reference_point=doc["reference_point"], sigma=sigma, tilt_arcsec=doc["tilt_arcsec"],
-                  accel_delay_s=doc["accel_delay_s"], axes=axes,
+                  accel_delay_s=doc["accel_delay_s"], axes=axes / norms[:, None],
                   extra={k: v for k, v in doc.items() if k not in known})
 
 
 def write_levers(path, levers: Levers, *, inputs=(), force: bool = False):
+    """Write ``levers`` as ``sizefx/levers/1`` JSON, atomically; the document is checked against its
+    contract first (a failure is a bug in :meth:`Levers.to_json`)."""
+    doc = levers.to_json()
+    check_document(doc, LEVERS_SCHEMA)
     with atomic_output(path, inputs=inputs, force=force) as tmp:
-        Path(tmp).write_text(json.dumps(levers.to_json(), indent=2) + "\n")
+        Path(tmp).write_text(json.dumps(doc, indent=2) + "\n")
 
 
 def levers_from_preset(name: str, offset_m=(0.0, 0.0, 0.0)) -> Levers:

@@ -11,7 +11,8 @@ A stage is one of ``simulate``, ``import``, ``inspect``, ``calibrate``, ``compen
 
 The command line builds the config from its options, calls ``run`` and prints
 ``result.report()``; a Python caller makes the same call. ``progress(done, total)``, when
-given, is called as the work advances (:class:`sizefx.progress.Progress` on a terminal).
+given, is called as the work advances (the command line passes ``sizefx_cli.options.Progress``,
+a tqdm bar on a terminal).
 
 The config names its files by the option a user gave them with (``inputs()`` and
 ``outputs()`` map ``"FILE"``, ``"--levers"``, ``"-o"`` ... to paths), so that every refusal

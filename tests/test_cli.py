@@ -116,6 +116,18 @@ def test_demo_smoke(tmp_path):
                 "diagnosis/spectra.png"):
         assert (out / png).stat().st_size > 10_000, png
     assert f"plots in {out}/" in text
+    # the table's paper column holds the paper's figures (sizefx.experiments.paper.PAPER, checked
+    # against the paper's own tables in tests/test_paper.py)
+    from sizefx.experiments.paper import PAPER
+
+    tt, fl = PAPER["turntable"], PAPER["flight"]
+    for label, figure in (("|signed mean| [mm]", tt["diff_mean_mm"]), ("  max [mm]", tt["diff_max_mm"]),
+                          ("spread over repeats, mean [mm]", tt["sigma_mean_mm"]),
+                          ("spread over repeats, max [mm]", tt["sigma_max_mm"]),
+                          ("compensated vs uncompensated [km]", PAPER["sway"]["divergence_km"]),
+                          ("final error removed [km]", fl["gain_km"]), ("as a drift rate [nmi/h]", fl["gain_nmi_per_h"])):
+        row = next(line for line in text.splitlines() if label in line)
+        assert float(row.split(label, 1)[1].split()[0]) == figure, (label, row)
 
 
 #: What ``sizefx --help`` and every ``sizefx CMD --help`` must not import (issue 13: each costs
@@ -151,3 +163,57 @@ def test_help_of_every_command_imports_nothing_heavy():
     count, heavy = proc.stdout.split()[0], proc.stdout.split()[1:]
     assert int(count) >= 18, proc.stdout  # the group, 10 commands, 4 scenarios, 5 importers
     assert heavy == [], f"--help imports {heavy}; import them inside the command function"
+
+
+# --------------------------------------------------------------------------- stages and progress (issue 14)
+
+
+def test_inspect_is_a_stage_whose_report_the_command_prints(runner, raw_file, tmp_path):
+    from sizefx.errors import ConfigError
+    from sizefx.inspect import InspectConfig, run
+
+    res = run(InspectConfig(raw_file))
+    text = runner.invoke(main, ["inspect", str(raw_file)])
+    assert text.exit_code == 0 and text.output == res.report() + "\n"
+    assert res.report().startswith(f"{raw_file}: valid sizefx/telemetry/1\n  IMU       1000 samples of rates, 100 Hz")
+    as_json = runner.invoke(main, ["inspect", str(raw_file), "--json"])
+    assert json.loads(as_json.output) == json.loads(json.dumps(res.to_json()))
+    assert res.to_json()["units_check"]["accel"]["verdict"] == "ok"
+    with pytest.raises(ConfigError, match="FILE: no such file"):  # the shared pre-flight
+        run(InspectConfig(tmp_path / "none.h5"))
+
+
+class _Terminal:
+    """A stand-in for stderr on a terminal, keeping what is written."""
+
+    def __init__(self):
+        self.text = ""
+
+    def isatty(self):
+        return True
+
+    def write(self, text):
+        self.text += text
+
+    def flush(self):
+        pass
+
+
+def test_progress_is_a_bar_on_a_terminal_and_silent_when_quiet_or_piped(monkeypatch):
+    from sizefx_cli.options import Progress
+
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    bar = Progress("navigate", quiet=False)
+    for done in (0, 2500, 5000, 10000):
+        bar(done, 10000)
+    assert "navigate" in term.text and "100%" in term.text and "10.0k/10.0k" in term.text, term.text
+    assert term.text.endswith("\n")  # closed at the end, on its own line
+    term.text = ""
+    quiet = Progress("navigate", quiet=True)
+    quiet(10, 10)
+    assert term.text == ""
+    monkeypatch.setattr(term, "isatty", lambda: False)  # piped or redirected
+    piped = Progress("navigate", quiet=False)
+    piped(10, 10)
+    assert term.text == ""

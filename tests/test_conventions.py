@@ -8,6 +8,7 @@ actively, i.e. body vectors into the navigation frame for q_nb.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -17,18 +18,67 @@ from scipy.spatial.transform import Rotation
 
 import sizefx
 from sizefx import rotation as rot
+from sizefx.constants import OMEGA_EARTH_RAD_S, STANDARD_GRAVITY_MPS2
 from sizefx.io.schema import load_schema
 
 unit_quats = st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4).filter(
     lambda q: np.linalg.norm(q) > 0.1).map(lambda q: np.asarray(q) / np.linalg.norm(q))
 
 
-def test_conventions_are_written_once_in_the_package_docstring():
-    doc = sizefx.__doc__
-    for rule in ("x forward, y right, z down", "North-East-Down", "scalar-first", "Hamilton",
-                 "v_n = q * v_b * conj(q)", "mat_nb @ v_b = v_n", "SI and radians",
-                 "Accelerometer channel i", "omega_ib_b"):
-        assert rule in doc, rule
+#: The package docstring, whitespace collapsed: where the conventions are stated, once.
+DOC = " ".join(sizefx.__doc__.split())
+
+
+def _stated(pattern: str) -> str:
+    """What the package docstring states where ``pattern`` (one group) matches it."""
+    found = re.search(pattern, DOC)
+    assert found, f"sizefx/__init__.py no longer states {pattern!r}; restate it or change this test"
+    return found.group(1)
+
+
+def _rx(a):
+    return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]])
+
+
+def _ry(a):
+    return np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+
+
+def _rz(a):
+    return np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+
+class _Quat:
+    """A quaternion whose ``*`` is sizefx's Hamilton product, to evaluate the docstring's formula as written."""
+
+    def __init__(self, q):
+        self.q = np.asarray(q, dtype=float)
+
+    def __mul__(self, other):
+        return _Quat(rot.quat_multiply(self.q, other.q))
+
+
+def test_the_constants_the_package_docstring_states_are_the_ones_the_code_uses():
+    assert float(_stated(r"Earth rate ([0-9.eE+-]+) rad/s")) == OMEGA_EARTH_RAD_S
+    assert float(_stated(r"g \(([0-9.]+) m/s\^2\)")) == STANDARD_GRAVITY_MPS2
+
+
+def test_the_formulas_of_the_package_docstring_hold_for_the_code():
+    """Each formula evaluated as the docstring writes it, against the functions that implement it."""
+    rng = np.random.default_rng(14)
+    euler = _stated(r"``mat_nb = ([^`]+)``")  # Rz(heading) @ Ry(pitch) @ Rx(roll)
+    sandwich = _stated(r"``v_n = ([^`]+)``")  # q * v_b * conj(q)
+    assert _stated(r"``(mat_nb @ v_b) = v_n``")  # the naming rule: adjacent letters cancel
+    for roll, pitch, heading in rng.uniform(-3.0, 3.0, (20, 3)):
+        mat_nb = rot.euler_to_mat(roll, pitch, heading)
+        written = eval(euler, {"Rz": _rz, "Ry": _ry, "Rx": _rx, "roll": roll, "pitch": pitch, "heading": heading})
+        np.testing.assert_allclose(mat_nb, written, atol=1e-15)
+        q = rot.mat_to_quat(mat_nb)
+        v_b = rng.standard_normal(3)
+        v_n = eval(sandwich, {"q": _Quat(q), "v_b": _Quat(np.r_[0.0, v_b]),
+                              "conj": lambda p: _Quat(rot.quat_conjugate(p.q))}).q
+        assert abs(v_n[0]) < 1e-15  # a pure quaternion stays pure
+        np.testing.assert_allclose(v_n[1:], mat_nb @ v_b, atol=1e-14)  # mat_nb @ v_b = v_n, with q_nb of mat_nb
 
 
 @settings(max_examples=200, deadline=None)

@@ -332,8 +332,8 @@ BAD = {
                               ["column 'lat' (--reference-position) on line 5 holds latitude 91 deg, outside +-90"]),
     "latitude in degrees said radians": (lambda a, ref: _replace(a, "--reference-position-units", "rad"), "ref",
                                          ["holds latitude 52.5 rad, outside +-90 deg"]),
-    "missing reference file": (lambda a, ref: (ref.unlink(), a)[1], "ref",
-                               ["reference file (--reference-file) does not exist"]),
+    # refused by the pre-flight every stage shares (sizefx.stage.preflight), before any conversion
+    "missing reference file": (lambda a, ref: (ref.unlink(), a)[1], "ref", ["--reference-file: no such file"]),
     "output over the reference": (lambda a, ref: _replace(_replace(a, "-o", ref), "--force", None), "ref",
                                   ["output would overwrite the input"]),
 }

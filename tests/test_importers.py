@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from sizefx import earth
 from sizefx.constants import DEG, OMEGA_EARTH_RAD_S
-from sizefx.errors import SourceError, UnitsError
+from sizefx.errors import ConfigError, SourceError, UnitsError
 from sizefx.frames import MAT_FRD_FLU, enu_to_ned, mat_nb_from_enu_body, psins_mat_enu_rfu, MAT_FRD_RFU
 from sizefx.importers import run_import
 from sizefx.importers.table import axis_matrix
@@ -327,7 +327,7 @@ def test_not_a_ulog(tmp_path):
 
 
 def test_missing_and_empty_source(tmp_path):
-    with pytest.raises(SourceError, match="does not exist"):
+    with pytest.raises(ConfigError, match="none.imu: SOURCE: no such file"):  # the shared pre-flight
         run_import("psins-imu", tmp_path / "none.imu", tmp_path / "out.h5")
     (tmp_path / "empty.imu").write_text("")
     with pytest.raises(SourceError, match="empty"):
@@ -354,3 +354,61 @@ def test_cli_import_csv_round_trip(tmp_path):
     again = CliRunner().invoke(main, ["import", "csv", str(p), "-o", str(p), "--time", "t", "--gyro", "gx,gy,gz",
                                       "--accel", "ax,ay,az", "--force"])
     assert again.exit_code == 2 and "overwrite the input" in again.output
+
+
+# --------------------------------------------------------------------------- the stage (issue 14, item 3)
+
+CSV_OPTIONS = dict(time="t", gyro=("gx", "gy", "gz"), accel=("ax", "ay", "az"))
+
+
+def test_import_is_a_stage_whose_report_the_command_prints(tmp_path):
+    from dataclasses import FrozenInstanceError
+
+    from sizefx.importers import ImportConfig, ImportResult, run
+
+    src = _csv(tmp_path, GOOD_CSV)
+    cfg = ImportConfig("csv", src, tmp_path / "a.h5", options=CSV_OPTIONS)
+    with pytest.raises(FrozenInstanceError):
+        cfg.force = True
+    with pytest.raises(TypeError):
+        cfg.options["time"] = "n"  # the options are frozen too
+    res = run(cfg)
+    assert isinstance(res, ImportResult) and res.samples == 200 and res.form == "rates"
+    assert res.to_json()["samples"] == 200 and res.to_json()["units_check"]["accel"]["verdict"] == "ok"
+    json.dumps(res.to_json())  # JSON-ready
+    cli = CliRunner().invoke(main, ["import", "csv", str(src), "-o", str(tmp_path / "b.h5"), "--time", "t",
+                                    "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"])
+    assert cli.exit_code == 0, cli.output
+    assert cli.output == res.report().replace(str(tmp_path / "a.h5"), str(tmp_path / "b.h5")) + "\n"
+    assert cli.output.startswith(f"wrote {tmp_path / 'b.h5'}: 200 rates samples at 100 Hz, 1.99 s; reference rows: 0")
+
+
+def test_import_runs_the_preflight_before_any_conversion(tmp_path):
+    from sizefx.errors import OutputError
+    from sizefx.importers import ImportConfig, run
+
+    src = _csv(tmp_path, GOOD_CSV)
+    out = tmp_path / "out.h5"
+    out.write_bytes(b"keep")
+    bad = dict(CSV_OPTIONS, gyro=("gx", "gy", "nope"))  # a conversion would fail on this column
+    with pytest.raises(OutputError, match="output exists; pass --force"):
+        run(ImportConfig("csv", src, out, options=bad))
+    assert out.read_bytes() == b"keep"
+
+
+def test_import_names_the_output_not_the_temporary_file_when_writing_fails(tmp_path, monkeypatch):
+    import errno
+
+    import sizefx.importers as importers
+    from sizefx.errors import OutputError
+
+    def full_disk(path, *args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(importers, "write_telemetry", full_disk)
+    out = tmp_path / "out.h5"
+    with pytest.raises(OutputError) as info:
+        importers.run(importers.ImportConfig("csv", _csv(tmp_path, GOOD_CSV), out, options=CSV_OPTIONS))
+    message = str(info.value)
+    assert message.startswith(f"{out}: cannot be written (No space left on device)") and ".tmp" not in message
+    assert not out.exists() and list(tmp_path.glob(".out.h5.*")) == []  # no temporary file left behind

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sizefx.experiments.paper import PAPER, format_results, schuler_response
+from sizefx.constants import METRES_PER_NMI
+from sizefx.experiments.paper import PAPER, schuler_response
 
 OMEGA_S = 2 * np.pi / (84.4 * 60.0)
 
@@ -28,13 +29,20 @@ def test_steps_superpose():
     assert np.all(schuler_response(t, [(5000.0, 1.0)], OMEGA_S)[1] == 0.0)  # nothing before the step
 
 
-def test_the_papers_figures_are_as_printed():
+def test_the_papers_summary_figures_follow_from_its_own_tables():
+    """PAPER holds the figures as the paper prints them: its summaries must follow from its tables and
+    the flight's gain must be one figure in two units, so a figure mistyped in transcription fails here.
+    (The printed comparison table takes its paper column from PAPER: tests/test_cli.py's demo test.)"""
     tt = PAPER["turntable"]
-    delta = np.asarray(tt["delta_m"])
-    assert abs(delta.mean()) * 1e3 == pytest.approx(0.47, abs=0.01)  # its "mean 0.5 mm"
-    assert np.abs(delta).max() * 1e3 == pytest.approx(1.6)
-    assert PAPER["flight"]["gain_km"] == 1.1 and PAPER["sway"]["divergence_km"] == 3.0
-    assert "paper" in format_results.__doc__
+    delta_mm = np.asarray(tt["delta_m"]) * 1e3
+    sigma_mm = np.asarray(tt["sigma_m"]) * 1e3
+    assert delta_mm.shape == sigma_mm.shape == (3, 3)
+    assert round(abs(delta_mm.mean()), 1) == tt["diff_mean_mm"]  # -0.47 mm, its "mean 0.5 mm"
+    assert round(np.abs(delta_mm).max(), 1) == tt["diff_max_mm"]
+    assert round(sigma_mm.mean(), 2) == tt["sigma_mean_mm"]
+    assert round(sigma_mm.max(), 2) == tt["sigma_max_mm"]
+    fl = PAPER["flight"]
+    assert round(fl["gain_km"] * 1e3 / METRES_PER_NMI / fl["duration_h"], 1) == fl["gain_nmi_per_h"]
 
 
 def test_offset_to_the_table_centre_does_not_rectify(tmp_path):

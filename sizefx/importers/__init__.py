@@ -2,7 +2,8 @@
 
 Each module exposes ``load(path, **options) -> Telemetry`` that converts axes to
 body FRD, the reference to NED, and units to SI, and records where the data
-came from in ``Telemetry.source`` (written to ``/source``). :func:`run_import`
+came from in ``Telemetry.source`` (written to ``/source``). The stage
+(:class:`ImportConfig` -> :func:`run` -> :class:`ImportResult`, see :mod:`sizefx.stage`)
 declares the IMU gaps it finds in ``/imu/gaps`` (the reader's own definition of a
 gap, :func:`sizefx.io.telemetry.find_imu_gaps`), writes the result atomically, reads it
 back through the validating reader and checks its units against physics
@@ -13,17 +14,21 @@ refuses, nor one whose rates are 57 times wrong.
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
 from pathlib import Path
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
 from .. import __version__
-from ..errors import SourceError, TelemetryError
+from ..errors import OutputError, SourceError, TelemetryError
 from ..io.files import atomic_output
 from ..io.schema import allowed_units
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
-__all__ = ["FORMATS", "run_import", "provenance"]
+__all__ = ["FORMATS", "ImportConfig", "ImportResult", "run", "run_import", "provenance"]
 
 #: format name -> (module in this package, loader function)
 FORMATS = {
@@ -104,20 +109,107 @@ def _units_context(fmt: str, tel):
     return declared, where, fix
 
 
-def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool = True, **options) -> dict:
-    """Import ``source`` into ``out``; validate the written file; return a summary.
+@dataclass(frozen=True)
+class ImportConfig:
+    """What ``sizefx import FORMAT SOURCE -o OUTPUT`` is asked to do (see :mod:`sizefx.stage`).
 
-    ``check_units``: check the magnitudes against physics (:func:`sizefx.sanity.check_units`) and
-    refuse data that look like another unit (``--no-units-check`` turns it off).
+    ``options`` are the importer's own (``load(path, **options)`` of the module :data:`FORMATS`
+    names), as the command line passes them: column names, units, ``site_deg``, ``reference_file``...
+    """
+
+    format: str  #: one of :data:`FORMATS`
+    source: str | Path  #: the file to convert
+    output: str | Path  #: the sizefx/telemetry/1 file to write
+    force: bool = False  #: replace ``output`` if it exists (never an input)
+    #: check the magnitudes against physics (:func:`sizefx.sanity.check_units`); ``--no-units-check`` turns it off
+    check_units: bool = True
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "options", MappingProxyType(dict(self.options)))  # read-only, as the rest
+
+    def inputs(self) -> dict:
+        """The files read, by the option that names them."""
+        return {"SOURCE": self.source, "--reference-file": self.options.get("reference_file")}
+
+    def outputs(self) -> dict:
+        return {"-o": self.output}
+
+
+@dataclass
+class ImportResult:
+    """What an import wrote: the record as read back through the validating reader."""
+
+    path: str  #: the file written
+    format: str
+    samples: int
+    form: str  #: rates | increments
+    rate_hz: float
+    duration_s: float
+    imu_gaps: int  #: gaps in the IMU time stamps
+    declared_gaps: int  #: of them, declared in /imu/gaps
+    first_imu_gap_s: float | None
+    longest_imu_gap_s: float | None
+    segments: int  #: continuous segments between the IMU gaps
+    reference_rows: int
+    reference_gaps: int  #: dropouts of the reference
+    accel_time: bool  #: separate accelerometer stamps (/imu/accel_time)
+    site: bool
+    units_check: dict | None  #: :meth:`sizefx.sanity.UnitsReport.as_dict`, None when skipped
+
+    def to_json(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def report(self) -> str:
+        """The lines ``sizefx import`` prints."""
+        from ..sanity import report_lines
+
+        gaps = self.imu_gaps
+        lines = [f"wrote {self.path}: {self.samples} {self.form} samples at {self.rate_hz:.6g} Hz, "
+                 f"{self.duration_s:.2f} s; reference rows: {self.reference_rows}"
+                 + (f" ({self.reference_gaps} dropouts)" if self.reference_gaps else "")]
+        if gaps:
+            lines.append(f"gaps: {gaps} in the IMU time stamps, {self.declared_gaps} declared in /imu/gaps (the first "
+                         f"at t = {self.first_imu_gap_s:.6f} s, the longest {self.longest_imu_gap_s * 1e3:.4g} ms): "
+                         f"{self.segments} continuous segments (sizefx inspect lists them); navigate and "
+                         "compensate take --segment K")
+            if self.declared_gaps < gaps:
+                lines.append(f"note: {gaps - self.declared_gaps} gaps only the accelerometer stamps show cannot be "
+                             "declared; pass --allow-gaps to the commands that read this file")
+        checked = report_lines(self.units_check)
+        lines.append(f"units: {checked[0]}")
+        lines.extend(f"       {line}" for line in checked[1:])
+        return "\n".join(lines)
+
+
+def run(config: ImportConfig, *, progress=None) -> ImportResult:
+    """Import ``config.source`` into ``config.output``; validate the written file; return what it holds.
+
+    Pre-flight first (:func:`sizefx.stage.preflight`: the source and ``--reference-file`` exist,
+    the output is new or ``force``, writable, and none of the inputs). The record is converted,
+    its IMU gaps declared in ``/imu/gaps``, written to a temporary file, read back through the
+    validating reader and, with ``check_units``, checked against physics
+    (:func:`sizefx.sanity.check_units`); only then is it renamed to ``output``. Every error names
+    the user's file (the source, or the output), never the temporary one.
+
+    ``progress`` is accepted for the shape every stage shares and not called: the converters
+    read a source whole, and the import of the longest real recording takes seconds.
     """
     from ..sanity import check_units as units_of, refuse_wrong_units
+    from ..stage import preflight
 
-    tel = load_source(fmt, source, **options)
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
+    fmt, source, out = config.format, config.source, config.output
+    tel = load_source(fmt, source, **config.options)
     tel.gaps = find_imu_gaps(tel.time_s, tel.accel_time_s, declared=True)  # written to /imu/gaps
     report = None
     # write and validate the temporary file: a file the reader or the units check refuses never reaches OUT
-    with atomic_output(out, inputs=[source, options.get("reference_file")], force=force) as tmp:
-        write_telemetry(tmp, tel, force=True)
+    with atomic_output(out, inputs=[p for p in config.inputs().values() if p is not None], force=config.force) as tmp:
+        try:
+            write_telemetry(tmp, tel, force=True)
+        except OSError as exc:  # disk full, quota: name the output the user asked for
+            raise OutputError(f"{out}: cannot be written ({exc.strerror or exc}); check the space and "
+                              "permissions of its folder") from None
         # gaps only the accelerometer stamps show cannot be declared: allowed here, reported below;
         # the magnitudes are judged by the units check (its messages speak of the import's options)
         try:
@@ -125,31 +217,29 @@ def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool 
         except TelemetryError as exc:  # name the user's file, never the temporary one
             raise SourceError(source, f"converts to a record that breaks sizefx/telemetry/1: {exc.dataset}: "
                                       f"{exc.problem}") from None
-        if check_units:
+        if config.check_units:
             declared, where, fix = _units_context(fmt, back)
             report = units_of(back, declared=declared)
             refuse_wrong_units(report, source, where=where, fix=fix)
     back.path = str(out)
     imu_gaps = [g for g in back.gaps if g.dataset.startswith("/imu")]
     ref_gaps = [g for g in back.gaps if g.dataset.startswith("/reference")]
-    return {
-        "path": str(out),
-        "format": fmt,
-        "samples": back.n_samples,
-        "form": back.form,
-        "rate_hz": back.sample_rate_hz,
-        "duration_s": back.duration_s,
-        "imu_gaps": len(imu_gaps),
-        "declared_gaps": sum(g.declared for g in imu_gaps),
-        "first_imu_gap_s": imu_gaps[0].time_s if imu_gaps else None,
-        "longest_imu_gap_s": max((g.duration_s for g in imu_gaps), default=None),
-        "segments": len(imu_gaps) + 1,
-        "reference_rows": 0 if back.reference is None else int(back.reference.time_s.shape[0]),
-        "reference_gaps": len(ref_gaps),
-        "accel_time": back.accel_time_s is not None,
-        "site": back.site is not None,
-        "units_check": None if report is None else report.as_dict(),
-    }
+    return ImportResult(
+        path=str(out), format=fmt, samples=back.n_samples, form=back.form, rate_hz=back.sample_rate_hz,
+        duration_s=back.duration_s, imu_gaps=len(imu_gaps), declared_gaps=sum(g.declared for g in imu_gaps),
+        first_imu_gap_s=imu_gaps[0].time_s if imu_gaps else None,
+        longest_imu_gap_s=max((g.duration_s for g in imu_gaps), default=None),
+        segments=len(imu_gaps) + 1,
+        reference_rows=0 if back.reference is None else int(back.reference.time_s.shape[0]),
+        reference_gaps=len(ref_gaps), accel_time=back.accel_time_s is not None, site=back.site is not None,
+        units_check=None if report is None else report.as_dict(),
+    )
+
+
+def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool = True, **options) -> dict:
+    """``run(ImportConfig(fmt, source, out, force, check_units, options)).to_json()``: the call
+    scripts and tests made before the stage shape; kept so they keep working."""
+    return run(ImportConfig(fmt, source, out, force=force, check_units=check_units, options=options)).to_json()
 
 
 def as_array(path, name: str, value, shape_tail: tuple, *, allow_nan: bool = False) -> np.ndarray:

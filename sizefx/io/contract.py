@@ -1,0 +1,416 @@
+"""The checks of the ``sizefx/telemetry/1`` contract on an open HDF5 file.
+
+:class:`ContractReader` makes one validation pass: structure, root attributes, each dataset's
+shape, dtype and units (converted to SI), time stamps, gaps and their declaration, quaternions
+and magnitudes, raising a :class:`~sizefx.errors.TelemetryError` that names the file, the
+dataset and the problem, and says how to fix it. Everything about names, shapes, dtypes and
+units comes from ``data-schemas/telemetry-1.json`` via :mod:`sizefx.io.schema`.
+:func:`open_structure` and :func:`side_groups` are the steps a whole read and a streamed one
+(:mod:`sizefx.io.reader`) share.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
+from ..errors import TelemetryError
+from .gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
+from .records import Reference, Site
+from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
+
+__all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs"]
+
+
+def attr_value(value):
+    """An HDF5 attribute as plain Python (str, float, int, list)."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def attr_str(value) -> str:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray) and value.shape == ():
+        return attr_str(value[()])
+    return str(value)
+
+
+class ContractReader:
+    """One validation pass over an open file; raises on the first problem."""
+
+    def __init__(self, path: Path, h5: h5py.File, allow_gaps: bool, check_plausibility: bool):
+        self.path = path
+        self.h5 = h5
+        self.schema = load_schema(TELEMETRY_SCHEMA)
+        self.allow_gaps = allow_gaps
+        self.check_plausibility = check_plausibility
+        self.sizes: dict[str, int] = {}
+        self.units: dict[str, str] = {}
+        self.dtypes: dict[str, str] = {}
+        self.gaps: list[Gap] = []
+
+    def fail(self, dataset: str, problem: str):
+        raise TelemetryError(self.path, dataset, problem)
+
+    # -- structure ------------------------------------------------------------------
+    def refuse_links_to_other_files(self):
+        """Refuse external links, virtual datasets and external raw storage.
+
+        A telemetry file must not make the tool read other files (a path in a
+        link could point anywhere on the machine).
+        """
+
+        def walk(group: h5py.Group, prefix: str):
+            for name in group:
+                full = f"{prefix}/{name}" if prefix != "/" else f"/{name}"
+                link = group.get(name, getlink=True)
+                if isinstance(link, h5py.ExternalLink):
+                    self.fail(full, f"is an HDF5 external link to {link.filename}:{link.path}; "
+                                    "telemetry files must be self-contained (copy the data in with h5copy or h5py)")
+                if isinstance(link, h5py.SoftLink):
+                    continue  # resolved by name lookups inside this file; not followed here (no cycles)
+                try:
+                    obj = group[name]
+                except (KeyError, OSError) as exc:
+                    self.fail(full, f"cannot be opened ({exc}); the file may be truncated or corrupt")
+                if isinstance(obj, h5py.Group):
+                    walk(obj, full)
+                elif isinstance(obj, h5py.Dataset):
+                    if obj.is_virtual:
+                        self.fail(full, "is an HDF5 virtual dataset (its data lives in other files); "
+                                        "store the data in this file")
+                    if obj.external:
+                        self.fail(full, "stores its raw data in external files; store the data in this file")
+
+        walk(self.h5, "/")
+
+    def root_attributes(self):
+        spec = self.schema["root_attributes"]
+        attrs = self.h5.attrs
+        if "schema" not in attrs:
+            self.fail("/", f"root attribute 'schema' is missing; a telemetry file declares "
+                           f"schema = \"{TELEMETRY_SCHEMA}\" (sizefx import converts other formats)")
+        declared = attr_str(attrs["schema"])
+        if declared != spec["schema"]["value"]:
+            self.fail("/", f"root attribute schema is '{declared}', expected '{TELEMETRY_SCHEMA}'")
+        values = {}
+        for key, rule in spec.items():
+            if key == "schema" or key not in attrs:
+                continue
+            raw = attrs[key]
+            if rule["type"] == "number":
+                try:
+                    val = float(np.asarray(raw).reshape(()))
+                except (TypeError, ValueError):
+                    self.fail("/", f"root attribute {key} = {raw!r} is not a number")
+                if not np.isfinite(val) or not rule["min"] <= val <= rule["max"]:
+                    self.fail("/", f"root attribute {key} = {val} is outside [{rule['min']}, {rule['max']}]")
+                values[key] = val
+            else:
+                values[key] = attr_str(raw)
+        site_keys = ("latitude_deg", "longitude_deg", "height_m")
+        present = [k for k in site_keys if k in values]
+        if present and len(present) != 3:
+            missing = [k for k in site_keys if k not in values]
+            self.fail("/", f"root attributes give {', '.join(present)} but not {', '.join(missing)}; "
+                           "give all three site attributes or none")
+        return values
+
+    # -- datasets -------------------------------------------------------------------
+    def dataset(self, name: str, required: bool):
+        """Read, check and convert one dataset listed in the schema; None if absent and optional."""
+        handle = self.handle(name, required)
+        if handle is None:
+            return None
+        return self.rows(name, handle, slice(None))
+
+    def rows(self, name: str, handle, rows: slice, first_row: int = 0):
+        """Rows ``rows`` of a dataset from :meth:`handle`, checked (finite) and in SI units.
+
+        ``first_row`` numbers the rows in messages (the absolute row of ``rows.start``).
+        """
+        dset, factor = handle
+        try:
+            data = np.asarray(dset[rows], dtype=np.float64)
+        except OSError as exc:
+            self.fail(name, f"cannot be read ({exc}); the file is truncated or corrupt")
+        if data.shape[0] == 0:
+            self.fail(name, "holds no samples")
+        bad = ~np.isfinite(data)
+        if bad.any():
+            first = int(np.argwhere(bad)[0][0]) + first_row
+            self.fail(name, f"holds NaN/Inf values, the first at row {first}; "
+                            "remove or interpolate them (or cut the record) before processing")
+        return data * np.asarray(factor, dtype=float)
+
+    def handle(self, name: str, required: bool):
+        """``(h5py dataset, SI factor)`` of a dataset listed in the schema, its structure, dtype and units
+        checked; None if absent and optional. The values are read by :meth:`rows`."""
+        spec = self.schema["datasets"][name]
+        if name not in self.h5:
+            if required:
+                self.fail(name, "dataset is missing")
+            return None
+        dset = self.h5[name]
+        if not isinstance(dset, h5py.Dataset):
+            self.fail(name, f"is a {type(dset).__name__}, expected a dataset")
+        shape = spec["shape"]
+        if dset.ndim != len(shape):
+            self.fail(name, f"has rank {dset.ndim} (shape {dset.shape}); expected shape "
+                            f"[{', '.join(map(str, shape))}]")
+        for axis, (want, got) in enumerate(zip(shape, dset.shape)):
+            if isinstance(want, int):
+                if got != want:
+                    self.fail(name, f"has shape {dset.shape}; axis {axis} must have length {want}")
+            else:
+                bound = self.sizes.setdefault(want, got)
+                if got != bound:
+                    self.fail(name, f"has {got} rows but its companions have {bound}; "
+                                    "all datasets of a group share the time axis")
+        if dset.dtype.name not in self.schema["dtypes"]:
+            self.fail(name, f"has dtype {dset.dtype}; expected one of {', '.join(self.schema['dtypes'])} "
+                            "(convert with numpy .astype(float))")
+        quantity = spec["quantity"]
+        units = dset.attrs.get("units")
+        if units is None:
+            if spec.get("units_required"):
+                self.fail(name, f"has no 'units' attribute; set it to one of {', '.join(allowed_units(quantity))}")
+            units = spec.get("default_units", next(iter(self.schema["units"][quantity])))
+        units = normalise_units(attr_str(units))
+        factor = unit_factor(quantity, units)
+        if factor is None:
+            self.fail(name, f"units '{units}' are not known; use one of {', '.join(allowed_units(quantity))}")
+        self.units[name] = units
+        self.dtypes[name] = dset.dtype.name
+        return dset, factor
+
+    def check_time(self, name: str, t: np.ndarray, first_row: int = 0, nominal: float | None = None):
+        """Check time stamps ``t`` (rows ``first_row ...`` of dataset ``name``); return ``(nominal, gaps)``.
+
+        Strictly increasing, and (from row 0) at a plausible rate. ``nominal``: the record's nominal
+        period when ``t`` is a later chunk (default: :func:`nominal_period_s` of ``t``). Gaps of a
+        dataset whose policy is "report" are kept in ``self.gaps``; IMU gaps are returned to be
+        settled together (:meth:`settle_imu_gaps`).
+        """
+        if first_row == 0 and t.shape[0] < 2:
+            self.fail(name, f"holds {t.shape[0]} sample; at least 2 are needed to know the sample rate")
+        dt = np.diff(t)
+        dup = np.flatnonzero(dt == 0.0)
+        if dup.size:
+            k = int(dup[0]) + 1
+            self.fail(name, f"has {dup.size} duplicated time stamps, the first at row {k + first_row} "
+                            f"(t = {t[k]:.6f} s); drop the repeated samples")
+        back = np.flatnonzero(dt < 0.0)
+        if back.size:
+            k = int(back[0]) + 1
+            self.fail(name, f"is not strictly increasing: time goes back at row {k + first_row} "
+                            f"({t[k - 1]:.6f} s -> {t[k]:.6f} s), {back.size} times in all; sort or split the record")
+        spec = self.schema["datasets"][name]
+        if first_row == 0:
+            own = nominal_period_s(t)
+            lo, hi = self.schema["plausibility"]["sample_rate_hz"]
+            if self.check_plausibility and spec["rate_check"] and not lo <= 1.0 / own <= hi:
+                self.fail(name, f"median time step is {own:g} s ({1.0 / own:g} Hz), outside "
+                                f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
+            nominal = own if nominal is None else nominal
+        gaps = [Gap(name, int(k) + first_row, float(t[k - 1]), float(t[k] - t[k - 1])) for k in gap_rows(t, nominal)]
+        if spec["gaps"] == "report":
+            self.gaps.extend(gaps)
+        return nominal, gaps
+
+    def declared_gaps(self, n_samples: int):
+        """``/imu/gaps`` as ``[G, 2]`` seconds (time before the gap, length), or None when absent."""
+        handle = self.handle("/imu/gaps", required=False)
+        if handle is None:
+            return None
+        rows = handle[0].shape[0]
+        if rows == 0:
+            return np.zeros((0, 2))
+        if rows > n_samples - 1:
+            self.fail("/imu/gaps", f"declares {rows} gaps in a record of {n_samples} samples; there can be at "
+                                   f"most {n_samples - 1} (one per step)")
+        return self.rows("/imu/gaps", handle, slice(None))
+
+    def settle_imu_gaps(self, found: list, nominal: float, declared):
+        """Count the IMU gaps once per row, match them with ``/imu/gaps``, refuse the undeclared ones
+        (unless gaps are allowed), and keep them (first) in ``self.gaps``.
+
+        ``found``: the gaps of ``/imu/time``, then those of ``/imu/accel_time`` (a dropout both show
+        is one gap, named after ``/imu/time``). A declaration that does not match ``/imu/time``
+        exactly is an error even with ``--allow-gaps``: the file contradicts itself.
+        """
+        by_row: dict[int, Gap] = {}
+        for g in found:
+            by_row.setdefault(g.index, g)
+        gaps = [by_row[k] for k in sorted(by_row)]
+        if declared is not None:
+            self.match_declared_gaps(gaps, declared, nominal)
+        loose = [g for g in gaps if not g.declared]
+        if loose and not self.allow_gaps:
+            g = loose[0]
+            noun = "gap" if len(loose) == 1 else "gaps"
+            which = f"undeclared {noun}" if declared is None else f"{noun} that /imu/gaps does not declare"
+            self.fail(g.dataset, f"has {len(loose)} {which} longer than {GAP_FACTOR} sample periods "
+                                 f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
+                                 f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway")
+        self.gaps[:0] = gaps
+
+    def match_declared_gaps(self, gaps: list, declared: np.ndarray, nominal: float):
+        """Mark the gaps ``/imu/gaps`` declares; fail, naming both, where it and ``/imu/time`` differ."""
+        tol = GAP_MATCH_TOLERANCE * nominal
+        on_time = [g for g in gaps if g.dataset == "/imu/time"]
+        t_found = np.array([g.time_s for g in on_time])
+        fix = ("re-import the source (sizefx import writes /imu/gaps from the data it finds), or delete /imu/gaps "
+               "and pass --allow-gaps")
+        for i, (t_d, length_d) in enumerate(declared):
+            said = f"row {i} declares a gap after t = {t_d:.6f} s lasting {length_d * 1e3:.4g} ms"
+            if not length_d > 0.0:
+                self.fail("/imu/gaps", f"{said}; gap lengths are positive (columns: time before the gap [s], "
+                                       "length [s])")
+            if i and not t_d > declared[i - 1, 0]:
+                self.fail("/imu/gaps", f"{said}, not after row {i - 1} (t = {declared[i - 1, 0]:.6f} s); "
+                                       "rows are in time order")
+            k = int(np.argmin(np.abs(t_found - t_d))) if t_found.size else -1
+            if k < 0 or abs(t_found[k] - t_d) > tol:
+                self.fail("/imu/gaps", f"{said}, but /imu/time has no gap there (its gaps: {t_found.size}); {fix}")
+            g = on_time[k]
+            if g.declared:
+                self.fail("/imu/gaps", f"{said}, the same gap as row {i - 1}; declare each gap once")
+            if abs(g.duration_s - length_d) > tol:
+                self.fail("/imu/gaps", f"{said}, but the gap of /imu/time there (row {g.index}) lasts "
+                                       f"{g.duration_s * 1e3:.4g} ms; {fix}")
+            g.declared = True
+        missing = [g for g in on_time if not g.declared]
+        if missing:
+            g = missing[0]
+            self.fail("/imu/gaps", f"declares {declared.shape[0]} gaps but /imu/time has {len(on_time)}: the gap "
+                                   f"at row {g.index} (t = {g.time_s:.6f} s, {g.duration_s * 1e3:.4g} ms) is not "
+                                   f"declared; {fix}")
+
+    def check_unit_quaternions(self, name: str, q: np.ndarray):
+        err = np.abs(np.linalg.norm(q, axis=1) - 1.0)
+        k = int(np.argmax(err))
+        if err[k] > QUATERNION_NORM_TOLERANCE:
+            self.fail(name, f"row {k} has norm {np.linalg.norm(q[k]):.9g}; quaternions must be unit "
+                            f"(|q| - 1 within {QUATERNION_NORM_TOLERANCE:g}); normalise them, and check "
+                            "the order is scalar-first [w, x, y, z]")
+        return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+    def check_plausible(self, name: str, values: np.ndarray, key: str, what: str, units: str):
+        lo, hi = self.schema["plausibility"][key]
+        med = float(np.median(np.linalg.norm(values, axis=1)))
+        if not lo <= med <= hi:
+            quantity = self.schema["datasets"][name]["quantity"]
+            base = unit_factor(quantity, units)
+            # the units under which the same numbers would be plausible: the data look like those
+            fits = [u for u, factor in self.schema["units"][quantity].items()
+                    if u != units and lo <= med / base * factor <= hi]
+            hint = (f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'" if len(fits) == 1
+                    else "the units attribute is probably wrong")
+            self.fail(name, f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
+                            f"plausible {lo:g}..{hi:g}; {hint}")
+
+
+def open_hdf5(path: Path, hint: str) -> h5py.File:
+    """Open ``path`` read-only, or raise a one-line error saying why it is not a readable HDF5 file.
+
+    ``hint`` ends the message when the file is not HDF5 at all (what to do instead).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise TelemetryError(path, "/", "file does not exist")
+    if path.is_dir():
+        raise TelemetryError(path, "/", "is a directory, not an HDF5 file")
+    if path.stat().st_size == 0:
+        raise TelemetryError(path, "/", "file is empty (0 bytes)")
+    try:
+        is_hdf5 = h5py.is_hdf5(path)
+    except OSError:
+        is_hdf5 = False
+    if not is_hdf5:
+        raise TelemetryError(path, "/", f"is not an HDF5 file (no HDF5 signature); {hint}")
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise TelemetryError(path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); "
+                                        "the file is truncated or corrupt") from None
+
+
+def open_structure(path, h5, allow_gaps, check_plausibility):
+    """Links, root attributes, groups and the IMU form: ``(reader, root attributes, form)``."""
+    r = ContractReader(path, h5, allow_gaps, check_plausibility)
+    r.refuse_links_to_other_files()
+    attrs = r.root_attributes()
+    schema = r.schema
+    for gname, gspec in schema["groups"].items():
+        if gname in h5 and not isinstance(h5[gname], h5py.Group):
+            r.fail(gname, "must be a group")
+        if gspec["required"] and gname not in h5:
+            r.fail(gname, "group is missing; IMU samples belong in /imu")
+    # IMU: exactly one form.
+    present = {form: [d for d in spec["datasets"] if d in h5] for form, spec in schema["forms"].items()}
+    complete = [form for form, names in present.items() if len(names) == len(schema["forms"][form]["datasets"])]
+    if len(complete) == 2:
+        r.fail("/imu", "holds both gyro/accel and dtheta/dvel; keep one form")
+    if not complete:
+        partial = [d for names in present.values() for d in names]
+        if partial:
+            form = next(f for f, names in present.items() if names)
+            missing = [d for d in schema["forms"][form]["datasets"] if d not in h5]
+            r.fail(missing[0], f"dataset is missing ({partial[0]} is present; {form} need both)")
+        r.fail("/imu", "holds neither gyro+accel (rates) nor dtheta+dvel (increments)")
+    return r, attrs, complete[0]
+
+
+def check_magnitudes(r, form, period, gyro, accel):
+    gyro_name, accel_name = r.schema["forms"][form]["datasets"]
+    f_est = accel if form == "rates" else accel / period
+    w_est = gyro if form == "rates" else gyro / period
+    r.check_plausible(accel_name, f_est, "median_specific_force_mps2", "specific force", r.units[accel_name])
+    r.check_plausible(gyro_name, w_est, "median_angular_rate_rad_s", "angular rate", r.units[gyro_name])
+
+
+def side_groups(r, h5, reference: bool = True):
+    """``/reference`` (read whole; None with ``reference=False``), ``/source`` and ``/simulation``."""
+    want_reference = reference
+    reference = None
+    if want_reference and "/reference" in h5:
+        ref_t = r.dataset("/reference/time", required=True)
+        r.check_time("/reference/time", ref_t)
+        quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
+        pos = r.dataset("/reference/position", required=False)
+        vel = r.dataset("/reference/velocity", required=False)
+        reference = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
+        if pos is not None:
+            if np.any(np.abs(pos[:, 0]) > np.pi / 2):
+                r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
+            reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
+    source = None
+    if "/source" in h5:
+        source = {k: attr_value(v) for k, v in h5["/source"].attrs.items()}
+    simulation = None
+    if "/simulation" in h5:
+        sim_attrs = h5["/simulation"].attrs
+        if "truth_json" not in sim_attrs:
+            r.fail("/simulation", "attribute truth_json is missing")
+        try:
+            simulation = json.loads(attr_str(sim_attrs["truth_json"]))
+        except json.JSONDecodeError as exc:
+            r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
+    return reference, source, simulation
+
+
+def site_from_attrs(attrs):
+    if "latitude_deg" not in attrs:
+        return None
+    return Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])
