@@ -24,10 +24,6 @@ import sizefx
 PACKAGES = {"sizefx": Path(sizefx.__file__).resolve().parent,
             "sizefx_cli": Path(importlib.util.find_spec("sizefx_cli").submodule_search_locations[0]).resolve()}
 
-#: The one cycle known when this test was written: navigate/__init__.py and navigate/stream.py import
-#: each other (issue 14, item 1: the lead is merging the two navigation paths, which removes it).
-KNOWN_CYCLE = frozenset({"sizefx.navigate", "sizefx.navigate.stream"})
-
 _IMPORT_EACH_ALONE = """
 import importlib, json, pkgutil, sys
 
@@ -191,17 +187,10 @@ def _package_graph() -> dict:
     return import_graph(PACKAGES)
 
 
-def test_import_graph_has_no_cycle_but_the_known_one():
+def test_import_graph_has_no_cycle():
     graph = _package_graph()
     assert "sizefx.io.reader" in graph["sizefx.io.telemetry"]  # the graph sees the imports at all
-    new = [c for c in cycles(graph) if set(c) != KNOWN_CYCLE]
-    assert new == [], f"import cycles:\n{_described(new)}"
-
-
-@pytest.mark.xfail(strict=True, reason="sizefx/navigate/__init__.py and navigate/stream.py import each other; "
-                                       "when this passes, the cycle is gone: remove this mark")
-def test_import_graph_has_no_cycle():
-    found = cycles(_package_graph())
+    found = cycles(graph)
     assert found == [], f"import cycles:\n{_described(found)}"
 
 

@@ -2,12 +2,13 @@
 
 The package, from the bottom up:
 
-- :mod:`.config`: the options (:class:`NavConfig`), the result (:class:`NavResult`), the constants;
+- :mod:`.config`: the options (:class:`NavConfig`) and the constants, each with its reason;
+- :mod:`.result`: the result (:class:`NavResult`) and the summary lines that present it;
 - :mod:`.steps`: the sampling grid, rates to increments, the strapdown kernel call;
 - :mod:`.initial`: the initial state, from ``/reference`` or by static alignment;
 - :mod:`.reference`: ``/reference`` by time window and the errors against it;
 - :mod:`.loop`: the one loop (read chunk, correct, integrate, write) for files and records in memory;
-- :mod:`.output`: the summary lines, the ``sizefx/navigation/1`` file, the error plot;
+- :mod:`.output`: the ``sizefx/navigation/1`` file and the error plot;
 - here: the stage, :class:`NavigateConfig` and :func:`run`, as ``sizefx navigate`` calls it.
 """
 
@@ -20,10 +21,11 @@ from pathlib import Path
 from ..errors import ConfigError
 from ..io.files import atomic_output
 from ..stage import preflight
-from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig, NavResult
+from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
 from .initial import coarse_alignment
 from .loop import navigate, navigate_file, navigate_source
-from .output import NavigationWriter, format_summary, plot_errors, write_navigation
+from .output import NavigationWriter, plot_errors, write_navigation
+from .result import NavResult, format_summary
 from .steps import increments_of
 
 __all__ = ["NavConfig", "NavResult", "NavigateConfig", "navigate", "navigate_file", "navigate_source", "run",

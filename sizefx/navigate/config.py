@@ -1,4 +1,4 @@
-"""What a navigation run is asked (:class:`NavConfig`) and what it returns (:class:`NavResult`).
+"""What a navigation run is asked (:class:`NavConfig`).
 
 The constants that decide how a record is navigated live here too, each with its reason.
 """
@@ -7,12 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..effects import EffectModel
 from ..kernels.strapdown import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
 
-__all__ = ["NavConfig", "NavResult", "VERTICAL_MODES", "GAPS_WHY", "GRID_TOLERANCE", "JITTER_REPORTED",
+__all__ = ["NavConfig", "VERTICAL_MODES", "GAPS_WHY", "GRID_TOLERANCE", "JITTER_REPORTED",
            "STATIONARY_SPAN_M", "CHUNK_SAMPLES", "MARGIN", "MIN_ROWS"]
 
 VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
@@ -59,36 +57,3 @@ class NavConfig:
     #: navigating (sizefx.correct.correct_imu); not together with ``levers``
     model: EffectModel | None = None
     mode: str = "triad"  #: triad | center (see sizefx.compensate)
-
-
-@dataclass
-class NavResult:
-    """A navigation solution: the output rows, what was done, and the errors against ``/reference``."""
-
-    time_s: np.ndarray  #: [M] end of each navigation interval
-    quat_nb: np.ndarray  #: [M, 4]
-    v_n: np.ndarray  #: [M, 3]
-    lat_rad: np.ndarray
-    lon_rad: np.ndarray
-    height_m: np.ndarray
-    config: dict
-    summary: dict
-    #: histories against the reference at errors["time_s"]: horizontal_m, north_m, east_m,
-    #: velocity_mps [.., 3], attitude_rad (only where the reference has samples)
-    errors: dict | None = None
-    path: str | None = None  #: the record navigated
-    written: dict | None = None  #: option -> path of each file the stage wrote
-
-    def report(self) -> str:
-        """The lines ``sizefx navigate`` prints."""
-        from .output import format_summary
-
-        lines = [format_summary(self.path, self)]
-        names = {"--json": "summary", "-o": "solution", "--plot": "plot"}
-        for opt, path in (self.written or {}).items():
-            lines.append(f"{names[opt]} -> {path}")
-        return "\n".join(lines)
-
-    def to_json(self) -> dict:
-        """The summary with the configuration, as ``--json`` writes it."""
-        return {**self.summary, "configuration": self.config}

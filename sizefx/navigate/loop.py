@@ -38,7 +38,8 @@ from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
-from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig, NavResult
+from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig
+from .result import NavResult
 from .initial import choose, initial_state
 from .reference import Errors, MemoryReference, reference_at
 from .steps import increments_of, integrate, uniform_period_s
