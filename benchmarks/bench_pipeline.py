@@ -55,7 +55,8 @@ from sizefx.kernels.strapdown import (
     strapdown,
 )
 from sizefx.levers import levers_from_preset, write_levers
-from sizefx.navigate import NavConfig, NavigationWriter, navigate, navigate_file, write_navigation
+from sizefx.io.navigation import NavigationWriter, write_navigation
+from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.navigate.steps import integrate
 from sizefx.omegadot import edges_from_increments, savgol
 from sizefx.scenarios import FlightPlan

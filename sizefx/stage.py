@@ -25,18 +25,22 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from .errors import ConfigError
-from .io.files import check_outputs
+from .io.files import check_output_folder, check_outputs
 
 __all__ = ["preflight"]
 
 
-def preflight(*, inputs: Mapping[str, object], outputs: Mapping[str, object], force: bool = False) -> None:
+def preflight(*, inputs: Mapping[str, object], outputs: Mapping[str, object], force: bool = False,
+              folders: Mapping[str, object] | None = None) -> None:
     """Refuse, before any work, what would fail later or destroy something.
 
     ``inputs`` and ``outputs`` map the option that named each file to its path (None: not
     given). Every input must be an existing file. Every output must be new (or ``force``),
     writable, in an existing folder, distinct from the other outputs and from every input,
-    also through links (:func:`sizefx.io.files.check_outputs`).
+    also through links (:func:`sizefx.io.files.check_outputs`). ``folders`` maps an option to
+    an output folder (``--plots``): an existing folder, or a new one in an existing, writable
+    folder (:func:`sizefx.io.files.check_output_folder`); the files a stage writes into it are
+    among ``outputs``.
     """
     given = {opt: Path(p) for opt, p in inputs.items() if p is not None and str(p) != ""}
     for opt, path in given.items():
@@ -44,4 +48,7 @@ def preflight(*, inputs: Mapping[str, object], outputs: Mapping[str, object], fo
             raise ConfigError(f"{path}: {opt}: no such file; check the path")
         if path.is_dir():
             raise ConfigError(f"{path}: {opt}: is a directory; give a file")
+    for opt, folder in (folders or {}).items():
+        if folder is not None and str(folder) != "":
+            check_output_folder(folder, option=opt, inputs=list(given.values()))
     check_outputs(dict(outputs), inputs=list(given.values()), force=force)

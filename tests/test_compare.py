@@ -39,7 +39,8 @@ from sizefx.motion import (
     Trajectory,
 )
 from sizefx.constants import METRES_PER_NMI
-from sizefx.navigate import NavConfig, navigate, write_navigation
+from sizefx.io.navigation import write_navigation
+from sizefx.navigate import NavConfig, navigate
 from sizefx.rotation import (
     axis_angle_mat,
     euler_to_mat,

@@ -323,7 +323,7 @@ def test_outputs_are_refused_before_any_work(tmp_path):
     assert old.exit_code == 2 and "residuals.png: output exists; pass --force" in old.output, old.output
     forced = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots), "--force"])
     assert forced.exit_code == 2 and "/reference" in forced.output, forced.output  # past the pre-flight
-    with pytest.raises(ConfigError, match="--plots names an input file"):
+    with pytest.raises(OutputError, match="--plots needs a directory, and this is an input file"):
         D.run(D.DiagnoseConfig(rec, plots=rec))
     model = tmp_path / "start.toml"
     model.write_text(D.model_toml(NOMINAL))

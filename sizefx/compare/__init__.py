@@ -30,7 +30,6 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import OutputError
 from ..io.files import atomic_output
 from ..stage import preflight
 from .geodesy import (
@@ -131,20 +130,6 @@ class CompareResult:
         return self.document
 
 
-def _check_plot_dir(plots_dir, inputs) -> Path:
-    """``--plots``: a folder (or a new one in an existing folder) that is not an input."""
-    out = Path(plots_dir)
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"{out}: --plots needs a directory, and this is a file")
-    for inp in inputs:
-        if inp is not None and out.exists() and Path(inp).exists() and out.resolve() == Path(inp).resolve():
-            raise OutputError(f"{out}: the plot directory is an input")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise OutputError(f"{out}: directory {parent} does not exist; create it first")
-    return out
-
-
 def run(config: CompareConfig, *, progress=None) -> CompareResult:
     """Entry point of ``sizefx compare``: check, read, compare, write what was asked.
 
@@ -156,11 +141,10 @@ def run(config: CompareConfig, *, progress=None) -> CompareResult:
     ``progress(done, total)`` is called after each file read, after the comparisons and
     after the outputs.
     """
-    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
-    inputs = [config.a, config.b, config.reference]
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force,
+              folders={"--plots": config.plots_dir})
     if config.plots_dir:
         pyplot()  # fail before the work when matplotlib is missing
-        _check_plot_dir(config.plots_dir, inputs)
     with_ref = config.reference is not None
     files = {"A": config.a, "B": config.b, **({"REF": config.reference} if with_ref else {})}
     total = len(files) + 2  # each file, the comparisons, the outputs
@@ -187,7 +171,7 @@ def run(config: CompareConfig, *, progress=None) -> CompareResult:
         Path(config.plots_dir).mkdir(exist_ok=True)
         result.plots = write_plots(comparisons, tracks, config.plots_dir)
     if config.json_path:
-        with atomic_output(config.json_path, inputs=inputs, force=config.force) as tmp:
+        with atomic_output(config.json_path, inputs=list(files.values()), force=config.force) as tmp:
             Path(tmp).write_text(json.dumps(document, indent=2, allow_nan=False) + "\n", encoding="utf-8")
     tick(total)
     return result

@@ -5,15 +5,9 @@ The root attribute ``schema`` decides how a file is read:
 - ``sizefx/telemetry/1``: by the io layer, :func:`sizefx.io.telemetry.read_telemetry` (the
   whole contract, gaps allowed); ``/reference/position`` is required, velocity and attitude
   are taken when present.
-- ``sizefx/navigation/1`` (what ``sizefx navigate -o`` writes): each dataset checked against
-  its entry in ``data-schemas/navigation-1.json`` (:func:`sizefx.io.schema.load_schema`), its
-  units compared with the contract's and converted to SI by the contract's units table
-  (:func:`sizefx.io.schema.unit_factor`), no value taken from anywhere else.
-
-The structural checks of a navigation dataset (no data in other files, the contract's shape,
-one time axis, numbers, finite values, unit quaternions) are written here because the io layer
-makes them for telemetry datasets only, inside its private reader; they follow its rules, and
-their messages name the file, the dataset and the problem as its do.
+- ``sizefx/navigation/1`` (what ``sizefx navigate -o`` writes): by the io layer,
+  :func:`sizefx.io.navigation.read_navigation_datasets` (each dataset checked against its
+  entry in ``data-schemas/navigation-1.json`` and converted to SI).
 """
 
 from __future__ import annotations
@@ -21,23 +15,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
 import numpy as np
 
-from ..constants import QUATERNION_NORM_TOLERANCE
 from ..errors import TelemetryError
-from ..io.schema import TELEMETRY_SCHEMA, load_schema, normalise_units, unit_factor
+from ..io.navigation import NAVIGATION_SCHEMA, read_navigation_datasets
+from ..io.schema import TELEMETRY_SCHEMA
 from ..io.telemetry import open_hdf5, read_telemetry
 
 __all__ = ["NAVIGATION_SCHEMA", "Track", "read_track"]
-
-NAVIGATION_SCHEMA = "sizefx/navigation/1"
-
-#: The quantity of each dataset of the navigation contract, the key of the units table of
-#: ``data-schemas/telemetry-1.json`` that converts it to SI (navigation-1.json states its units
-#: but, unlike telemetry-1.json, not its quantities; its conventions are telemetry's).
-NAVIGATION_QUANTITIES = {"/time": "time", "/position": "geodetic", "/velocity": "velocity",
-                         "/quaternion": "dimensionless"}
 
 #: What compare reads, for the messages that refuse another file.
 _READS = f"compare reads {NAVIGATION_SCHEMA} (sizefx navigate -o) or {TELEMETRY_SCHEMA} files"
@@ -128,82 +113,13 @@ def read_track(path) -> Track:
                                             f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position")
         declared = _decode(h5.attrs["schema"])
         if declared == NAVIGATION_SCHEMA:
-            return _read_navigation(path, h5)
+            sol = read_navigation_datasets(path, h5)
+            return Track(sol.time_s, sol.lat_rad, sol.lon_rad, sol.height_m, sol.v_n, sol.quat_nb, name=str(path),
+                         time_dataset="/time")
     if declared == TELEMETRY_SCHEMA:
         return _read_telemetry_track(path)
     raise TelemetryError(path, "/", f"root attribute schema is '{declared}'; compare reads {NAVIGATION_SCHEMA} "
                                     f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position")
-
-
-def _nav_dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
-    """One dataset of a navigation file, checked against its contract entry; float64, SI units.
-
-    ``rows`` binds the contract's row symbol (``"M"``) to the first dataset's length, so that
-    every later dataset must share the time axis.
-    """
-    spec = load_schema(NAVIGATION_SCHEMA)["datasets"][name]
-    if name not in h5:
-        raise TelemetryError(path, name, "dataset is missing; sizefx navigate -o writes it")
-    link = h5.get(name, getlink=True)
-    if isinstance(link, h5py.ExternalLink):
-        raise TelemetryError(path, name, f"is an HDF5 external link to {link.filename}:{link.path}; "
-                                         "navigation files must be self-contained")
-    dset = h5[name]
-    if not isinstance(dset, h5py.Dataset):
-        raise TelemetryError(path, name, f"is a {type(dset).__name__}, expected a dataset")
-    if dset.is_virtual or dset.external:
-        raise TelemetryError(path, name, "keeps its data in other files; store the data in this file")
-    shape = spec["shape"]
-    if dset.ndim != len(shape) or any(isinstance(w, int) and w != g for w, g in zip(shape, dset.shape)):
-        raise TelemetryError(path, name, f"has shape {dset.shape}; expected [{', '.join(map(str, shape))}]")
-    bound = rows.setdefault(shape[0], dset.shape[0])
-    if dset.shape[0] != bound:
-        raise TelemetryError(path, name, f"has {dset.shape[0]} rows but /time has {bound}; "
-                                         "all datasets share the time axis")
-    if dset.dtype.kind not in "fiu":
-        raise TelemetryError(path, name, f"has dtype {dset.dtype}; expected numbers (float64)")
-    # The navigation contract allows its own units only (an absent attribute means them); the
-    # telemetry contract's units table converts them to SI.
-    units = dset.attrs.get("units")
-    if units is not None and normalise_units(_decode(units)) != normalise_units(spec["units"]):
-        raise TelemetryError(path, name, f"has units '{_decode(units)}'; {NAVIGATION_SCHEMA} stores "
-                                         f"'{spec['units']}'")
-    factor = unit_factor(NAVIGATION_QUANTITIES[name], spec["units"])
-    try:
-        data = np.asarray(dset[()], dtype=np.float64)
-    except OSError as exc:
-        raise TelemetryError(path, name, f"cannot be read ({exc}); the file is truncated or corrupt") from None
-    bad = ~np.isfinite(data)
-    if bad.any():
-        first = int(np.argwhere(bad)[0][0])
-        raise TelemetryError(path, name, f"holds {int(bad.sum())} NaN/Inf values, the first at row {first}")
-    return data * np.asarray(factor, dtype=float)
-
-
-def _read_navigation(path: Path, h5: h5py.File) -> Track:
-    rows: dict = {}
-    t = _nav_dataset(path, h5, "/time", rows)
-    if t.shape[0] < 2:
-        raise TelemetryError(path, "/time", f"holds {t.shape[0]} sample; a track needs at least 2")
-    step = np.diff(t)
-    if np.any(step <= 0.0):
-        k = int(np.flatnonzero(step <= 0.0)[0]) + 1
-        raise TelemetryError(path, "/time", f"is not strictly increasing at row {k} ({t[k - 1]:.6f} s -> "
-                                            f"{t[k]:.6f} s)")
-    pos = _nav_dataset(path, h5, "/position", rows)  # latitude [rad], longitude [rad], height [m]
-    outside = np.abs(pos[:, 0]) > 0.5 * np.pi
-    if outside.any():
-        k = int(np.flatnonzero(outside)[0])
-        raise TelemetryError(path, "/position", f"latitude {np.degrees(pos[k, 0]):g} deg at row {k} is outside "
-                                                "[-90, 90]; columns are latitude [deg], longitude [deg], height [m]")
-    vel = _nav_dataset(path, h5, "/velocity", rows)
-    quat = _nav_dataset(path, h5, "/quaternion", rows)
-    norm = np.linalg.norm(quat, axis=1)
-    k = int(np.argmax(np.abs(norm - 1.0)))
-    if abs(norm[k] - 1.0) > QUATERNION_NORM_TOLERANCE:
-        raise TelemetryError(path, "/quaternion", f"row {k} has norm {norm[k]:.9g}; q_nb must be unit "
-                                                  "(scalar-first [w, x, y, z])")
-    return Track(t, pos[:, 0], pos[:, 1], pos[:, 2], vel, quat / norm[:, None], name=str(path), time_dataset="/time")
 
 
 def _read_telemetry_track(path: Path) -> Track:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -196,24 +195,6 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
     return out
 
 
-def _check_plot_folder(config: DiagnoseConfig) -> None:
-    """``--plots`` names a folder: an existing one, or one that can be made where it is asked for."""
-    folder = Path(config.plots)
-    if folder.exists():
-        if not folder.is_dir():
-            what = "an input file" if folder.resolve() in {Path(p).resolve() for p in config.inputs().values()
-                                                          if p is not None} else "a file"
-            raise ConfigError(f"{folder}: --plots names {what}; give a folder")
-        return
-    parent = folder.absolute().parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise ConfigError(f"{folder}: --plots: {parent} is a file; give a folder")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ConfigError(f"{folder}: --plots: cannot create it in {parent} (not writable); choose another folder")
-
-
 def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     """Diagnose ``config.input``; write the extended model, and the report and plots when asked.
 
@@ -222,9 +203,7 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     and distinct from the others and from every input. ``progress(done, total)`` follows the
     Gauss-Newton passes.
     """
-    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
-    if config.plots:
-        _check_plot_folder(config)
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force, folders={"--plots": config.plots})
     theta0, start = start_model(config.nominal, None if config.model is None else str(config.model))
     path = config.input
     tel = read_telemetry(path, allow_gaps=config.allow_gaps, segment=config.segment)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..errors import OutputError
 
-__all__ = ["atomic_output", "check_output_path", "check_outputs"]
+__all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder"]
 
 
 def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
@@ -57,6 +57,29 @@ def check_outputs(outputs: dict, *, inputs=(), force: bool = False) -> None:
             raise OutputError(f"{path}: given to both {seen[key]} and {opt}; each output needs its own file")
         seen[key] = opt
         check_output_path(path, inputs=inputs, force=force)
+
+
+def check_output_folder(folder, *, option: str, inputs=()) -> Path:
+    """Refuse an output folder (``--plots``) that is a file or an input, or cannot be made.
+
+    The folder may exist (its files are then checked one by one, as outputs) or be new, in an
+    existing, writable folder, as for an output file.
+    """
+    out = Path(folder)
+    if out.exists():
+        if not out.is_dir():
+            is_input = any(inp is not None and Path(inp).exists() and os.path.samefile(out, inp) for inp in inputs)
+            raise OutputError(f"{out}: {option} needs a directory, and this is {'an input' if is_input else 'a'} "
+                              "file; give a folder")
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise OutputError(f"{out}: {option}: the folder is not writable; choose another folder")
+        return out
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"{out}: directory {parent} does not exist; create it first")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{out}: directory {parent} is not writable; choose another output folder")
+    return out
 
 
 def _umask() -> int:

@@ -8,7 +8,7 @@ The package, from the bottom up:
 - :mod:`.initial`: the initial state, from ``/reference`` or by static alignment;
 - :mod:`.reference`: ``/reference`` by time window and the errors against it;
 - :mod:`.loop`: the one loop (read chunk, correct, integrate, write) for files and records in memory;
-- :mod:`.output`: the ``sizefx/navigation/1`` file and the error plot;
+- :mod:`.output`: the error plot (the ``sizefx/navigation/1`` file is :mod:`sizefx.io.navigation`'s);
 - here: the stage, :class:`NavigateConfig` and :func:`run`, as ``sizefx navigate`` calls it.
 """
 
@@ -24,12 +24,13 @@ from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
 from .initial import coarse_alignment
 from .loop import navigate, navigate_file, navigate_source
-from .output import NavigationWriter, plot_errors, write_navigation
+from ..io.navigation import NavigationWriter, write_navigation
+from .output import plot_errors
 from .result import NavResult, format_summary
 from .steps import increments_of
 
 __all__ = ["NavConfig", "NavResult", "NavigateConfig", "navigate", "navigate_file", "navigate_source", "run",
-           "coarse_alignment", "increments_of", "format_summary", "write_navigation", "NavigationWriter",
+           "coarse_alignment", "increments_of", "format_summary",
            "plot_errors", "CHUNK_SAMPLES", "GAPS_WHY"]
 
 

@@ -113,7 +113,7 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
 
     ``decimate``: keep only the rows at ``cfg.output_rate_hz`` (a file's run) or every
     navigation step (a record in memory; the writer decimates). ``writer`` (a
-    :class:`sizefx.navigate.output.NavigationWriter`) receives the output rows chunk by chunk;
+    :class:`sizefx.io.navigation.NavigationWriter`) receives the output rows chunk by chunk;
     the result then keeps only the first and the last row (memory stays bounded on any length).
     ``progress(done, total)`` is called after each chunk (IMU samples).
     """
