@@ -86,6 +86,7 @@ from .table import (
     Motion,
     Param,
     SensorParams,
+    cross,
     param_index,
     reported_time,
     true_attitude,
@@ -95,4 +96,4 @@ from .table import (
 __all__ = ["EFFECTS", "Effect", "PARAMS", "Param", "NP", "SensorParams", "Motion", "Jacobian", "forward", "sample",
            "gyro_readings", "accel_inputs", "accel_readings", "specific_force_at", "inverse", "remove_lever_terms",
            "check_invertible", "check_estimator", "jacobian", "true_attitude", "reported_time", "unit_axes",
-           "param_index", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
+           "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]

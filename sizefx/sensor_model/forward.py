@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .table import Motion, SensorParams
+from .table import Motion, SensorParams, cross
 
 __all__ = ["forward", "sample", "gyro_readings", "accel_inputs", "accel_readings", "specific_force_at"]
 
@@ -19,7 +19,9 @@ def gyro_readings(p: SensorParams, m: Motion) -> np.ndarray:
 def specific_force_at(m: Motion, r: np.ndarray) -> np.ndarray:
     """``f + omegadot x r + omega x (omega x r)`` [n, 3]: the specific force at ``r`` (rigid body; the
     gravity gradient over a few cm, under 0.01 ug, is neglected)."""
-    return m.f_b + np.cross(m.omegadot_ib_b, r) + np.cross(m.omega_ib_b, np.cross(m.omega_ib_b, r))
+    if not np.any(r):  # at the reference point: the terms below are zeros, adding them changes no bit
+        return m.f_b
+    return m.f_b + cross(m.omegadot_ib_b, r) + cross(m.omega_ib_b, cross(m.omega_ib_b, r))
 
 
 def accel_inputs(p: SensorParams, m: Motion) -> np.ndarray:

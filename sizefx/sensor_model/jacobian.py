@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from .forward import specific_force_at
-from .table import EFFECTS, OFFDIAG, Motion, SensorParams, param_index
+from .table import EFFECTS, OFFDIAG, Motion, SensorParams, cross, param_index
 
 __all__ = ["Jacobian", "jacobian"]
 
@@ -15,21 +17,35 @@ __all__ = ["Jacobian", "jacobian"]
 SERIES_BELOW_RAD = 1e-3
 
 
-class Jacobian(dict):
+class Jacobian(Mapping):
     """``{index in PARAMS: (channels [k], columns [n, k])}``: the nonzero columns of d(readings)/d(theta).
 
     Channels are numbered as :data:`CHANNELS` (gyros 0-2, accelerometers 3-5); the layout is the
-    one ``sizefx diagnose`` uses for its regressors.
+    one ``sizefx diagnose`` uses for its regressors. The columns are kept one by one and stacked
+    only when asked for, by parameter (``jac[j]``) or by channel (:meth:`block`).
     """
+
+    def __init__(self, columns: dict):
+        self._columns = columns  #: {j: {channel: [n]}}
+
+    def __getitem__(self, j):
+        by_channel = self._columns[j]
+        channels = np.array(sorted(by_channel))
+        return channels, np.column_stack([by_channel[c] for c in channels])
+
+    def __iter__(self):
+        return iter(sorted(self._columns))
+
+    def __len__(self):
+        return len(self._columns)
 
     def block(self, channel: int, indices) -> np.ndarray:
         """Columns [n, len(indices)] of ``channel`` for the parameters ``indices`` (zero where one is absent)."""
-        cols = []
-        for j in indices:
-            channels, values = self[j]
-            where = np.flatnonzero(channels == channel)
-            cols.append(values[:, where[0]] if where.size else np.zeros(values.shape[0]))
-        return np.column_stack(cols)
+        n = next(iter(next(iter(self._columns.values())).values())).shape[0]
+        out = np.empty((n, len(indices)))
+        for k, j in enumerate(indices):
+            out[:, k] = self._columns.get(int(j), {}).get(channel, 0.0)
+        return out
 
 
 def _need(m: Motion, name: str, effect: str):
@@ -49,13 +65,15 @@ def _tilt_axes(p: SensorParams, mat_nb):
     """
     phi = np.array([p.level_tilt[0], p.level_tilt[1], 0.0])
     theta = float(np.linalg.norm(phi))
+    if theta == 0.0:
+        return [mat_nb[:, 0, :], mat_nb[:, 1, :]]
     k = np.array([[0.0, -phi[2], phi[1]], [phi[2], 0.0, -phi[0]], [-phi[1], phi[0], 0.0]])
     if theta < SERIES_BELOW_RAD:
         a, b = 0.5 - theta**2 / 24.0, 1.0 / 6.0 - theta**2 / 120.0
     else:
         a, b = (1.0 - np.cos(theta)) / theta**2, (theta - np.sin(theta)) / theta**3
     jac = np.eye(3) + a * k + b * (k @ k)
-    return [np.einsum("i,nij->nj", jac[:, c], mat_nb) for c in range(2)]
+    return [jac[:, c] @ mat_nb for c in range(2)]
 
 
 def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *, effects=None,
@@ -96,11 +114,7 @@ def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *
         _gyro_columns(p, at_gyro, wanted, put)
     if "accel" in sensors:
         _accel_columns(p, at_gyro if at_accel is None else at_accel, wanted, put)
-    out = Jacobian()
-    for j in sorted(cols):
-        channels = np.array(sorted(cols[j]))
-        out[j] = (channels, np.column_stack([cols[j][c] for c in channels]))
-    return out
+    return Jacobian(cols)
 
 
 def _misalignment_columns(gain, vec, proj, axes, misalignment, put, effect, offset):
@@ -133,7 +147,7 @@ def _gyro_columns(p: SensorParams, m: Motion, wanted, put):
         mat = _need(m, "mat_nb", "level_tilt")
         w_in = _need(m, "omega_in_b", "level_tilt")
         for k, c_k in enumerate(_tilt_axes(p, mat)):  # omega_ib = omega_nb + C_bn omega_in: the second moves
-            d = np.cross(w_in, c_k) @ m_g.T + np.cross(m.f_b, c_k) @ g_sens.T
+            d = cross(w_in, c_k) @ m_g.T + cross(m.f_b, c_k) @ g_sens.T
             for i in range(3):
                 put("level_tilt", k, i, d[:, i])
     if "reference_delay" in wanted:
@@ -165,7 +179,7 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put):
         if "accel_quadratic" in wanted:
             put("accel_quadratic", i, c, a[:, i] ** 2)
         if "lever_arm" in wanted:  # d a_i / d r_i = u_i x omegadot + (u_i . omega) omega - |omega|^2 u_i
-            grad = np.cross(u[i], wd) + (w @ u[i])[:, None] * w - w2[:, None] * u[i]
+            grad = cross(u[i], wd) + (w @ u[i])[:, None] * w - w2[:, None] * u[i]
             for k in range(3):
                 put("lever_arm", 3 * i + k, c, gain[:, i] * grad[:, k])
     if "accel_misalignment" in wanted:
@@ -173,7 +187,7 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put):
     if "level_tilt" in wanted:
         mat = _need(m, "mat_nb", "level_tilt")
         for k, c_k in enumerate(_tilt_axes(p, mat)):
-            d = np.cross(m.f_b, c_k)
+            d = cross(m.f_b, c_k)
             for i in range(3):
                 put("level_tilt", k, 3 + i, gain[:, i] * (d @ u[i]))
     if wanted & {"accel_delay", "reference_delay"}:
@@ -183,7 +197,7 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put):
             r = p.lever_arm[i]
             d = fdot
             if m.omegaddot_ib_b is not None:
-                d = d + np.cross(m.omegaddot_ib_b, r) + np.cross(wd, np.cross(w, r)) + np.cross(w, np.cross(wd, r))
+                d = d + cross(m.omegaddot_ib_b, r) + cross(wd, cross(w, r)) + cross(w, cross(wd, r))
             rate[:, i] = d @ u[i]
         for i in range(3):
             if "accel_delay" in wanted:

@@ -13,7 +13,7 @@ from ..errors import ConfigError
 from ..rotation import rotvec_to_mat
 
 __all__ = ["EFFECTS", "Effect", "PARAMS", "Param", "NP", "SensorParams", "Motion", "true_attitude", "reported_time",
-           "unit_axes", "param_index", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
+           "unit_axes", "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
 
 #: Channels of the readings, in the order :func:`jacobian` numbers them (diagnose's order).
 CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
@@ -126,6 +126,22 @@ def unit_axes(misalignment: np.ndarray) -> np.ndarray:
     m = np.asarray(misalignment, dtype=float)
     axes = np.eye(3) + m - np.diag(np.diag(m))
     return axes / np.linalg.norm(axes, axis=1, keepdims=True)
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` over the last axis (3), broadcast: ``numpy.cross``'s arithmetic, operation for
+    operation (so the results are the same to the bit), without its axis handling and copies,
+    which made it a third of the joint fit's time."""
+    a1, a2, a0 = a[..., 1], a[..., 2], a[..., 0]
+    b1, b2, b0 = b[..., 1], b[..., 2], b[..., 0]
+    out = np.empty(np.broadcast_shapes(np.shape(a), np.shape(b)))
+    np.multiply(a1, b2, out=out[..., 0])
+    out[..., 0] -= a2 * b1
+    np.multiply(a2, b0, out=out[..., 1])
+    out[..., 1] -= a0 * b2
+    np.multiply(a0, b1, out=out[..., 2])
+    out[..., 2] -= a1 * b0
+    return out
 
 
 def _zeros(shape):
