@@ -268,7 +268,9 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
         "effects": effects.truth(),
         "effects_source": effects.source,
         "sizefx_version": __version__,
-        "model": "see sizefx.sensor_model: gyro (1+s)(u.omega_ib)+b+G f; accel (1+s)a+K2 a^2+b, "
+        # the wording is stored in every record (and examples/tumble_truth.json must regenerate bit for bit);
+        # sizefx.simulate's docstring points on to sizefx.sensor_model
+        "model": "see sizefx.simulate: gyro (1+s)(u.omega_ib)+b+G f; accel (1+s)a+K2 a^2+b, "
                  "a = u_i.(f + omegadot x r_i + omega x (omega x r_i)); gravity gradient neglected",
     }
     description = (f"sizefx {__version__} simulation: {traj.name}, {rate_hz:g} Hz {form}, seed {seed}; "
