@@ -193,7 +193,7 @@ def test_the_jacobian_can_be_asked_for_some_effects_and_one_sensor():
 # --------------------------------------------------------------------------- inverse(forward(x)) = x
 
 
-@settings(max_examples=25, deadline=None, derandomize=True)
+@settings(max_examples=20, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 2**32 - 1), arms_m=st.floats(0.0, 0.12), errors=st.floats(0.0, 1.0),
        delay_s=st.sampled_from([0.0, 2.5e-4, 1e-3]))
 def test_inverse_undoes_forward(seed, arms_m, errors, delay_s):
@@ -204,7 +204,7 @@ def test_inverse_undoes_forward(seed, arms_m, errors, delay_s):
     p = replace(a_model(rng, scale=errors), lever_arm=rng.uniform(-arms_m, arms_m, (3, 3)), accel_delay=delay_s,
                 reference_delay=0.0, level_tilt=np.zeros(2))
     motion = Sines(rng)
-    t = np.arange(int(2.0 * RATE_HZ)) * DT
+    t = np.arange(int(1.0 * RATE_HZ)) * DT
     gyro, accel = sm.sample(p, motion, t)
     tel = sync_accelerometers(Telemetry(time_s=t, form="rates", gyro_rad_s=gyro, accel_mps2=accel), p.accel_delay)
     omega, f = sm.inverse(p, tel.gyro_rad_s, tel.accel_mps2, form="rates", dt=DT, estimator="central")
