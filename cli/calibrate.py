@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-
 from .options import allow_gaps_option, force_option
 
 
@@ -33,12 +32,8 @@ def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow
     errors [mm], the difference from the nominal, the paper's per-rotation fit,
     tilt [arcsec] and delay [us].
     """
-    from sizefx.calibrate import format_report, run
+    from sizefx.calibrate import CalibrateConfig, run
 
-    out = run(list(records), nominal=nominal, with_tilt=tilt, with_delay=delay, triad=triad_point,
-              allow_gaps=allow_gaps, plot=plot, json_path=json_path, force=force)
-    click.echo(format_report(out))
-    if json_path:
-        click.echo(f"lever arms -> {json_path}")
-    if plot:
-        click.echo(f"figure -> {plot}")
+    config = CalibrateConfig(records=tuple(records), nominal=nominal, with_tilt=tilt, with_delay=delay,
+                             triad=triad_point, allow_gaps=allow_gaps, json_path=json_path, plot=plot, force=force)
+    click.echo(run(config).report())

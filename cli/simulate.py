@@ -50,7 +50,7 @@ def common_options(f):
 def _run(scenario, plan, output, rate_hz, form, seed, effects_path, ideal, overrides, geometry, offset_mm,
          reference_rate_hz, latitude_deg, longitude_deg, height_m, force, quiet):
     from sizefx import scenarios
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     sets = parse_overrides(overrides)
     if geometry:
@@ -60,12 +60,10 @@ def _run(scenario, plan, output, rate_hz, form, seed, effects_path, ideal, overr
         sets.setdefault("lever_arm", {})["r_vehicle_m"] = [v / 1000.0 for v in parse_vector(offset_mm, "--offset-mm")]
         sets["lever_arm"].setdefault("enabled", True)
     site = scenarios.SiteSpec(latitude_deg, longitude_deg, height_m)
-    summary = run(scenario, output, plan=plan, site=site, effects_path=effects_path, overrides=sets, ideal=ideal,
-                  rate_hz=rate_hz, form=form, seed=seed, reference_rate_hz=reference_rate_hz, force=force,
-                  progress=Progress(f"simulate {scenario}", quiet))
-    click.echo(f"wrote {summary['path']}: {summary['samples']} samples ({summary['duration_s']:.1f} s at "
-               f"{summary['rate_hz']:g} Hz, {summary['form']}), {summary['file_bytes'] / 2**20:.1f} MiB "
-               f"in {summary['wall_s']:.1f} s")
+    config = SimulateConfig(scenario, output, plan=plan, site=site, effects_path=effects_path, overrides=sets,
+                            ideal=ideal, rate_hz=rate_hz, form=form, seed=seed, reference_rate_hz=reference_rate_hz,
+                            force=force)
+    click.echo(run(config, progress=Progress(f"simulate {scenario}", quiet)).report())
 
 
 @click.group(invoke_without_command=True)

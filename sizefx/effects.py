@@ -1,7 +1,9 @@
-"""The effect model: what a simulated IMU gets wrong, term by term.
+"""The effects file: what a simulated IMU gets wrong, term by term, as a TOML file gives it.
 
-The contract, defaults and units are in ``data-schemas/effects-1.json``; a
-TOML file gives only what differs from the defaults::
+How each effect changes the readings is :mod:`sizefx.sensor_model` (its table, forward map,
+inverse and Jacobian); this module reads and checks the file. The contract, defaults and
+units are in ``data-schemas/effects-1.json``; a TOML file gives only what differs from the
+defaults::
 
     [lever_arm]
     preset = "compact"
@@ -27,6 +29,7 @@ import numpy as np
 from .errors import ConfigError
 from .geometry import preset_arms_m
 from .io.schema import load_schema
+from .sensor_model import SensorParams, unit_axes
 
 __all__ = ["EffectModel", "load_effects", "effects_template", "EFFECTS_SCHEMA", "IDEAL"]
 
@@ -88,6 +91,10 @@ class EffectModel:
             return np.zeros(3)
         return np.array([s["north_rad"], s["east_rad"], 0.0])
 
+    def sensor_params(self) -> SensorParams:
+        """The deterministic effects as the sensor model's parameters (SI; a section that is off gives zeros)."""
+        return SensorParams.from_effects(self)
+
     def value_or_zero(self, name: str, key: str, shape=(3,)):
         if not self.enabled(name):
             return np.zeros(shape)
@@ -108,9 +115,7 @@ class EffectModel:
 
 
 def _axes_from_misalignment(section) -> np.ndarray:
-    m = np.asarray(section["angles_rad"], dtype=float) if section["enabled"] else np.zeros((3, 3))
-    axes = np.eye(3) + m - np.diag(np.diag(m))
-    return axes / np.linalg.norm(axes, axis=1, keepdims=True)
+    return unit_axes(np.asarray(section["angles_rad"], dtype=float) if section["enabled"] else np.zeros((3, 3)))
 
 
 def _jsonable(v):

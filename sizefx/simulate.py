@@ -1,30 +1,37 @@
-"""Simulated IMU telemetry with known truth: ``sizefx simulate``.
+"""Simulated IMU telemetry with known truth: the ``simulate`` stage.
 
 The ideal outputs follow exactly from the analytic motion (:mod:`sizefx.motion`):
 
 * gyros read ``omega_ib_b = omega_nb_b + mat_bn (omega_ie_n + omega_en_n)``;
 * the reference point feels ``f_b = mat_bn (vdot_n + (2 omega_ie_n + omega_en_n) x v_n - g_n)``
   (the NED velocity equation, Groves eq. 5.54, solved for f);
-* accelerometer i at ``r_i`` from the reference point reads
-  ``u_i . (f_b + omegadot_ib_b x r_i + omega_ib_b x (omega_ib_b x r_i))``
-  (rigid-body kinematics; the gravity gradient over ``r_i``, about 3e-6 s^-2
-  times a few cm, i.e. < 0.01 ug, is neglected);
+* ``mat_nb`` is the true attitude: the trajectory's, tilted by ``[level_tilt]``
+  (:func:`sizefx.sensor_model.true_attitude`); ``/reference`` reports the untilted one, late
+  by ``[reference_delay]`` (:func:`sizefx.sensor_model.reported_time`);
+* what the sensors make of this true motion is the sensor model's forward map
+  (:func:`sizefx.sensor_model.sample`: lever arms, accelerometer delay, biases, scale factors,
+  misalignments, quadratic term, g-sensitivity), per instant, before integration;
 * increments are the integrals of these over each sample interval by
   three-point Gauss-Legendre quadrature (error below 1e-12 of the signal for
   motion content under 100 Hz at 1600 Hz sampling).
 
-The sensor model, applied per instant (before integration) in this order:
-gyro ``(1 + s_g) (u_g . omega) + b_g + G f_b``; accelerometer
-``(1 + s_a) a + K2 a^2 + b_a`` with ``a = u_i . f_i``; then per sample white
-noise, bias random walks and quantisation. Noise streams are drawn from one
-seed, each stream in sample order, so the output does not depend on the chunk
-size and switching one effect on does not change another's noise.
+Then per sample white noise, bias random walks and quantisation. Noise streams are drawn
+from one seed, each stream in sample order, so the output does not depend on the chunk size
+and switching one effect on does not change another's noise.
+
+The stage: :class:`SimulateConfig` -> :func:`run` -> :class:`SimulateResult`, as ``sizefx
+simulate`` calls it::
+
+    from sizefx.simulate import SimulateConfig, run
+    res = run(SimulateConfig("turntable", "tt.h5", plan=scenarios.TurntablePlan(axes="Z"), seed=3))
+    print(res.report())
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,11 +39,14 @@ import numpy as np
 from . import __version__, earth, scenarios
 from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
-from .motion import Trajectory
-from .rotation import mat_to_quat, rotvec_to_mat
 from .io.telemetry import Reference, Site, Telemetry, TelemetryWriter
+from .motion import Trajectory
+from .rotation import mat_to_quat
+from .sensor_model import Motion, SensorParams, accel_inputs, reported_time, sample, true_attitude
+from .stage import preflight
 
-__all__ = ["ImuKinematics", "kinematics", "ImuSynthesizer", "simulate_to_file", "GAUSS_NODES", "GAUSS_WEIGHTS"]
+__all__ = ["ImuKinematics", "kinematics", "true_motion", "ImuSynthesizer", "simulate_to_file", "simulate_in_memory",
+           "SimulateConfig", "SimulateResult", "run", "SCENARIOS", "GAUSS_NODES", "GAUSS_WEIGHTS", "CHUNK_SAMPLES"]
 
 #: Three-point Gauss-Legendre rule on [-1, 1].
 GAUSS_NODES = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
@@ -57,10 +67,17 @@ class ImuKinematics:
     accel_input: np.ndarray  #: [n,3] m/s^2, u_i . f_i: what ideal accelerometer i at r_i reads
 
 
-def kinematics(traj: Trajectory, t, effects: EffectModel) -> ImuKinematics:
-    """Ideal gyro rates and accelerometer inputs at times ``t`` (true attitude includes the level tilt)."""
+def _params(effects) -> SensorParams:
+    return effects if isinstance(effects, SensorParams) else effects.sensor_params()
+
+
+def true_motion(traj: Trajectory, t, params: SensorParams) -> Motion:
+    """The true motion of the reference point at times ``t`` [n]: the trajectory with the level tilt.
+
+    Carries ``mat_nb`` and ``omega_in_b`` as well, for :func:`sizefx.sensor_model.jacobian`'s tilt columns.
+    """
     st = traj.evaluate(t)
-    mat_nb = rotvec_to_mat(effects.tilt_rad()) @ st.mat_nb
+    mat_nb = true_attitude(params, st.mat_nb)
     mat_bn = np.swapaxes(mat_nb, -1, -2)
     w_ie = earth.omega_ie_n(st.lat_rad)
     w_en = earth.omega_en_n(st.lat_rad, st.height_m, st.v_n)
@@ -70,14 +87,14 @@ def kinematics(traj: Trajectory, t, effects: EffectModel) -> ImuKinematics:
     omegadot = st.omegadot_nb_b - np.cross(st.omega_nb_b, w_in_b) + np.einsum("nij,nj->ni", mat_bn, wdot_in_n)
     f_n = st.vdot_n + np.cross(2.0 * w_ie + w_en, st.v_n) - earth.gravity_n(st.lat_rad, st.height_m)
     f_b = np.einsum("nij,nj->ni", mat_bn, f_n)
-    arms = effects.arms_total_m()
-    axes = effects.accel_axes()
-    accel_input = np.empty_like(f_b)
-    for i in range(3):
-        r = arms[i]
-        f_i = f_b + np.cross(omegadot, r) + np.cross(omega, np.cross(omega, r))
-        accel_input[:, i] = f_i @ axes[i]
-    return ImuKinematics(omega, omegadot, f_b, accel_input)
+    return Motion(omega, omegadot, f_b, mat_nb=mat_nb, omega_in_b=w_in_b)
+
+
+def kinematics(traj: Trajectory, t, effects: EffectModel | SensorParams) -> ImuKinematics:
+    """Ideal gyro rates and accelerometer inputs at times ``t`` (true attitude includes the level tilt)."""
+    p = _params(effects)
+    m = true_motion(traj, t, p)
+    return ImuKinematics(m.omega_ib_b, m.omegadot_ib_b, m.f_b, accel_inputs(p, m))
 
 
 class ImuSynthesizer:
@@ -111,14 +128,7 @@ class ImuSynthesizer:
         else:
             self.n_samples = int(np.floor(traj.duration_s * self.rate_hz + 1e-9))
             self.first_index = 1
-        fx = effects
-        self.tau_accel = fx.get("accel_delay", "tau_s") if fx.enabled("accel_delay") else 0.0
-        self.gyro_matrix = np.diag(1.0 + fx.value_or_zero("gyro_scale_factor", "scale_factor")) @ fx.gyro_axes()
-        self.gyro_bias = fx.value_or_zero("gyro_bias", "bias_rad_s")
-        self.gyro_g = fx.value_or_zero("gyro_g_sensitivity", "rad_s_per_mps2", (3, 3))
-        self.accel_scale = 1.0 + fx.value_or_zero("accel_scale_factor", "scale_factor")
-        self.accel_k2 = fx.value_or_zero("accel_quadratic", "k2_per_mps2")
-        self.accel_bias = fx.value_or_zero("accel_bias", "bias_mps2")
+        self.params = effects.sensor_params()  #: the deterministic effects (sizefx.sensor_model)
         streams = np.random.SeedSequence(self.seed).spawn(4)
         self._rng = {name: np.random.default_rng(s)
                      for name, s in zip(("gyro_white", "accel_white", "gyro_rw", "accel_rw"), streams)}
@@ -130,12 +140,8 @@ class ImuSynthesizer:
     def sample_times(self, k0: int, k1: int) -> np.ndarray:
         return (np.arange(k0, k1) + self.first_index) * self.dt
 
-    def _gyro_out(self, kin: ImuKinematics):
-        return kin.omega_ib_b @ self.gyro_matrix.T + self.gyro_bias + kin.f_b @ self.gyro_g.T
-
-    def _accel_out(self, kin: ImuKinematics):
-        a = kin.accel_input
-        return self.accel_scale * a + self.accel_k2 * a * a + self.accel_bias
+    def _motion_at(self, t):
+        return true_motion(self.traj, t, self.params)
 
     def deterministic(self, t: np.ndarray):
         """Error-model outputs (no noise) at times t: rates, or increments over (t - dt, t]."""
@@ -143,10 +149,7 @@ class ImuSynthesizer:
             nodes = t
         else:
             nodes = (t[:, None] - 0.5 * self.dt + 0.5 * self.dt * GAUSS_NODES).ravel()
-        kin_g = kinematics(self.traj, nodes, self.fx)
-        kin_a = kin_g if self.tau_accel == 0.0 else kinematics(self.traj, nodes - self.tau_accel, self.fx)
-        gyro = self._gyro_out(kin_g)
-        accel = self._accel_out(kin_a)
+        gyro, accel = sample(self.params, self._motion_at, nodes)
         if self.form == "increments":
             w = 0.5 * self.dt * GAUSS_WEIGHTS
             gyro = np.einsum("nkj,k->nj", gyro.reshape(-1, 3, 3), w)
@@ -200,27 +203,56 @@ class ImuSynthesizer:
 
     def reference_rows(self, t_ref: np.ndarray):
         """Reported motion at reference time stamps (reference delay applied; no tilt: it is what the table says)."""
-        tau = self.fx.get("reference_delay", "tau_s") if self.fx.enabled("reference_delay") else 0.0
-        st = self.traj.evaluate(t_ref - tau)
+        st = self.traj.evaluate(reported_time(self.params, t_ref))
         return mat_to_quat(st.mat_nb), st.lat_rad, st.lon_rad, st.height_m, st.v_n
+
+
+def _reference_rate(rate_hz: float, reference_rate_hz: float | None) -> float:
+    """The reference rate, checked: it must divide the IMU rate (default: the IMU rate)."""
+    ref_rate = rate_hz if reference_rate_hz is None else float(reference_rate_hz)
+    stride = rate_hz / ref_rate
+    if abs(stride - round(stride)) > 1e-9 or stride < 1:
+        raise ConfigError(f"--reference-rate-hz {ref_rate:g} must divide the IMU rate {rate_hz:g} Hz "
+                          "(e.g. 100, 200, 400, 800 for 1600 Hz)")
+    return ref_rate
+
+
+@dataclass
+class SimulateResult:
+    """What :func:`run` wrote."""
+
+    path: str
+    scenario: str
+    samples: int
+    rate_hz: float
+    form: str
+    duration_s: float
+    reference_samples: int
+    file_bytes: int
+    wall_s: float
+
+    def report(self) -> str:
+        """The line ``sizefx simulate`` prints."""
+        return (f"wrote {self.path}: {self.samples} samples ({self.duration_s:.1f} s at {self.rate_hz:g} Hz, "
+                f"{self.form}), {self.file_bytes / 2**20:.1f} MiB in {self.wall_s:.1f} s")
+
+    def to_json(self) -> dict:
+        return asdict(self)
 
 
 def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel, out, *,
                      rate_hz: float = 1600.0, form: str = "rates", seed: int = 0,
                      reference_rate_hz: float | None = None, force: bool = False,
-                     chunk_samples: int = CHUNK_SAMPLES, inputs=(), progress=None) -> dict:
-    """Simulate ``traj`` and stream it into a ``sizefx/telemetry/1`` file; return a summary.
+                     chunk_samples: int = CHUNK_SAMPLES, inputs=(), progress=None) -> SimulateResult:
+    """Simulate ``traj`` and stream it into a ``sizefx/telemetry/1`` file.
 
     ``reference_rate_hz`` defaults to the IMU rate; it must divide it.
     ``progress(done, total)`` is called after each chunk when given.
     """
     started = time.perf_counter()
     syn = ImuSynthesizer(traj, effects, rate_hz=rate_hz, form=form, seed=seed)
-    ref_rate = rate_hz if reference_rate_hz is None else float(reference_rate_hz)
+    ref_rate = _reference_rate(rate_hz, reference_rate_hz)
     stride = rate_hz / ref_rate
-    if abs(stride - round(stride)) > 1e-9 or stride < 1:
-        raise ConfigError(f"--reference-rate-hz {ref_rate:g} must divide the IMU rate {rate_hz:g} Hz "
-                          "(e.g. 100, 200, 400, 800 for 1600 Hz)")
     n_ref = int(np.floor(traj.duration_s * ref_rate + 1e-9)) + 1
     st0 = traj.evaluate(np.array([0.0]))
     site = Site(float(st0.lat_rad[0]), float(st0.lon_rad[0]), float(st0.height_m[0]))
@@ -236,6 +268,8 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
         "effects": effects.truth(),
         "effects_source": effects.source,
         "sizefx_version": __version__,
+        # the wording is stored in every record (and examples/tumble_truth.json must regenerate bit for bit);
+        # sizefx.simulate's docstring points on to sizefx.sensor_model
         "model": "see sizefx.simulate: gyro (1+s)(u.omega_ib)+b+G f; accel (1+s)a+K2 a^2+b, "
                  "a = u_i.(f + omegadot x r_i + omega x (omega x r_i)); gravity gradient neglected",
     }
@@ -256,17 +290,9 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
         for j0 in range(0, n_ref, ref_per_chunk):
             t_ref = np.arange(j0, min(n_ref, j0 + ref_per_chunk)) / ref_rate
             w.write_reference(t_ref, *syn.reference_rows(t_ref))
-    return {
-        "path": str(out),
-        "scenario": traj.name,
-        "samples": syn.n_samples,
-        "rate_hz": rate_hz,
-        "form": form,
-        "duration_s": traj.duration_s,
-        "reference_samples": n_ref,
-        "file_bytes": Path(out).stat().st_size,
-        "wall_s": time.perf_counter() - started,
-    }
+    return SimulateResult(path=str(out), scenario=traj.name, samples=syn.n_samples, rate_hz=rate_hz, form=form,
+                          duration_s=traj.duration_s, reference_samples=n_ref,
+                          file_bytes=Path(out).stat().st_size, wall_s=time.perf_counter() - started)
 
 
 #: Reference rate of the navigation-length records (sway, flight) when none is
@@ -275,30 +301,78 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
 #: which calibration and diagnosis use sample by sample.
 NAVIGATION_REFERENCE_RATE_HZ = 100.0
 
+#: scenario -> (builder, its plan's class): the motions ``sizefx simulate`` knows.
+SCENARIOS = {"turntable": (scenarios.turntable, scenarios.TurntablePlan),
+             "sway": (scenarios.sway, scenarios.SwayPlan),
+             "flight": (scenarios.flight, scenarios.FlightPlan),
+             "tumble": (scenarios.tumble_scenario, scenarios.TumblePlan)}
 
-def run(scenario: str, out, *, plan=None, site=None, effects_path=None, overrides: dict | None = None,
-        ideal: bool = False, rate_hz: float = 1600.0, form: str = "rates", seed: int = 0,
-        reference_rate_hz: float | None = None, force: bool = False, progress=None) -> dict:
-    """Entry point of ``sizefx simulate``: build the scenario and the effect model, write ``out``.
 
-    ``ideal`` switches every effect off before the effects file and
-    ``overrides`` are applied, so ``ideal`` plus ``overrides`` gives a record
-    with exactly the named effects.
+@dataclass(frozen=True)
+class SimulateConfig:
+    """``sizefx simulate SCENARIO -o OUTPUT``: the motion, the effects, the sampling, the output.
+
+    ``plan``: the scenario's plan (:class:`sizefx.scenarios.TurntablePlan`, ``SwayPlan``,
+    ``FlightPlan``, ``TumblePlan``; None: its defaults). ``effects_path``: an effects TOML
+    (``--effects``); ``overrides``: ``--set`` values in the TOML's layout
+    (``{"accel_delay": {"enabled": True}}``); ``ideal`` switches every effect off before both,
+    so ``ideal`` plus ``overrides`` gives a record with exactly the named effects.
+    ``reference_rate_hz`` None: the IMU rate for turntable and tumble,
+    :data:`NAVIGATION_REFERENCE_RATE_HZ` for sway and flight.
     """
-    builders = {"turntable": (scenarios.turntable, scenarios.TurntablePlan),
-                "sway": (scenarios.sway, scenarios.SwayPlan),
-                "flight": (scenarios.flight, scenarios.FlightPlan),
-                "tumble": (scenarios.tumble_scenario, scenarios.TumblePlan)}
-    if scenario not in builders:
-        raise ValueError(f"unknown scenario {scenario!r}")
-    build, plan_cls = builders[scenario]
-    traj, info = build(plan or plan_cls(), site or scenarios.PAPER_AIRFIELD)
-    fx = load_effects(effects_path, overrides=overrides, base=IDEAL if ideal else None)
-    if reference_rate_hz is None and scenario in ("sway", "flight"):
+
+    scenario: str
+    output: str
+    plan: object | None = None
+    site: scenarios.SiteSpec | None = None
+    effects_path: str | None = None
+    overrides: Mapping | None = None
+    ideal: bool = False
+    rate_hz: float = 1600.0
+    form: str = "rates"
+    seed: int = 0
+    reference_rate_hz: float | None = None
+    force: bool = False
+    chunk_samples: int = CHUNK_SAMPLES  #: IMU rows per chunk (memory; the output does not depend on it)
+
+    def inputs(self) -> dict:
+        return {"--effects": self.effects_path}
+
+    def outputs(self) -> dict:
+        return {"-o": self.output}
+
+
+def run(config: SimulateConfig, *legacy_args, progress=None, **legacy_kwargs) -> SimulateResult:
+    """The ``simulate`` stage: build the scenario and the effect model, write ``config.output``.
+
+    Options first (scenario, form, rates), then the files (:func:`sizefx.stage.preflight`),
+    then the work. ``progress(done, total)`` is called after each chunk.
+
+    Transitional (issue 14): the former call ``run(scenario, out, plan=..., seed=..., ...)``
+    still works and returns the former summary dict (:meth:`SimulateResult.to_json`); its call
+    sites move to ``run(SimulateConfig(scenario, out, plan=..., seed=...))``.
+    """
+    if not isinstance(config, SimulateConfig):
+        return run(SimulateConfig(config, *legacy_args, **legacy_kwargs), progress=progress).to_json()
+    if legacy_args or legacy_kwargs:
+        raise TypeError("run(config, *, progress=None): the options belong in the SimulateConfig")
+    if config.scenario not in SCENARIOS:
+        raise ConfigError(f"scenario '{config.scenario}': use one of {', '.join(SCENARIOS)}")
+    if config.form not in ("rates", "increments"):
+        raise ConfigError(f"--form {config.form}: use rates or increments")
+    reference_rate_hz = config.reference_rate_hz
+    if reference_rate_hz is None and config.scenario in ("sway", "flight"):
         reference_rate_hz = NAVIGATION_REFERENCE_RATE_HZ
-    inputs = [effects_path] if effects_path else []
-    return simulate_to_file(traj, info, fx, out, rate_hz=rate_hz, form=form, seed=seed,
-                            reference_rate_hz=reference_rate_hz, force=force, inputs=inputs, progress=progress)
+    _reference_rate(config.rate_hz, reference_rate_hz)
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
+    build, plan_cls = SCENARIOS[config.scenario]
+    traj, info = build(config.plan or plan_cls(), config.site or scenarios.PAPER_AIRFIELD)
+    fx = load_effects(config.effects_path, overrides=dict(config.overrides or {}),
+                      base=IDEAL if config.ideal else None)
+    inputs = [config.effects_path] if config.effects_path else []
+    return simulate_to_file(traj, info, fx, config.output, rate_hz=config.rate_hz, form=config.form,
+                            seed=config.seed, reference_rate_hz=reference_rate_hz, force=config.force,
+                            chunk_samples=config.chunk_samples, inputs=inputs, progress=progress)
 
 
 def simulate_in_memory(traj: Trajectory, effects: EffectModel | None = None, *, rate_hz: float = 1600.0,

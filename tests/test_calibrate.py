@@ -19,11 +19,12 @@ from click.testing import CliRunner
 
 import sizefx.calibrate as calibrate
 from sizefx import scenarios
-from sizefx.calibrate import CalibrationError, excitation, joint_fit, prepare, preflight
+from sizefx.calibrate import CalibrateConfig, CalibrationError, excitation, joint_fit, prepare, preflight
 from sizefx.effects import load_effects
-from sizefx.errors import OutputError
+from sizefx.errors import ConfigError, OutputError
 from sizefx.rotation import quat_interp, quat_to_mat
-from sizefx.simulate import run as simulate, simulate_in_memory
+from sizefx.simulate import SimulateConfig, simulate_in_memory
+from sizefx.simulate import run as simulate
 from sizefx_cli.main import main
 from support import write_raw
 
@@ -35,15 +36,15 @@ SHORT_PLAN = scenarios.TurntablePlan(static_s=20.0, seconds_per_axis=48.0, cycle
 @pytest.fixture(scope="module")
 def turntable_h5(tmp_path_factory):
     path = tmp_path_factory.mktemp("cal") / "turntable.h5"
-    simulate("turntable", path, plan=SHORT_PLAN, rate_hz=400.0, seed=3)
+    simulate(SimulateConfig("turntable", path, plan=SHORT_PLAN, rate_hz=400.0, seed=3))
     return path
 
 
 @pytest.fixture(scope="module")
 def one_axis_h5(tmp_path_factory):
     path = tmp_path_factory.mktemp("cal") / "one_axis.h5"
-    simulate("turntable", path, plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1),
-             rate_hz=400.0)
+    simulate(SimulateConfig("turntable", path, rate_hz=400.0,
+                            plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1)))
     return path
 
 
@@ -57,6 +58,10 @@ def no_fit(monkeypatch):
     monkeypatch.setattr(calibrate, "joint_fit", forbidden)
 
 
+def calibrate_run(*records, **options):
+    return calibrate.run(CalibrateConfig(records=records, **options))
+
+
 def test_outputs_are_checked_before_any_work(tmp_path, turntable_h5, no_fit):
     existing = tmp_path / "levers.json"
     existing.write_text("{}")
@@ -68,16 +73,20 @@ def test_outputs_are_checked_before_any_work(tmp_path, turntable_h5, no_fit):
     ]
     for kwargs, message in cases:
         with pytest.raises(OutputError, match=message):
-            calibrate.run([turntable_h5], **kwargs)
+            calibrate_run(turntable_h5, **kwargs)
     with pytest.raises(CalibrationError, match="given twice"):
-        calibrate.run([turntable_h5, turntable_h5])
+        calibrate_run(turntable_h5, turntable_h5)
+    with pytest.raises(ConfigError, match="missing.h5: RECORDS .2.: no such file"):
+        calibrate_run(turntable_h5, tmp_path / "missing.h5")
+    with pytest.raises(OutputError, match="would overwrite the input"):  # a nominal levers file is an input too
+        calibrate_run(turntable_h5, nominal=str(existing), json_path=existing, force=True)
     assert existing.read_text() == "{}"
 
 
 def test_missing_reference_and_site_are_refused_before_reading(tmp_path, no_fit):
     no_ref = write_raw(tmp_path / "no_ref.h5", reference=False)
     with pytest.raises(CalibrationError, match="needs /reference attitude"):
-        calibrate.run([no_ref])
+        calibrate_run(no_ref)
 
     def drop_site(h5):
         for key in ("latitude_deg", "longitude_deg", "height_m"):
@@ -85,12 +94,12 @@ def test_missing_reference_and_site_are_refused_before_reading(tmp_path, no_fit)
 
     no_site = write_raw(tmp_path / "no_site.h5", mutate=drop_site)
     with pytest.raises(CalibrationError, match="no site"):
-        calibrate.run([no_site])
+        calibrate_run(no_site)
 
 
 def test_unobservable_arms_are_named_before_fitting(one_axis_h5, no_fit):
     with pytest.raises(CalibrationError) as info:
-        calibrate.run([one_axis_h5])
+        calibrate_run(one_axis_h5)
     msg = str(info.value)
     # rotation about body z only: the z components of each arm, and all of r_z, are not seen
     assert "r_x[z]" in msg and "r_y[z]" in msg and "r_z[z]" in msg and "r_x[x]" not in msg
@@ -105,7 +114,7 @@ def test_the_command_refuses_unobservable_arms_in_one_line(one_axis_h5):
 def test_a_static_record_never_rotates(tmp_path, no_fit):
     static = write_raw(tmp_path / "static.h5", n=2000)
     with pytest.raises(CalibrationError, match="never rotates"):
-        calibrate.run([static])
+        calibrate_run(static)
 
 
 def test_preflight_bound_is_optimistic_and_close_on_the_papers_plan(turntable_h5):
@@ -125,9 +134,15 @@ def test_preflight_bound_is_optimistic_and_close_on_the_papers_plan(turntable_h5
 
 def test_a_calibration_writes_its_levers_file(tmp_path, turntable_h5):
     out = tmp_path / "levers.json"
-    calibrate.run([turntable_h5], json_path=out)
+    res = calibrate_run(turntable_h5, json_path=out)
     doc = json.loads(out.read_text())
     assert doc["schema"] == "sizefx/levers/1" and len(doc["r_x"]) == 3
+    assert res.to_json()["levers"] == doc and res.report().endswith(f"lever arms -> {out}")
+    np.testing.assert_array_equal(res.levers.arms_total, res.fit.arms)
+    # transitional (issue 14): the former call returns the former dict, the same figures
+    old = calibrate.run([turntable_h5])
+    np.testing.assert_array_equal(old["result"].arms, res.fit.arms)
+    assert calibrate.format_report(old) == calibrate.format_report(res) == res.report().rsplit("\n", 1)[0]
 
 
 def test_slow_reference_gives_the_same_arms():
@@ -169,9 +184,9 @@ def test_a_record_with_declared_gaps_is_fitted_segment_by_segment(tmp_path):
     assert len(cut.gaps) == 2
     gappy = tmp_path / "gappy.h5"
     write_telemetry(gappy, cut)
-    ref = calibrate.run([whole])["result"]
-    out = calibrate.run([gappy])  # declared: no --allow-gaps needed
-    res = out["result"]
-    assert [r.name.split()[-1] for r in out["records"]] == ["1/3", "2/3", "3/3"]
+    ref = calibrate_run(whole).fit
+    out = calibrate_run(gappy)  # declared: no --allow-gaps needed
+    res = out.fit
+    assert [r.name.split()[-1] for r in out.records] == ["1/3", "2/3", "3/3"]
     assert np.abs((res.arms - ref.arms) / ref.sigma_arms).max() < 1.0  # the same data less 57 samples
-    assert "3 segments used" in calibrate.format_report(out)
+    assert "3 segments used" in out.report()

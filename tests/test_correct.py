@@ -210,11 +210,11 @@ def test_navigate_refuses_levers_and_model_together(records):
 @pytest.fixture(scope="module")
 def sim_with_model(tmp_path_factory, short_turntable_plan):
     """A 40 s turntable record (rates) with every effect of MODEL_TOML, noise off, and the model file."""
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     folder = tmp_path_factory.mktemp("correct")
     sim, model_path = folder / "tt.h5", folder / "model.toml"
-    run("turntable", sim, plan=short_turntable_plan, ideal=True, overrides=MODEL)
+    run(SimulateConfig("turntable", sim, plan=short_turntable_plan, ideal=True, overrides=MODEL))
     model_path.write_text(MODEL_TOML)
     return sim, model_path
 

@@ -13,7 +13,8 @@ from sizefx.constants import ARCSEC, DEG, MICRO_G, OMEGA_EARTH_RAD_S
 from sizefx.effects import IDEAL, load_effects
 from sizefx.motion import ProfileBuilder, RotationChain, StaticSite, Trajectory
 from sizefx.rotation import quat_to_mat
-from sizefx.simulate import GAUSS_NODES, ImuSynthesizer, kinematics, run, simulate_to_file
+from sizefx.errors import OutputError
+from sizefx.simulate import GAUSS_NODES, ImuSynthesizer, SimulateConfig, kinematics, run, simulate_to_file
 from sizefx.io.telemetry import read_telemetry
 
 SITE0 = scenarios.SiteSpec(57.9825, 55.7089, 0.0)  # height 0: pure Somigliana gravity
@@ -35,7 +36,7 @@ def ideal(**sections):
 
 def test_static_record_reads_normal_gravity_and_earth_rate(tmp_path, short_turntable_plan):
     path = tmp_path / "static.h5"
-    run("turntable", path, plan=short_turntable_plan, site=SITE0, ideal=True)
+    run(SimulateConfig("turntable", path, plan=short_turntable_plan, site=SITE0, ideal=True))
     tel = read_telemetry(path)
     static = tel.time_s < short_turntable_plan.static_s
     lat = np.radians(SITE0.latitude_deg)
@@ -121,7 +122,7 @@ def test_increments_are_integrals_of_the_rates(short_turntable_plan):
 
 def test_gyros_agree_with_the_derivative_of_the_reference_attitude(tmp_path, short_turntable_plan):
     path = tmp_path / "tt.h5"
-    run("turntable", path, plan=short_turntable_plan, site=SITE0, ideal=True)
+    run(SimulateConfig("turntable", path, plan=short_turntable_plan, site=SITE0, ideal=True))
     tel = read_telemetry(path)
     mat = quat_to_mat(tel.reference.quat_nb)
     h = tel.time_s[1] - tel.time_s[0]
@@ -293,7 +294,7 @@ def test_output_is_deterministic_and_independent_of_chunk_size(tmp_path, short_t
     a = simulate_to_file(traj, info, fx, tmp_path / "a.h5", seed=5, chunk_samples=1 << 16)
     b = simulate_to_file(traj, info, fx, tmp_path / "b.h5", seed=5, chunk_samples=777)
     c = simulate_to_file(traj, info, fx, tmp_path / "c.h5", seed=6)
-    ta, tb, tc = (read_telemetry(x["path"]) for x in (a, b, c))
+    ta, tb, tc = (read_telemetry(x.path) for x in (a, b, c))
     np.testing.assert_array_equal(ta.accel_mps2, tb.accel_mps2)
     np.testing.assert_array_equal(ta.gyro_rad_s, tb.gyro_rad_s)
     np.testing.assert_array_equal(ta.reference.quat_nb, tb.reference.quat_nb)
@@ -320,7 +321,8 @@ def test_integrating_ideal_increments_reproduces_the_reference_attitude(tmp_path
 
     plan = scenarios.TurntablePlan(axes="YX", static_s=2.0, seconds_per_axis=24.0, cycles=1, settle_s=2.0)
     path = tmp_path / "inc.h5"
-    run("turntable", path, plan=plan, site=SITE0, ideal=True, form="increments", reference_rate_hz=1600.0)
+    run(SimulateConfig("turntable", path, plan=plan, site=SITE0, ideal=True, form="increments",
+                       reference_rate_hz=1600.0))
     tel = read_telemetry(path)
     lat = tel.site.lat_rad
     a = tel.dtheta_rad
@@ -340,3 +342,29 @@ def test_integrating_ideal_increments_reproduces_the_reference_attitude(tmp_path
             worst = max(worst, 2.0 * np.linalg.norm(err[1:]))
     # 1e-9 rad = 0.2 milliarcsec: rounding over 40 000 updates plus the algorithm residual
     assert worst < 1e-9, worst
+
+
+# --------------------------------------------------------------------------- the stage
+
+
+def test_the_stage_refuses_before_any_work_and_reports_what_it_wrote(tmp_path, short_turntable_plan):
+    effects = tmp_path / "fx.toml"
+    effects.write_text("[accel_bias]\nenabled = true\n")
+    with pytest.raises(OutputError, match="would overwrite the input"):
+        run(SimulateConfig("turntable", effects, effects_path=effects, force=True))
+    assert effects.read_text() == "[accel_bias]\nenabled = true\n"
+    res = run(SimulateConfig("turntable", tmp_path / "tt.h5", plan=short_turntable_plan, effects_path=effects,
+                             rate_hz=400.0, seed=2))
+    assert res.samples == 13601 and res.reference_samples == 13601 and res.form == "rates"
+    assert res.report().startswith(f"wrote {tmp_path / 'tt.h5'}: 13601 samples (34.0 s at 400 Hz, rates), ")
+    assert res.to_json()["file_bytes"] == (tmp_path / "tt.h5").stat().st_size
+    tel = read_telemetry(tmp_path / "tt.h5")
+    assert tel.simulation["effects"]["accel_bias"]["enabled"] and tel.simulation["seed"] == 2
+
+
+def test_the_former_call_still_works_until_its_callers_move(tmp_path, short_turntable_plan):
+    """Transitional (issue 14): run(scenario, out, **options) returns the former summary dict."""
+    summary = run("turntable", tmp_path / "a.h5", plan=short_turntable_plan, ideal=True, rate_hz=200.0)
+    res = run(SimulateConfig("turntable", tmp_path / "b.h5", plan=short_turntable_plan, ideal=True, rate_hz=200.0))
+    assert summary["samples"] == res.samples == 6801 and summary["path"] == str(tmp_path / "a.h5")
+    np.testing.assert_array_equal(read_telemetry(tmp_path / "a.h5").accel_mps2, read_telemetry(res.path).accel_mps2)

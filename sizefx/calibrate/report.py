@@ -1,0 +1,112 @@
+"""What ``sizefx calibrate`` shows: the report lines and the paper's Fig. 6."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..constants import ARCSEC
+from ..io.files import atomic_output
+from ..levers import Levers
+from .per_rotation import detect_rotations
+from .records import MIN_SAMPLES, CalibrationError, Record
+
+__all__ = ["report_lines", "compensation_figure"]
+
+
+def report_lines(res, nom: Levers, lev: Levers, records: list[Record], skipped: list[str],
+                 per_rotation: dict) -> list[str]:
+    """The lines ``sizefx calibrate`` prints: the joint fit ``res`` (:class:`~.joint.CalibrationResult`)
+    against the nominal arms ``nom``, the split ``lev`` into offset and d_i, the per-rotation fits."""
+    mm = 1e3
+    lines = [f"joint weighted least squares over {res.samples} samples "
+             f"(condition number {res.condition:.3g}; residual RMS x, y, z = "
+             + ", ".join(f"{v / 9.80665e-6:.2f}" for v in res.residual_rms) + " ug)",
+             "  arm   r [mm] (from the rotation centre)          sigma [mm]              estimate - nominal [mm]"]
+    for i, a in enumerate("xyz"):
+        lines.append(f"  r_{a}  " + " ".join(f"{v * mm:8.4f}" for v in res.arms[i]) + "   "
+                     + " ".join(f"{v * mm:7.4f}" for v in res.sigma_arms[i]) + "   "
+                     + " ".join(f"{v * mm:7.4f}" for v in (res.arms[i] - nom.arms_total[i])))
+    lines.append(f"  sigma: mean {res.sigma_arms.mean() * mm:.4f} mm, max {res.sigma_arms.max() * mm:.4f} mm")
+    segmented = [rec.name for rec in records if " segment " in rec.name]
+    if segmented or skipped:
+        lines.append(f"  records cut at their IMU gaps, each continuous segment fitted on its own: {len(segmented)} "
+                     "segments used" + (f"; left out, shorter than {MIN_SAMPLES} samples: {', '.join(skipped)}"
+                                        if skipped else ""))
+    lines.append(f"  triad point ({lev.extra['triad_point']}) from the rotation centre [mm]: "
+                 + " ".join(f"{v * mm:.4f}" for v in lev.offset))
+    for i, a in enumerate("xyz"):
+        lines.append(f"  d_{a}  " + " ".join(f"{v * mm:8.4f}" for v in lev.arms_triad[i]))
+    if res.tilt_rad is not None:
+        lines.append(f"  table tilt: north {res.tilt_rad[0] / ARCSEC:.2f} +- {res.sigma_tilt_rad[0] / ARCSEC:.2f} arcsec, "
+                     f"east {res.tilt_rad[1] / ARCSEC:.2f} +- {res.sigma_tilt_rad[1] / ARCSEC:.2f} arcsec")
+    if res.delay_s is not None:
+        lines.append(f"  accelerometer delay: {res.delay_s * 1e6:.2f} +- {res.sigma_delay_s * 1e6:.2f} us")
+    for path, rows in per_rotation.items():
+        if not rows:  # no block of rotation about one vertical axis (a tumble, a flight): nothing to show
+            continue
+        lines.append(f"the paper's per-rotation fit ({Path(path).name}; ignores the tilt) [mm]:")
+        for row in rows:
+            i, j = "xyz".index(row["channel"]), "xyz".index(row["other_component"])
+            d_own = (row["r_own"] - nom.arms_total[i][i]) * mm
+            d_other = (row["r_other"] - nom.arms_total[i][j]) * mm
+            lines.append(f"  rotation about {row['axis']}, channel {row['channel']}: "
+                         f"r_{row['channel']}[{row['channel']}] = {row['r_own'] * mm:8.4f} +- {row['sigma_r_own'] * mm:.4f}, "
+                         f"r_{row['channel']}[{row['other_component']}] = {row['r_other'] * mm:8.4f} +- "
+                         f"{row['sigma_r_other'] * mm:.4f}, bias (tau) {row['bias'] / 9.80665e-6:8.1f} ug; "
+                         f"minus nominal {d_own:+.4f}, {d_other:+.4f}")
+    return lines
+
+
+def compensation_figure(rec: Record, levers: Levers, png, *, mode: str = "center", title: str = ""):
+    """The paper's Fig. 6: horizontal accelerometers before and after compensation, per rotation block.
+
+    Offsets of +-100 ug separate the two horizontal channels, as in the paper. Returns
+    the peak-to-peak [ug] of each horizontal channel in each block, before and after.
+    """
+    from ..kernels.sizeeffect import compensate_rates
+
+    try:
+        import matplotlib
+    except ImportError:
+        raise CalibrationError("plots need matplotlib: pip install 'sizefx[plots]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    after = np.empty_like(rec.accel)
+    compensate_rates(np.ascontiguousarray(rec.accel), np.ascontiguousarray(rec.omega),
+                     np.ascontiguousarray(rec.omegadot), np.ascontiguousarray(levers.arms_for(mode)),
+                     np.ascontiguousarray(levers.axes), True, True, after)
+    blocks = detect_rotations(rec)
+    dt = float(np.median(np.diff(rec.t)))
+    width = max(1, int(round(0.25 / dt)))  # 0.25 s means: the 100 ug sample noise would hide a 60 ug tilt signal
+
+    def smooth(x):
+        return np.convolve(x, np.ones(width) / width, mode="valid")
+
+    fig, axes = plt.subplots(len(blocks), 1, figsize=(9, 2.6 * len(blocks)), constrained_layout=True, squeeze=False)
+    ug = 9.80665e-6
+    spans = []
+    for ax, (a, i0, i1) in zip(axes[:, 0], blocks):
+        t = smooth(rec.t[i0:i1] - rec.t[i0])
+        horiz = [i for i in range(3) if i != a]
+        for off, i in zip((100.0, -100.0), horiz):
+            before = smooth(rec.accel[i0:i1, i]) / ug
+            compensated = smooth(after[i0:i1, i]) / ug
+            ax.plot(t, before + off, lw=0.6, alpha=0.6, label=f"{'xyz'[i]} raw {off:+.0f} ug")
+            ax.plot(t, compensated + off, lw=0.9, label=f"{'xyz'[i]} compensated {off:+.0f} ug")
+            spans.append({"axis": "xyz"[a], "channel": "xyz"[i], "raw_ptp_ug": float(np.ptp(before)),
+                          "compensated_ptp_ug": float(np.ptp(compensated))})
+        ax.set_title(f"rotation about {'XYZ'[a]}")
+        ax.set_ylabel("specific force, 0.25 s means [ug]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2, loc="upper right")
+    axes[-1, 0].set_xlabel("time in block [s]")
+    if title:
+        fig.suptitle(title)
+    with atomic_output(png, force=True) as tmp:  # the caller checked the path (and --force)
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return spans
+
