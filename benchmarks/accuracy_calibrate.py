@@ -22,10 +22,11 @@ import numpy as np
 
 from sizefx import scenarios
 from sizefx.calibrate import joint_fit, per_rotation_fit, prepare
+from sizefx.calibrate import CalibrateConfig
 from sizefx.calibrate import run as calibrate_files
 from sizefx.constants import ARCSEC
 from sizefx.effects import load_effects
-from sizefx.simulate import run as simulate_file
+from sizefx.simulate import SimulateConfig, run as simulate_file
 from sizefx.simulate import simulate_in_memory
 
 OFFSET_M = [0.0010, -0.0005, 0.0008]
@@ -100,12 +101,12 @@ def reference_rate() -> dict:
         tmp = Path(tmp)
         sway_plan = scenarios.SwayPlan(axis="roll")  # 10 min static, then 10, 20, 30 deg/s for 10 min each
         overrides = {"lever_arm": {"r_vehicle_m": OFFSET_M}}
-        simulate_file("turntable", tmp / "turntable.h5", overrides=overrides, seed=41)
+        simulate_file(SimulateConfig("turntable", tmp / "turntable.h5", overrides=overrides, seed=41))
         arms = {}
         for hz in (1600.0, 100.0):
             sway = tmp / f"sway_{int(hz)}.h5"
-            simulate_file("sway", sway, plan=sway_plan, overrides=overrides, seed=42, reference_rate_hz=hz)
-            res = calibrate_files([tmp / "turntable.h5", sway])["result"]
+            simulate_file(SimulateConfig("sway", sway, plan=sway_plan, overrides=overrides, seed=42, reference_rate_hz=hz))
+            res = calibrate_files(CalibrateConfig((str(tmp / "turntable.h5"), str(sway)))).fit
             arms[hz] = res
     diff = np.abs(arms[100.0].arms - arms[1600.0].arms)
     return {"max_difference_mm": float(diff.max() * 1e3), "difference_mm": (diff * 1e3).tolist(),

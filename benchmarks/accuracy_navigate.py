@@ -21,7 +21,7 @@ import numpy as np
 from sizefx import scenarios
 from sizefx.constants import DEG
 from sizefx.navigate import NavConfig, NavigateConfig, navigate, run
-from sizefx.simulate import run as simulate, simulate_in_memory
+from sizefx.simulate import SimulateConfig, run as simulate, simulate_in_memory
 from sizefx.theory import coning_residual_rad_s, sculling_residual_mps2
 
 H = 1 / 1600
@@ -119,7 +119,7 @@ def flight_check():
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "flight.h5"
         t0 = time.perf_counter()
-        simulate("flight", path, ideal=True)
+        simulate(SimulateConfig("flight", path, ideal=True))
         sim_s = time.perf_counter() - t0
         res = run(NavigateConfig(input=str(path), options=NavConfig(subsamples=4)))
         return {**{k: res.summary[k] for k in ("samples", "duration_s", "final_horizontal_error_m",

@@ -22,7 +22,7 @@ import numpy as np
 
 from sizefx.kernels.strapdown import VERTICAL_REFERENCE, coning_coefficients, pack_state, strapdown
 from sizefx.navigate import NavConfig, increments_of, navigate
-from sizefx.simulate import run as simulate
+from sizefx.simulate import SimulateConfig, run as simulate
 from sizefx.io.telemetry import read_telemetry
 
 
@@ -50,7 +50,7 @@ def main(argv=None):
         path = args.file
         if path is None:
             path = Path(tmp) / "flight.h5"
-            simulate("flight", path, ideal=True)
+            simulate(SimulateConfig("flight", path, ideal=True))
         tel = read_telemetry(path)
         # the first call compiles (or loads the cache): timed apart
         t0 = time.perf_counter()

@@ -60,7 +60,7 @@ from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.navigate.steps import integrate
 from sizefx.omegadot import edges_from_increments, savgol
 from sizefx.scenarios import FlightPlan
-from sizefx.simulate import run as simulate
+from sizefx.simulate import SimulateConfig, run as simulate
 from sizefx.io.telemetry import TelemetryStream, read_telemetry
 import naive
 
@@ -239,8 +239,8 @@ def main(argv=None):
         path = args.file
         if path is None:
             path = Path(tmp) / "flight.h5"
-            simulate("flight", path, plan=FlightPlan(duration_s=args.duration_h * 3600.0,
-                                                     align_s=min(600.0, args.duration_h * 3600.0 / 10)))
+            simulate(SimulateConfig("flight", path, plan=FlightPlan(duration_s=args.duration_h * 3600.0,
+                                                     align_s=min(600.0, args.duration_h * 3600.0 / 10))))
         levers = levers_from_preset("high-precision")
         levers_path = Path(tmp) / "levers.json"
         write_levers(levers_path, levers)

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from sizefx import earth, scenarios
-from sizefx.simulate import run
+from sizefx.simulate import SimulateConfig, run
 from sizefx.io.telemetry import read_telemetry
 
 
@@ -32,8 +32,8 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "flight.h5"
         t0 = time.perf_counter()
-        summary = run("flight", out, plan=scenarios.FlightPlan(duration_s=args.duration_h * 3600.0),
-                      form=args.form, seed=0)
+        summary = run(SimulateConfig("flight", out, plan=scenarios.FlightPlan(duration_s=args.duration_h * 3600.0),
+                      form=args.form, seed=0))
         wall = time.perf_counter() - t0
         peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
         tel = read_telemetry(out)
@@ -47,10 +47,10 @@ def main(argv=None):
             "benchmark": "simulate flight",
             "duration_h": args.duration_h,
             "form": args.form,
-            "samples": summary["samples"],
+            "samples": summary.samples,
             "wall_s": round(wall, 2),
-            "samples_per_s": round(summary["samples"] / wall),
-            "file_mib": round(summary["file_bytes"] / 2**20, 1),
+            "samples_per_s": round(summary.samples / wall),
+            "file_mib": round(summary.file_bytes / 2**20, 1),
             "peak_rss_mib": round(peak_mib, 1),
         }
     text = json.dumps(result, indent=2)

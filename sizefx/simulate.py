@@ -342,20 +342,12 @@ class SimulateConfig:
         return {"-o": self.output}
 
 
-def run(config: SimulateConfig, *legacy_args, progress=None, **legacy_kwargs) -> SimulateResult:
+def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
     """The ``simulate`` stage: build the scenario and the effect model, write ``config.output``.
 
     Options first (scenario, form, rates), then the files (:func:`sizefx.stage.preflight`),
     then the work. ``progress(done, total)`` is called after each chunk.
-
-    Transitional (issue 14): the former call ``run(scenario, out, plan=..., seed=..., ...)``
-    still works and returns the former summary dict (:meth:`SimulateResult.to_json`); its call
-    sites move to ``run(SimulateConfig(scenario, out, plan=..., seed=...))``.
     """
-    if not isinstance(config, SimulateConfig):
-        return run(SimulateConfig(config, *legacy_args, **legacy_kwargs), progress=progress).to_json()
-    if legacy_args or legacy_kwargs:
-        raise TypeError("run(config, *, progress=None): the options belong in the SimulateConfig")
     if config.scenario not in SCENARIOS:
         raise ConfigError(f"scenario '{config.scenario}': use one of {', '.join(SCENARIOS)}")
     if config.form not in ("rates", "increments"):

@@ -54,10 +54,10 @@ def raw_file(tmp_path):
 @pytest.fixture(scope="session")
 def turntable_file(tmp_path_factory):
     """The full paper turntable plan with default effects (lever arms + noise), seed 0."""
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path_factory.mktemp("sim") / "turntable.h5"
-    run("turntable", path, seed=0)
+    run(SimulateConfig("turntable", path, seed=0))
     return path
 
 

@@ -24,7 +24,7 @@ from sizefx.effects import load_effects
 from sizefx.errors import ConfigError, OutputError
 from sizefx.rotation import quat_interp, quat_to_mat
 from sizefx.simulate import SimulateConfig, simulate_in_memory
-from sizefx.simulate import run as simulate
+from sizefx.simulate import SimulateConfig, run as simulate
 from sizefx_cli.main import main
 from support import write_raw
 
@@ -139,10 +139,7 @@ def test_a_calibration_writes_its_levers_file(tmp_path, turntable_h5):
     assert doc["schema"] == "sizefx/levers/1" and len(doc["r_x"]) == 3
     assert res.to_json()["levers"] == doc and res.report().endswith(f"lever arms -> {out}")
     np.testing.assert_array_equal(res.levers.arms_total, res.fit.arms)
-    # transitional (issue 14): the former call returns the former dict, the same figures
-    old = calibrate.run([turntable_h5])
-    np.testing.assert_array_equal(old["result"].arms, res.fit.arms)
-    assert calibrate.format_report(old) == calibrate.format_report(res) == res.report().rsplit("\n", 1)[0]
+    assert calibrate.format_report(res) == res.report().rsplit("\n", 1)[0]
 
 
 def test_slow_reference_gives_the_same_arms():

@@ -262,12 +262,12 @@ def test_units_of_the_named_parameters():
 
 @pytest.fixture(scope="module")
 def tumble_file(tmp_path_factory):
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path_factory.mktemp("diag") / "tumble.h5"
-    run("tumble", path, plan=scenarios.TumblePlan(duration_s=30.0), rate_hz=400.0, seed=5,
+    run(SimulateConfig("tumble", path, plan=scenarios.TumblePlan(duration_s=30.0), rate_hz=400.0, seed=5,
         overrides={"accel_delay": {"enabled": True, "tau_s": 0.0005},
-                   "lever_arm": {"d_y_m": [0.003, 0.0274, -0.002]}})
+                   "lever_arm": {"d_y_m": [0.003, 0.0274, -0.002]}}))
     return path
 
 
@@ -335,11 +335,11 @@ def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
     """Heading sway (the paper's test, shortened): accelerometer y sits 2.4 mm further out than the
     nominal geometry says. Diagnose finds it and the free-inertial error drops; the accelerometer
     delay, hidden in the record too, is reported as not excited by rotation about the vertical."""
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path / "sway.h5"
-    run("sway", path, plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0), rate_hz=200.0, seed=4,
-        overrides={"lever_arm": {"d_y_m": [0.0, 0.0273, 0.0]}, "accel_delay": {"enabled": True}})
+    run(SimulateConfig("sway", path, plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0), rate_hz=200.0, seed=4,
+        overrides={"lever_arm": {"d_y_m": [0.0, 0.0273, 0.0]}, "accel_delay": {"enabled": True}}))
     passes = []
     res = D.run(D.DiagnoseConfig(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml"),
                 progress=lambda done, total: passes.append((done, total)))

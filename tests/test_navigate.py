@@ -312,10 +312,10 @@ def test_ring_laser_log_aligns_to_the_header_heading(tmp_path):
 
 
 def test_navigate_command_on_a_simulated_file(tmp_path, short_turntable_plan):
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     sim = tmp_path / "tt.h5"
-    run("turntable", sim, plan=short_turntable_plan, ideal=True)
+    run(SimulateConfig("turntable", sim, plan=short_turntable_plan, ideal=True))
     out, js = tmp_path / "nav.h5", tmp_path / "nav.json"
     result = CliRunner().invoke(main, ["navigate", str(sim), "-o", str(out), "--json", str(js)])
     assert result.exit_code == 0, result.output

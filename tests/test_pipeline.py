@@ -10,7 +10,7 @@ from sizefx import scenarios
 from sizefx.errors import TelemetryError
 from sizefx.levers import levers_from_preset, write_levers
 from sizefx.navigate import NavConfig, navigate, navigate_file
-from sizefx.simulate import run
+from sizefx.simulate import SimulateConfig, run
 from sizefx.io.telemetry import read_telemetry
 
 FIELDS = ("time_s", "quat_nb", "v_n", "lat_rad", "lon_rad", "height_m")
@@ -20,8 +20,8 @@ FIELDS = ("time_s", "quat_nb", "v_n", "lat_rad", "lon_rad", "height_m")
 def sway(tmp_path_factory):
     folder = tmp_path_factory.mktemp("stream")
     path = folder / "sway.h5"
-    run("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=30.0), rate_hz=400.0, seed=1,
-        overrides={"accel_delay": {"enabled": True}})
+    run(SimulateConfig("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=30.0), rate_hz=400.0, seed=1,
+        overrides={"accel_delay": {"enabled": True}}))
     levers = levers_from_preset("high-precision")
     levers.accel_delay_s = 5e-4  # the spline sync runs on every chunk
     write_levers(folder / "levers.json", levers)
@@ -58,7 +58,7 @@ def test_streaming_equals_whole_record_with_levers_and_sync(sway):
 def test_streaming_equals_whole_record_for_increments_and_vertical_reference(tmp_path):
     path = tmp_path / "flight.h5"
     plan = scenarios.FlightPlan(duration_s=1200.0, align_s=60.0, speed_mps=30.0, altitude_m=100.0)
-    run("flight", path, plan=plan, rate_hz=200.0, form="increments", seed=2)
+    run(SimulateConfig("flight", path, plan=plan, rate_hz=200.0, form="increments", seed=2))
     cfg = NavConfig()
     whole = navigate(read_telemetry(path), cfg)
     assert whole.config["vertical"] == "reference"
@@ -90,8 +90,8 @@ def test_stamps_far_from_zero_give_the_same_period_whole_and_streamed(tmp_path):
     from sizefx.io.telemetry import TelemetryStream, write_telemetry
 
     path = tmp_path / "sway.h5"
-    run("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=40.0, amplitudes_dps=(20.0,)),
-        rate_hz=1600.0, reference_rate_hz=100.0, seed=4)
+    run(SimulateConfig("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=40.0, amplitudes_dps=(20.0,)),
+        rate_hz=1600.0, reference_rate_hz=100.0, seed=4))
     tel = read_telemetry(path)
     tel.time_s = tel.time_s + 2007.0
     tel.reference.time_s = tel.reference.time_s + 2007.0

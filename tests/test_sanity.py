@@ -19,7 +19,7 @@ from click.testing import CliRunner
 from sizefx import sanity, scenarios
 from sizefx.constants import STANDARD_GRAVITY_MPS2
 from sizefx.errors import UnitsError
-from sizefx.simulate import run as simulate
+from sizefx.simulate import SimulateConfig, run as simulate
 from sizefx.io.telemetry import read_telemetry
 from sizefx_cli.main import main
 
@@ -42,9 +42,9 @@ def sims(tmp_path_factory):
     out = {}
     for name, plan in plans.items():
         out[name] = folder / f"{name}.h5"
-        simulate(name, out[name], plan=plan, rate_hz=100.0, seed=3)
+        simulate(SimulateConfig(name, out[name], plan=plan, rate_hz=100.0, seed=3))
     out["tumble-increments"] = folder / "tumble-increments.h5"
-    simulate("tumble", out["tumble-increments"], plan=plans["tumble"], rate_hz=100.0, seed=3, form="increments")
+    simulate(SimulateConfig("tumble", out["tumble-increments"], plan=plans["tumble"], rate_hz=100.0, seed=3, form="increments"))
     return out
 
 

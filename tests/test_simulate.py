@@ -360,11 +360,3 @@ def test_the_stage_refuses_before_any_work_and_reports_what_it_wrote(tmp_path, s
     assert res.to_json()["file_bytes"] == (tmp_path / "tt.h5").stat().st_size
     tel = read_telemetry(tmp_path / "tt.h5")
     assert tel.simulation["effects"]["accel_bias"]["enabled"] and tel.simulation["seed"] == 2
-
-
-def test_the_former_call_still_works_until_its_callers_move(tmp_path, short_turntable_plan):
-    """Transitional (issue 14): run(scenario, out, **options) returns the former summary dict."""
-    summary = run("turntable", tmp_path / "a.h5", plan=short_turntable_plan, ideal=True, rate_hz=200.0)
-    res = run(SimulateConfig("turntable", tmp_path / "b.h5", plan=short_turntable_plan, ideal=True, rate_hz=200.0))
-    assert summary["samples"] == res.samples == 6801 and summary["path"] == str(tmp_path / "a.h5")
-    np.testing.assert_array_equal(read_telemetry(tmp_path / "a.h5").accel_mps2, read_telemetry(res.path).accel_mps2)

@@ -283,10 +283,10 @@ def test_no_rotation_and_one_axis_only_are_named_not_singular(tmp_path):
     msg = str(info.value)
     assert "unobservable" in msg and "r_x[z]" in msg and "r_z[z]" in msg and "r_x[x]" not in msg
     # the same through the command: one line, exit code 2
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path / "one_axis.h5"
-    run("turntable", path, plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1))
+    run(SimulateConfig("turntable", path, plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1)))
     result = CliRunner().invoke(main, ["calibrate", str(path)])
     assert result.exit_code == 2 and result.output.count("\n") == 1 and "r_z[z]" in result.output
 
@@ -316,11 +316,11 @@ def test_levers_file_round_trip_and_errors(tmp_path):
 
 
 def test_calibrate_compensate_navigate_commands(tmp_path, paper_plan):
-    from sizefx.simulate import run
+    from sizefx.simulate import SimulateConfig, run
 
     sim = tmp_path / "tt.h5"
-    run("turntable", sim, overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "level_tilt": {"enabled": True}},
-        rate_hz=CAL_RATE_HZ)
+    run(SimulateConfig("turntable", sim, overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "level_tilt": {"enabled": True}},
+        rate_hz=CAL_RATE_HZ))
     lev, png = tmp_path / "lev.json", tmp_path / "fig6.png"
     r = CliRunner().invoke(main, ["calibrate", str(sim), "--json", str(lev), "--plot", str(png)])
     assert r.exit_code == 0, r.output

@@ -131,24 +131,13 @@ class CalibrateResult:
         return {"levers": self.levers.to_json(), "figure_spans": self.figure_spans,
                 "written": {k: str(v) for k, v in self.written.items()}}
 
-    def as_dict(self) -> dict:
-        """The former return value of :func:`run` (transitional, issue 14)."""
-        out = {"levers": self.levers, "result": self.fit, "per_rotation": self.per_rotation, "nominal": self.nominal,
-               "records": self.records, "skipped": self.skipped}
-        if self.figure_spans is not None:
-            out["figure_spans"] = self.figure_spans
-        return out
+
+def format_report(out: CalibrateResult) -> str:
+    """The report of a :class:`CalibrateResult`."""
+    return "\n".join(report_lines(out.fit, out.nominal, out.levers, out.records, out.skipped, out.per_rotation))
 
 
-def format_report(out) -> str:
-    """The report of a :class:`CalibrateResult`, or of the former dict of :func:`run` (transitional)."""
-    if isinstance(out, CalibrateResult):
-        return "\n".join(report_lines(out.fit, out.nominal, out.levers, out.records, out.skipped, out.per_rotation))
-    return "\n".join(report_lines(out["result"], out["nominal"], out["levers"], out["records"],
-                                  out.get("skipped") or [], out["per_rotation"]))
-
-
-def run(config: CalibrateConfig, *legacy_args, progress=None, **legacy_kwargs) -> CalibrateResult:
+def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
     """The ``calibrate`` stage: pre-flight, fits, decomposition, report figures; writes the lever arms
     (``json_path``, sizefx/levers/1) and the figure (``plot``) when asked.
 
@@ -157,16 +146,7 @@ def run(config: CalibrateConfig, *legacy_args, progress=None, **legacy_kwargs) -
     distinct from them), the nominal geometry, each record's reference and site, and the
     motion's excitation of the arms (:func:`preflight`). ``progress(done, total)`` is called
     as the records are read.
-
-    Transitional (issue 14): the former call ``run(paths, nominal=..., json_path=..., ...)``
-    still works and returns the former dict (:meth:`CalibrateResult.as_dict`); its call sites
-    move to ``run(CalibrateConfig(tuple(paths), nominal=..., json_path=...))``.
     """
-    if not isinstance(config, CalibrateConfig):
-        return run(CalibrateConfig(tuple(str(p) for p in config), *legacy_args, **legacy_kwargs),
-                   progress=progress).as_dict()
-    if legacy_args or legacy_kwargs:
-        raise TypeError("run(config, *, progress=None): the options belong in the CalibrateConfig")
     paths = [str(p) for p in config.records]
     if not paths:
         raise CalibrationError("no record given; give one or more telemetry files with /reference attitude")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .. import diagnose, scenarios
 from .paper import SIZES, format_results, run_all
-from ..simulate import run
+from ..simulate import SimulateConfig, run
 
 __all__ = ["run_demo"]
 
@@ -39,8 +39,8 @@ def run_demo(out_dir: Path, *, seed: int = 0, size: str = "reduced"):
     # The heart of sizefx: hide effects in a record and find them.
     path = out_dir / "tumble.h5"
     # The demo owns its folder: it replaces its own files from an earlier run.
-    run("tumble", path, plan=scenarios.TumblePlan(duration_s=120.0), rate_hz=400.0, seed=seed,
-        overrides=DIAGNOSIS_HIDDEN, force=True)
+    run(SimulateConfig("tumble", path, plan=scenarios.TumblePlan(duration_s=120.0), rate_hz=400.0, seed=seed,
+        overrides=DIAGNOSIS_HIDDEN, force=True))
     found = diagnose.run(diagnose.DiagnoseConfig(path, json_path=out_dir / "diagnosis.json",
                                                  plots=out_dir / "diagnosis", model_out=out_dir / "tumble.model.toml",
                                                  force=True))

@@ -47,7 +47,7 @@ from ..errors import ConfigError
 from ..geometry import preset_arms_m, triad_point
 from ..levers import Levers, write_levers
 from ..navigate import NavConfig, navigate
-from ..simulate import run as simulate_run
+from ..simulate import SimulateConfig, run as simulate_run
 from ..simulate import simulate_in_memory
 from ..io.telemetry import read_telemetry
 from .closed_form import schuler_response
@@ -222,8 +222,8 @@ def _simulate_and_navigate(out_dir, scenario, plan, overrides, rate_hz, seed, lo
     """Simulate ``scenario`` into ``out_dir``, then navigate it in the three modes with the true arms."""
     path = out_dir / f"{scenario}.h5"
     # the experiments own their folder: they replace their own records from an earlier run
-    summary = simulate_run(scenario, path, plan=plan, overrides=overrides, rate_hz=rate_hz, seed=seed, force=True)
-    log(f"  simulated {scenario} -> {path} ({summary['samples']} samples, {summary['wall_s']:.1f} s)")
+    summary = simulate_run(SimulateConfig(scenario, path, plan=plan, overrides=overrides, rate_hz=rate_hz, seed=seed, force=True))
+    log(f"  simulated {scenario} -> {path} ({summary.samples} samples, {summary.wall_s:.1f} s)")
     fx = load_effects(overrides=overrides)
     tel = read_telemetry(path)
     levers_path = out_dir / f"{scenario}_levers.json"

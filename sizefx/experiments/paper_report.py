@@ -7,15 +7,10 @@ difference; :func:`sway_figures` (Figs. 8 and 9) and :func:`flight_figures` draw
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..compare.plots import pyplot
 from .closed_form import schuler_response
-
-if TYPE_CHECKING:
-    from .paper import Results
 
 __all__ = ["MODE_LABELS", "flight_figures", "format_results", "sway_figures"]
 
@@ -125,8 +120,12 @@ def flight_figures(out_dir, navs, ground_speed_error):
 # --------------------------------------------------------------------------- the table
 
 
-def format_results(res: Results) -> str:
-    """The comparison table: the paper's figure, ours, and the named cause of each difference."""
+def format_results(res) -> str:
+    """The comparison table: the paper's figure, ours, and the named cause of each difference.
+
+    ``res``: the :class:`sizefx.experiments.paper.Results` of a run (not imported here: the
+    experiments import this module, never the other way round).
+    """
     lines = [f"the paper's experiments in simulation ({res.size.name} size)",
              f"  {'figure':58s} {'paper':>12s} {'sizefx':>12s}  why they differ"]
 
