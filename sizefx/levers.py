@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
-from .geometry import preset_arms_m
+from .geometry import PRESETS, preset_arms_m
 from .io.files import atomic_output
 from .io.schema import check_document, load_schema, validate_input
 
-__all__ = ["Levers", "read_levers", "write_levers", "levers_from_preset", "LEVERS_SCHEMA"]
+__all__ = ["Levers", "read_levers", "write_levers", "levers_from_preset", "nominal_levers", "LEVERS_SCHEMA"]
 
 LEVERS_SCHEMA = "sizefx/levers/1"
 #: A row of ``axes`` shorter than this is no direction (a typo, a zero row); rows are normalised,
@@ -149,3 +149,10 @@ def levers_from_preset(name: str, offset_m=(0.0, 0.0, 0.0)) -> Levers:
     d = preset_arms_m(name)
     off = np.asarray(offset_m, dtype=float)
     return Levers(arms_total=d + off, offset=off, arms_triad=d, extra={"source": f"preset {name}"})
+
+
+def nominal_levers(nominal: str) -> Levers:
+    """The nominal geometry: a preset of the paper, or a ``sizefx/levers/1`` file."""
+    if nominal in PRESETS:
+        return levers_from_preset(nominal)
+    return read_levers(nominal)

@@ -43,7 +43,7 @@ from pathlib import Path
 from ..constants import ARCSEC
 from ..geometry import PRESETS, triad_point
 from ..io.telemetry import read_telemetry
-from ..levers import Levers, levers_from_preset, read_levers, write_levers
+from ..levers import Levers, nominal_levers, write_levers
 from ..stage import preflight as stage_preflight
 from .joint import BIAS_WINDOW_S, PARAMS_R, UNDETERMINED_SIGMA, UNOBSERVABLE_EIG, CalibrationResult, joint_fit
 from .per_rotation import VERTICAL_WITHIN_RAD, detect_rotations, per_rotation_fit
@@ -67,13 +67,6 @@ __all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_f
 
 #: ``--triad-point``: where the split r_i = r + d_i puts the triad point.
 TRIAD_POINTS = ("normals", "x-accelerometer")
-
-
-def nominal_levers(nominal: str) -> Levers:
-    """The nominal geometry: a preset of the paper, or a ``sizefx/levers/1`` file."""
-    if nominal in PRESETS:
-        return levers_from_preset(nominal)
-    return read_levers(nominal)
 
 
 @dataclass(frozen=True)

@@ -8,13 +8,14 @@ record cannot reveal, and measures the gain.
 
 The package, from the bottom up (each module imports only those above it in this list):
 
-- :mod:`.theta`: the model vector ``theta``, its layout and units, and an effect model as theta;
+- :mod:`.theta`: the model vector ``theta`` (the sensor model's), its layout and units, and an
+  effect model as theta;
 - :mod:`.reference`: what a record must hold (:class:`DiagnoseError`), the reference motion as
   splines, the usable samples, :func:`crop`;
-- :mod:`.predictor`: the sensor model on the reference (:func:`predict_readings`) and the
-  measured record next to it (:class:`Predictor`);
+- :mod:`.predictor`: :mod:`sizefx.sensor_model` evaluated on the reference
+  (:func:`predict_readings`) and the measured record next to it (:class:`Predictor`);
 - :mod:`.candidates`: the candidate effects and their Jacobian columns (:func:`jacobian_columns`,
-  and :func:`numeric_jacobian`, the slow twin);
+  the sensor model's, and :func:`numeric_jacobian`, the slow twin);
 - :mod:`.selection`: normal equations, forward selection with an information criterion and
   cross-validation, what the record cannot reveal and why;
 - :mod:`.naming`: each effect found, in its units and in one sentence;
@@ -40,6 +41,7 @@ from ..geometry import PRESETS
 from ..io.files import atomic_output
 from ..io.telemetry import Telemetry, read_telemetry
 from ..io.toml import write_toml
+from ..levers import nominal_levers
 from ..stage import preflight
 from .candidates import CANDIDATES, PRIORITY, Candidate, jacobian_columns, numeric_jacobian
 from .fit import KAPPA_BLOCK_S, MAX_PASSES, Diagnosis, diagnose
@@ -167,8 +169,6 @@ def start_model(nominal: str | None = None, model: str | None = None):
     _one_start_model(nominal, model)
     if model is not None:
         return theta_from_model(load_effects(model, base=IDEAL)), f"model {model}"
-    from ..calibrate import nominal_levers
-
     name = nominal or "high-precision"
     th = np.zeros(NP)
     th[LEVER] = nominal_levers(name).arms_total.ravel()

@@ -2,21 +2,21 @@
 
 Every effect of :data:`CANDIDATES` is a group of parameters of the model vector (an identifier,
 the channel it acts on, its indices). Its regressors are the partial derivatives of the
-prediction, analytic (:func:`jacobian_columns`); :func:`numeric_jacobian`, the slow twin, is
-what the tests compare them with. :data:`PRIORITY` says which explanation is the ordinary one
+prediction, analytic (:func:`jacobian_columns`, the sensor model's
+:func:`sizefx.sensor_model.jacobian`); :func:`numeric_jacobian`, the slow twin, is what the
+tests compare them with. :data:`PRIORITY` says which explanation is the ordinary one
 when a record cannot tell two apart.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .predictor import tilted_to_body
-from .theta import (A_BIAS, A_K2, A_MIS, A_SF, G_BIAS, G_G, G_MIS, G_SF, LEVER, NP, OFFDIAG, PARAMS, TAU_A, TAU_R,
-                    TILT, offdiag_row)
+from .. import sensor_model as sm
+from .theta import A_BIAS, A_K2, A_MIS, A_SF, G_BIAS, G_G, G_MIS, G_SF, LEVER, NP, PARAMS, TAU_A, TAU_R, TILT
 
 __all__ = ["CANDIDATES", "PRIORITY", "Candidate", "jacobian_columns", "numeric_jacobian"]
 
@@ -62,66 +62,39 @@ PRIORITY = ("accel_bias", "gyro_bias", "lever_arm", "accel_delay", "reference_de
             "accel_quadratic", "gyro_g_sensitivity")
 
 
+#: Every deterministic effect of the sensor model but the reference delay (whose columns
+#: :func:`jacobian_columns` asks for separately).
+_ALL_BUT_REFERENCE_DELAY = tuple(e.name for e in sm.EFFECTS if e.deterministic and e.name != "reference_delay")
+
+
 def jacobian_columns(theta: np.ndarray, terms: dict, t: np.ndarray) -> dict:
     """``{param: (channels, [n, len(channels)])}``: the nonzero columns of d(prediction)/d(theta).
 
     ``terms``: what :func:`sizefx.diagnose.predictor.predict_readings` returned with its
-    readings at ``theta``; ``t`` [n] the sample times (s) for the delays' time derivatives.
+    readings at ``theta``; ``t`` [n] the sample times (s) for the time derivatives the tilt
+    and delay columns need (``numpy.gradient``: relative error (2 pi f dt)^2 / 6 for motion at
+    f, 1e-3 at 10 Hz sampled at 286 Hz).
 
-    Analytic: exact for the biases, scale factors, misalignments, K2, arms and G; the tilt
-    to first order in the tilt (1e-4 relative at 20 arcsec); the delays as time derivatives
-    of the predicted series (``numpy.gradient``: relative error (2 pi f dt)^2 / 6 for motion
-    at f, 1e-3 at 10 Hz sampled at 286 Hz). Gauss-Newton only needs the directions right:
-    the residual itself is always evaluated exactly. The gyro parameters also move the
-    accelerometer prediction a little, through the corrected gyro rates in the lever terms
-    (relative size 1e-4 of 1e-4); these columns leave that out. Increments records are
-    differentiated as point values (the ``dt^2/24`` interval-mean term is left out too).
+    The columns are :func:`sizefx.sensor_model.jacobian`'s on the motion the prediction used
+    (exact for the biases, scale factors, misalignments, K2, arms and G; the tilt through
+    ``f_b`` and ``omega_in``; the delays by the chain rule). Gauss-Newton only needs the
+    directions right: the residual itself is always evaluated exactly. Two things are left out:
+    the gyro parameters also move the accelerometer prediction a little, through the corrected
+    gyro rates in the lever terms (relative size 1e-4 of 1e-4); and increments records are
+    differentiated as point values (the ``dt^2/24`` interval-mean term). The reference delay
+    moves the reference's ``f_b`` but not the measured gyros the lever terms come from, so its
+    accelerometer columns are the specific force's rate alone (no ``omegaddot``).
     """
-    th, p = theta, terms
-    cols = {}
-    n = t.size
-    one = np.ones((n, 1))
-    w_ib, f_g, u_g = p["w_ib"], p["f_g"], p["u_g"]
-    for i in range(3):
-        cols[G_BIAS[i]] = (np.array([i]), one)
-        cols[G_SF[i]] = (np.array([i]), (w_ib @ u_g[i])[:, None])
-        v_norm = np.linalg.norm(np.eye(3)[i] + offdiag_row(th[G_MIS], i))
-        for k, (ii, jj) in enumerate(OFFDIAG):
-            if ii == i:  # d u_i / d m_ij = (e_j - u_i u_ij) / |v_i|
-                col = (1.0 + th[G_SF[i]]) * (w_ib[:, jj] - (w_ib @ u_g[i]) * u_g[i, jj]) / v_norm
-                cols[G_MIS[k]] = (np.array([i]), col[:, None])
-        for jj in range(3):
-            cols[G_G[3 * i + jj]] = (np.array([i]), f_g[:, jj:jj + 1].copy())
-    a, u_a, w, wd, w2 = p["a"], p["u_a"], p["w"], p["wd"], p["w2"]
-    for i in range(3):
-        ch = np.array([3 + i])
-        gain = 1.0 + th[A_SF[i]] + 2.0 * th[A_K2[i]] * a[:, i]
-        cols[A_BIAS[i]] = (ch, one)
-        cols[A_SF[i]] = (ch, a[:, i:i + 1].copy())
-        cols[A_K2[i]] = (ch, (a[:, i] ** 2)[:, None])
-        v_norm = np.linalg.norm(np.eye(3)[i] + offdiag_row(th[A_MIS], i))
-        f_i = p["f_i"][i]
-        for k, (ii, jj) in enumerate(OFFDIAG):
-            if ii == i:
-                col = gain * (f_i[:, jj] - a[:, i] * u_a[i, jj]) / v_norm
-                cols[A_MIS[k]] = (ch, col[:, None])
-        # d a_i / d r_i = u x wd + (u . w) w - |w|^2 u
-        grad = np.cross(u_a[i], wd) + (w @ u_a[i])[:, None] * w - w2[:, None] * u_a[i]
-        for c in range(3):
-            cols[LEVER[3 * i + c]] = (ch, (gain * grad[:, c])[:, None])
-    gain = 1.0 + th[A_SF] + 2.0 * th[A_K2] * a  # [n, 3] d(output)/d(input) of each accelerometer
-    f_u = np.column_stack([p["f_a"] @ u_a[i] for i in range(3)])  # the reference's part of a_i
-    m_g, g_sens = p["m_g"], p["g_sens"]
-    cols[TAU_R] = (np.arange(6), np.hstack([np.gradient(w_ib @ m_g.T + f_g @ g_sens.T, t, axis=0),
-                                             gain * np.gradient(f_u, t, axis=0)]))
-    cols[TAU_A] = (np.arange(3, 6), -gain * np.gradient(a, t, axis=0))
-    kg, ka, r_tilt = p["kg"], p["ka"], p["r_tilt"]
-    for k in range(2):  # R(phi)^T v ~ v + v x phi: d/dphi_k = v x e_k
-        e = np.eye(3)[k]
-        gyro = (tilted_to_body(kg, np.cross(kg["w_in"], e), r_tilt) @ m_g.T
-                + tilted_to_body(kg, np.cross(kg["f_n"], e), r_tilt) @ g_sens.T)
-        df = tilted_to_body(ka, np.cross(ka["f_n"], e), r_tilt)
-        cols[TILT[k]] = (np.arange(6), np.hstack([gyro, gain * (df @ u_a.T)]))
+    p = sm.SensorParams.from_vector(theta)
+    at_g, at_a = terms["at_gyro"], terms["at_accel"]
+
+    def rate(x):
+        return np.gradient(x, t, axis=0)
+
+    at_g = replace(at_g, omegadot_ib_b=rate(at_g.omega_ib_b), fdot_b=rate(at_g.f_b))
+    at_a = replace(at_a, fdot_b=rate(at_a.f_b), omegaddot_ib_b=rate(at_a.omegadot_ib_b))
+    cols = dict(sm.jacobian(p, at_g, at_a, effects=_ALL_BUT_REFERENCE_DELAY))
+    cols.update(sm.jacobian(p, at_g, replace(at_a, omegaddot_ib_b=None), effects=["reference_delay"]))
     return cols
 
 

@@ -1,16 +1,16 @@
 """What the IMU should have read: the sensor model evaluated on the reference motion.
 
-:func:`predict_readings` is the sensor model, in one function (the simulator's,
-:mod:`sizefx.simulate`, evaluated on the record's reference instead of an analytic trajectory):
+:func:`predict_readings` evaluates :mod:`sizefx.sensor_model` (the one model simulate,
+calibrate and correct use) on the record's reference instead of an analytic trajectory. What
+is diagnose's own is only which motion it feeds the model:
 
-- gyro ``(1 + s_g) (u_g . omega_ib) + b_g + G f_b`` with the reference motion at
-  ``t + tau_ref`` (reference rows stamped t hold the motion at t - tau_ref) and the attitude
-  tilted by ``R(phi)``;
-- accelerometer ``(1 + s_a) a + K2 a^2 + b_a``, ``a = u_i . (f_b + omegadot x r_i + omega x
-  (omega x r_i))``, all at ``t - tau_acc``. ``f_b`` comes from the reference; the lever terms use
-  the *gyros* (corrected by the model's gyro errors) and their Savitzky-Golay derivative over
-  25 ms, as compensation uses measured rates: a motion-capture reference differentiated twice
-  would bury omegadot in noise.
+- the gyros see the reference motion at ``t + tau_ref`` (reference rows stamped t hold the
+  motion at t - tau_ref; :func:`sizefx.sensor_model.reported_time`), the accelerometers at
+  ``t + tau_ref - tau_acc``, both with the attitude tilted by ``R(phi)``
+  (:func:`sizefx.sensor_model.true_attitude`);
+- the accelerometers' lever terms use the *gyros*, corrected by the model's gyro errors, and
+  their Savitzky-Golay derivative over 25 ms, as compensation uses measured rates: a
+  motion-capture reference differentiated twice would bury omegadot in noise.
 
 :class:`Predictor` holds the measured record on its samples and evaluates the model there;
 increments records are compared as interval means (the prediction at each interval's midpoint
@@ -23,13 +23,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from .. import sensor_model as sm
 from ..io.telemetry import Telemetry
 from ..omegadot import savgol
-from ..rotation import rotvec_to_mat
 from .reference import EDGE_S, MIN_SAMPLES, DiagnoseError, ReferenceMotion, check_record, usable_mask
-from .theta import A_BIAS, A_K2, A_MIS, A_SF, G_BIAS, G_G, G_MIS, G_SF, LEVER, TAU_A, TAU_R, TILT, misaligned_axes
+from .theta import TAU_A, TAU_R
 
-__all__ = ["Predictor", "predict_readings", "tilted_to_body", "GYRO_DOT_WINDOW_S"]
+__all__ = ["Predictor", "predict_readings", "GYRO_DOT_WINDOW_S"]
 
 #: Span of the Savitzky-Golay gyro derivative [s]: 41 samples at 1600 Hz, 7 at 286 Hz.
 GYRO_DOT_WINDOW_S = 0.025
@@ -37,21 +37,13 @@ GYRO_DOT_WINDOW_S = 0.025
 _CACHED_SHIFTS = 8
 
 
-def tilted_to_body(kin: dict, vec_n: np.ndarray, r_tilt: np.ndarray) -> np.ndarray:
-    """``C_bn R(phi)^T v`` per row [n, 3]: an NED vector ``vec_n`` [n, 3] in the tilted body axes.
-
-    The true ``C_bn`` is ``C_bn_ref R(phi)^T``; ``R^T v`` per row is ``v @ R``.
-    """
-    return np.einsum("nij,nj->ni", kin["C_bn"], vec_n @ r_tilt)
-
-
 def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b: np.ndarray,
                      gyro_dot_b: np.ndarray) -> tuple[np.ndarray, dict]:
-    """The sensor model: predicted gyro and accelerometer readings under the model vector ``theta``.
+    """The sensor model's readings under the model vector ``theta``, on the reference motion.
 
     Parameters
     ----------
-    theta : [NP] the model vector (SI; layout in :mod:`sizefx.diagnose.theta`).
+    theta : [NP] the model vector (SI; :data:`sizefx.sensor_model.PARAMS`).
     kin_gyro, kin_accel : the reference motion (:meth:`ReferenceMotion.evaluate`) at the gyros'
         time ``t + tau_ref`` and the accelerometers' ``t + tau_ref - tau_acc``.
     gyro_b, gyro_dot_b : [n, 3] measured rates (rad/s) and their derivative (rad/s^2) at
@@ -60,35 +52,30 @@ def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b:
     Returns
     -------
     readings : [n, 6] gyro x, y, z (rad/s), accelerometer x, y, z (m/s^2), point values.
-    terms : the intermediate terms (rates, specific forces, axes, gains) that the Jacobian
-        columns (:func:`sizefx.diagnose.candidates.jacobian_columns`) reuse.
+    terms : ``{"params": SensorParams, "at_gyro": Motion, "at_accel": Motion}``, the true motion
+        at each sensor's instants, which the Jacobian columns
+        (:func:`sizefx.diagnose.candidates.jacobian_columns`) complete with time derivatives.
+        ``at_gyro.omegadot_ib_b`` is None here (the readings do not use it).
     """
-    th = theta
-    r_tilt = rotvec_to_mat(np.array([th[TILT[0]], th[TILT[1]], 0.0]))
+    p = sm.SensorParams.from_vector(theta)
     kg, ka = kin_gyro, kin_accel
-    w_ib = kg["w_nb"] + tilted_to_body(kg, kg["w_in"], r_tilt)
-    f_g = tilted_to_body(kg, kg["f_n"], r_tilt)
-    f_a = tilted_to_body(ka, ka["f_n"], r_tilt)
-    u_g = misaligned_axes(th[G_MIS])
-    m_g = np.diag(1.0 + th[G_SF]) @ u_g
-    g_sens = th[G_G].reshape(3, 3)
-    inv_g = np.linalg.inv(m_g)
-    w = (gyro_b - th[G_BIAS] - f_a @ g_sens.T) @ inv_g.T  # the gyros, corrected by the model
-    wd = gyro_dot_b @ inv_g.T  # (G times the derivative of f is left out: below 1e-9 of the lever terms)
-    u_a = misaligned_axes(th[A_MIS])
-    arms = th[LEVER].reshape(3, 3)
-    w2 = np.sum(w * w, axis=1)
-    # a_i = u_i . (f + wd x r_i + w (w . r_i) - r_i |w|^2), with u . (wd x r) = wd . (r x u)
-    lever = np.column_stack([wd @ np.cross(arms[i], u_a[i]) + (w @ u_a[i]) * (w @ arms[i])
-                             - w2 * (u_a[i] @ arms[i]) for i in range(3)])
-    f_i = [f_a + np.cross(wd, arms[i]) + w * (w @ arms[i])[:, None] - w2[:, None] * arms[i] for i in range(3)]
-    a = np.column_stack([f_a @ u_a[i] for i in range(3)]) + lever
+    mat_g = sm.true_attitude(p, kg["C_bn"].swapaxes(1, 2))
+    mat_a = sm.true_attitude(p, ka["C_bn"].swapaxes(1, 2))
+    w_in_b = np.einsum("nji,nj->ni", mat_g, kg["w_in"])
+    w_ib = kg["w_nb"] + w_in_b  # a constant tilt leaves omega_nb (body axes) as the reference gives it
+    f_g = np.einsum("nji,nj->ni", mat_g, kg["f_n"])
+    f_a = np.einsum("nji,nj->ni", mat_a, ka["f_n"])
+    # the measured gyros with the model's gyro errors undone (G times the derivative of f is left
+    # out of omegadot: G g omega against omegadot, 1e-5 relative per deg/h/g of G on the tumble)
+    inv_g = np.linalg.inv(p.gyro_matrix())
+    w = (gyro_b - p.gyro_bias - f_a @ p.gyro_g_sensitivity.T) @ inv_g.T
+    wd = gyro_dot_b @ inv_g.T
+    at_gyro = sm.Motion(w_ib, None, f_g, mat_nb=mat_g, omega_in_b=w_in_b)
+    at_accel = sm.Motion(w, wd, f_a, mat_nb=mat_a)
     out = np.empty((w_ib.shape[0], 6))
-    out[:, :3] = w_ib @ m_g.T + th[G_BIAS] + f_g @ g_sens.T
-    out[:, 3:] = (1.0 + th[A_SF]) * a + th[A_K2] * a * a + th[A_BIAS]
-    terms = {"w_ib": w_ib, "f_g": f_g, "u_g": u_g, "m_g": m_g, "g_sens": g_sens, "w": w, "wd": wd, "w2": w2,
-             "u_a": u_a, "a": a, "f_i": f_i, "f_a": f_a, "kg": kg, "ka": ka, "r_tilt": r_tilt}
-    return out, terms
+    out[:, :3] = sm.gyro_readings(p, at_gyro)
+    out[:, 3:] = sm.accel_readings(p, sm.accel_inputs(p, at_accel))
+    return out, {"params": p, "at_gyro": at_gyro, "at_accel": at_accel}
 
 
 class Predictor:

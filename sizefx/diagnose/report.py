@@ -22,10 +22,11 @@ from ..geometry import triad_point
 from ..io.files import atomic_output
 from ..io.schema import check_document
 from ..io.toml import dumps_toml
+from ..sensor_model import SensorParams
 from .fit import Diagnosis
 from .selection import block_means
 from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, OFFDIAG, TAU_A,
-                    TAU_R, TILT, UG, misaligned_axes)
+                    TAU_R, TILT, UG)
 
 __all__ = ["DIAGNOSIS_SCHEMA", "PLOT_FILES", "format_report", "model_document", "model_toml", "plot", "to_json"]
 
@@ -57,7 +58,7 @@ def model_document(theta: np.ndarray) -> dict:
     """
     theta = np.asarray(theta, dtype=float)
     arms = theta[LEVER].reshape(3, 3)
-    offset = triad_point(arms, misaligned_axes(theta[A_MIS])) if np.any(arms) else np.zeros(3)
+    offset = triad_point(arms, SensorParams.from_vector(theta).accel_axes()) if np.any(arms) else np.zeros(3)
     d_arms = arms - offset
     on = {name: bool(np.any(theta[idx] != 0.0)) for name, idx in
           (("accel_bias", A_BIAS), ("accel_scale_factor", A_SF), ("accel_misalignment", A_MIS),
