@@ -113,10 +113,9 @@ def edges_from_increments(dtheta, dt):
 
 
 def _savgol_kernel(dt, window, order):
-    from scipy.signal import savgol_coeffs
-
-    # savgol_coeffs with use='dot' gives c such that estimate = c . x[k - m .. k + m]
-    return savgol_coeffs(window, order, deriv=1, delta=dt, use="dot")
+    """The centred weights ``c [window]``: estimate ``= c . x[k - m .. k + m]`` (the kernel's taps)."""
+    taps = _savgol_weights(dt, window, order)[0]
+    return np.concatenate([-taps[::-1], [0.0], taps])
 
 
 def response(estimator: str, freq_hz, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER):
