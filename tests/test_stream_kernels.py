@@ -218,13 +218,16 @@ def test_resampling_refuses_times_that_do_not_increase():
 
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5, 1001, 4 * MEDIAN_SAMPLE + 2, 4 * MEDIAN_SAMPLE + 3, 90_001])
-@pytest.mark.parametrize("kind", ["jittered", "uniform", "two steps", "spread"])
+@pytest.mark.parametrize("kind", ["jittered", "uniform", "two steps", "spread", "rate change"])
 def test_median_step_is_numpys_median_of_the_steps(n, kind):
     rng = np.random.default_rng(n)
     steps = {"jittered": H + rng.normal(0, 1e-6, n - 1), "uniform": np.full(n - 1, H),
-             "two steps": rng.choice([H, 2 * H], n - 1), "spread": rng.exponential(H, n - 1)}[kind]
+             "two steps": rng.choice([H, 2 * H], n - 1), "spread": rng.exponential(H, n - 1),
+             "rate change": np.linspace(H, 2 * H, n - 1)}[kind]
     t = np.r_[0.0, np.cumsum(steps)]
     assert median_step(t) == np.median(np.diff(t))
+    t[n // 2] = np.nan
+    assert np.isnan(median_step(t))
 
 
 # --------------------------------------------------------------------------- Savitzky-Golay
