@@ -111,7 +111,7 @@ def check(t, ta, rates, incr):
     worst = np.abs(resample_increments(incr[:n], ta[:n], t[:n]) - scipy_increments(incr[:n], ta[:n], t[:n])).max()
     assert worst / cum_scale < 1e-12, worst / cum_scale
     out["sync_increments_vs_scipy_of_running_sum"] = float(worst / cum_scale)
-    sg_scale = 2.0 * savgol_weights(SAVGOL_WINDOW, SAVGOL_ORDER, DT)[0].sum() * np.abs(rates[:n]).max()  # sum |c| max|x|
+    sg_scale = 2.0 * savgol_weights(SAVGOL_WINDOW, SAVGOL_ORDER, DT)[0].sum() * np.abs(rates[:n]).max()  # sum|c| max|x|
     worst = np.abs(savgol(rates[:n], DT) - savgol_filter(rates[:n], SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1, delta=DT,
                                                          axis=0)).max() / sg_scale
     assert worst < 1e-12, worst

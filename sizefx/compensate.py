@@ -75,10 +75,10 @@ def resample_onto(values, t_from, t_to):
     """Samples ``values [N, 3]`` at ``t_from [N]`` -> at ``t_to [K]`` (not-a-knot cubic spline).
 
     The same as scipy's ``CubicSpline(t_from, values, bc_type="not-a-knot")(t_to)`` to
-    rounding, by the Numba kernel :func:`sizefx.kernels.sync.resample` (Thomas solve and a
-    merge walk, 30-40 times faster). ``t_from`` increases strictly (N >= 2), ``t_to`` does
-    not decrease; outside ``t_from`` the end cubics extrapolate. ``values`` may also be
-    ``[N]`` or ``[N, C]``.
+    rounding, by the Numba kernel :func:`sizefx.kernels.sync.resample` (a Thomas solve and
+    a merge walk; ``benchmarks/bench_kernels.py`` compares their speeds). ``t_from``
+    increases strictly (N >= 2), ``t_to`` does not decrease; outside ``t_from`` the end
+    cubics extrapolate. ``values`` may also be ``[N]`` or ``[N, C]``.
     """
     x, t = _times("t_from", t_from), _times("t_to", t_to)
     if x.size < 2 or np.shape(values)[:1] != (x.size,):

@@ -19,8 +19,9 @@ pivots ``p_i`` exceed ``2 h_{i-1} + h_i``), and the last pivot stays positive. T
 give the chord, three the parabola (as scipy). On interval ``i`` the spline is
 ``Y_i + s_i z + c1 z^2 + c0 z^3``, ``z = x - x_i``, with ``t = (s_i + s_{i+1} - 2 m_i) / h_i``,
 ``c0 = t / h_i`` and ``c1 = (m_i - s_i) / h_i - t`` (scipy's power form, which, unlike
-the Hermite basis, stays exact for a straight line extrapolated far); a target lies in the interval with ``x_i <= target < x_{i+1}``, and beyond
-the ends the end polynomials extrapolate (scipy's ``PPoly`` rules).
+the Hermite basis, stays exact for a straight line extrapolated far); a target lies in
+the interval with ``x_i <= target < x_{i+1}``, and beyond the ends the end polynomials
+extrapolate (scipy's ``PPoly`` rules).
 
 Two passes: the forward elimination (``u_i`` and the eliminated right-hand sides), then
 the back substitution walking down the knots and the (increasing) targets together,
@@ -33,10 +34,11 @@ Same results as scipy's ``CubicSpline(x, Y, bc_type="not-a-knot")`` to rounding 
 **Increments.** For increments ``y_i`` over ``(x_i, x_{i+1}]`` the spline is that of
 their running sum ``Y`` (``Y_0 = 0``, ``Y_{i+1} - Y_i = y_i``). Only differences of Y
 are ever formed: ``m_i = y_i / h_i``, and the increment over ``(f_k, f_{k+1}]`` is
-``(Y_j - Y_i) + P_j(f_{k+1}) - P_i(f_k)``, with ``P_i = S - Y_i`` on interval i and ``Y_j - Y_i`` the sum of the few increments between the two
-intervals. Nothing grows with the record: a 2-hour running sum of velocity increments
-reaches 7e4 m/s, whose rounding (1e-11 m/s) would be a 1e-9 part of a 1600 Hz
-increment, and would differ between a chunk and the whole record.
+``(Y_j - Y_i) + P_j(f_{k+1}) - P_i(f_k)``, with ``P_i = S - Y_i`` on interval i and
+``Y_j - Y_i`` the sum of the few increments between the two intervals. Nothing grows
+with the record: a 2-hour running sum of velocity increments reaches 7e4 m/s, whose
+rounding (1.5e-11 m/s) would be 2e-9 of a 1600 Hz increment, and would differ
+between a chunk and the whole record.
 
 **Chunks.** A spline value depends on all the data, but on a sample k rows away only as
 ``(2 - sqrt(3))^k`` (the Thomas multipliers tend to ``2 - sqrt(3)``, and so do the
@@ -266,7 +268,7 @@ MEDIAN_BLOCKS = 16
 def _select(d, k):
     """The k-th smallest of ``d`` (0-based), by Hoare's selection in place (``d`` is reordered;
     afterwards ``d[:k]`` holds no element above it). A small loop instead of ``np.partition``,
-    whose Numba implementation takes 15 s to compile."""
+    whose Numba implementation takes several times longer to compile than this module."""
     lo, hi = 0, d.shape[0] - 1
     while lo < hi:
         mid = (lo + hi) // 2  # median of three as the pivot: sorted or constant runs stay linear
@@ -317,7 +319,7 @@ def median_step(t):
 
     A sample of the steps gives a bracket ``[lo, hi]`` that holds the median's ranks
     (checked by counting); only the steps inside it (about 3 %) are selected from. A NaN
-    step gives NaN, as numpy. Four times faster than numpy on a million jittered stamps.
+    step gives NaN, as numpy.
     """
     m = t.shape[0] - 1
     if m <= 4 * MEDIAN_SAMPLE:
