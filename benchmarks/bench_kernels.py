@@ -43,10 +43,10 @@ from scipy.signal import savgol_filter
 # `sizefx` is the installed package and not the source tree
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from sizefx.compensate import resample_increments, resample_onto
 from sizefx.kernels import sync
 from sizefx.kernels.omegadot import savgol_derivative, savgol_weights
 from sizefx.omegadot import SAVGOL_ORDER, SAVGOL_WINDOW, savgol, savgol_rows
+from sizefx.sync import resample_increments, resample_onto
 import naive
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -157,10 +157,10 @@ def first_calls():
 
 def cold_compile():
     """All three in a fresh process with an empty Numba cache: compile time and peak memory."""
-    code = ("import numpy as np; from sizefx.compensate import resample_onto, resample_increments; "
+    code = ("import numpy as np; from sizefx.sync import resample_onto, resample_increments; "
             "from sizefx.omegadot import savgol; t = np.arange(64) / 1600; y = np.ones((64, 3)); "
             "resample_onto(y, t + 3e-4, t); resample_increments(y, t + 3e-4, t); savgol(y, 1 / 1600)")
-    base = [sys.executable, "-c", "import numpy, scipy, numba, sizefx.compensate, sizefx.omegadot"]
+    base = [sys.executable, "-c", "import numpy, scipy, numba, sizefx.sync, sizefx.omegadot"]
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "NUMBA_CACHE_DIR": str(Path(tmp) / "cold")}
         imports, _ = run_measured(base, env=env)

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from sizefx import scenarios
 from sizefx.calibrate import CalibrationError, joint_fit, per_rotation_fit, prepare
 from sizefx.geometry import triad_point
-from sizefx.compensate import compensate, resample_increments, resample_onto
+from sizefx.compensate import compensate
 from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError
@@ -19,6 +19,7 @@ from sizefx.kernels.sizeeffect import compensate_increments, compensate_rates
 from sizefx.levers import Levers, levers_from_preset, read_levers, write_levers
 from sizefx.omegadot import central, edges_from_increments, noise_gain, response, savgol
 from sizefx.simulate import simulate_in_memory
+from sizefx.sync import resample_increments, resample_onto
 from sizefx_cli.main import main
 import naive
 

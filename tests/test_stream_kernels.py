@@ -13,10 +13,10 @@ from scipy.interpolate import CubicSpline
 from scipy.signal import savgol_coeffs, savgol_filter
 
 import naive
-from sizefx.compensate import resample_increments, resample_onto, sync_accelerometers
 from sizefx.io.telemetry import Telemetry
 from sizefx.kernels.sync import MEDIAN_SAMPLE, median_step
 from sizefx.omegadot import SAVGOL_WINDOW, savgol, savgol_rows
+from sizefx.sync import resample_increments, resample_onto, sync_accelerometers
 
 H = 1 / 1600
 #: Rows read on each side of a chunk by the streamed navigation (sizefx.navigate.stream.MARGIN).
