@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sizefx.errors import ConfigError
-
 from .options import allow_gaps_option, force_option, segment_option
 
 
@@ -42,31 +40,10 @@ def compensate(file, levers_path, model_path, output, mode, estimator, centripet
     one continuous segment at a time (--segment K), or across its gaps with
     --allow-gaps (the estimates next to each gap are then wrong).
     """
-    from sizefx import compensate as _levers
-    from sizefx import correct as _model
+    from sizefx.compensate import CompensateConfig, run
 
-    if levers_path and model_path:
-        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
-                          "([lever_arm]); give one of them")
-    if model_path:
-        if centripetal_only or accel_delay_us is not None:
-            raise ConfigError("--centripetal-only and --accel-delay-us apply to --levers; with --model the "
-                              "delay comes from the model's [accel_delay] and both terms are removed")
-        summary = _model.run(file, model_path, output, mode=mode, estimator=estimator, allow_gaps=allow_gaps,
-                             force=force, segment=segment)
-        click.echo(f"wrote {summary['path']}: {summary['samples']} samples corrected with {summary['model']}, "
-                   f"mode {summary['mode']}, estimator {summary['estimator']}, "
-                   f"delay {summary['accel_delay_s'] * 1e6:.1f} us; corrected: "
-                   f"{', '.join(summary['corrected']) or 'nothing (every section off)'}")
-        if summary["ignored"]:
-            click.echo(f"not IMU output errors, left alone: {', '.join(summary['ignored'])}")
-        return
-    if not levers_path:
-        raise ConfigError("give the lever arms (--levers LEVERS.json) or an effect model (--model MODEL.toml)")
-    summary = _levers.run(file, levers_path, output, mode=mode, estimator=estimator, centripetal=True,
-                          tangential=not centripetal_only,
-                          accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
-                          allow_gaps=allow_gaps, force=force, segment=segment)
-    click.echo(f"wrote {summary['path']}: {summary['samples']} samples, mode {summary['mode']}, estimator "
-               f"{summary['estimator']}, tangential {'on' if summary['tangential'] else 'off'}, "
-               f"delay {summary['accel_delay_s'] * 1e6:.1f} us")
+    config = CompensateConfig(input=file, output=output, levers=levers_path, model=model_path, mode=mode,
+                              estimator=estimator, tangential=not centripetal_only,
+                              accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
+                              allow_gaps=allow_gaps, segment=segment, force=force)
+    click.echo(run(config).report())

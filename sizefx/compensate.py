@@ -1,11 +1,13 @@
 """Size-effect compensation of a record: ``sizefx compensate`` and ``navigate --levers``.
 
+The stage: :class:`CompensateConfig` -> :func:`run` -> :class:`CompensateResult`
+(:mod:`sizefx.stage`); with ``--model`` it corrects by :func:`sizefx.correct.correct_imu`.
+
 Steps:
 
-1. Sync. Accelerometers stamped apart (``/imu/accel_time``) or late by a known
-   delay are brought onto the gyro time base by a not-a-knot cubic spline. For
-   increments, the spline interpolates the cumulative velocity, which is then
-   differenced. The phase error is below 1e-5 rad for a 50 Hz tone at 1600 Hz.
+1. Sync (:mod:`sizefx.sync`, whose names this module also offers). Accelerometers
+   stamped apart (``/imu/accel_time``) or late by a known delay are brought onto
+   the gyro time base by a not-a-knot cubic spline.
 2. Compensation in the record's own domain.
    - Rates: ``a_i - u_i . (omegadot x r_i + omega x (omega x r_i))``, with omegadot
      from the chosen estimator (:mod:`sizefx.omegadot`).
@@ -17,7 +19,7 @@ Steps:
 from __future__ import annotations
 
 import json
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,47 +28,11 @@ from .kernels.sizeeffect import compensate_increments, compensate_increments_edg
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
 from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
+from .stage import preflight
+from .sync import resample_increments, resample_onto, sync_accelerometers
 
-__all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "compensate", "compensate_arrays_increments", "run"]
-
-
-def resample_onto(values, t_from, t_to):
-    """Samples ``values [N, 3]`` at ``t_from`` -> at ``t_to`` (not-a-knot cubic spline)."""
-    from scipy.interpolate import (
-        CubicSpline,  # here: scipy.interpolate costs 0.45 s at start-up
-    )
-
-    return CubicSpline(t_from, values, axis=0, bc_type="not-a-knot")(t_to)
-
-
-def resample_increments(incr, t_end_from, t_end_to):
-    """Increments over ``(t_from[k-1], t_from[k]]`` -> over ``(t_to[k-1], t_to[k]]``.
-
-    Interpolates the cumulative sum (a smooth function of time) and differences it;
-    the first interval of each starts one median period before its first stamp.
-    """
-    def edges(t):
-        return np.r_[t[0] - np.median(np.diff(t)), t]
-
-    cum = np.vstack([np.zeros(incr.shape[1]), np.cumsum(incr, axis=0)])
-    from scipy.interpolate import CubicSpline
-
-    return np.diff(CubicSpline(edges(t_end_from), cum, axis=0, bc_type="not-a-knot")(edges(t_end_to)), axis=0)
-
-
-def sync_accelerometers(tel: Telemetry, tau_s: float = 0.0) -> Telemetry:
-    """The accelerometers on the gyro time base: ``/imu/accel_time`` and a known delay ``tau_s`` undone.
-
-    Accelerometer samples stamped ``t_a`` represent the specific force at ``t_a - tau``;
-    rates are resampled by cubic spline, increments through their cumulative sum. The
-    one place that does this, for compensate, navigate and calibrate alike.
-    """
-    if tel.accel_time_s is None and tau_s == 0.0:
-        return tel
-    t_accel = (tel.accel_time_s if tel.accel_time_s is not None else tel.time_s) - tau_s
-    if tel.form == "rates":
-        return replace(tel, accel_mps2=resample_onto(tel.accel_mps2, t_accel, tel.time_s), accel_time_s=None)
-    return replace(tel, dvel_mps=resample_increments(tel.dvel_mps, t_accel, tel.time_s), accel_time_s=None)
+__all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "compensate", "compensate_arrays_increments",
+           "read_continuous", "segment_note", "GAPS_WHY", "CompensateConfig", "CompensateResult", "run"]
 
 
 def _arms(levers: Levers, mode: str):
@@ -147,15 +113,117 @@ def segment_note(tel: Telemetry) -> dict:
             "segment_time_s": [seg.start_s, seg.end_s]}
 
 
-def run(path, levers_path, out, *, mode="triad", estimator=None, centripetal=True, tangential=True,
-        accel_delay_s=None, allow_gaps=False, force=False, segment: int | None = None) -> dict:
-    """Entry point of ``sizefx compensate``."""
-    tel = read_continuous(path, allow_gaps=allow_gaps, segment=segment, command="compensate")
-    levers = read_levers(levers_path)
-    new = compensate(tel, levers, mode, estimator=estimator, centripetal=centripetal, tangential=tangential,
-                     accel_delay_s=accel_delay_s)
+@dataclass(frozen=True)
+class CompensateConfig:
+    """``sizefx compensate FILE -o OUT --levers L`` (or ``--model M``): the record, exactly one
+    of a levers file and an effect-model file, the options and the output.
+
+    ``centripetal``/``tangential``: the terms to remove, and ``accel_delay_s``: the
+    accelerometers' known delay behind the gyros [s] (None: the levers file's) apply to
+    ``levers``; a model removes both terms and takes its delay from ``[accel_delay]``.
+    ``estimator``: the angular acceleration (None: ``savgol`` for rates, ``increments`` for
+    increments). ``segment``: one continuous segment (1-based) of a record with IMU gaps;
+    ``allow_gaps``: compensate across them instead.
+    """
+
+    input: str
+    output: str
+    levers: str | None = None  #: ``--levers``: ``sizefx/levers/1`` JSON
+    model: str | None = None  #: ``--model``: ``sizefx/effects/1`` TOML
+    mode: str = "triad"  #: triad (to the triad point, arms d_i) | center (to the rotation centre, r_i)
+    estimator: str | None = None
+    centripetal: bool = True
+    tangential: bool = True
+    accel_delay_s: float | None = None
+    allow_gaps: bool = False
+    segment: int | None = None
+    force: bool = False
+
+    def inputs(self) -> dict:
+        return {"FILE": self.input, "--levers": self.levers, "--model": self.model}
+
+    def outputs(self) -> dict:
+        return {"-o": self.output}
+
+    def check_options(self) -> None:
+        """The options alone, before any file is looked at (one-line refusals naming them)."""
+        if self.levers and self.model:
+            raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
+                              "([lever_arm]); give one of them")
+        if not self.levers and not self.model:
+            raise ConfigError("give the lever arms (--levers LEVERS.json) or an effect model (--model MODEL.toml)")
+        if self.model and (not self.centripetal or not self.tangential or self.accel_delay_s is not None):
+            raise ConfigError("--centripetal-only and --accel-delay-us apply to --levers; with --model the "
+                              "delay comes from the model's [accel_delay] and both terms are removed")
+        if self.mode not in ("triad", "center"):
+            raise ConfigError(f"--mode {self.mode}: use triad or center")
+        if self.estimator is not None and self.estimator not in ESTIMATORS:
+            raise ConfigError(f"estimator '{self.estimator}': use one of {', '.join(ESTIMATORS)}")
+        if self.accel_delay_s is not None and not np.isfinite(self.accel_delay_s):
+            raise ConfigError(f"--accel-delay-us {self.accel_delay_s * 1e6}: give a finite delay")
+
+
+@dataclass(frozen=True)
+class CompensateResult:
+    """What :func:`run` wrote: the output, its samples, and what was applied (as ``/source``
+    records it: ``compensation_json`` for levers, ``correction_json`` for a model)."""
+
+    output: str
+    samples: int
+    applied: dict  #: mode, estimator, accel_delay_s, ... (model: model, corrected, ignored)
+    with_model: bool = False
+
+    def report(self) -> str:
+        """The lines ``sizefx compensate`` prints."""
+        a = self.applied
+        delay = f"delay {a['accel_delay_s'] * 1e6:.1f} us"
+        if not self.with_model:
+            return (f"wrote {self.output}: {self.samples} samples, mode {a['mode']}, estimator {a['estimator']}, "
+                    f"tangential {'on' if a['tangential'] else 'off'}, {delay}")
+        lines = [f"wrote {self.output}: {self.samples} samples corrected with {a['model']}, mode {a['mode']}, "
+                 f"estimator {a['estimator']}, {delay}; corrected: "
+                 f"{', '.join(a['corrected']) or 'nothing (every section off)'}"]
+        if a["ignored"]:
+            lines.append(f"not IMU output errors, left alone: {', '.join(a['ignored'])}")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        return {"path": self.output, "samples": self.samples, **self.applied}
+
+
+#: What the result keeps of a model's ``correction_json`` (the effects themselves are in the model file).
+_MODEL_SUMMARY = ("model", "mode", "estimator", "corrected", "ignored", "accel_delay_s")
+
+
+def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
+    """Read ``config.input``, remove the size effect (``levers``) or every deterministic IMU
+    error of the model (``model``, :func:`sizefx.correct.correct_imu`), write ``config.output``
+    in the input's form. ``progress(done, total)`` is called after reading, compensating and
+    writing (total 3)."""
+    config.check_options()
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
+    tel = read_continuous(config.input, allow_gaps=config.allow_gaps, segment=config.segment, command="compensate")
+    if progress is not None:
+        progress(1, 3)
+    if config.model:
+        # here, not at the top: sizefx.correct imports this module (its sync and compensation)
+        from .correct import correct_imu, load_model
+
+        new = correct_imu(tel, load_model(config.model), mode=config.mode, estimator=config.estimator)
+        key, extra = "correction_json", config.model
+    else:
+        new = compensate(tel, read_levers(config.levers), config.mode, estimator=config.estimator,
+                         centripetal=config.centripetal, tangential=config.tangential,
+                         accel_delay_s=config.accel_delay_s)
+        key, extra = "compensation_json", config.levers
     if tel.segment is not None:
-        applied = {**json.loads(new.source["compensation_json"]), **segment_note(tel)}
-        new.source["compensation_json"] = json.dumps(applied)
-    write_telemetry(out, new, inputs=[path, levers_path], force=force)
-    return {"path": str(out), "samples": new.n_samples, **json.loads(new.source["compensation_json"])}
+        new.source[key] = json.dumps({**json.loads(new.source[key]), **segment_note(tel)})
+    if progress is not None:
+        progress(2, 3)
+    write_telemetry(config.output, new, inputs=[config.input, extra], force=config.force)
+    if progress is not None:
+        progress(3, 3)
+    applied = json.loads(new.source[key])
+    if config.model:
+        applied = {k: applied[k] for k in _MODEL_SUMMARY}
+    return CompensateResult(str(config.output), new.n_samples, applied, with_model=bool(config.model))

@@ -15,9 +15,13 @@ the accelerometer sample it compensates; ``savgol`` trades bandwidth for noise.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-__all__ = ["central", "savgol", "edges_from_increments", "response", "noise_gain", "ESTIMATORS"]
+from .kernels.omegadot import savgol_derivative, savgol_weights
+
+__all__ = ["central", "savgol", "savgol_rows", "edges_from_increments", "response", "noise_gain", "ESTIMATORS"]
 
 ESTIMATORS = ("central", "savgol", "increments")
 
@@ -32,13 +36,67 @@ def central(omega, dt):
     return np.gradient(np.asarray(omega, dtype=float), dt, axis=0)
 
 
-def savgol(omega, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER):
-    """Centred Savitzky-Golay first derivative (scipy); ends by polynomial fit ('interp')."""
-    from scipy.signal import (
-        savgol_filter,  # scipy.signal is imported here, not at module level: it costs 0.9 s at start-up
-    )
+@functools.lru_cache(maxsize=16)
+def _savgol_weights(dt, window, order):
+    """:func:`sizefx.kernels.omegadot.savgol_weights`, checked, and kept for the next chunk
+    (read-only arrays)."""
+    if not (isinstance(window, (int, np.integer)) and window >= 3 and window % 2 == 1):
+        raise ValueError(f"Savitzky-Golay window {window!r}: give an odd number of samples, at least 3")
+    if not (isinstance(order, (int, np.integer)) and 1 <= order < window):
+        raise ValueError(f"Savitzky-Golay order {order!r}: give 1 .. window - 1 (a derivative needs order >= 1)")
+    if not (np.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"sample period {dt!r}: give a positive, finite period in seconds")
+    weights = savgol_weights(int(window), int(order), float(dt))
+    for w in weights:
+        w.flags.writeable = False
+    return weights
 
-    return savgol_filter(np.asarray(omega, dtype=float), window, order, deriv=1, delta=dt, axis=0, mode="interp")
+
+def savgol(omega, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER):
+    """Centred Savitzky-Golay first derivative of ``omega [N, C]`` (rad/s -> rad/s^2, any
+    quantity per second), the polynomial fit at the ends (scipy's ``mode="interp"``).
+
+    The Numba kernel :func:`sizefx.kernels.omegadot.savgol_derivative` on the whole record
+    (:func:`savgol_rows` for a part of one); the same as ``scipy.signal.savgol_filter(omega,
+    window, order, deriv=1, delta=dt, axis=0, mode="interp")`` to rounding (see
+    ``tests/test_stream_kernels.py`` for the tolerance). Needs ``N >= window``.
+    """
+    x = np.asarray(omega, dtype=np.float64)
+    return savgol_rows(x, 0, x.shape[0], 0, x.shape[0], dt, window, order)
+
+
+def savgol_rows(rows, lo: int, n_record: int, j0: int, j1: int, dt, window: int = SAVGOL_WINDOW,
+                order: int = SAVGOL_ORDER):
+    """:func:`savgol` of record rows ``[j0, j1)``, given ``rows``, the record's rows
+    ``[lo, lo + len(rows))`` of ``n_record``. Returns ``[j1 - j0, C]`` (``[j1 - j0]`` for ``[R]``).
+
+    The rows must hold every row's window: ``[j0 - m, j1 + m)`` clipped to the record
+    (``m = window // 2``), and, when a row within m of a record end is asked for, that end's
+    whole window (``[0, window)`` or ``[n_record - window, n_record)``), which the end rows'
+    fitted polynomial uses.
+
+    The ends' polynomial fit applies only at the record's own ends (rows below m and from
+    ``n_record - m``), so a record processed in chunks gives the same derivative, bit for bit,
+    as processed whole (each row sums the same taps in the same order).
+    """
+    given = np.asarray(rows, dtype=np.float64)
+    x = np.ascontiguousarray(given.reshape(given.shape[0], -1))
+    taps, head, tail = _savgol_weights(dt, window, order)
+    m = taps.size
+    if n_record < window:
+        raise ValueError(f"Savitzky-Golay window of {window} samples on a record of {n_record}: it needs at "
+                         f"least {window}")
+    need_lo, need_hi = max(0, j0 - m), min(n_record, j1 + m)
+    if j0 < j1 and j0 < m:
+        need_hi = max(need_hi, window)
+    if j0 < j1 and j1 > n_record - m:
+        need_lo = min(need_lo, n_record - window)
+    if not (0 <= j0 <= j1 <= n_record and lo <= need_lo and need_hi <= lo + x.shape[0] <= n_record):
+        raise ValueError(f"savgol_rows: rows [{j0}, {j1}) of {n_record} need rows [{need_lo}, {need_hi}); "
+                         f"given [{lo}, {lo + x.shape[0]})")
+    out = np.empty((j1 - j0, x.shape[1]))
+    savgol_derivative(x, lo, n_record, j0, j1, taps, head, tail, out)
+    return out.reshape((j1 - j0,) + given.shape[1:])
 
 
 def edges_from_increments(dtheta, dt):
@@ -55,10 +113,9 @@ def edges_from_increments(dtheta, dt):
 
 
 def _savgol_kernel(dt, window, order):
-    from scipy.signal import savgol_coeffs
-
-    # savgol_coeffs with use='dot' gives c such that estimate = c . x[k - m .. k + m]
-    return savgol_coeffs(window, order, deriv=1, delta=dt, use="dot")
+    """The centred weights ``c [window]``: estimate ``= c . x[k - m .. k + m]`` (the kernel's taps)."""
+    taps = _savgol_weights(dt, window, order)[0]
+    return np.concatenate([-taps[::-1], [0.0], taps])
 
 
 def response(estimator: str, freq_hz, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER):

@@ -116,3 +116,80 @@ def compensate_increments(dvel, dtheta, omega_edges, dt, arms, axes, centripetal
                 lever += dt * np.cross(w, np.cross(w, arms[i]))
             out[k, i] -= axes[i] @ lever
     return out
+
+
+def spline_not_a_knot(x, y, t):
+    """The not-a-knot cubic spline through ``(x_i, y_i [C])`` at ``t``, from its definition.
+
+    One cubic ``a + b e + c e^2 + d e^3`` per interval in ``e = (x - x_i) / h_i``, 4 (n - 1)
+    unknowns: it passes through both knots of its interval, its first and second derivatives
+    are continuous at the inner knots, and so is the third at ``x_1`` and ``x_{n-2}`` (not a
+    knot). One dense solve. Two knots give the straight line and three the parabola (the
+    not-a-knot conditions coincide there), as scipy. Beyond the ends the end cubics go on.
+    """
+    x, y, t = np.asarray(x, float), np.asarray(y, float), np.asarray(t, float)
+    n = x.size
+    if n == 2:
+        return y[0] + np.multiply.outer((t - x[0]) / (x[1] - x[0]), y[1] - y[0])
+    if n == 3:
+        coef = np.polynomial.polynomial.polyfit(x - x[0], y, 2)
+        return np.polynomial.polynomial.polyval(t - x[0], coef).T.reshape(t.shape + y.shape[1:])
+    h = np.diff(x)
+    m = 4 * (n - 1)
+    a = np.zeros((m, m))
+    b = np.zeros((m,) + y.shape[1:])
+    row = 0
+
+    def col(i, power):
+        return 4 * i + power
+
+    for i in range(n - 1):  # through both knots
+        a[row, col(i, 0)] = 1.0
+        b[row] = y[i]
+        row += 1
+        a[row, col(i, 0):col(i, 0) + 4] = 1.0
+        b[row] = y[i + 1]
+        row += 1
+    for i in range(n - 2):  # p_i' and p_i'' at e = 1 equal p_{i+1}' and p_{i+1}'' at e = 0 (times h_i^k)
+        r = h[i] / h[i + 1]
+        a[row, col(i, 1)], a[row, col(i, 2)], a[row, col(i, 3)] = 1.0, 2.0, 3.0
+        a[row, col(i + 1, 1)] = -r
+        row += 1
+        a[row, col(i, 2)], a[row, col(i, 3)] = 2.0, 6.0
+        a[row, col(i + 1, 2)] = -2.0 * r**2
+        row += 1
+    for i in (0, n - 3):  # not a knot: the third derivative continuous at x_1 and x_{n-2}
+        a[row, col(i, 3)] = 6.0
+        a[row, col(i + 1, 3)] = -6.0 * (h[i] / h[i + 1]) ** 3
+        row += 1
+    coef = np.linalg.solve(a, b).reshape((n - 1, 4) + y.shape[1:])
+    i = np.clip(np.searchsorted(x, t, side="right") - 1, 0, n - 2)
+    e = (t - x[i]) / h[i]
+    powers = np.stack([np.ones_like(e), e, e**2, e**3], axis=-1)
+    return np.einsum("kp,kp...->k...", powers, coef[i])
+
+
+def resample_increments(incr, t_end_from, t_end_to):
+    """Increments over ``(t_from[k-1], t_from[k]]`` -> over ``(t_to[k-1], t_to[k]]``: the spline
+    of their cumulative sum at the target edges, differenced (the first interval of each
+    starts one median period before its first stamp)."""
+    def edges(t):
+        return np.r_[t[0] - np.median(np.diff(t)), t]
+
+    cum = np.vstack([np.zeros(incr.shape[1]), np.cumsum(incr, axis=0)])
+    return np.diff(spline_not_a_knot(edges(t_end_from), cum, edges(t_end_to)), axis=0)
+
+
+def savgol_derivative(x, dt, window=41, order=2):
+    """Row by row: the slope at row k of the polynomial of ``order`` fitted by least squares
+    to the ``window`` rows centred on k, or to the first (last) ``window`` rows for the rows
+    within ``window // 2`` of an end (scipy's ``mode="interp"``)."""
+    x = np.asarray(x, float)
+    n, half = x.shape[0], window // 2
+    out = np.empty_like(x)
+    for k in range(n):
+        start = min(max(k - half, 0), n - window)
+        u = np.arange(start, start + window) - k  # positions relative to row k
+        coef = np.polynomial.polynomial.polyfit(u, x[start:start + window], order)
+        out[k] = coef[1] / dt  # d/du at u = 0
+    return out

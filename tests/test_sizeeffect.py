@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from sizefx import scenarios
 from sizefx.calibrate import CalibrationError, joint_fit, per_rotation_fit, prepare
 from sizefx.geometry import triad_point
-from sizefx.compensate import compensate, resample_increments, resample_onto
+from sizefx.compensate import compensate
 from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError
@@ -19,6 +19,7 @@ from sizefx.kernels.sizeeffect import compensate_increments, compensate_rates
 from sizefx.levers import Levers, levers_from_preset, read_levers, write_levers
 from sizefx.omegadot import central, edges_from_increments, noise_gain, response, savgol
 from sizefx.simulate import simulate_in_memory
+from sizefx.sync import resample_increments, resample_onto
 from sizefx_cli.main import main
 import naive
 
@@ -337,6 +338,64 @@ def test_calibrate_compensate_navigate_commands(tmp_path, paper_plan):
     assert json.loads(comp.source["compensation_json"])["mode"] == "center"
     r = CliRunner().invoke(main, ["navigate", str(sim), "--levers", str(lev), "--mode", "triad"])
     assert r.exit_code == 0, r.output
+
+
+def _record_and_levers(tmp_path, form="rates"):
+    from sizefx.io.telemetry import write_telemetry
+
+    sway = scenarios.sway(scenarios.SwayPlan(axis="roll", amplitudes_dps=(20.0,), static_s=1.0, segment_s=3.0))[0]
+    rec, lev = tmp_path / f"sway_{form}.h5", tmp_path / "lev.json"
+    write_telemetry(rec, simulate_in_memory(sway, ideal(lever_arm={"enabled": True}), form=form))
+    write_levers(lev, levers_from_preset("high-precision"))
+    return rec, lev
+
+
+def test_compensate_stage_config_run_result(tmp_path):
+    """The stage shape (sizefx.stage): a config, run(config) -> result with report() and to_json();
+    the same file as the command writes."""
+    from sizefx.compensate import CompensateConfig, CompensateResult, run
+    from sizefx.io.telemetry import read_telemetry
+
+    rec, lev = _record_and_levers(tmp_path)
+    seen = []
+    res = run(CompensateConfig(input=str(rec), output=str(tmp_path / "api.h5"), levers=str(lev), mode="center",
+                               tangential=False, accel_delay_s=20e-6),
+              progress=lambda done, total: seen.append((done, total)))
+    assert isinstance(res, CompensateResult) and seen == [(1, 3), (2, 3), (3, 3)]
+    n = read_telemetry(rec).n_samples
+    assert res.report() == (f"wrote {tmp_path / 'api.h5'}: {n} samples, mode center, estimator savgol, "
+                            "tangential off, delay 20.0 us")
+    doc = res.to_json()
+    assert doc["path"] == str(tmp_path / "api.h5") and doc["samples"] == n and doc["tangential"] is False
+    written = json.loads(read_telemetry(tmp_path / "api.h5").source["compensation_json"])
+    assert written == {k: v for k, v in doc.items() if k not in ("path", "samples")}
+    cli = CliRunner().invoke(main, ["compensate", str(rec), "--levers", str(lev), "-o", str(tmp_path / "cli.h5"),
+                                    "--mode", "center", "--centripetal-only", "--accel-delay-us", "20"])
+    assert cli.exit_code == 0 and cli.output == res.report().replace("api.h5", "cli.h5") + "\n", cli.output
+    np.testing.assert_array_equal(read_telemetry(tmp_path / "cli.h5").accel_mps2,
+                                  read_telemetry(tmp_path / "api.h5").accel_mps2)
+
+
+def test_compensate_stage_refuses_before_any_work(tmp_path):
+    from sizefx.compensate import CompensateConfig, run
+    from sizefx.errors import OutputError
+
+    rec, lev = _record_and_levers(tmp_path)
+    out = str(tmp_path / "out.h5")
+    cases = [
+        (dict(levers=str(lev), model=str(lev)), ConfigError, "--levers and --model both given"),
+        (dict(), ConfigError, "give the lever arms"),
+        (dict(model=str(lev), tangential=False), ConfigError, "apply to --levers"),
+        (dict(levers=str(tmp_path / "none.json")), ConfigError, "--levers: no such file"),
+        (dict(levers=str(lev), accel_delay_s=float("nan")), ConfigError, "finite delay"),
+        (dict(levers=str(lev), estimator="spline"), ConfigError, "use one of central, savgol, increments"),
+    ]
+    for options, error, words in cases:
+        with pytest.raises(error, match=words):
+            run(CompensateConfig(input=str(rec), output=out, **options))
+    with pytest.raises(OutputError):  # the output may not be an input
+        run(CompensateConfig(input=str(rec), output=str(lev), levers=str(lev), force=True))
+    assert not (tmp_path / "out.h5").exists()
 
 
 def test_increment_domain_tangential_noise_has_no_one_over_h():
