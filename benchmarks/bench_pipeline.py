@@ -41,7 +41,7 @@ import numpy as np
 # `sizefx` is the installed package and not the source tree
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from sizefx.compensate import sync_accelerometers
+from sizefx.sync import sync_accelerometers
 from sizefx.kernels.increments import rates_to_increments
 from sizefx.kernels.sizeeffect import (
     compensate_increments,

@@ -23,16 +23,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .correct import correct_imu, load_model
 from .errors import ConfigError
 from .kernels.sizeeffect import compensate_increments, compensate_increments_edges, compensate_rates
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
 from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
 from .stage import preflight
-from .sync import resample_increments, resample_onto, sync_accelerometers
+from .sync import sync_accelerometers
 
-__all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "compensate", "compensate_arrays_increments",
-           "read_continuous", "segment_note", "GAPS_WHY", "CompensateConfig", "CompensateResult", "run"]
+__all__ = ["compensate", "compensate_arrays_increments", "read_continuous", "segment_note", "GAPS_WHY",
+           "CompensateConfig", "CompensateResult", "run"]
 
 
 def _arms(levers: Levers, mode: str):
@@ -206,9 +207,6 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
     if progress is not None:
         progress(1, 3)
     if config.model:
-        # here, not at the top: sizefx.correct imports this module (its sync and compensation)
-        from .correct import correct_imu, load_model
-
         new = correct_imu(tel, load_model(config.model), mode=config.mode, estimator=config.estimator)
         key, extra = "correction_json", config.model
     else:

@@ -15,7 +15,7 @@ accelerometers, ``f_b`` is the specific force at the reference point and
 on the output of the one before (step 1 here, steps 2-6 :func:`sizefx.sensor_model.inverse`):
 
 1. Sync (``[accel_delay]``, and ``/imu/accel_time`` when the file has one):
-   :func:`sizefx.compensate.sync_accelerometers` puts the accelerometers on
+   :func:`sizefx.sync.sync_accelerometers` puts the accelerometers on
    the gyro time base. The delay commutes with the per-sample map of step 2,
    so undoing it first is exact up to the spline.
 2. Accelerometer scale factor, quadratic term and bias, per channel: the root
@@ -63,15 +63,15 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-from .compensate import read_continuous, segment_note, sync_accelerometers
+from .sync import sync_accelerometers
 from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
-from .io.telemetry import Telemetry, write_telemetry
+from .io.telemetry import Telemetry
 from .omegadot import SAVGOL_WINDOW
 from .sensor_model import INVERTED, NOT_INVERTED, check_estimator, check_invertible, inverse
 from .sensor_model.table import MAX_AXES_CONDITION
 
-__all__ = ["CORRECTED_SECTIONS", "IGNORED_SECTIONS", "MAX_AXES_CONDITION", "correct_imu", "load_model", "run"]
+__all__ = ["CORRECTED_SECTIONS", "IGNORED_SECTIONS", "MAX_AXES_CONDITION", "correct_imu", "load_model"]
 
 #: Sections :func:`correct_imu` inverts (the deterministic sensor errors and the lever arms).
 CORRECTED_SECTIONS = INVERTED
@@ -143,18 +143,3 @@ def correct_imu(tel: Telemetry, fx: EffectModel, *, mode: str = "center", estima
     new.description = (tel_in.description + " | " if tel_in.description else "") + \
         f"corrected with effect model {fx.source} ({mode}, {estimator})"
     return new
-
-
-def run(path, model_path, out, *, mode: str = "triad", estimator: str | None = None, allow_gaps: bool = False,
-        force: bool = False, segment: int | None = None) -> dict:
-    """Entry point of ``sizefx compensate --model``: read, correct, write ``out`` (same form)."""
-    tel = read_continuous(path, allow_gaps=allow_gaps, segment=segment, command="compensate")
-    fx = load_model(model_path)
-    new = correct_imu(tel, fx, mode=mode, estimator=estimator)
-    if tel.segment is not None:
-        new.source["correction_json"] = json.dumps({**json.loads(new.source["correction_json"]),
-                                                    **segment_note(tel)})
-    write_telemetry(out, new, inputs=[path, model_path], force=force)
-    applied = json.loads(new.source["correction_json"])
-    return {"path": str(out), "samples": new.n_samples,
-            **{k: applied[k] for k in ("model", "mode", "estimator", "corrected", "ignored", "accel_delay_s")}}

@@ -105,7 +105,7 @@ def test_plot_into_a_missing_folder_fails_before_the_work(tmp_path):
 def test_navigate_syncs_separately_stamped_accelerometers():
     from dataclasses import replace
 
-    from sizefx.compensate import resample_onto
+    from sizefx.sync import resample_onto
     from sizefx.navigate import NavConfig, navigate
     from sizefx.simulate import simulate_in_memory
 

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sizefx import sensor_model as sm
-from sizefx.compensate import sync_accelerometers
+from sizefx.sync import sync_accelerometers
 from sizefx.effects import EFFECTS_SCHEMA, IDEAL, load_effects
 from sizefx.errors import ConfigError
 from sizefx.io.schema import load_schema

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import earth
-from ..compensate import sync_accelerometers
+from ..sync import sync_accelerometers
 from ..constants import DEG
 from ..errors import SizefxError
 from ..io.telemetry import Telemetry

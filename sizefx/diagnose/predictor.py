@@ -88,7 +88,7 @@ class Predictor:
 
     def __init__(self, tel: Telemetry):
         check_record(tel)
-        from ..compensate import sync_accelerometers
+        from ..sync import sync_accelerometers
 
         tel = sync_accelerometers(tel)  # separate accelerometer stamps are a known sync, not an effect
         dt = tel.sample_period_s

@@ -32,7 +32,8 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
-from ..compensate import compensate_arrays_increments, sync_accelerometers
+from ..compensate import compensate_arrays_increments
+from ..sync import sync_accelerometers
 from ..correct import correct_imu
 from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
