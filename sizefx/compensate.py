@@ -5,10 +5,11 @@ The stage: :class:`CompensateConfig` -> :func:`run` -> :class:`CompensateResult`
 
 Steps:
 
-1. Sync (:mod:`sizefx.sync`, whose names this module also offers). Accelerometers
+1. Sync (:mod:`sizefx.sync`). Accelerometers
    stamped apart (``/imu/accel_time``) or late by a known delay are brought onto
    the gyro time base by a not-a-knot cubic spline.
-2. Compensation in the record's own domain.
+2. Compensation in the record's own domain, by the sensor model's
+   :func:`sizefx.sensor_model.remove_lever_terms` (the one place the lever terms are removed):
    - Rates: ``a_i - u_i . (omegadot x r_i + omega x (omega x r_i))``, with omegadot
      from the chosen estimator (:mod:`sizefx.omegadot`).
    - Increments: the tangential term as a difference of edge rates (no derivative).
@@ -25,10 +26,10 @@ import numpy as np
 
 from .correct import correct_imu, load_model
 from .errors import ConfigError
-from .kernels.sizeeffect import compensate_increments, compensate_increments_edges, compensate_rates
 from .levers import Levers, read_levers
-from .omegadot import ESTIMATORS, SAVGOL_WINDOW, central, edges_from_increments, savgol
+from .omegadot import ESTIMATORS, SAVGOL_WINDOW
 from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
+from .sensor_model import check_estimator, remove_lever_terms
 from .stage import preflight
 from .sync import sync_accelerometers
 
@@ -41,16 +42,10 @@ def _arms(levers: Levers, mode: str):
 
 
 def compensate_arrays_increments(dtheta, dvel, dt, levers: Levers, mode: str, *, centripetal=True, tangential=True):
-    """Increment-domain compensation of arrays (used by navigate)."""
+    """Increment-domain compensation of arrays (used by navigate): the sensor model's lever terms removed."""
     arms, axes = _arms(levers, mode)
-    out = np.empty_like(dvel)
-    if dvel.shape[0] < 2:
-        compensate_increments(np.ascontiguousarray(dvel), np.ascontiguousarray(dtheta),
-                              edges_from_increments(dtheta, dt), dt, arms, axes, centripetal, tangential, out)
-        return out
-    compensate_increments_edges(np.ascontiguousarray(dvel), np.ascontiguousarray(dtheta), dt, arms, axes,
-                                centripetal, tangential, out)
-    return out
+    return remove_lever_terms(dvel, dtheta, arms, axes, form="increments", dt=dt, estimator="increments",
+                              centripetal=centripetal, tangential=tangential)
 
 
 def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator: str | None = None,
@@ -58,12 +53,7 @@ def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator
     """A copy of ``tel`` with size-effect-free accelerometers on the gyro time base."""
     if estimator is None:
         estimator = "increments" if tel.form == "increments" else "savgol"
-    if estimator not in ESTIMATORS:
-        raise ConfigError(f"estimator '{estimator}': use one of {', '.join(ESTIMATORS)}")
-    if tel.form == "increments" and estimator != "increments":
-        raise ConfigError("increment data are compensated with --estimator increments (no derivative is formed)")
-    if tel.form == "rates" and estimator == "increments":
-        raise ConfigError("rate data take --estimator central or savgol")
+    check_estimator(tel.form, estimator)
     if tel.n_samples < 4 * SAVGOL_WINDOW:
         raise ConfigError(f"{tel.path}: {tel.n_samples} samples; compensation needs at least {4 * SAVGOL_WINDOW}")
     tau = levers.accel_delay_s if accel_delay_s is None else accel_delay_s
@@ -71,17 +61,10 @@ def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator
     tel_in, tel = tel, sync_accelerometers(tel, tau)
     dt = tel.sample_period_s
     arms, axes = _arms(levers, mode)
-    if tel.form == "rates":
-        accel = tel.accel_mps2
-        omega = np.ascontiguousarray(tel.gyro_rad_s)
-        omegadot = central(omega, dt) if estimator == "central" else savgol(omega, dt)
-        out = np.empty_like(accel)
-        compensate_rates(np.ascontiguousarray(accel), omega, np.ascontiguousarray(omegadot), arms, axes,
-                         centripetal, tangential, out)
-        new = replace(tel, accel_mps2=out)
-    else:
-        new = replace(tel, dvel_mps=compensate_arrays_increments(tel.dtheta_rad, tel.dvel_mps, dt, levers, mode,
-                                                                 centripetal=centripetal, tangential=tangential))
+    gyro_like, accel_like = tel.imu_arrays()
+    out = remove_lever_terms(accel_like, gyro_like, arms, axes, form=tel.form, dt=dt, estimator=estimator,
+                             centripetal=centripetal, tangential=tangential)
+    new = replace(tel, accel_mps2=out) if tel.form == "rates" else replace(tel, dvel_mps=out)
     applied = {"mode": mode, "estimator": estimator, "centripetal": centripetal, "tangential": tangential,
                "accel_delay_s": tau, "arms_m": arms.tolist(), "axes": axes.tolist()}
     new.source = {**(tel_in.source or {}), "compensation_json": json.dumps(applied)}

@@ -53,12 +53,15 @@ def check_estimator(form: str, estimator: str):
         raise ConfigError("rate data take --estimator central or savgol")
 
 
-def remove_lever_terms(accel_like, omega_like, arms, axes, *, form: str, dt: float, estimator: str):
+def remove_lever_terms(accel_like, omega_like, arms, axes, *, form: str, dt: float, estimator: str,
+                       centripetal: bool = True, tangential: bool = True):
     """``a_i - u_i . (omegadot x r_i + omega x (omega x r_i))`` [N, 3], in the record's own domain.
 
     Rates: ``omegadot`` from ``omega`` by the estimator (:mod:`sizefx.omegadot`). Increments: the
     tangential term as a difference of edge rates, the centripetal from the interval's mean rate
     (:mod:`sizefx.kernels.sizeeffect`). ``arms``, ``axes``: rows ``r_i`` [m], ``u_i``.
+    ``centripetal``, ``tangential``: which of the two terms to remove (both, unless a study
+    asks for one alone: ``sizefx compensate --no-centripetal``).
     """
     # the kernels are imported here: Numba costs 0.3 s at start-up, which simulate (forward only) need not pay
     from ..kernels.sizeeffect import compensate_increments, compensate_increments_edges, compensate_rates
@@ -70,12 +73,13 @@ def remove_lever_terms(accel_like, omega_like, arms, axes, *, form: str, dt: flo
     out = np.empty_like(accel_like)
     if form == "rates":
         omegadot = central(omega_like, dt) if estimator == "central" else savgol(omega_like, dt)
-        compensate_rates(accel_like, omega_like, np.ascontiguousarray(omegadot), arms, axes, True, True, out)
+        compensate_rates(accel_like, omega_like, np.ascontiguousarray(omegadot), arms, axes, centripetal, tangential,
+                         out)
     elif accel_like.shape[0] < 2:
         compensate_increments(accel_like, omega_like, edges_from_increments(omega_like, dt), dt, arms, axes,
-                              True, True, out)
+                              centripetal, tangential, out)
     else:
-        compensate_increments_edges(accel_like, omega_like, dt, arms, axes, True, True, out)
+        compensate_increments_edges(accel_like, omega_like, dt, arms, axes, centripetal, tangential, out)
     return out
 
 
