@@ -125,7 +125,7 @@ def check(t, ta, rates, incr):
     worst_s = np.abs(savgol(rates[:k], DT) - naive.savgol_derivative(rates[:k], DT)).max() / sg_scale
     assert worst_s < 1e-12
     out["twins"] = "agree to 1e-12 (spline on 400 rows, Savitzky-Golay on 2000)"
-    # chunk by chunk (64 rows each side for the sync, as sizefx.navigate.stream) against the whole
+    # chunk by chunk (64 rows each side for the sync, as sizefx.navigate.loop) against the whole
     n, margin, step = min(t.size, 300_000), 64, 65_536
     whole_sync, whole_sg = resample_onto(rates[:n], ta[:n], t[:n]), savgol(rates[:n], DT)
     sync_diff, sg_equal = 0.0, True

@@ -9,7 +9,7 @@ a 50 Hz tone at 1600 Hz.
 
 A spline value depends on samples k rows away as (2 - sqrt(3))^k, so a chunk read with 64
 extra rows on each side syncs, inside, as the whole record does
-(:mod:`sizefx.navigate.stream`).
+(:mod:`sizefx.navigate.loop`).
 """
 
 from __future__ import annotations

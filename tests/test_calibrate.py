@@ -24,7 +24,7 @@ from sizefx.effects import load_effects
 from sizefx.errors import ConfigError, OutputError
 from sizefx.rotation import quat_interp, quat_to_mat
 from sizefx.simulate import SimulateConfig, simulate_in_memory
-from sizefx.simulate import SimulateConfig, run as simulate
+from sizefx.simulate import run as simulate
 from sizefx_cli.main import main
 from support import write_raw
 

@@ -23,7 +23,7 @@ from sizefx import diagnose as D
 from sizefx import scenarios
 from sizefx.constants import ARCSEC, DEG
 from sizefx.effects import IDEAL, load_effects
-from sizefx.errors import ConfigError, OutputError
+from sizefx.errors import OutputError
 from sizefx.simulate import simulate_in_memory
 from support import write_raw
 

@@ -15,12 +15,11 @@ from scipy.signal import savgol_coeffs, savgol_filter
 import naive
 from sizefx.io.telemetry import Telemetry
 from sizefx.kernels.sync import MEDIAN_SAMPLE, median_step
+from sizefx.navigate.config import MARGIN  # the rows the navigation loop reads on each side of a chunk
 from sizefx.omegadot import SAVGOL_WINDOW, savgol, savgol_rows
 from sizefx.sync import resample_increments, resample_onto, sync_accelerometers
 
 H = 1 / 1600
-#: Rows read on each side of a chunk by the streamed navigation (sizefx.navigate.stream.MARGIN).
-MARGIN = 64
 
 #: Spline against scipy and the twin, as a part of the largest |value| (of the running sum for
 #: increments, which is what scipy splines and rounds). The three solve the same well-conditioned
@@ -134,7 +133,7 @@ def test_spline_against_scipy_for_any_short_record(n, seed, shift):
 
 def _whole_and_chunked(fn, n, bounds):
     """``fn(lo, hi)`` on the whole record, and on chunks ``[j0, j1)`` read with MARGIN rows each
-    side (as sizefx.navigate.stream does), kept inside."""
+    side (as sizefx.navigate.loop does), kept inside."""
     whole = fn(0, n)
     parts = []
     for j0, j1 in bounds:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TelemetryError
+from ..io.contract import attr_str
 from ..io.navigation import NAVIGATION_SCHEMA, read_navigation_datasets
 from ..io.schema import TELEMETRY_SCHEMA
 from ..io.telemetry import open_hdf5, read_telemetry
@@ -83,14 +84,6 @@ class Track:
         return float(np.median(np.diff(self.time_s))) if self.time_s.size > 1 else float("nan")
 
 
-def _decode(value) -> str:
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
-    if isinstance(value, np.ndarray) and value.shape == ():
-        return _decode(value[()])
-    return str(value)
-
-
 def read_track(path) -> Track:
     """Read a navigation solution or a telemetry file's reference as a :class:`Track`.
 
@@ -111,7 +104,7 @@ def read_track(path) -> Track:
         if "schema" not in h5.attrs:
             raise TelemetryError(path, "/", f"root attribute 'schema' is missing; compare reads {NAVIGATION_SCHEMA} "
                                             f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position")
-        declared = _decode(h5.attrs["schema"])
+        declared = attr_str(h5.attrs["schema"])
         if declared == NAVIGATION_SCHEMA:
             sol = read_navigation_datasets(path, h5)
             return Track(sol.time_s, sol.lat_rad, sol.lon_rad, sol.height_m, sol.v_n, sol.quat_nb, name=str(path),

@@ -24,7 +24,7 @@ from .. import __version__
 from ..constants import QUATERNION_NORM_TOLERANCE
 from ..errors import TelemetryError
 from ..rotation import mat_to_euler, quat_to_mat
-from .contract import open_hdf5
+from .contract import attr_str, open_hdf5
 from .files import atomic_output
 from .schema import load_schema, normalise_units, unit_factor
 
@@ -64,14 +64,6 @@ def read_navigation(path) -> Solution:
         return read_navigation_datasets(path, h5)
 
 
-def _decode(value) -> str:
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
-    if isinstance(value, np.ndarray) and value.shape == ():
-        return _decode(value[()])
-    return str(value)
-
-
 def _dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
     """One dataset of a navigation file, checked against its contract entry; float64, SI units.
 
@@ -102,8 +94,8 @@ def _dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
     # The navigation contract allows its own units only (an absent attribute means them); the
     # telemetry contract's units table converts them to SI.
     units = dset.attrs.get("units")
-    if units is not None and normalise_units(_decode(units)) != normalise_units(spec["units"]):
-        raise TelemetryError(path, name, f"has units '{_decode(units)}'; {NAVIGATION_SCHEMA} stores "
+    if units is not None and normalise_units(attr_str(units)) != normalise_units(spec["units"]):
+        raise TelemetryError(path, name, f"has units '{attr_str(units)}'; {NAVIGATION_SCHEMA} stores "
                                          f"'{spec['units']}'")
     factor = unit_factor(NAVIGATION_QUANTITIES[name], spec["units"])
     try:

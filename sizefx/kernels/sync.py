@@ -44,7 +44,7 @@ between a chunk and the whole record.
 ``(2 - sqrt(3))^k`` (the Thomas multipliers tend to ``2 - sqrt(3)``, and so do the
 entries of the inverse of the tridiagonal matrix away from its diagonal): 1e-37 at 64
 rows, far below rounding. So the spline of a chunk read with 64 extra rows on each side
-equals, inside, that of the whole record (:data:`sizefx.navigate.stream.MARGIN`). A
+equals, inside, that of the whole record (:data:`sizefx.navigate.config.MARGIN`). A
 carried state would not remove the look-ahead (a spline is not causal), and the 64 rows
 behind cost 1/8000 of a 2^20-row chunk, so each chunk is solved whole.
 """
