@@ -50,7 +50,7 @@ The three maps
   how the accelerometer delay enters. Used by :mod:`sizefx.simulate`.
 - :func:`inverse` (readings -> ``omega_ib_b`` and ``f_b``): the deterministic sensor errors and
   the lever arms undone, steps 2-6 of :mod:`sizefx.correct`'s docstring; step 1, the delay, is
-  a resampling of the whole series, done by :func:`sizefx.compensate.sync_accelerometers`
+  a resampling of the whole series, done by :func:`sizefx.sync.sync_accelerometers`
   before (the one place that resamples). Used by :func:`sizefx.correct.correct_imu`.
 - :func:`jacobian`: the partial derivatives of :func:`forward`'s readings with respect to each
   parameter of ``theta``, analytic, at any ``theta``. Used by :mod:`sizefx.calibrate`'s joint

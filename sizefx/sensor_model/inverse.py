@@ -92,7 +92,7 @@ def inverse(p: SensorParams, gyro_like, accel_like, *, form: str, dt: float, mod
     p : SensorParams
     gyro_like, accel_like : [N, 3]
         Rates (rad/s, m/s^2) or increments (rad, m/s), the accelerometers already on the gyros'
-        time base (step 1: :func:`sizefx.compensate.sync_accelerometers` with ``p.accel_delay``).
+        time base (step 1: :func:`sizefx.sync.sync_accelerometers` with ``p.accel_delay``).
     form : {"rates", "increments"}
     dt : float
         Sample period [s].

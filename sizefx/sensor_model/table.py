@@ -62,7 +62,7 @@ EFFECTS = (
            "steps 4 and 6: the tangential and centripetal terms removed with the corrected gyros"),
     Effect("accel_delay", "accel", ("tau",), (), "s", "tau_s [s]", "tau_s",
            "the accelerometers sample the motion at t - tau_a (sample())",
-           "step 1, before inverse(): sizefx.compensate.sync_accelerometers resamples them onto the gyros' times"),
+           "step 1, before inverse(): sizefx.sync.sync_accelerometers resamples them onto the gyros' times"),
     Effect("reference_delay", "reference", ("tau",), (), "s", "tau_s [s]", "tau_s",
            "the reference row stamped t reports the true motion at t - tau_r (reported_time())", None),
     Effect("level_tilt", "reference", ("north", "east"), (2,), "rad", "north_arcsec, east_arcsec [arcsec]", None,
