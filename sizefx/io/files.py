@@ -19,6 +19,15 @@ from ..errors import OutputError
 __all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder"]
 
 
+def _require_writable_parent(out: Path) -> None:
+    """The folder that will hold the new file or folder ``out`` exists and is writable."""
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"{out}: directory {parent} does not exist; create it first")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{out}: directory {parent} is not writable; choose another output folder")
+
+
 def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
     """Refuse an output path that is an input, or that exists without ``force``."""
     out = Path(path)
@@ -37,11 +46,7 @@ def check_output_path(path, *, inputs=(), force: bool = False) -> Path:
         raise OutputError(f"{out}: output exists; pass --force to replace it, or choose another name")
     if out.exists() and out.is_dir():
         raise OutputError(f"{out}: output is a directory; give a file name")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise OutputError(f"{out}: directory {parent} does not exist; create it first")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{out}: directory {parent} is not writable; choose another output folder")
+    _require_writable_parent(out)
     return out
 
 
@@ -74,11 +79,7 @@ def check_output_folder(folder, *, option: str, inputs=()) -> Path:
         if not os.access(out, os.W_OK | os.X_OK):
             raise OutputError(f"{out}: {option}: the folder is not writable; choose another folder")
         return out
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise OutputError(f"{out}: directory {parent} does not exist; create it first")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{out}: directory {parent} is not writable; choose another output folder")
+    _require_writable_parent(out)
     return out
 
 
