@@ -107,5 +107,5 @@ from .table import (
 
 __all__ = ["EFFECTS", "Effect", "PARAMS", "Param", "NP", "SensorParams", "Motion", "Jacobian", "forward", "sample",
            "gyro_readings", "accel_inputs", "accel_readings", "specific_force_at", "inverse", "remove_lever_terms",
-           "check_invertible", "check_estimator", "jacobian", "true_attitude", "reported_time", "mount_matrix", "unit_axes",
-           "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
+           "check_invertible", "check_estimator", "jacobian", "true_attitude", "reported_time", "mount_matrix",
+           "unit_axes", "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]

@@ -287,7 +287,8 @@ def reported_time(p: SensorParams, t):
 @dataclass(frozen=True)
 class Motion:
     """The true motion of the reference point at ``n`` instants, the IMU's body axes (b: with the
-    reference's mount applied, :func:`mount_matrix`): what ideal, co-located sensors would read. Only :func:`jacobian`'s tilt and delay columns need the optional fields."""
+    reference's mount applied, :func:`mount_matrix`): what ideal, co-located sensors would read.
+    Only :func:`jacobian`'s tilt and delay columns need the optional fields."""
 
     omega_ib_b: np.ndarray  #: [n, 3] rad/s
     omegadot_ib_b: np.ndarray  #: [n, 3] rad/s^2
