@@ -5,9 +5,11 @@ The ideal outputs follow exactly from the analytic motion (:mod:`sizefx.motion`)
 * gyros read ``omega_ib_b = omega_nb_b + mat_bn (omega_ie_n + omega_en_n)``;
 * the reference point feels ``f_b = mat_bn (vdot_n + (2 omega_ie_n + omega_en_n) x v_n - g_n)``
   (the NED velocity equation, Groves eq. 5.54, solved for f);
-* ``mat_nb`` is the true attitude: the trajectory's, tilted by ``[level_tilt]``
-  (:func:`sizefx.sensor_model.true_attitude`); ``/reference`` reports the untilted one, late
-  by ``[reference_delay]`` (:func:`sizefx.sensor_model.reported_time`);
+* ``mat_nb`` is the true attitude of the IMU: the trajectory's, tilted by ``[level_tilt]`` and
+  turned by ``[reference_mount]`` (:func:`sizefx.sensor_model.true_attitude`; ``omega_nb_b``
+  turns with it, :func:`sizefx.sensor_model.mount_matrix`); ``/reference`` reports the
+  trajectory's own (untilted, the reference's body axes), late by ``[reference_delay]``
+  (:func:`sizefx.sensor_model.reported_time`);
 * what the sensors make of this true motion is the sensor model's forward map
   (:func:`sizefx.sensor_model.sample`: lever arms, accelerometer delay, biases, scale factors,
   misalignments, quadratic term, g-sensitivity), per instant, before integration;
@@ -42,7 +44,7 @@ from .errors import ConfigError
 from .io.telemetry import Reference, Site, Telemetry, TelemetryWriter
 from .motion import Trajectory
 from .rotation import mat_to_quat
-from .sensor_model import Motion, SensorParams, accel_inputs, reported_time, sample, true_attitude
+from .sensor_model import Motion, SensorParams, accel_inputs, mount_matrix, reported_time, sample, true_attitude
 from .stage import preflight
 
 __all__ = ["ImuKinematics", "kinematics", "true_motion", "ImuSynthesizer", "simulate_to_file", "simulate_in_memory",
@@ -72,7 +74,8 @@ def _params(effects) -> SensorParams:
 
 
 def true_motion(traj: Trajectory, t, params: SensorParams) -> Motion:
-    """The true motion of the reference point at times ``t`` [n]: the trajectory with the level tilt.
+    """The true motion of the reference point at times ``t`` [n], IMU axes: the trajectory with the
+    level tilt and the reference's mount.
 
     Carries ``mat_nb`` and ``omega_in_b`` as well, for :func:`sizefx.sensor_model.jacobian`'s tilt columns.
     """
@@ -83,8 +86,12 @@ def true_motion(traj: Trajectory, t, params: SensorParams) -> Motion:
     w_en = earth.omega_en_n(st.lat_rad, st.height_m, st.v_n)
     w_in_b = np.einsum("nij,nj->ni", mat_bn, w_ie + w_en)
     wdot_in_n = earth.omegadot_in_n(st.lat_rad, st.height_m, st.v_n, st.vdot_n)
-    omega = st.omega_nb_b + w_in_b
-    omegadot = st.omegadot_nb_b - np.cross(st.omega_nb_b, w_in_b) + np.einsum("nij,nj->ni", mat_bn, wdot_in_n)
+    w_nb, wdot_nb = st.omega_nb_b, st.omegadot_nb_b  # the trajectory's body axes: the reference's
+    if np.any(params.reference_mount):  # a constant mount turns them into the IMU's (C (a x b) = Ca x Cb)
+        mount = mount_matrix(params)
+        w_nb, wdot_nb = w_nb @ mount.T, wdot_nb @ mount.T
+    omega = w_nb + w_in_b
+    omegadot = wdot_nb - np.cross(w_nb, w_in_b) + np.einsum("nij,nj->ni", mat_bn, wdot_in_n)
     f_n = st.vdot_n + np.cross(2.0 * w_ie + w_en, st.v_n) - earth.gravity_n(st.lat_rad, st.height_m)
     f_b = np.einsum("nij,nj->ni", mat_bn, f_n)
     return Motion(omega, omegadot, f_b, mat_nb=mat_nb, omega_in_b=w_in_b)

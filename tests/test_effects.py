@@ -65,3 +65,14 @@ def test_bad_effects_files_name_the_key(tmp_path, body, words):
     with pytest.raises(ConfigError) as info:
         load_effects(path)
     assert words in str(info.value) and str(path) in str(info.value)
+
+
+def test_the_reference_mount_is_read_in_arcsec_and_off_by_default():
+    """[reference_mount] arcsec = [x, y, z] becomes psi in rad (sizefx.sensor_model.mount_matrix)."""
+    assert not load_effects().enabled("reference_mount")
+    assert not load_effects().sensor_params().reference_mount.any()  # off: zeros, whatever the default angles
+    fx = load_effects(base=IDEAL, overrides={"reference_mount": {"enabled": True, "arcsec": [30.0, -20.0, 45.0]}})
+    np.testing.assert_allclose(fx.sensor_params().reference_mount, np.array([30.0, -20.0, 45.0]) * ARCSEC,
+                               rtol=1e-15)  # one multiplication by the schema's factor
+    with pytest.raises(ConfigError, match=r"\[reference_mount\] arcsec has shape \[2\]"):
+        load_effects(overrides={"reference_mount": {"arcsec": [1.0, 2.0]}})

@@ -66,7 +66,7 @@ def a_model(rng, scale=1.0) -> sm.SensorParams:
         lever_arm=rng.uniform(-0.1, 0.1, (3, 3)), accel_delay=5e-4, reference_delay=2e-3,
         level_tilt=s * rng.uniform(-1e-4, 1e-4, 2), gyro_bias=s * rng.uniform(-1e-4, 1e-4, 3),
         gyro_scale_factor=s * rng.uniform(-1e-3, 1e-3, 3), gyro_misalignment=s * rng.uniform(-1e-3, 1e-3, (3, 3)),
-        gyro_g_sensitivity=s * rng.uniform(-1e-5, 1e-5, (3, 3)))
+        gyro_g_sensitivity=s * rng.uniform(-1e-5, 1e-5, (3, 3)), reference_mount=s * rng.uniform(-1e-3, 1e-3, 3))
 
 
 # --------------------------------------------------------------------------- the table
@@ -84,7 +84,7 @@ def test_the_table_is_the_schema():
             assert key in schema[e.name]["keys"], (e.name, key)
         size = 6 if len(e.labels) == 6 else int(np.prod(e.shape))
         assert len(e.labels) == (size if e.deterministic else 0), e.name
-    assert sm.NP == 49 and [p.index for p in sm.PARAMS] == list(range(sm.NP))
+    assert sm.NP == 52 and [p.index for p in sm.PARAMS] == list(range(sm.NP))
     # what inverse() undoes and what it leaves alone together cover the table, once
     assert sorted(sm.INVERTED + sm.NOT_INVERTED) == sorted(e.name for e in sm.EFFECTS)
 
@@ -124,13 +124,15 @@ def _readings(p, motion, t, *, tilted=None):
 
 def test_the_jacobian_is_the_derivative_of_the_forward_map():
     """Every column of d(readings)/d(theta), at a model with every effect on, against central
-    differences of forward() (sample() for the delays, true_attitude() for the tilt)."""
+    differences of forward() (sample() for the delays, true_attitude() and mount_matrix() for the
+    tilt and the mount, which move the true motion itself)."""
     rng = np.random.default_rng(7)
     p = a_model(rng)
     motion = Sines(rng, max_hz=2.0)
     t = np.linspace(1.0, 3.0, 200)
     # The tilt moves the true attitude, and with it f_b and omega_ib (through the rate of the
-    # navigation frame): a random attitude, f_n and omega_in_n at each instant.
+    # navigation frame): a random attitude, f_n and omega_in_n at each instant. The mount turns
+    # the whole motion (the reference's body rates too) into the IMU's axes.
     mat_ref = rotvec_to_mat(rng.uniform(-2.0, 2.0, (t.size, 3)))
     f_n = np.array([0.5, -0.3, -9.8]) + rng.uniform(-1.0, 1.0, (t.size, 3))
     w_in_n = np.array([4.0e-5, 1.0e-5, -6.0e-5])
@@ -139,17 +141,20 @@ def test_the_jacobian_is_the_derivative_of_the_forward_map():
     def tilted(q):
         mat_nb = sm.true_attitude(q, mat_ref)
         w_in_b = np.einsum("nji,j->ni", mat_nb, w_in_n)
-        return replace(base, omega_ib_b=base.omega_ib_b + w_in_b, f_b=np.einsum("nji,nj->ni", mat_nb, f_n),
+        mount = sm.mount_matrix(q)
+        return replace(base, omega_ib_b=base.omega_ib_b @ mount.T + w_in_b,
+                       omegadot_ib_b=base.omegadot_ib_b @ mount.T, f_b=np.einsum("nji,nj->ni", mat_nb, f_n),
                        mat_nb=mat_nb, omega_in_b=w_in_b)
 
+    reference_side = ("level_tilt", "reference_mount")
     at = motion(t + p.reference_delay)
-    others = [e.name for e in sm.EFFECTS if e.deterministic and e.name != "level_tilt"]
+    others = [e.name for e in sm.EFFECTS if e.deterministic and e.name not in reference_side]
     jac = sm.jacobian(p, at, motion(t + p.reference_delay - p.accel_delay), effects=others)
-    jac_tilt = sm.jacobian(p, tilted(p), effects=["level_tilt"])
+    jac_tilt = sm.jacobian(p, tilted(p), effects=reference_side)
     theta = p.vector()
-    assert set(jac) == set(range(sm.NP)) - set(sm.param_index("level_tilt"))
+    assert set(jac) == set(range(sm.NP)) - {j for e in reference_side for j in sm.param_index(e)}
     for j, param in enumerate(sm.PARAMS):
-        by_tilt = param.effect == "level_tilt"
+        by_tilt = param.effect in reference_side
         channels, cols = (jac_tilt if by_tilt else jac)[j]
         full = np.zeros((t.size, 6))
         full[:, channels] = cols
@@ -170,7 +175,8 @@ def test_the_jacobian_is_the_derivative_of_the_forward_map():
         # ~10 m/s^2 over 2h, truncation h^2/6 times the third derivative). The tilt's: 2e-5, because
         # its analytic column leaves out how the lever terms move with the tilt (through omega_in:
         # 2 |omega| |r| |omega_in| ~ 2e-5 m/s^2 per rad here, against g ~ 10 m/s^2 per rad: 2e-6).
-        rel = 2e-5 if by_tilt else 1e-7
+        # The mount's columns are exact (the whole motion turns, lever terms included): 1e-7.
+        rel = 2e-5 if param.effect == "level_tilt" else 1e-7
         np.testing.assert_allclose(full, numeric, rtol=0, atol=rel * scale, err_msg=f"{param}")
 
 
@@ -230,3 +236,26 @@ def test_inverse_refuses_what_it_cannot_invert():
         sm.inverse(sm.SensorParams(accel_quadratic=np.array([0.0, 0.0, -1.0])), x, x + 10.0, form="rates", dt=DT)
     with pytest.raises(ConfigError, match="increment data"):
         sm.inverse(sm.SensorParams(), x, x, form="increments", dt=DT, estimator="savgol")
+
+
+# --------------------------------------------------------------------------- the reference's mount
+
+
+def test_the_mount_turns_the_imu_by_psi():
+    """The sign of ``reference_mount`` (sizefx.sensor_model.mount_matrix): psi turns the reference's
+    body axes into the IMU's; a positive z angle yaws the IMU right, so a vector along the
+    reference's x reads ``(1, -psi_z, 0)`` in IMU axes and the IMU's heading is the reference's
+    plus psi_z. First order: ``C_b_b' = I - [psi x]``."""
+    from sizefx.rotation import mat_to_euler, skew
+
+    psi_z = 1e-3  # rad: large enough that the first-order check below is not lost in rounding
+    p = sm.SensorParams(reference_mount=np.array([0.0, 0.0, psi_z]))
+    np.testing.assert_allclose(sm.mount_matrix(p) @ [1.0, 0.0, 0.0], [1.0, -psi_z, 0.0], rtol=0, atol=psi_z**2)
+    mat_nb_ref = rotvec_to_mat(np.array([0.0, 0.0, 0.7]))  # the reference heads 0.7 rad
+    heading = mat_to_euler(sm.true_attitude(p, mat_nb_ref))[2]
+    assert heading == pytest.approx(0.7 + psi_z, abs=1e-12)  # rounding of two matrix products
+    psi = np.array([2e-4, -1e-4, 3e-4])  # rad, a few tens of arcsec
+    # |psi|^2 / 2 is the second-order term that I - [psi x] leaves out
+    np.testing.assert_allclose(sm.mount_matrix(sm.SensorParams(reference_mount=psi)), np.eye(3) - skew(psi),
+                               rtol=0, atol=np.dot(psi, psi))
+    np.testing.assert_array_equal(sm.true_attitude(sm.SensorParams(), mat_nb_ref), mat_nb_ref)  # off: untouched

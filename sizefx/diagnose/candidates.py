@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import sensor_model as sm
-from .theta import A_BIAS, A_K2, A_MIS, A_SF, G_BIAS, G_G, G_MIS, G_SF, LEVER, NP, PARAMS, TAU_A, TAU_R, TILT
+from .theta import A_BIAS, A_K2, A_MIS, A_SF, G_BIAS, G_G, G_MIS, G_SF, LEVER, MOUNT, NP, PARAMS, TAU_A, TAU_R, TILT
 
 __all__ = ["CANDIDATES", "PRIORITY", "Candidate", "jacobian_columns", "numeric_jacobian"]
 
@@ -45,6 +45,7 @@ def _candidates():
     c.append(Candidate("accel_delay", None, (TAU_A,)))
     c.append(Candidate("reference_delay", None, (TAU_R,)))
     c.append(Candidate("level_tilt", None, tuple(TILT)))
+    c.append(Candidate("reference_mount", None, tuple(MOUNT)))
     for i, a in enumerate("xyz"):
         c.append(Candidate("gyro_bias", f"gyro_{a}", (G_BIAS[i],)))
         c.append(Candidate("gyro_scale_factor", f"gyro_{a}", (G_SF[i],)))
@@ -56,9 +57,12 @@ def _candidates():
 CANDIDATES = _candidates()
 #: Which explanation is the ordinary one when the data cannot tell two apart (see
 #: :func:`sizefx.diagnose.selection.select`): biases and the geometry first, then clocks, the
-#: table, and the sensor-error terms.
+#: table, the reference's mount, and the sensor-error terms. The mount before both misalignments:
+#: a rigid rotation of both triads against the reference is, to first order, the common
+#: antisymmetric part of the gyro and the accelerometer misalignments, and its ordinary cause is
+#: the marker body or the fixture, not two sensor triads turned alike.
 PRIORITY = ("accel_bias", "gyro_bias", "lever_arm", "accel_delay", "reference_delay", "level_tilt",
-            "accel_scale_factor", "gyro_scale_factor", "accel_misalignment", "gyro_misalignment",
+            "reference_mount", "accel_scale_factor", "gyro_scale_factor", "accel_misalignment", "gyro_misalignment",
             "accel_quadratic", "gyro_g_sensitivity")
 
 
@@ -93,7 +97,8 @@ def jacobian_columns(theta: np.ndarray, terms: dict, t: np.ndarray) -> dict:
 
     at_g = replace(at_g, omegadot_ib_b=rate(at_g.omega_ib_b), fdot_b=rate(at_g.f_b))
     at_a = replace(at_a, fdot_b=rate(at_a.f_b), omegaddot_ib_b=rate(at_a.omegadot_ib_b))
-    cols = dict(sm.jacobian(p, at_g, at_a, effects=_ALL_BUT_REFERENCE_DELAY))
+    # the accelerometers' lever terms come from the measured gyros, which the mount does not turn
+    cols = dict(sm.jacobian(p, at_g, at_a, effects=_ALL_BUT_REFERENCE_DELAY, measured_lever_rates=True))
     cols.update(sm.jacobian(p, at_g, replace(at_a, omegaddot_ib_b=None), effects=["reference_delay"]))
     return cols
 

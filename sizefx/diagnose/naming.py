@@ -89,6 +89,15 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
         nominal = {"north_arcsec": nn, "east_arcsec": ne}
         sentence = (f"the table (or the reference) is tilted off the local level: {_fmt(vn, sn, 'arcsec')} about "
                     f"north and {_fmt(ve, se, 'arcsec')} about east")
+    elif eid == "reference_mount":
+        params = {"arcsec": [user(k)[0] for k in range(3)]}
+        sigma = {"arcsec": [user(k)[1] if sg[k] is not None else None for k in range(3)]}
+        nominal = {"arcsec": [user(k)[2] for k in range(3)]}
+        parts = [f"{_fmt(user(k)[0], user(k)[1], 'arcsec')} about {'xyz'[k]}" for k in range(3) if sg[k] is not None]
+        sentence = ("the IMU sits rotated against the reference's body frame by " + ", ".join(parts)
+                    + " (marker body or fixture alignment)")
+        if hidden:
+            sentence += f" ({', '.join(hidden)} not revealed by this record: kept at nominal)"
     elif eid in ("accel_bias", "gyro_bias"):
         v, s, n0 = user(0)
         key = "bias_mps2" if eid == "accel_bias" else "bias_rad_s"

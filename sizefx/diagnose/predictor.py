@@ -47,7 +47,12 @@ def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b:
     kin_gyro, kin_accel : the reference motion (:meth:`ReferenceMotion.evaluate`) at the gyros'
         time ``t + tau_ref`` and the accelerometers' ``t + tau_ref - tau_acc``.
     gyro_b, gyro_dot_b : [n, 3] measured rates (rad/s) and their derivative (rad/s^2) at
-        ``t - tau_acc``, body axes: the lever terms' omega and omegadot.
+        ``t - tau_acc``, the IMU's axes: the lever terms' omega and omegadot.
+
+    The reference gives its body axes b'; with ``reference_mount`` the IMU's axes b are turned
+    against them (:func:`sizefx.sensor_model.mount_matrix`): the attitude is turned by
+    :func:`sizefx.sensor_model.true_attitude` (so ``f_b`` and ``C_bn omega_in`` come out in b)
+    and the reference's body rates ``w_nb`` by ``C_b_b'``. The measured gyros are already in b.
 
     Returns
     -------
@@ -62,7 +67,9 @@ def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b:
     mat_g = sm.true_attitude(p, kg["C_bn"].swapaxes(1, 2))
     mat_a = sm.true_attitude(p, ka["C_bn"].swapaxes(1, 2))
     w_in_b = np.einsum("nji,nj->ni", mat_g, kg["w_in"])
-    w_ib = kg["w_nb"] + w_in_b  # a constant tilt leaves omega_nb (body axes) as the reference gives it
+    # a constant tilt leaves omega_nb as the reference gives it; a constant mount turns it into b
+    w_nb = kg["w_nb"] @ sm.mount_matrix(p).T if np.any(p.reference_mount) else kg["w_nb"]
+    w_ib = w_nb + w_in_b
     f_g = np.einsum("nji,nj->ni", mat_g, kg["f_n"])
     f_a = np.einsum("nji,nj->ni", mat_a, ka["f_n"])
     # the measured gyros with the model's gyro errors undone (G times the derivative of f is left

@@ -25,8 +25,8 @@ from ..io.toml import dumps_toml
 from ..sensor_model import SensorParams
 from .fit import Diagnosis
 from .selection import block_means
-from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, OFFDIAG, TAU_A,
-                    TAU_R, TILT, UG)
+from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, MOUNT, OFFDIAG,
+                    TAU_A, TAU_R, TILT, UG)
 
 __all__ = ["DIAGNOSIS_SCHEMA", "PLOT_FILES", "format_report", "model_document", "model_toml", "plot", "to_json"]
 
@@ -64,7 +64,7 @@ def model_document(theta: np.ndarray) -> dict:
           (("accel_bias", A_BIAS), ("accel_scale_factor", A_SF), ("accel_misalignment", A_MIS),
            ("accel_quadratic", A_K2), ("accel_delay", [TAU_A]), ("reference_delay", [TAU_R]),
            ("level_tilt", TILT), ("gyro_bias", G_BIAS), ("gyro_scale_factor", G_SF),
-           ("gyro_misalignment", G_MIS), ("gyro_g_sensitivity", G_G))}
+           ("gyro_misalignment", G_MIS), ("gyro_g_sensitivity", G_G), ("reference_mount", MOUNT))}
     k2_unit = UG / STANDARD_GRAVITY_MPS2**2
     g_unit = DEG_PER_H / STANDARD_GRAVITY_MPS2
     return {
@@ -76,6 +76,7 @@ def model_document(theta: np.ndarray) -> dict:
         "reference_delay": {"enabled": on["reference_delay"], "tau_s": float(theta[TAU_R])},
         "level_tilt": {"enabled": on["level_tilt"], "north_arcsec": float(theta[TILT[0]] / ARCSEC),
                        "east_arcsec": float(theta[TILT[1]] / ARCSEC)},
+        "reference_mount": {"enabled": on["reference_mount"], "arcsec": (theta[MOUNT] / ARCSEC).tolist()},
         "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / UG).tolist()},
         "accel_scale_factor": {"enabled": on["accel_scale_factor"], "ppm": (theta[A_SF] * 1e6).tolist()},
         "accel_misalignment": {"enabled": on["accel_misalignment"], "arcsec": _matrix(offdiag=theta[A_MIS] / ARCSEC)},

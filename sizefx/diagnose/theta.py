@@ -1,6 +1,6 @@
 """The model vector ``theta``: every scalar diagnose can fit, in SI, and where each one sits.
 
-``theta`` is the sensor model's (:data:`sizefx.sensor_model.PARAMS`: the same 49 scalars in the
+``theta`` is the sensor model's (:data:`sizefx.sensor_model.PARAMS`: the same 52 scalars in the
 same order, with the same labels); this module adds what diagnose needs to report and select
 them (report unit, numerical step, excitation floor) and the index arrays of the layout::
 
@@ -16,8 +16,9 @@ them (report unit, numerical step, excitation floor) and the index arrays of the
     G_SF     [3]  gyro scale factors s_g                         1
     G_MIS    [6]  gyro misalignments m_ij, i != j                rad
     G_G      [9]  gyro g-sensitivity G[i, j] (gyro i per f_b along j), row-major   rad/s per m/s^2
+    MOUNT    [3]  the IMU's axes against the reference's body axes, psi about x, y, z   rad
 
-49 scalars in all (:data:`NP`). :func:`theta_from_model` fills it from an effect model; the
+52 scalars in all (:data:`NP`). :func:`theta_from_model` fills it from an effect model; the
 extended-model TOML (:func:`sizefx.diagnose.report.model_document`) writes it back.
 """
 
@@ -32,7 +33,7 @@ from ..constants import ARCSEC, DEG, STANDARD_GRAVITY_MPS2
 from ..effects import EffectModel
 
 __all__ = ["A_BIAS", "A_K2", "A_MIS", "A_SF", "CHANNELS", "DEG_PER_H", "G_BIAS", "G_G", "G_MIS", "G_SF", "LEVER",
-           "NP", "OFFDIAG", "PARAMS", "TAU_A", "TAU_R", "TILT", "UG", "Param", "theta_from_model"]
+           "MOUNT", "NP", "OFFDIAG", "PARAMS", "TAU_A", "TAU_R", "TILT", "UG", "Param", "theta_from_model"]
 
 #: The six channels of a prediction or residual, in column order (the sensor model's).
 CHANNELS = sm.CHANNELS
@@ -64,7 +65,11 @@ _GYROS, _ACCELS = (0, 1, 2), (3, 4, 5)
 #: omega^2 or omegadot for the arms (6 deg/s); 0.03 m/s^3 of d f/dt for the accelerometer delay (a
 #: tilting table gives g omega, ~3 m/s^3; rotation about the vertical only gives d(omega^2 r)/dt,
 #: ~0.003 m/s^3); 0.003 rad/s^2 of omegadot for the reference delay; 0.01 rad/s of rate for the
-#: gyro scale factors and misalignments.
+#: gyro scale factors and misalignments, and for the reference's mount, measured on the gyros
+#: (omega x e_k): rotation is what tells a mount from a level tilt and the accelerometer biases,
+#: which a constant gravity projection alone cannot (a record that only translates leaves it
+#: unrevealed, however much its specific force changes; the conservative side of the issue's
+#: "0.01 rad/s or 0.1 m/s^2", which one floor per parameter cannot state).
 _TREATMENT = {
     "accel_bias": ("ug", UG, 1e-4, 0.1, ()),
     "accel_scale_factor": ("ppm", 1e-6, 1e-4, 0.1, ()),
@@ -78,6 +83,7 @@ _TREATMENT = {
     "gyro_scale_factor": ("ppm", 1e-6, 1e-4, 0.01, ()),
     "gyro_misalignment": ("arcsec", ARCSEC, 1e-5, 0.01, ()),
     "gyro_g_sensitivity": ("deg/h/g", DEG_PER_H / STANDARD_GRAVITY_MPS2, 1e-6, 0.1, ()),
+    "reference_mount": ("arcsec", ARCSEC, 1e-5, 0.01, _GYROS),
 }
 #: The sensor model's ``theta`` (:data:`sizefx.sensor_model.PARAMS`), each scalar with diagnose's treatment.
 PARAMS = tuple(Param(q.effect, q.label, *_TREATMENT[q.effect]) for q in sm.PARAMS)
@@ -89,6 +95,7 @@ TAU_A, TAU_R = int(sm.param_index("accel_delay")[0]), int(sm.param_index("refere
 TILT = sm.param_index("level_tilt")
 G_BIAS, G_SF, G_MIS, G_G = (sm.param_index(k) for k in
                             ("gyro_bias", "gyro_scale_factor", "gyro_misalignment", "gyro_g_sensitivity"))
+MOUNT = sm.param_index("reference_mount")
 
 
 def theta_from_model(fx: EffectModel) -> np.ndarray:

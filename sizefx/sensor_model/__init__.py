@@ -26,11 +26,15 @@ z down; ``e_i`` the body axis i, ``omega = omega_ib_b``, ``f = f_b`` at the refe
     gyro_scale_factor    gyro       s_g [1], 3                         (the same line)
     gyro_misalignment    gyro       m_ij [rad], 6 off-diagonal         rows of U_g: normalise(e_i + sum_j m_ij e_j)
     gyro_g_sensitivity   gyro       G [rad/s per m/s^2], 9             (the g line; f at the gyros' instants)
+    reference_mount      reference  psi [rad], 3                       the IMU's axes are the reference's body axes
+                                                                       turned by psi: omega, omegadot, f in b are
+                                                                       C_b_b' times the reference's, C_b_b' =
+                                                                       exp(-[psi x]) ~ I - [psi x]
     accel_noise          accel      random (simulate only)             white noise and a bias random walk
     gyro_noise           gyro       random (simulate only)             angle and rate random walk
     quantisation         both       random (simulate only)             outputs rounded to a count
 
-The model vector ``theta`` (:data:`PARAMS`, 49 scalars) lists the deterministic rows'
+The model vector ``theta`` (:data:`PARAMS`, 52 scalars) lists the deterministic rows'
 parameters in the table's order; it is the vector ``sizefx diagnose`` fits.
 
 The reference side
@@ -41,7 +45,14 @@ the *true* motion, the reference reports another. ``level_tilt``: the true attit
 the level), so the true ``f_b`` and ``omega_ib_b`` are formed with the tilted attitude before
 :func:`forward`. ``reference_delay``: the reference row stamped t reports the true motion at
 ``t - tau_r`` (:func:`reported_time`); a predictor that starts from the reference evaluates it
-at ``t + tau_r``. Neither is inverted: correcting a record does not change its reference.
+at ``t + tau_r``. ``reference_mount``: the IMU's axes b are the reference's body axes b' turned
+by ``psi`` (a motion-capture marker body, a turntable fixture; :func:`mount_matrix` states the
+sign), so the true attitude is ``R(phi) mat_nb_reported C_b'_b`` (:func:`true_attitude` applies
+both) and the rates and specific force in IMU axes are the reference's times ``C_b_b'``. It turns
+the gyros and the accelerometers together, like a rigid rotation of both triads: on one record
+it is the common antisymmetric part of ``gyro_misalignment`` and ``accel_misalignment``, and
+diagnose prefers it. None of the three is inverted: correcting a record does not change its
+reference (the lever terms are formed from the measured gyros, which are already in IMU axes).
 
 The three maps
 --------------
@@ -87,6 +98,7 @@ from .table import (
     Param,
     SensorParams,
     cross,
+    mount_matrix,
     param_index,
     reported_time,
     true_attitude,
@@ -95,5 +107,5 @@ from .table import (
 
 __all__ = ["EFFECTS", "Effect", "PARAMS", "Param", "NP", "SensorParams", "Motion", "Jacobian", "forward", "sample",
            "gyro_readings", "accel_inputs", "accel_readings", "specific_force_at", "inverse", "remove_lever_terms",
-           "check_invertible", "check_estimator", "jacobian", "true_attitude", "reported_time", "unit_axes",
-           "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
+           "check_invertible", "check_estimator", "jacobian", "true_attitude", "reported_time", "mount_matrix",
+           "unit_axes", "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]

@@ -55,29 +55,44 @@ def _need(m: Motion, name: str, effect: str):
     return value
 
 
-def _tilt_axes(p: SensorParams, mat_nb):
-    """``c_k = C_bn J(phi) e_k`` [n, 3] for k = north, east: ``d(C_bn_ref R(phi)^T v_n) / d phi_k = v_b x c_k``.
-
-    ``R(phi) = exp([phi x])`` moves by ``[J(phi) dphi x] R(phi)`` (``J`` the left Jacobian of SO(3),
-    Sola et al. 2018, "A micro Lie theory", eq. 144), so ``R^T v`` moves by ``R^T (v x J dphi)``;
-    ``mat_nb`` is the true (tilted) attitude. At zero tilt ``J = I`` and ``c_k`` is the NED axis k
-    in body axes.
-    """
-    phi = np.array([p.level_tilt[0], p.level_tilt[1], 0.0])
+def _left_jacobian(phi) -> np.ndarray:
+    """``J(phi)`` [3, 3], the left Jacobian of SO(3) (Sola et al. 2018, "A micro Lie theory", eq. 144):
+    ``exp([(phi + dphi) x]) = exp([J(phi) dphi x]) exp([phi x])`` to first order in ``dphi``."""
+    phi = np.asarray(phi, dtype=float)
     theta = float(np.linalg.norm(phi))
     if theta == 0.0:
-        return [mat_nb[:, 0, :], mat_nb[:, 1, :]]
+        return np.eye(3)
     k = np.array([[0.0, -phi[2], phi[1]], [phi[2], 0.0, -phi[0]], [-phi[1], phi[0], 0.0]])
     if theta < SERIES_BELOW_RAD:
         a, b = 0.5 - theta**2 / 24.0, 1.0 / 6.0 - theta**2 / 120.0
     else:
         a, b = (1.0 - np.cos(theta)) / theta**2, (theta - np.sin(theta)) / theta**3
-    jac = np.eye(3) + a * k + b * (k @ k)
+    return np.eye(3) + a * k + b * (k @ k)
+
+
+def _tilt_axes(p: SensorParams, mat_nb):
+    """``c_k = C_bn J(phi) e_k`` [n, 3] for k = north, east: ``d(C_bn_ref R(phi)^T v_n) / d phi_k = v_b x c_k``.
+
+    ``R(phi) = exp([phi x])`` moves by ``[J(phi) dphi x] R(phi)`` (:func:`_left_jacobian`), so
+    ``R^T v`` moves by ``R^T (v x J dphi)``; ``mat_nb`` is the true (tilted, mounted) attitude. At
+    zero tilt ``J = I`` and ``c_k`` is the NED axis k in body axes.
+    """
+    jac = _left_jacobian(np.array([p.level_tilt[0], p.level_tilt[1], 0.0]))
     return [jac[:, c] @ mat_nb for c in range(2)]
 
 
+def _mount_axes(p: SensorParams) -> np.ndarray:
+    """Rows ``c_k = J(-psi) e_k`` [3, 3], k = x, y, z: ``d(C_b_b' v_b') / d psi_k = v_b x c_k``.
+
+    ``C_b_b' = exp(-[psi x])`` (:func:`~sizefx.sensor_model.table.mount_matrix`) moves by
+    ``-[J(-psi) dpsi x] C_b_b'``, so a vector ``v_b = C_b_b' v_b'`` moves by ``v_b x J(-psi) dpsi``;
+    at zero mount ``c_k = e_k`` and the column is ``[v_b x] e_k`` (the first-order ``I - [psi x]``).
+    """
+    return _left_jacobian(-np.asarray(p.reference_mount, dtype=float)).T
+
+
 def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *, effects=None,
-             sensors=("gyro", "accel")) -> Jacobian:
+             sensors=("gyro", "accel"), measured_lever_rates: bool = False) -> Jacobian:
     """Partial derivatives of :func:`forward`'s readings with respect to ``theta``, at ``p``.
 
     Parameters
@@ -91,6 +106,11 @@ def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *
         The effects whose columns are wanted (None: every deterministic one).
     sensors : tuple of {"gyro", "accel"}
         The channels wanted (calibrate fits the accelerometers only).
+    measured_lever_rates : bool
+        True when ``at_accel``'s ``omega_ib_b`` and ``omegadot_ib_b`` are measured gyro rates
+        (diagnose's predictor), which the reference's mount does not turn: the mount's
+        accelerometer columns are then the specific force's alone. False (the true motion): the
+        lever terms turn with it too.
 
     Exact for the biases, scale factors, misalignments, quadratic terms, arms and G (each reading
     is linear in them, or its derivative is written out). The tilt through ``f_b`` and the gyros'
@@ -100,6 +120,9 @@ def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *
     ``d/dtau_r = +d/dt`` of all readings, from ``fdot_b`` and, when given,
     ``omegaddot_ib_b`` for the lever terms' rate of change (without it, the specific force's
     alone: the lever terms change 1e-3 times as fast as ``g omega`` on a turntable).
+    The mount exactly: every vector of the motion is the reference's turned by ``C_b_b'``, so
+    ``omega``, ``omegadot`` and ``f`` move by ``v x c_k`` (:func:`_mount_axes`), and the readings
+    through the gyro matrix, ``G`` and the accelerometers' lever terms.
     """
     deterministic = {e.name for e in EFFECTS if e.deterministic}
     wanted = deterministic if effects is None else set(effects)
@@ -113,7 +136,7 @@ def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *
     if "gyro" in sensors:
         _gyro_columns(p, at_gyro, wanted, put)
     if "accel" in sensors:
-        _accel_columns(p, at_gyro if at_accel is None else at_accel, wanted, put)
+        _accel_columns(p, at_gyro if at_accel is None else at_accel, wanted, put, measured_lever_rates)
     return Jacobian(cols)
 
 
@@ -150,13 +173,18 @@ def _gyro_columns(p: SensorParams, m: Motion, wanted, put):
             d = cross(w_in, c_k) @ m_g.T + cross(m.f_b, c_k) @ g_sens.T
             for i in range(3):
                 put("level_tilt", k, i, d[:, i])
+    if "reference_mount" in wanted:  # omega and f turn with the mount: d/dpsi_k = M (omega x c_k) + G (f x c_k)
+        for k, c_k in enumerate(_mount_axes(p)):
+            d = cross(w, c_k) @ m_g.T + cross(m.f_b, c_k) @ g_sens.T
+            for i in range(3):
+                put("reference_mount", k, i, d[:, i])
     if "reference_delay" in wanted:
         rate = m.omegadot_ib_b @ m_g.T + _need(m, "fdot_b", "reference_delay") @ g_sens.T
         for i in range(3):
             put("reference_delay", 0, i, rate[:, i])
 
 
-def _accel_columns(p: SensorParams, m: Motion, wanted, put):
+def _accel_columns(p: SensorParams, m: Motion, wanted, put, measured_lever_rates=False):
     u = p.accel_axes()
     w, wd = m.omega_ib_b, m.omegadot_ib_b
     n = w.shape[0]
@@ -190,6 +218,17 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put):
             d = cross(m.f_b, c_k)
             for i in range(3):
                 put("level_tilt", k, 3 + i, gain[:, i] * (d @ u[i]))
+    if "reference_mount" in wanted:
+        for k, c_k in enumerate(_mount_axes(p)):
+            df = cross(m.f_b, c_k)
+            if not measured_lever_rates:  # the lever terms turn with the true omega and omegadot
+                dw, dwd = cross(w, c_k), cross(wd, c_k)
+            for i in range(3):
+                r = p.lever_arm[i]
+                d = df
+                if not measured_lever_rates and np.any(r):
+                    d = d + cross(dwd, r) + cross(dw, cross(w, r)) + cross(w, cross(dw, r))
+                put("reference_mount", k, 3 + i, gain[:, i] * (d @ u[i]))
     if wanted & {"accel_delay", "reference_delay"}:
         fdot = _need(m, "fdot_b", "delay")
         rate = np.empty((n, 3))  # d a_i / dt

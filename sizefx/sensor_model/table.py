@@ -13,7 +13,7 @@ from ..errors import ConfigError
 from ..rotation import rotvec_to_mat
 
 __all__ = ["EFFECTS", "Effect", "PARAMS", "Param", "NP", "SensorParams", "Motion", "true_attitude", "reported_time",
-           "unit_axes", "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
+           "mount_matrix", "unit_axes", "param_index", "cross", "INVERTED", "NOT_INVERTED", "CHANNELS", "OFFDIAG"]
 
 #: Channels of the readings, in the order :func:`jacobian` numbers them (diagnose's order).
 CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
@@ -76,6 +76,10 @@ EFFECTS = (
     Effect("gyro_g_sensitivity", "gyro", tuple(f"{_XYZ[i]}<-f_{_XYZ[j]}" for i in range(3) for j in range(3)), (3, 3),
            "rad/s per m/s^2", "deg_per_h_per_g [deg/h/g]", "rad_s_per_mps2",
            "g = ... + G f, f at the reference point and the gyros' instants", "step 5, with f from steps 3-4"),
+    # last of the deterministic rows, so that the 49 scalars before it keep their places in theta
+    Effect("reference_mount", "reference", tuple(_XYZ), (3,), "rad", "arcsec [arcsec]", "angles_rad",
+           "the IMU's axes are the reference's body axes turned by psi: omega_ib_b = C omega_ib_b', "
+           "f_b = C f_b', mat_nb = mat_nb' C^T, C = C_b_b' = exp(-[psi x]) ~ I - [psi x] (mount_matrix())", None),
     Effect("accel_noise", "accel", (), (), "", "density_ug_per_sqrt_hz, bias_rw_ug_per_sqrt_h", None,
            "white noise and a bias random walk, drawn by sizefx.simulate", None),
     Effect("gyro_noise", "gyro", (), (), "", "arw_deg_per_sqrt_h, rrw_deg_per_h_per_sqrt_h", None,
@@ -164,6 +168,8 @@ class SensorParams:
     gyro_scale_factor: np.ndarray = field(default_factory=_zeros(3))  #: [3]
     gyro_misalignment: np.ndarray = field(default_factory=_zeros((3, 3)))  #: [3, 3] rad
     gyro_g_sensitivity: np.ndarray = field(default_factory=_zeros((3, 3)))  #: [3, 3] rad/s per m/s^2
+    #: [3] rad, psi: the IMU frame b turned against the reference's body frame b' (:func:`mount_matrix`)
+    reference_mount: np.ndarray = field(default_factory=_zeros(3))
     #: [3] m, the reference point to the triad point (r of r_i = r + d_i): not a parameter of the
     #: readings, only where inverse(mode="triad") brings the accelerometers
     triad_offset: np.ndarray = field(default_factory=_zeros(3))
@@ -244,9 +250,30 @@ class SensorParams:
 # --------------------------------------------------------------------------- the reference side
 
 
+def mount_matrix(p: SensorParams) -> np.ndarray:
+    """``C_b_b'`` [3, 3]: the reference's body axes b' to the IMU's axes b, ``v_b = C_b_b' v_b'``.
+
+    Sign convention (``tests/test_sensor_model.py::test_the_mount_turns_the_imu_by_psi`` pins it):
+    ``psi`` [3] rad is the rotation vector that turns the reference's body axes into the IMU's,
+    ``C_b'_b = exp([psi x])``, so ``C_b_b' = exp(-[psi x]) = I - [psi x]`` to first order and a
+    vector fixed in b' reads ``v_b = v_b' - psi x v_b'`` in IMU axes. A positive ``psi_z`` yaws the
+    IMU to the right of the reference (x forward, y right, z down): its heading is the
+    reference's plus ``psi_z``. The exact rotation (not ``I - [psi x]``) keeps ``mat_nb`` orthonormal;
+    the two differ by ``|psi|^2 / 2``, 5e-9 at 30 arcsec.
+    """
+    return rotvec_to_mat(-np.asarray(p.reference_mount, dtype=float))
+
+
 def true_attitude(p: SensorParams, mat_nb_reported: np.ndarray) -> np.ndarray:
-    """``R(phi) mat_nb_reported`` [..., 3, 3]: the attitude the IMU feels, ``phi = (north, east, 0)``."""
-    return rotvec_to_mat(np.array([p.level_tilt[0], p.level_tilt[1], 0.0])) @ mat_nb_reported
+    """``R(phi) mat_nb_reported C_b'_b`` [..., 3, 3]: the attitude the IMU feels, ``phi = (north, east, 0)``.
+
+    ``mat_nb_reported`` maps the reference's body axes b' to NED; the level tilt turns NED, the
+    mount (:func:`mount_matrix`) the body axes.
+    """
+    tilted = rotvec_to_mat(np.array([p.level_tilt[0], p.level_tilt[1], 0.0])) @ mat_nb_reported
+    if not np.any(p.reference_mount):  # no mount: the same bits as before it existed
+        return tilted
+    return tilted @ mount_matrix(p).T
 
 
 def reported_time(p: SensorParams, t):
@@ -259,8 +286,9 @@ def reported_time(p: SensorParams, t):
 
 @dataclass(frozen=True)
 class Motion:
-    """The true motion of the reference point at ``n`` instants, body axes: what ideal, co-located
-    sensors would read. Only :func:`jacobian`'s tilt and delay columns need the optional fields."""
+    """The true motion of the reference point at ``n`` instants, the IMU's body axes (b: with the
+    reference's mount applied, :func:`mount_matrix`): what ideal, co-located sensors would read.
+    Only :func:`jacobian`'s tilt and delay columns need the optional fields."""
 
     omega_ib_b: np.ndarray  #: [n, 3] rad/s
     omegadot_ib_b: np.ndarray  #: [n, 3] rad/s^2
