@@ -336,12 +336,15 @@ def _velocity_mismatch(tel, rt, mat_nb, imu):
         dv_n = start.apply(dv_b + 0.5 * np.cross(dth_b, dv_b))
     else:  # centred attitude: the first-order rotation terms cancel
         dv_n = start.apply(dv_b)
-    e = np.diff(v, axis=0) - (dv_n + g_step * dt[:, None])
+    dv_imu_n = dv_n + g_step * dt[:, None]
+    e = np.diff(v, axis=0) - dv_imu_n
     e[~ok] = 0.0
     floor = VELOCITY_FLOOR_MPS if quantity == "velocity" else POSITION_FLOOR_M / float(np.median(dt))
-    # what the record's ordinary errors explain: accelerometer scale and misalignment, a reference delay
+    # what the record's ordinary errors explain (from the IMU, never from the reference under test):
+    # accelerometer scale and misalignment, and a reference delay times the change of acceleration
+    accel_n = dv_imu_n / np.maximum(dt, 1e-12)[:, None]
     allowance = SCALE_TOLERANCE * np.linalg.norm(dv_b, axis=1) + DELAY_TOLERANCE_S * np.linalg.norm(
-        np.diff(np.diff(v, axis=0), axis=0, prepend=0.0) / np.maximum(dt, 1e-12)[:, None], axis=1)
+        np.diff(accel_n, axis=0, prepend=accel_n[:1]), axis=1)
     return quantity, e, ok, row_of_step, floor, allowance
 
 
