@@ -56,7 +56,8 @@ from .reference import REFERENCE_GAP_FACTOR, require_reference
 
 __all__ = ["ReferenceCheck", "check_reference", "without_bad_rows", "GLITCH_SIGMAS", "LOCAL_SIGMAS",
            "JUMP_FLOOR_FACTOR", "SCALE_TOLERANCE", "DELAY_TOLERANCE_S", "ATTITUDE_FLOOR_RAD", "VELOCITY_FLOOR_MPS",
-           "POSITION_FLOOR_M", "MAX_GLITCH_ROWS", "LOCAL_STEPS", "RATE_CHANGE_TOLERANCE", "RATE_WINDOW_ROWS", "MAX_WARNINGS_PER_KIND"]
+           "POSITION_FLOOR_M", "MAX_GLITCH_ROWS", "LOCAL_STEPS", "RATE_CHANGE_TOLERANCE", "RATE_WINDOW_ROWS",
+           "MAX_WARNINGS_PER_KIND"]
 
 #: A step is suspect when its mismatch exceeds this many robust sigmas of the whole record's: the
 #: mismatch is near Gaussian in its core but has heavy tails on real records (BROAD 07/09, high-passed:
