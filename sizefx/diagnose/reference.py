@@ -4,7 +4,8 @@
 - :class:`ReferenceMotion`: attitude, rates and specific force of the reference point as smooth
   functions of time (C2 splines: scipy's ``RotationSpline`` for attitude, whose rates come out in
   body axes; ``CubicSpline`` for position and velocity);
-- :func:`usable_mask`: the IMU samples far enough from the reference's ends, its gaps and the IMU's;
+- :func:`reference_segments`: the rows between the reference's discontinuities (each its own splines);
+- :func:`usable_mask`: the IMU samples far enough from the reference's ends, its gaps, breaks and the IMU's;
 - :func:`crop`: the part of a record between two times.
 """
 
@@ -20,7 +21,8 @@ from .. import earth
 from ..errors import SizefxError
 from ..io.telemetry import Telemetry
 
-__all__ = ["DiagnoseError", "ReferenceMotion", "check_record", "crop", "require_reference", "usable_mask",
+__all__ = ["DiagnoseError", "ReferenceMotion", "check_record", "crop", "reference_segments", "require_reference",
+           "usable_mask",
            "MIN_SAMPLES", "MIN_REFERENCE_ROWS", "MAX_SAMPLES", "EDGE_S", "EDGE_REFERENCE_PERIODS",
            "REFERENCE_GAP_FACTOR"]
 
@@ -70,32 +72,84 @@ class ReferenceMotion:
 
     ``evaluate(t)`` gives ``C_bn`` (untilted), ``omega_nb_b``, ``omega_in_n`` and the
     specific force ``f_n`` of the reference point. Without position the site is static.
+
+    ``breaks_s``: times where the reference is discontinuous (a re-mount, a frame change;
+    :func:`sizefx.diagnose.integrity.check_reference` finds them). The rows are split there
+    (:func:`reference_segments`) and each segment gets its own splines, with its own initial
+    conditions, so that no spline runs through a jump. A segment with fewer than
+    :data:`MIN_REFERENCE_ROWS` rows is left out; :func:`usable_mask` masks its samples.
+    ``evaluate`` gives each time the segment that holds it, or the nearest one (clamped to its
+    span) for times in a break or a left-out segment. Without breaks: one spline through all rows.
     """
 
-    def __init__(self, tel: Telemetry):
+    def __init__(self, tel: Telemetry, breaks_s=()):
         ref = tel.reference
         self.t = ref.time_s
-        self.rot = RotationSpline(ref.time_s, Rotation.from_quat(ref.quat_nb[:, [1, 2, 3, 0]]))
+        self.breaks_s = tuple(float(b) for b in breaks_s)
+        rows = [(lo, hi) for lo, hi in reference_segments(ref.time_s, self.breaks_s) if hi - lo >= MIN_REFERENCE_ROWS]
+        if not rows:
+            raise DiagnoseError(f"{tel.path}: /reference split at {len(self.breaks_s)} discontinuities leaves no "
+                                f"segment of {MIN_REFERENCE_ROWS} rows or more; diagnose a part without them "
+                                "(--from-s/--to-s)")
+        self._pieces = [_Piece(tel, lo, hi) for lo, hi in rows]
+        # times at which evaluate() passes from one piece to the next: midway between their spans
+        self._edges_s = (np.array([0.5 * (a.t1 + b.t0) for a, b in zip(self._pieces[:-1], self._pieces[1:])])
+                         if len(self._pieces) > 1 else None)
+        # today's attributes, kept for callers of the unsplit motion
+        first = self._pieces[0]
+        self.rot, self.static = first.rot, first.static
+        if first.static is None:
+            self.lat, self.h, self.v = first.lat, first.h, first.v
+
+    @property
+    def segment_spans_s(self) -> list[tuple[float, float]]:
+        """The time span [s] of each segment that has splines."""
+        return [(p.t0, p.t1) for p in self._pieces]
+
+    def evaluate(self, t) -> dict:
+        """At the times ``t`` [n]: ``C_bn`` [n, 3, 3], ``w_nb`` [n, 3] (rad/s, body), ``w_in`` and ``f_n``
+        [n, 3] (rad/s and m/s^2, NED)."""
+        t = np.asarray(t, dtype=float)
+        if self._edges_s is None:
+            return self._pieces[0].evaluate(t)
+        which = np.searchsorted(self._edges_s, t, side="right")
+        out = {"C_bn": np.empty((t.size, 3, 3)), "w_nb": np.empty((t.size, 3)), "w_in": np.empty((t.size, 3)),
+               "f_n": np.empty((t.size, 3))}
+        for j, piece in enumerate(self._pieces):
+            sel = np.flatnonzero(which == j)
+            if sel.size:
+                part = piece.evaluate(np.clip(t[sel], piece.t0, piece.t1))
+                for key, value in part.items():
+                    out[key][sel] = value
+        return out
+
+
+class _Piece:
+    """The splines through reference rows ``[lo, hi)``: attitude, and position and velocity when present."""
+
+    def __init__(self, tel: Telemetry, lo: int, hi: int):
+        ref = tel.reference
+        t = ref.time_s[lo:hi]
+        self.t0, self.t1 = float(t[0]), float(t[-1])
+        self.rot = RotationSpline(t, Rotation.from_quat(ref.quat_nb[lo:hi][:, [1, 2, 3, 0]]))
         if ref.has_position:
-            self.lat = CubicSpline(ref.time_s, ref.lat_rad)
-            self.h = CubicSpline(ref.time_s, ref.height_m)
+            lat, lon, h = ref.lat_rad[lo:hi], ref.lon_rad[lo:hi], ref.height_m[lo:hi]
+            self.lat = CubicSpline(t, lat)
+            self.h = CubicSpline(t, h)
             if ref.velocity_n_mps is not None:
-                v = ref.velocity_n_mps
+                v = ref.velocity_n_mps[lo:hi]
             else:  # from the position spline's derivative
-                rn, re = earth.radii_m(ref.lat_rad)
-                lon = CubicSpline(ref.time_s, np.unwrap(ref.lon_rad))
-                v = np.column_stack([(rn + ref.height_m) * self.lat(ref.time_s, 1),
-                                     (re + ref.height_m) * np.cos(ref.lat_rad) * lon(ref.time_s, 1),
-                                     -self.h(ref.time_s, 1)])
-            self.v = CubicSpline(ref.time_s, v, axis=0)
+                rn, re = earth.radii_m(lat)
+                lon_spline = CubicSpline(t, np.unwrap(lon))
+                v = np.column_stack([(rn + h) * self.lat(t, 1), (re + h) * np.cos(lat) * lon_spline(t, 1),
+                                     -self.h(t, 1)])
+            self.v = CubicSpline(t, v, axis=0)
             self.static = None
         else:
             site = tel.site
             self.static = (site.lat_rad, site.height_m)
 
     def evaluate(self, t) -> dict:
-        """At the times ``t`` [n]: ``C_bn`` [n, 3, 3], ``w_nb`` [n, 3] (rad/s, body), ``w_in`` and ``f_n``
-        [n, 3] (rad/s and m/s^2, NED)."""
         mat_nb = self.rot(t).as_matrix()
         w_nb = self.rot(t, 1)
         if self.static is None:
@@ -111,10 +165,26 @@ class ReferenceMotion:
         return {"C_bn": np.swapaxes(mat_nb, 1, 2), "w_nb": w_nb, "w_in": w_ie + w_en, "f_n": f_n}
 
 
-def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float) -> np.ndarray:
+def reference_segments(time_s: np.ndarray, breaks_s=()) -> list[tuple[int, int]]:
+    """The reference rows split at ``breaks_s`` [s]: row ranges ``[lo, hi)``, in time order.
+
+    A row at or after a break belongs to the segment that starts there. Breaks outside the rows'
+    span, or with no row between them, give no empty segment.
+    """
+    cuts = np.searchsorted(time_s, np.sort(np.asarray(breaks_s, dtype=float)), side="left")
+    bounds = np.unique(np.concatenate([[0], cuts, [time_s.size]]))
+    return [(int(lo), int(hi)) for lo, hi in zip(bounds[:-1], bounds[1:]) if hi > lo]
+
+
+def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float, breaks_s=()) -> np.ndarray:
     """Which IMU samples (times ``t`` [n], s) the fit may use: inside the reference's span minus
     :data:`EDGE_S` (or :data:`EDGE_REFERENCE_PERIODS` periods) at its ends and gaps, away from IMU
-    gaps by the gyro derivative's ``window`` (samples of period ``dt``), and not at the series' ends."""
+    gaps by the gyro derivative's ``window`` (samples of period ``dt``), and not at the series' ends.
+
+    ``breaks_s`` [s] (reference discontinuities, see :class:`ReferenceMotion`): the samples within
+    the same edge of the last row before and the first row after each break are left out, as at a
+    gap, and so are the samples of a segment too short for splines (< :data:`MIN_REFERENCE_ROWS` rows).
+    """
     rt = tel.reference.time_s
     steps = np.diff(rt)
     edge = max(EDGE_S, EDGE_REFERENCE_PERIODS * float(np.median(steps)))
@@ -122,6 +192,13 @@ def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float) -> np.
     limit = REFERENCE_GAP_FACTOR * np.median(steps)
     for k in np.flatnonzero(steps > limit):
         ok &= ~((t > rt[k] - edge) & (t < rt[k + 1] + edge))
+    if len(breaks_s):
+        segments = reference_segments(rt, breaks_s)
+        for (lo, hi), (lo_next, _) in zip(segments[:-1], segments[1:]):
+            ok &= ~((t > rt[hi - 1] - edge) & (t < rt[lo_next] + edge))
+        for lo, hi in segments:
+            if hi - lo < MIN_REFERENCE_ROWS:
+                ok &= ~((t > rt[lo] - edge) & (t < rt[hi - 1] + edge))
     # IMU gaps (accepted with --allow-gaps): the derivative window and the splines span them
     margin = EDGE_S + window * dt
     for gap in tel.gaps:
