@@ -15,7 +15,7 @@ from .options import allow_gaps_option, force_option, segment_option
 @click.option("--model", type=click.Path(dir_okay=False),
               help="Start from this effect model instead (sizefx/effects/1 TOML, e.g. a previous diagnosis); "
                    "sections it omits are off.")
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the report (sizefx/diagnosis/1).")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the report (sizefx/diagnosis/2).")
 @click.option("--plots", type=click.Path(file_okay=False),
               help="Write residual time series and spectra, before and after, into this folder (residuals.png, "
                    "spectra.png; existing ones are replaced only with --force).")
@@ -23,8 +23,13 @@ from .options import allow_gaps_option, force_option, segment_option
               help="Where to write the extended model [default: MEASURED with .model.toml].")
 @click.option("--bandwidth-hz", type=float,
               help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
-                   "alike). For references differentiated from motion capture, whose noise grows with "
-                   "frequency; leave it out for a table's or a simulation's reference.")
+                   "alike). Without it, the band is measured: where the reference's own differentiated noise "
+                   "(motion capture) overtakes the IMU's, or the full band for a table's or simulation's "
+                   "reference; the report says which.")
+@click.option("--grade", type=click.Choice(["auto", "navigation", "tactical", "industrial"]), default="auto",
+              show_default=True,
+              help="Sensor grade whose plausible ranges an estimate must lie in to be a finding (auto: inferred "
+                   "from the noise, and reported).")
 @click.option("--from-s", type=float, help="Diagnose the record from this time on [s] (IMU clock).")
 @click.option("--to-s", type=float, help="Diagnose the record up to this time [s]; records over 3 million "
                                           "samples must be cut (about 3 kB per sample).")
@@ -34,20 +39,23 @@ from .options import allow_gaps_option, force_option, segment_option
 @segment_option
 @allow_gaps_option
 @force_option
-def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, from_s, to_s, navigation,
+def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, grade, from_s, to_s, navigation,
              segment, allow_gaps, force):
     """What the simulation of a record gets wrong: named, fixed, and the gain measured.
 
-    Predicts the IMU from the record's /reference motion under the start
-    model, selects the physical effects the residual supports (lever arms,
-    accelerometer and reference delays, table tilt, biases, scale factors,
-    misalignments, quadratic term, g-sensitivity), names each in a sentence
-    with its standard error, says what the record cannot reveal, writes the
-    extended model and reports the residual RMS per channel before and after.
+    Checks the record's /reference against the IMU first (glitches are
+    dropped, the motion split at jumps, every finding a warning), predicts the
+    IMU from it under the start model, selects the physical effects the
+    residual supports (lever arms, accelerometer and reference delays, table
+    tilt, reference mount, biases, scale factors, misalignments, quadratic
+    term, g-sensitivity) with robust tests and honest errors, rejects what is
+    implausible for the sensor grade or cannot be told apart on this motion,
+    names what the model still cannot explain, writes the extended model and
+    reports the residual RMS per channel before and after.
     """
     from sizefx.diagnose import DiagnoseConfig, run
 
     config = DiagnoseConfig(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
-                            model_out=model_out, bandwidth_hz=bandwidth_hz, from_s=from_s, to_s=to_s,
+                            model_out=model_out, bandwidth_hz=bandwidth_hz, grade=grade, from_s=from_s, to_s=to_s,
                             segment=segment, allow_gaps=allow_gaps, navigation=navigation, force=force)
     click.echo(run(config).report())

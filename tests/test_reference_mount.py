@@ -131,9 +131,6 @@ def test_rotation_about_the_vertical_reveals_the_mount_about_x_and_y_only():
     assert hidden and hidden[0]["parameters"] == ["z"] and "does not excite" in hidden[0]["reason"], d.unrevealed
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="data-schemas/diagnosis-1.json lists the effect ids without reference_mount (the lead's "
-                          "file): add it to effects[].id's enum, and to diagnosis/2's; then drop this marker")
 def test_the_json_report_carries_the_mount():
     tel, _ = record(HIDDEN, duration_s=20.0, rate_hz=200.0)
     d = D.diagnose(tel, NOMINAL, keep_series=False)

@@ -16,12 +16,19 @@ The package, from the bottom up (each module imports only those above it in this
   (:func:`predict_readings`) and the measured record next to it (:class:`Predictor`);
 - :mod:`.candidates`: the candidate effects and their Jacobian columns (:func:`jacobian_columns`,
   the sensor model's, and :func:`numeric_jacobian`, the slow twin);
-- :mod:`.selection`: normal equations, forward selection with an information criterion and
-  cross-validation, what the record cannot reveal and why;
+- :mod:`.integrity`: the reference checked against the IMU before any fit (glitches, jumps, gaps);
+- :mod:`.normal`: rows, block-wise normal equations, the robust (block sandwich) covariance, the
+  Wald test, cross-validation, canonical correlations;
+- :mod:`.bandwidth`: the band where the reference's derivatives can be trusted;
+- :mod:`.selection`: forward selection (information criterion, robust Wald test at a family-wise
+  level, cross-validation), what the record cannot reveal and why, the pairs it cannot separate;
+- :mod:`.plausibility`: the ranges per sensor grade, the grade inferred from the noise;
+- :mod:`.consistency`: the record's parts fitted alone against the stated errors;
+- :mod:`.structure`: what stays in the residual (lines, trends, steps, correlation with the motion);
 - :mod:`.naming`: each effect found, in its units and in one sentence;
 - :mod:`.fit`: the Gauss-Newton loop, :func:`diagnose` (one record in memory -> :class:`Diagnosis`);
-- :mod:`.report`: the extended model (``sizefx/effects/1``), the ``sizefx/diagnosis/1`` JSON, the
-  text report, the plots;
+- :mod:`.report`: the extended model (``sizefx/effects/1``), the ``sizefx/diagnosis/2`` JSON (and the
+  reader of versions 1 and 2), the text report, the plots;
 - here: the stage as ``sizefx diagnose`` calls it: :class:`DiagnoseConfig`, :func:`run`,
   :class:`DiagnoseResult`; the start model; the navigation before and after.
 """
@@ -49,9 +56,10 @@ from .naming import Effect
 from .predictor import Predictor, predict_readings
 from .reference import (EDGE_REFERENCE_PERIODS, EDGE_S, MAX_SAMPLES, MIN_REFERENCE_ROWS, MIN_SAMPLES,
                         REFERENCE_GAP_FACTOR, DiagnoseError, ReferenceMotion, crop, require_reference)
-from .report import (DIAGNOSIS_SCHEMA, PLOT_FILES, format_report, model_document, model_header, model_toml, plot,
-                     to_json)
-from .selection import FOLD_BLOCK_S, FOLDS, MAX_ROWS
+from .report import (DIAGNOSIS_SCHEMA, DIAGNOSIS_SCHEMAS, PLOT_FILES, check_diagnosis, format_report, model_document,
+                     model_header, model_toml, plot, read_diagnosis, to_json)
+from .normal import FOLDS, MAX_ROWS, TARGET_BLOCKS
+from .plausibility import GRADES, check_grade
 from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, NP, PARAMS, TAU_A,
                     TAU_R, TILT, UG, Param, theta_from_model)
 
@@ -61,13 +69,14 @@ __all__ = [
     # the library under it
     "diagnose", "Diagnosis", "Effect", "DiagnoseError", "crop", "ReferenceMotion", "Predictor", "predict_readings",
     "Candidate", "CANDIDATES", "PRIORITY", "jacobian_columns", "numeric_jacobian",
-    "format_report", "to_json", "plot", "model_document", "model_toml", "DIAGNOSIS_SCHEMA", "PLOT_FILES",
+    "format_report", "to_json", "plot", "model_document", "model_toml", "DIAGNOSIS_SCHEMA", "DIAGNOSIS_SCHEMAS",
+    "PLOT_FILES", "check_diagnosis", "read_diagnosis",
     # the model vector
     "Param", "PARAMS", "NP", "theta_from_model", "CHANNELS", "UG", "DEG_PER_H",
     "A_BIAS", "A_SF", "A_MIS", "A_K2", "LEVER", "TAU_A", "TAU_R", "TILT", "G_BIAS", "G_SF", "G_MIS", "G_G",
     # limits
     "MIN_SAMPLES", "MAX_SAMPLES", "MAX_ROWS", "MIN_REFERENCE_ROWS", "EDGE_S", "EDGE_REFERENCE_PERIODS",
-    "REFERENCE_GAP_FACTOR", "FOLDS", "FOLD_BLOCK_S", "KAPPA_BLOCK_S", "MAX_PASSES",
+    "REFERENCE_GAP_FACTOR", "FOLDS", "TARGET_BLOCKS", "KAPPA_BLOCK_S", "MAX_PASSES", "GRADES",
 ]
 
 #: Records at least this long, with reference position, are also navigated before and after [s].
@@ -86,10 +95,11 @@ class DiagnoseConfig:
     input: str | Path  #: MEASURED: the record (``sizefx/telemetry/1`` with ``/reference``)
     nominal: str | None = None  #: ``--nominal``: a geometry preset or a ``sizefx/levers/1`` file [high-precision]
     model: str | Path | None = None  #: ``--model``: start from this ``sizefx/effects/1`` TOML instead
-    json_path: str | Path | None = None  #: ``--json``: the report, ``sizefx/diagnosis/1``
+    json_path: str | Path | None = None  #: ``--json``: the report, ``sizefx/diagnosis/2``
     plots: str | Path | None = None  #: ``--plots``: a folder for :data:`PLOT_FILES`
     model_out: str | Path | None = None  #: ``--model-out``: the extended model [MEASURED with .model.toml]
-    bandwidth_hz: float | None = None  #: ``--bandwidth-hz``: fit the residual low-passed here [Hz]
+    bandwidth_hz: float | None = None  #: ``--bandwidth-hz``: fit the residual low-passed here [Hz]; None: measured
+    grade: str | None = None  #: ``--grade``: navigation, tactical, industrial; None (auto): inferred from the noise
     from_s: float | None = None  #: ``--from-s``: diagnose from this time on [s, IMU clock]
     to_s: float | None = None  #: ``--to-s``: up to this time [s]
     segment: int | None = None  #: ``--segment``: one continuous segment of a record with gaps
@@ -105,6 +115,7 @@ class DiagnoseConfig:
         if self.bandwidth_hz is not None and not (math.isfinite(self.bandwidth_hz) and self.bandwidth_hz > 0.0):
             raise ConfigError(f"--bandwidth-hz {self.bandwidth_hz:g} must be a positive frequency [Hz] (below 0.8 "
                               "times the record's Nyquist frequency)")
+        object.__setattr__(self, "grade", check_grade(self.grade))
         if self.from_s is not None and self.to_s is not None and not self.from_s < self.to_s:
             raise ConfigError(f"--from-s {self.from_s:g} and --to-s {self.to_s:g}: the span is empty; give --from-s "
                               "before --to-s")
@@ -135,7 +146,7 @@ class DiagnoseResult:
 
     diagnosis: Diagnosis
     start: str  #: what the prediction started from, in words
-    document: dict  #: the ``sizefx/diagnosis/1`` document (``plots`` added when plots were written)
+    document: dict  #: the ``sizefx/diagnosis/2`` document (``plots`` added when plots were written)
     json_path: str | None = None
     plots: list = field(default_factory=list)  #: the PNG files written
 
@@ -209,7 +220,7 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     tel = read_telemetry(path, allow_gaps=config.allow_gaps, segment=config.segment)
     require_reference(tel)
     d = diagnose(crop(tel, config.from_s, config.to_s), theta0, bandwidth_hz=config.bandwidth_hz,
-                 keep_series=bool(config.plots), progress=progress)
+                 grade=config.grade, keep_series=bool(config.plots), progress=progress)
     inputs = [p for p in config.inputs().values() if p is not None]
     model_out = config.model_out_path
     write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs,

@@ -1,44 +1,63 @@
-"""The loop: predict, select, update, re-weight, until the selection no longer changes.
+"""The loop and the checks around it: :func:`diagnose` turns one record into a :class:`Diagnosis`.
 
-:func:`diagnose` runs it on one record:
-
-1. **Predict** the IMU from the reference under the start model (:mod:`.predictor`);
-   the **residual** is measured minus predicted on the six channels.
-2. **Select** (:func:`sizefx.diagnose.selection.select`) on the weighted normal equations of
-   the candidates' Jacobian columns (:func:`sizefx.diagnose.candidates.jacobian_columns`),
-   linearised at the current estimate.
-3. **Iterate.** The model is updated with the selected estimates, the prediction and
-   regressors are recomputed there (Gauss-Newton), the channel weights are re-estimated from
-   the new residual (``1 / (sigma_c^2 kappa_c)``, ``kappa_c`` the largest variance inflation of
-   block means from 0.5 s to a twentieth of the record: coloured residuals, such as a bias
-   random walk, count as fewer samples), and the selection is repeated until it no longer
-   changes (at most :data:`MAX_PASSES` passes).
-4. **Measure**: the residual RMS per channel before and after, and each effect's share of the
-   residual it explains (:class:`Diagnosis`).
+1. **Reference integrity** (:mod:`.integrity`): glitches in ``/reference`` are dropped, the motion
+   is split at discontinuities (each segment its own splines), gaps and rate changes reported;
+   every finding is a warning.
+2. **Predict** the IMU from the reference under the start model (:mod:`.predictor`); the
+   **residual** is measured minus predicted on the six channels.
+3. **Band** (:mod:`.bandwidth`): without ``bandwidth_hz``, the band where the reference's own
+   derivatives are still trustworthy is measured, and the fit is done below it.
+4. **Iterate** (Gauss-Newton): select (:func:`sizefx.diagnose.selection.select`) on the
+   block-wise normal equations linearised at the current estimate, update, recompute
+   prediction and regressors. Rows are weighted per channel (``1 / (sigma_c^2 kappa_c)``,
+   sigma from the median absolute deviation, kappa the variance inflation of block means) and
+   per row by Huber's weights (iteratively re-weighted least squares, from the second pass on):
+   a few bad samples move no estimate by more than a fraction of its standard error.
+5. **Judge** what was selected, until nothing changes: an estimate outside its grade's range
+   (:mod:`.plausibility`) is rejected with the reason; of two selected effects the record cannot
+   tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding (the model
+   keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE` of the
+   structure on its channels is rejected. The survivors are refitted with the selection fixed.
+6. **Errors**: the block sandwich (never under the white one), then inflated where the record's
+   K parts disagree beyond them (:mod:`.consistency`).
+7. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
+   the motion left in each channel's final residual.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..io.telemetry import Telemetry
-from .candidates import jacobian_columns
+from .bandwidth import choose_bandwidth
+from .candidates import CANDIDATES, PRIORITY, jacobian_columns
+from .consistency import block_consistency
+from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
+from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve
+from .plausibility import infer_grade, judge, likely_cause
 from .predictor import Predictor
-from .selection import Rows, block_means, normal_equations, select, sigmas, solve
+from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, select
+from .structure import unexplained as unexplained_structure
 from .theta import CHANNELS, PARAMS
 
-__all__ = ["Diagnosis", "diagnose", "KAPPA_BLOCK_S", "MAX_PASSES"]
+__all__ = ["Diagnosis", "diagnose", "KAPPA_BLOCK_S", "MAX_PASSES", "MIN_SHARE"]
 
 #: Shortest block for the variance inflation kappa of a channel's residual [s]; longer ones, by
 #: factors of 4, up to a twentieth of the record.
 KAPPA_BLOCK_S = 0.5
 #: Gauss-Newton passes at most; selection and estimates settle in two or three.
 MAX_PASSES = 6
+#: Least share of the structure on its channels (the residual power beyond white noise, without the
+#: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
+#: more likely a side effect of something else than a finding.
+MIN_SHARE = 0.01
+#: Rounds of judging and refitting at most (each removes at least one effect).
+_ROUNDS = 4
 
 
 @dataclass
@@ -71,119 +90,294 @@ class Diagnosis:
     white_sigma: dict | None = None  #: per channel: the residual's sample-to-sample (first-difference) noise
     rms_full_before: dict | None = None  #: full-band RMS (differs from rms_* when bandwidth_hz is set)
     rms_full_after: dict | None = None
+    warnings: list = field(default_factory=list)  #: [{"kind", "time_s", "size", "unit", "message"}]
+    rejected: list = field(default_factory=list)  #: [{"id", "channel", "parameters", "reason", "likely"}]
+    unexplained: list = field(default_factory=list)  #: [{"channel", "kind", ..., "sentence"}]
+    consistency: dict = field(default_factory=dict)  #: {"parts", "block_s", "parameters": [...]}
+    grade: str | None = None
+    grade_reason: str = ""
+    bandwidth_reason: str = ""  #: how the band was chosen (given, measured, or full band)
+    sigma_white: dict = field(default_factory=dict)  #: param -> white-noise standard error (SI), for comparison
 
 
-def _noise(rows_of: Rows, res):
-    """Per channel: the residual's sigma and kappa, the variance inflation of its 0.5 s block means.
+# --------------------------------------------------------------------------- noise and weights
 
-    Computed on the rows the fit uses. kappa is 1 for white noise and grows with colour
-    (drift, unmodelled slow terms, a low-pass): the weights ``1 / (sigma^2 kappa)`` then
-    count a coloured channel as fewer independent samples.
+
+def _noise(rows_of: Rows, res, robust: bool):
+    """Per channel: sigma (1.4826 MAD) and kappa (variance inflation of block means); per row: Huber
+    weights (all 1 unless ``robust``).
+
+    kappa is 1 for white noise and grows with colour (drift, unmodelled slow terms, a low-pass):
+    the weights ``1 / (sigma^2 kappa)`` then count a coloured channel as fewer samples. Rows beyond
+    Huber's constant are clipped before kappa is measured, so that a glitch does not pass for colour.
     """
-    r = rows_of(res)[rows_of.keep]
-    r = r - r.mean(axis=0)
-    sigma = np.maximum(r.std(axis=0), 1e-300)
+    rows = rows_of(res)
+    r = rows[rows_of.keep]
+    med = np.median(r, axis=0)
+    sigma = np.maximum(1.4826 * np.median(np.abs(r - med), axis=0), 1e-300)
+    u = (rows - med) / sigma
+    weights = huber_weights(u) if robust else np.ones_like(u)
+    clipped = np.clip(u[rows_of.keep], -3.0, 3.0) * sigma
+    clipped -= clipped.mean(axis=0)
     kappa = np.ones(6)
     B = max(2, round(KAPPA_BLOCK_S / rows_of.dt))
-    while r.shape[0] // B >= 20:  # 0.5 s, 2 s, 8 s, ...: a random walk shows only in the long blocks
-        blocks = block_means(r, B)
-        kappa = np.maximum(kappa, blocks.var(axis=0) * B / sigma**2)
+    while clipped.shape[0] // B >= 20:  # 0.5 s, 2 s, 8 s, ...: a random walk shows only in the long blocks
+        kappa = np.maximum(kappa, block_means(clipped, B).var(axis=0) * B / sigma**2)
         B *= 4
-    return sigma, kappa
+    return sigma, kappa, weights
 
 
 def _rms(rows_of: Rows, res):
     return np.sqrt(np.mean(rows_of(res)[rows_of.keep] ** 2, axis=0))
 
 
-def _power(rows_of: Rows, r, weights, chans):
-    return float(np.sum(weights[chans] * _rms(rows_of, r)[chans] ** 2))
+def _white(rows_of: Rows, res):
+    """Per channel: the rows' sample-to-sample noise, sqrt(mean(diff^2) / 2)."""
+    return np.sqrt(np.mean(np.diff(rows_of(res)[rows_of.keep], axis=0) ** 2, axis=0) / 2.0)
 
 
-def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float | None = None,
-             keep_series: bool = True, progress=None) -> Diagnosis:
-    """Run the loop of the module docstring on one record; ``theta_nominal`` [NP] is the start model.
+# --------------------------------------------------------------------------- the Gauss-Newton loop
 
-    ``bandwidth_hz`` fits the residual low-passed at that frequency (see :class:`Rows`):
-    for references whose differentiated noise swamps the high band (motion capture).
-    ``keep_series`` keeps the residuals and times for the plots. ``progress(done, total)``,
-    when given, is called after each Gauss-Newton pass (total :data:`MAX_PASSES`; the last
-    call says done when the selection settles earlier).
-    """
-    started = time.perf_counter()
-    pred = Predictor(tel)
-    rows_of = Rows(pred.t, pred.mask, pred.dt, bandwidth_hz)
-    theta0 = np.asarray(theta_nominal, dtype=float).copy()
-    residual_before = pred.measured - pred.predict(theta0)
-    theta = theta0.copy()
-    first = rows_of(residual_before)[rows_of.keep]  # white-noise sigma from first differences to start
+
+@dataclass
+class _State:
+    theta: np.ndarray
+    chosen: list
+    unrevealed: dict
+    residual: np.ndarray
+    nrm: object
+    sigma_c: np.ndarray
+    kappa: np.ndarray
+    passes: int
+
+
+def _free(chosen):
+    return np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
+
+
+def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None) -> _State:
+    """Gauss-Newton from ``theta`` with the selection redone each pass (or ``fixed``), until the
+    selection and the estimates settle. Returns the final state with the normal equations at the
+    final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since)."""
+    residual = pred.measured - pred.predict(theta)
+    first = rows_of(residual)[rows_of.keep]  # white-noise sigma from first differences to start
     sigma_c = np.maximum(np.sqrt(np.mean(np.diff(first, axis=0) ** 2, axis=0) / 2.0), 1e-300)
-    kappa = np.ones(6)
+    kappa, row_w = np.ones(6), None
     history = []
-    log = []
-    residual = residual_before
+    penalty = math.log(max(int(rows_of.keep.sum()) * 6, 2))
+    chosen, unrevealed = list(fixed or []), {}
     for passes in range(1, MAX_PASSES + 1):
         cols = jacobian_columns(theta, pred.terms(theta), pred.t)
         weights = 1.0 / (sigma_c**2 * kappa)
-        nrm = normal_equations(rows_of, residual, cols, weights)
-        penalty = math.log(max(nrm.rows, 2))
+        nrm = normal_equations(rows_of, residual, cols, weights, row_w)
         offset = theta0 - theta  # a parameter not selected stays at its nominal value
-        chosen, unrevealed, steps = select(nrm, offset, penalty)
-        log.append(f"pass {passes}: " + ("; ".join(steps) if steps else "nothing selected"))
-        free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
+        if fixed is None:
+            chosen, unrevealed, steps = select(nrm, offset, penalty)
+            log.append(f"pass {passes}: " + ("; ".join(steps) if steps else "nothing selected"))
+        free = _free(chosen)
         N, b, yy = nrm.total()
         x, _, cov = solve(N, b, yy, free, offset)
         new = theta0.copy()
         new[free] = theta[free] + x
-        sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(cov)))))
-        step = max((abs(new[j] - theta[j]) / sig[j] for j in free.tolist()), default=0.0)
-        key = tuple(sorted(c.cand.key for c in chosen))
+        sig = np.sqrt(np.abs(np.diag(cov))) if free.size else np.zeros(0)
+        step = float(np.max(np.abs(x) / np.maximum(sig, 1e-300))) if free.size else 0.0
         theta = new
         residual = pred.measured - pred.predict(theta)
-        sigma_c, kappa = _noise(rows_of, residual)
-        history.append(key)
+        sigma_c, kappa, row_w = _noise(rows_of, residual, robust=True)
+        history.append(tuple(sorted(c.cand.key for c in chosen)))
         if progress is not None:
             progress(passes, MAX_PASSES)
         if passes >= 2 and history[-1] == history[-2] and step < 1e-3:
             break
-    if progress is not None and passes < MAX_PASSES:
-        progress(MAX_PASSES, MAX_PASSES)
-    # Final standard errors with the final weights; the regressors are the last pass's (theta has
-    # moved by less than 1e-3 sigma since, when the loop converged).
     weights = 1.0 / (sigma_c**2 * kappa)
-    nrm = normal_equations(rows_of, residual, cols, weights)
-    N, b, yy = nrm.total()
-    sig = sigmas(N, b, yy, free, theta0 - theta) if free.size else {}
-    mask = pred.mask
-    rms_b, rms_a = _rms(rows_of, residual_before), _rms(rows_of, residual)
+    nrm = normal_equations(rows_of, residual, cols, weights, row_w)
+    return _State(theta, chosen, unrevealed, residual, nrm, sigma_c, kappa, passes)
+
+
+# --------------------------------------------------------------------------- judging the selection
+
+
+def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
+    """The residual without effect ``c`` and the channels it acts on: where its contribution, in units
+    of each channel's noise, is at least a tenth of its largest (the tilt acts on the gyros too,
+    through Earth rate, but 1e5 times less)."""
+    without = theta.copy()
+    without[list(c.active)] = theta0[list(c.active)]
+    r_wo = pred.measured - pred.predict(without)
+    size = _rms(rows_of, r_wo - residual) / sigma_c
+    chans = np.flatnonzero(size >= 0.1 * size.max()) if size.max() > 0 else np.arange(6)
+    return r_wo, chans
+
+
+def _share(rows_of, r_wo, residual, weights, chans, noise_power):
+    """Share of the structure on ``chans`` (weighted residual power without the effect, minus the white
+    noise's) that the effect removes: in [0, 1] by construction."""
+    p_wo = float(np.sum(weights[chans] * _rms(rows_of, r_wo)[chans] ** 2))
+    p_with = float(np.sum(weights[chans] * _rms(rows_of, residual)[chans] ** 2))
+    gain = max(0.0, p_wo - p_with)
+    structure = max(p_wo - float(np.sum(weights[chans] * noise_power[chans])), gain)
+    return gain / structure if structure > 0 else 0.0
+
+
+def _entry(c: Chosen, theta, reason, **extra):
+    return {"id": c.cand.id, "channel": c.cand.channel,
+            "parameters": {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
+            "unit": PARAMS[c.cand.idx[0]].unit, "reason": reason, **extra}
+
+
+def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float | None = None,
+             grade: str | None = None, auto_bandwidth: bool = True, keep_series: bool = True,
+             progress=None) -> Diagnosis:
+    """Run the steps of the module docstring on one record; ``theta_nominal`` [NP] is the start model.
+
+    ``bandwidth_hz`` fits the residual low-passed at that frequency (see
+    :class:`sizefx.diagnose.normal.Rows`); without it the band is measured
+    (:func:`sizefx.diagnose.bandwidth.choose_bandwidth`) unless ``auto_bandwidth`` is False.
+    ``grade`` (navigation, tactical, industrial) sets the plausible ranges; None infers it from
+    the noise. ``keep_series`` keeps the residuals and times for the plots. ``progress(done,
+    total)``, when given, is called after each Gauss-Newton pass of the selection.
+    """
+    started = time.perf_counter()
+    check = check_reference(tel)
+    warnings = list(check.warnings)
+    pred = Predictor(without_bad_rows(tel, check), breaks_s=check.breaks_s)
+    theta0 = np.asarray(theta_nominal, dtype=float).copy()
+    residual_before = pred.measured - pred.predict(theta0)
+    if bandwidth_hz is not None:
+        band_reason = f"given: {bandwidth_hz:g} Hz"
+    elif auto_bandwidth:
+        band = choose_bandwidth(pred.t, pred.measured, pred.measured - residual_before, pred.mask, pred.dt)
+        bandwidth_hz, band_reason = band.bandwidth_hz, band.reason
+    else:
+        band_reason = "full band (not measured)"
+    rows_of = Rows(pred.t, pred.mask, pred.dt, bandwidth_hz)
+    log: list = []
+    state = _iterate(pred, rows_of, theta0, theta0.copy(), log, progress=progress)
+    if progress is not None and state.passes < MAX_PASSES:
+        progress(MAX_PASSES, MAX_PASSES)
+    unrevealed = state.unrevealed
+    white_rows = _white(rows_of, state.residual)
+    if grade is None:
+        grade, grade_reason = infer_grade(white_rows if rows_of.L == 1 and bandwidth_hz is None else
+                                          _white(Rows(pred.t, pred.mask, pred.dt), state.residual), pred.dt)
+    else:
+        grade_reason = f"grade {grade}, as given"
+    rejected, aliased = [], []
+    level = FAMILY_ALPHA / len(CANDIDATES)  # the selection's family-wise level, per candidate
+    for _ in range(_ROUNDS):
+        drop = set()
+        # implausible values first: they say the reference or the model is wrong, not the sensor
+        for c in state.chosen:
+            why = judge(c.cand.id, state.theta[list(c.cand.idx)], grade)
+            if why:
+                drop.add(c.cand.key)
+                rejected.append(_entry(c, state.theta, why, likely=likely_cause(c.cand.id)))
+                warnings.append({"kind": "implausible_estimate", "time_s": None, "size": None, "unit": None,
+                                 "message": f"{c.cand.key}: {why}; more likely {likely_cause(c.cand.id)}"})
+        if not drop:
+            for i, k, rho in aliased_pairs(state.nrm, state.chosen, theta0 - state.theta, level):
+                a, b = state.chosen[i], state.chosen[k]
+                keep, gone = (a, b) if PRIORITY.index(a.cand.id) <= PRIORITY.index(b.cand.id) else (b, a)
+                if keep.cand.key in drop or gone.cand.key in drop:
+                    continue
+                drop.add(gone.cand.key)
+                aliased.append((keep, gone, rho))
+        if not drop:
+            weights = 1.0 / (state.sigma_c**2 * state.kappa)
+            noise = white_rows**2
+            for c in state.chosen:
+                r_wo, chans = _channels_of(pred, rows_of, state.theta, theta0, c, state.residual, state.sigma_c)
+                share = _share(rows_of, r_wo, state.residual, weights, chans, noise)
+                if share < MIN_SHARE:
+                    drop.add(c.cand.key)
+                    rejected.append(_entry(c, state.theta, f"explains {100 * share:.2f} % of the structure on its "
+                                                           f"channels, under the {100 * MIN_SHARE:g} % a finding needs",
+                                           likely="a side effect of another effect or of the noise's colour"))
+        if not drop:
+            break
+        kept = [c for c in state.chosen if c.cand.key not in drop]
+        theta = state.theta.copy()
+        for c in state.chosen:
+            if c.cand.key in drop:
+                theta[list(c.cand.idx)] = theta0[list(c.cand.idx)]
+        log.append("refit without " + ", ".join(sorted(drop)))
+        state = _iterate(pred, rows_of, theta0, theta, log, fixed=kept)
+    theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
+    free = _free(chosen)
+    offset = theta0 - theta
+    _, white, robust = covariance(nrm, free, offset)
+    cov = honest(white, robust)
+    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(cov)))))
+    sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
+    parts, cons = block_consistency(nrm, free, offset, sig, sig_white)
+    for j, entry in cons.items():
+        if entry["inflated"]:
+            sig[j] *= entry["factor"]
+            warnings.append({"kind": "inconsistent_blocks", "time_s": None, "size": entry["chi2_dof"], "unit": None,
+                             "message": f"{entry['effect']} {entry['parameter']}: the record's parts disagree "
+                                        f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
+                                        f"error is multiplied by {entry['factor']:.2f}"})
+    # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed
+    alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
+    outside = [(chosen[i], cand, rho) for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
+               if chosen[i].cand.key not in alias_keys]
+    alias_keys |= {c.cand.key for c, _, _ in outside}
+    weights = 1.0 / (state.sigma_c**2 * state.kappa)
     effects = []
     for c in chosen:
-        # share of the weighted residual power of the channels it acts on that this effect removes,
-        # the others staying in the model
-        without = theta.copy()
-        without[list(c.active)] = theta0[list(c.active)]
-        r_wo = pred.measured - pred.predict(without)
-        # its channels: where its contribution, in units of each channel's noise, is at least a
-        # tenth of its largest (the tilt acts on the gyros too, through Earth rate, but 1e5 times less)
-        size = _rms(rows_of, r_wo - residual) / sigma_c
-        chans = np.flatnonzero(size >= 0.1 * size.max()) if size.max() > 0 else np.arange(6)
-        p0 = _power(rows_of, residual_before, weights, chans)
-        frac = max(0.0, (_power(rows_of, r_wo, weights, chans) - _power(rows_of, residual, weights, chans)) / p0) \
-            if p0 > 0 else 0.0
-        effects.append(name_effect(c, theta, theta0, sig, frac))
+        if c.cand.key in alias_keys:
+            continue
+        r_wo, chans = _channels_of(pred, rows_of, theta, theta0, c, residual, state.sigma_c)
+        effects.append(name_effect(c, theta, theta0, sig, _share(rows_of, r_wo, residual, weights, chans,
+                                                                 white_rows**2)))
     effects.sort(key=lambda e: -e.explained_fraction)
     unrev = [{"id": cand.id, "channel": cand.channel, "parameters": [PARAMS[j].label for j in hidden],
               "reason": reason} for cand, hidden, reason in unrevealed.values()]
+    for keep, gone, rho in aliased:
+        for me, other in ((keep, gone), (gone, keep)):
+            unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.cand.id, me.cand.channel)]
+            unrev.append({"id": me.cand.id, "channel": me.cand.channel,
+                          "parameters": [PARAMS[j].label for j in me.active],
+                          "reason": f"indistinguishable from {other.cand.key} on this motion (canonical "
+                                    f"correlation {rho:.4f}); the extended model carries their sum as "
+                                    f"{keep.cand.key}"})
+    for c, cand, rho in outside:
+        for key, me, other, params in ((c.cand.key, c.cand, cand.key, c.active),
+                                       (cand.key, cand, c.cand.key, cand.idx)):
+            if any((u["id"], u["channel"]) == (me.id, me.channel) and "on this motion" in u["reason"] for u in unrev):
+                continue
+            unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.id, me.channel)]
+            unrev.append({"id": me.id, "channel": me.channel, "parameters": [PARAMS[j].label for j in params],
+                          "reason": f"indistinguishable from {other} on this motion (canonical correlation "
+                                    f"{rho:.4f}); the extended model carries it as {c.cand.key}"})
+    structure = _structure(pred, rows_of, residual, white_rows)
+    rms_b, rms_a = _rms(rows_of, residual_before), _rms(rows_of, residual)
     return Diagnosis(
         path=str(tel.path), effects=effects, unrevealed=unrev,
         rms_before=dict(zip(CHANNELS, rms_b.tolist())), rms_after=dict(zip(CHANNELS, rms_a.tolist())),
-        theta_nominal=theta0, theta=theta, sigma_theta=sig, samples=int(mask.sum()), block=rows_of.L,
-        bandwidth_hz=bandwidth_hz,
-        white_sigma=dict(zip(CHANNELS, (np.sqrt(np.mean(np.diff(rows_of(residual)[rows_of.keep], axis=0) ** 2, axis=0)
-                                                / 2.0)).tolist())),
-        rms_full_before=dict(zip(CHANNELS, np.sqrt(np.mean(residual_before[mask] ** 2, axis=0)).tolist())),
-        rms_full_after=dict(zip(CHANNELS, np.sqrt(np.mean(residual[mask] ** 2, axis=0)).tolist())),
-        weights_sigma=sigma_c, kappa=kappa, passes=passes, log=log, wall_s=time.perf_counter() - started,
+        theta_nominal=theta0, theta=theta, sigma_theta=sig, samples=int(pred.mask.sum()), block=rows_of.L,
+        bandwidth_hz=bandwidth_hz, white_sigma=dict(zip(CHANNELS, white_rows.tolist())),
+        rms_full_before=dict(zip(CHANNELS, np.sqrt(np.mean(residual_before[pred.mask] ** 2, axis=0)).tolist())),
+        rms_full_after=dict(zip(CHANNELS, np.sqrt(np.mean(residual[pred.mask] ** 2, axis=0)).tolist())),
+        weights_sigma=state.sigma_c, kappa=state.kappa, passes=state.passes, log=log,
+        wall_s=time.perf_counter() - started,
         residual_before=residual_before if keep_series else None, residual_after=residual if keep_series else None,
-        t=pred.t if keep_series else None, mask=mask if keep_series else None)
+        t=pred.t if keep_series else None, mask=pred.mask if keep_series else None,
+        warnings=warnings, rejected=rejected, unexplained=structure,
+        consistency={"parts": parts, "block_s": nrm.block_s,
+                     "parameters": [cons[j] for j in sorted(cons)]},
+        grade=grade, grade_reason=grade_reason, bandwidth_reason=band_reason,
+        sigma_white=sig_white,
+    )
 
+
+def _structure(pred: Predictor, rows_of: Rows, residual, white_rows):
+    """The final residual's structure per channel (:func:`sizefx.diagnose.structure.unexplained`),
+    with the motion's rates, omega^2, angular accelerations and specific force as regressors."""
+    w, wd, f = pred.gyro, pred.gyro_dot, pred.accel
+    series = {**{f"omega_{a}": w[:, i] for i, a in enumerate("xyz")},
+              "omega_sq": np.sum(w**2, axis=1),
+              **{f"omegadot_{a}": wd[:, i] for i, a in enumerate("xyz")},
+              **{f"f_{a}": f[:, i] for i, a in enumerate("xyz")}}
+    regressors = {k: rows_of(v) for k, v in series.items()}
+    return unexplained_structure(rows_of.t, rows_of(residual), rows_of.keep, regressors, white_rows)

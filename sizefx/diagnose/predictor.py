@@ -33,8 +33,9 @@ __all__ = ["Predictor", "predict_readings", "GYRO_DOT_WINDOW_S"]
 
 #: Span of the Savitzky-Golay gyro derivative [s]: 41 samples at 1600 Hz, 7 at 286 Hz.
 GYRO_DOT_WINDOW_S = 0.025
-#: Most cached evaluations per time shift (the delays move a little each Gauss-Newton pass).
-_CACHED_SHIFTS = 8
+#: Most cached evaluations per time shift: the delays move a little each Gauss-Newton pass, and
+#: the judging steps evaluate at two or three; each cached motion costs about 150 bytes per sample.
+_CACHED_SHIFTS = 3
 
 
 def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b: np.ndarray,
@@ -90,10 +91,12 @@ class Predictor:
 
     ``t`` [n] (s; interval midpoints for increments), ``measured`` [n, 6] (rad/s, m/s^2: gyro
     x, y, z, accelerometer x, y, z; mean rates for increments), ``mask`` [n] the samples the
-    fit may use (:func:`sizefx.diagnose.reference.usable_mask`).
+    fit may use (:func:`sizefx.diagnose.reference.usable_mask`). ``breaks_s``: times where the
+    reference is discontinuous (:func:`sizefx.diagnose.integrity.check_reference`); the motion
+    is splined per segment and the samples near each break are left out.
     """
 
-    def __init__(self, tel: Telemetry):
+    def __init__(self, tel: Telemetry, breaks_s=()):
         check_record(tel)
         from ..sync import sync_accelerometers
 
@@ -113,8 +116,8 @@ class Predictor:
         window = max(5, round(GYRO_DOT_WINDOW_S / dt) // 2 * 2 + 1)
         self.window = window
         self.gyro_dot = savgol(self.gyro, dt, window=window)
-        self.motion = ReferenceMotion(tel)
-        self.mask = usable_mask(self.t, tel, window=window, dt=dt)
+        self.motion = ReferenceMotion(tel, breaks_s=breaks_s)
+        self.mask = usable_mask(self.t, tel, window=window, dt=dt, breaks_s=breaks_s)
         if self.mask.sum() < MIN_SAMPLES:
             raise DiagnoseError(f"{tel.path}: only {int(self.mask.sum())} IMU samples lie inside the reference's "
                                 f"span (minus {EDGE_S * 1e3:.0f} ms at ends and gaps); diagnose needs {MIN_SAMPLES}")

@@ -3,7 +3,8 @@
 - :func:`model_document` / :func:`model_toml`: the model vector as a complete ``sizefx/effects/1``
   document (written with :mod:`sizefx.io.toml`; loaded in memory with
   ``load_effects(base=IDEAL, overrides=model_document(theta))``, no file in between);
-- :func:`to_json`: the ``sizefx/diagnosis/1`` document (``data-schemas/diagnosis-1.json``);
+- :func:`to_json`: the ``sizefx/diagnosis/2`` document (``data-schemas/diagnosis-2.json``; version 1
+  files still validate against ``diagnosis-1.json``, see :func:`check_diagnosis`);
 - :func:`format_report`: the lines ``sizefx diagnose`` prints;
 - :func:`plot`: residuals before and after (time series, 0.1 s means) and their spectra, PNG.
 """
@@ -20,17 +21,21 @@ from ..effects import EFFECTS_SCHEMA
 from ..errors import ConfigError
 from ..geometry import triad_point
 from ..io.files import atomic_output
-from ..io.schema import check_document
+from ..io.schema import check_document, validate_input
 from ..io.toml import dumps_toml
 from ..sensor_model import SensorParams
 from .fit import Diagnosis
-from .selection import block_means
+from .normal import block_means
 from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, MOUNT, OFFDIAG,
-                    TAU_A, TAU_R, TILT, UG)
+                    PARAMS, TAU_A, TAU_R, TILT, UG)
 
-__all__ = ["DIAGNOSIS_SCHEMA", "PLOT_FILES", "format_report", "model_document", "model_toml", "plot", "to_json"]
+__all__ = ["DIAGNOSIS_SCHEMA", "DIAGNOSIS_SCHEMAS", "PLOT_FILES", "check_diagnosis", "format_report", "model_document",
+           "model_toml", "plot", "read_diagnosis", "to_json"]
 
-DIAGNOSIS_SCHEMA = "sizefx/diagnosis/1"
+DIAGNOSIS_SCHEMA = "sizefx/diagnosis/2"
+#: Every report version a reader accepts (version 1: before warnings, rejected, unexplained and
+#: consistency).
+DIAGNOSIS_SCHEMAS = ("sizefx/diagnosis/1", DIAGNOSIS_SCHEMA)
 #: The files :func:`plot` writes into the ``--plots`` folder.
 PLOT_FILES = ("residuals.png", "spectra.png")
 
@@ -108,20 +113,34 @@ def model_toml(theta: np.ndarray, source: str = "") -> str:
 # --------------------------------------------------------------------------- the reports
 
 
+def _sigma_entry(d: Diagnosis, j: int) -> dict:
+    return {"parameter": PARAMS[j].label, "effect": PARAMS[j].effect, "unit": PARAMS[j].unit,
+            "sigma": d.sigma_theta[j] / PARAMS[j].per_unit, "sigma_white": d.sigma_white.get(j, 0.0) / PARAMS[j].per_unit}
+
+
 def to_json(d: Diagnosis, start: str) -> dict:
-    """The ``sizefx/diagnosis/1`` document (checked against ``data-schemas/diagnosis-1.json``)."""
+    """The ``sizefx/diagnosis/2`` document (checked against ``data-schemas/diagnosis-2.json``)."""
+    cons = dict(d.consistency)
+    cons["standard_errors"] = [_sigma_entry(d, j) for j in sorted(d.sigma_theta)]
     doc = {
         "schema": DIAGNOSIS_SCHEMA,
         "sizefx_version": __version__,
         "record": d.path,
         "start_model": start,
+        "warnings": d.warnings,
+        "unexplained": d.unexplained,
         "effects": [{"id": e.id, "channel": e.channel, "parameters": e.params, "sigma": e.sigma,
                      "nominal": e.nominal, "explained_fraction": e.explained_fraction, "sentence": e.sentence,
                      "not_revealed": e.hidden} for e in d.effects],
+        "rejected": d.rejected,
         "not_revealed": d.unrevealed,
+        "consistency": cons,
+        "grade": d.grade,
+        "grade_reason": d.grade_reason,
+        "bandwidth_hz": d.bandwidth_hz,
+        "bandwidth_reason": d.bandwidth_reason,
         "residual_rms_before": d.rms_before,
         "residual_rms_after": d.rms_after,
-        "bandwidth_hz": d.bandwidth_hz,
         "residual_rms_full_band_before": d.rms_full_before,
         "residual_rms_full_band_after": d.rms_full_after,
         "units": {"gyro": "rad/s", "accel": "m/s^2", "lever_arm": "m", "tau_s": "s", "bias_mps2": "m/s^2",
@@ -138,6 +157,27 @@ def to_json(d: Diagnosis, start: str) -> dict:
     }
     check_document(doc, DIAGNOSIS_SCHEMA)  # our writer against our contract: a bug if it fails
     return doc
+
+
+def check_diagnosis(doc: dict, source: str = "report") -> dict:
+    """Validate a diagnosis report of any version in :data:`DIAGNOSIS_SCHEMAS` against its schema."""
+    version = doc.get("schema") if isinstance(doc, dict) else None
+    if version not in DIAGNOSIS_SCHEMAS:
+        raise ConfigError(f"{source}: schema {version!r} is not a diagnosis report (expected one of "
+                          f"{', '.join(DIAGNOSIS_SCHEMAS)})")
+    validate_input(doc, version, source)
+    return doc
+
+
+def read_diagnosis(path) -> dict:
+    """A ``sizefx diagnose --json`` file, version 1 or 2, validated."""
+    import json
+
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{path}: not a readable JSON diagnosis report ({exc})") from None
+    return check_diagnosis(doc, str(path))
 
 
 def _rms_line(name, before, after):
@@ -158,32 +198,57 @@ def _gain(before, after):
 
 
 def format_report(d: Diagnosis, start: str) -> str:
-    """The report ``sizefx diagnose`` prints: the effects found, what the record cannot reveal, the
-    residual RMS per channel before and after, the navigation gain and where the model went."""
+    """The report ``sizefx diagnose`` prints. What may make the result untrustworthy comes first (the
+    warnings), then what the model cannot explain; then the effects found, those rejected and what the
+    record cannot reveal; the band, grade and error checks; the residual RMS per channel before and
+    after, the navigation gain and where the model went."""
     how = (f", low-passed at {d.bandwidth_hz:g} Hz (every {d.block} samples)" if d.bandwidth_hz
            else f" in blocks of {d.block}" if d.block > 1 else "")
     lines = [f"sizefx diagnose {d.path}: {d.samples} samples{how}; start: {start}"]
+    if d.warnings:
+        lines.append(f"WARNINGS ({len(d.warnings)}):")
+        lines += [f"  ! {w['kind']}: {w['message']}" for w in d.warnings]
+    if d.unexplained:
+        lines.append(f"UNEXPLAINED by the extended model ({len(d.unexplained)}):")
+        lines += [f"  ? {u['channel']} {u['kind']}: {u['sentence']}" for u in d.unexplained]
     if d.effects:
-        lines.append(f"found {len(d.effects)} effect(s) (forward selection: information criterion and 5-fold "
-                     f"cross-validation, {d.passes} Gauss-Newton passes):")
+        lines.append(f"found {len(d.effects)} effect(s) (forward selection: information criterion, robust Wald test at "
+                     f"a family-wise 1 %, cross-validation; {d.passes} Gauss-Newton passes):")
         for k, e in enumerate(d.effects, 1):
             where = f"{e.id}" + (f", {e.channel}" if e.channel else "")
             lines.append(f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
-                         "residual in its channels]")
+                         "structure in its channels]")
     else:
         loud = [c for c in CHANNELS if d.white_sigma and d.rms_after[c] > 1.5 * d.white_sigma[c]]
-        if loud:
-            lines.append("found nothing the data supports beyond the start model; but the residual on "
-                         + ", ".join(f"{c} ({d.rms_after[c] / d.white_sigma[c]:.1f} times its sample-to-sample noise)"
-                                     for c in loud)
-                         + " is more than noise: an effect outside the candidates, or too little motion or data")
+        channels_flagged = sorted({u["channel"] for u in d.unexplained})
+        if loud or channels_flagged or d.warnings:
+            parts = [f"{c} ({d.rms_after[c] / d.white_sigma[c]:.1f} times its sample-to-sample noise)" for c in loud]
+            parts += [f"{c} (structure above)" for c in channels_flagged if c not in loud]
+            lines.append("found nothing the data supports beyond the start model; but "
+                         + (("the residual on " + ", ".join(parts) + " is more than noise: an effect outside the "
+                             "candidates, or too little motion or data") if parts else
+                            "the warnings above say the record itself may be at fault"))
         else:
-            lines.append("found nothing beyond the start model: the residual is consistent with sensor noise")
+            lines.append("found nothing beyond the start model: the residual is consistent with sensor noise "
+                         "(no line, trend, step or correlation with the motion left in any channel)")
+    if d.rejected:
+        lines.append("rejected (selected, but not a finding):")
+        for r in d.rejected:
+            where = r["id"] + (f" {r['channel']}" if r["channel"] else "")
+            lines.append(f"  - {where}: {r['reason']}" + (f"; more likely {r['likely']}" if r.get("likely") else ""))
     if d.unrevealed:
         lines.append("not revealed by this record (kept at the start model; record more motion to see them):")
         for u in d.unrevealed:
             where = u["id"] + (f" {u['channel']}" if u["channel"] else "")
             lines.append(f"  - {where} ({', '.join(u['parameters'])}): {u['reason']}")
+    lines.append(f"band: {d.bandwidth_reason}; {d.grade_reason}")
+    cons = d.consistency or {}
+    flagged = [p for p in cons.get("parameters", []) if p["inflated"]]
+    if cons.get("parameters"):
+        worst = max(cons["parameters"], key=lambda p: p["chi2_dof"])
+        lines.append(f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks; {cons['parts']} parts of the "
+                     f"record agree with them (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
+                     f"{worst['parameter']})" + (f"; {len(flagged)} inflated where they do not" if flagged else ""))
     band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
     lines.append(f"residual RMS per channel{band}, start model -> extended model:")
     for name in CHANNELS:
@@ -222,14 +287,19 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
     units = ["deg/h"] * 3 + ["ug"] * 3
     L = max(1, round(0.1 / dt))
     written = []
-    fig, axes = plt.subplots(6, 1, figsize=(10, 12), sharex=True, constrained_layout=True)
+    notes = _plot_notes(d)
+    fig, axes = plt.subplots(6, 1, figsize=(10, 12 + 0.18 * len(notes)), sharex=True, constrained_layout=True)
     for c, ax in enumerate(axes):
         for res, label, lw in ((d.residual_before, "start model", 0.6), (d.residual_after, "extended model", 0.8)):
             ax.plot(block_means(t, L), block_means(res[m, c], L) * scale[c], lw=lw, label=label)
+        for w in d.warnings:  # where the reference is at fault, on every channel
+            if w.get("time_s") is not None:
+                ax.axvline(w["time_s"], color="red", lw=0.8, alpha=0.6)
         ax.set_ylabel(f"{CHANNELS[c]} [{units[c]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title(f"{Path(d.path).name}: measured minus predicted (0.1 s means)")
+    axes[0].set_title("\n".join(notes + [f"{Path(d.path).name}: measured minus predicted (0.1 s means); "
+                                          "red lines: reference warnings"]), fontsize=8, loc="left")
     axes[-1].set_xlabel("time [s]")
     written.append(_save(fig, folder / PLOT_FILES[0], force))
     plt.close(fig)
@@ -239,7 +309,13 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
         for res, label in ((d.residual_before, "start model"), (d.residual_after, "extended model")):
             f, pxx = welch(res[m, c] * scale[c], fs=1.0 / dt, nperseg=nper)
             ax.loglog(f[1:], np.sqrt(pxx[1:]), lw=0.8, label=label)
-        ax.set_title(CHANNELS[c])
+        for u in d.unexplained:  # lines the model leaves, where they are
+            if u["channel"] == CHANNELS[c] and u.get("frequency_hz"):
+                ax.axvline(u["frequency_hz"], color="red", lw=0.8, ls="--")
+        ax.set_title(CHANNELS[c] + ("  (unexplained: " + ", ".join(sorted({u["kind"] for u in d.unexplained
+                                                                          if u["channel"] == CHANNELS[c]})) + ")"
+                                    if any(u["channel"] == CHANNELS[c] for u in d.unexplained) else ""),
+                     fontsize=9, color="red" if any(u["channel"] == CHANNELS[c] for u in d.unexplained) else "black")
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel(f"[{units[c]}/sqrt(Hz)]")
         ax.grid(alpha=0.3, which="both")
@@ -248,6 +324,15 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
     written.append(_save(fig, folder / PLOT_FILES[1], force))
     plt.close(fig)
     return written
+
+
+def _plot_notes(d: Diagnosis, most: int = 8) -> list[str]:
+    """The warnings and the unexplained structure, first lines of the residual plot (at most ``most``)."""
+    notes = [f"WARNING {w['kind']}: {w['message']}" for w in d.warnings]
+    notes += [f"UNEXPLAINED {u['channel']}: {u['sentence']}" for u in d.unexplained]
+    if len(notes) > most:
+        notes = notes[:most - 1] + [f"... and {len(notes) - most + 1} more (see the report)"]
+    return [n if len(n) <= 150 else n[:147] + "..." for n in notes]
 
 
 def _save(fig, path: Path, force: bool) -> str:

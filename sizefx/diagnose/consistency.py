@@ -1,0 +1,67 @@
+"""Do the record's parts agree? Each selected parameter fitted on K contiguous parts alone.
+
+A standard error is a promise about how far the estimate would move on another record of the same
+set-up. The record itself holds such records: its K contiguous parts (groups of the blocks of
+:class:`sizefx.diagnose.normal.Normal`). :func:`block_consistency` fits the selected parameters on
+each part alone and compares the spread of the part estimates with their stated errors:
+
+    chi2_j = sum_k (x_kj - xbar_j)^2 / sigma_kj^2,   dof = K' - 1   (K' parts that determine j)
+
+``sigma_kj`` is the part's white standard error scaled by the whole record's ratio of honest
+(block-sandwich) to white error, so that chi2/dof is near 1 when the errors are honest. A value
+beyond the chi-square 99 % point says the parts disagree more than the errors allow (a drifting
+sensor, a reference that changes, an effect outside the model): the parameter's standard error is
+then multiplied by sqrt(chi2/dof), and the parameter is flagged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import chi2
+
+from .normal import Normal, covariance
+from .theta import PARAMS
+
+__all__ = ["block_consistency", "PARTS", "CONSISTENCY_LEVEL"]
+
+#: Parts the record is cut into: 8 give chi2/dof 7 degrees of freedom (99 % point 2.64) while each
+#: part of a one-minute record still holds 7.5 s of motion.
+PARTS = 8
+#: One-sided level at which the parts' disagreement inflates a standard error.
+CONSISTENCY_LEVEL = 0.01
+#: A part determines a parameter when its standard error there is within this factor of
+#: sqrt(K) times the whole record's (a part that barely sees the parameter says nothing about it).
+_SEEN = 5.0
+
+
+def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict) -> tuple[int, dict]:
+    """The number of parts K, and per parameter of ``free``: ``{"parameter", "effect", "chi2_dof", "dof",
+    "factor", "inflated"}`` (parameters fewer than two parts determine are left out).
+
+    ``sigma``, ``white_sigma``: the whole record's honest and white standard errors by parameter.
+    """
+    free = np.asarray(free, dtype=int)
+    K = min(PARTS, nrm.blocks // 2)
+    out = {}
+    if K < 2 or free.size == 0:
+        return K, out
+    xs, ss = [], []
+    for g in nrm.groups(K):
+        x, white, _ = covariance(nrm, free, offset, blocks=g)
+        xs.append(x)
+        ss.append(np.sqrt(np.abs(np.diag(white))))
+    xs, ss = np.array(xs), np.array(ss)
+    for pos, j in enumerate(free.tolist()):
+        ratio = sigma[j] / white_sigma[j] if white_sigma[j] > 0 else 1.0
+        s = ss[:, pos] * ratio
+        seen = s <= _SEEN * np.sqrt(K) * sigma[j]
+        if seen.sum() < 2:
+            continue
+        w = 1.0 / s[seen] ** 2
+        xbar = float(np.sum(w * xs[seen, pos]) / np.sum(w))
+        c2 = float(np.sum(w * (xs[seen, pos] - xbar) ** 2))
+        dof = int(seen.sum()) - 1
+        bad = c2 > chi2.isf(CONSISTENCY_LEVEL, dof)
+        out[j] = {"parameter": PARAMS[j].label, "effect": PARAMS[j].effect, "chi2_dof": c2 / dof, "dof": dof,
+                  "factor": float(np.sqrt(c2 / dof)) if bad else 1.0, "inflated": bool(bad)}
+    return K, out

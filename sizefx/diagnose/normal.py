@@ -1,0 +1,315 @@
+"""The linear algebra under the selection: rows, block-wise normal equations, honest covariances.
+
+One Gauss-Newton pass linearises the prediction at the current estimate; every question the
+selection and the checks ask is then answered from weighted normal equations kept **per block**
+(contiguous stretches of the record, :func:`block_length_s`), never from the samples again:
+
+- :class:`Rows` turns samples into the rows of the fit (block means, or a zero-phase low-pass
+  and decimation with a bandwidth), the same for the residual and every regressor;
+- :func:`normal_equations` sums ``H' W H``, ``H' W y`` and ``y' W y`` per block, with per-channel
+  weights ``W`` times per-row robust weights (:func:`huber_weights`);
+- :func:`solve` fits a parameter set with the others pinned;
+- :func:`covariance` gives the white-noise covariance ``N^-1`` and the **cluster-robust
+  (block) sandwich** ``N^-1 (sum_b s_b s_b') N^-1`` with the block scores ``s_b = b_b - N_b x``
+  (Liang-Zeger / batch means): it holds for heteroskedastic and autocorrelated residuals as long
+  as the scores decorrelate within a block, which is why blocks are long (a second or more);
+- :func:`wald` tests a group of parameters with that covariance (chi-square with as many degrees
+  of freedom as the group has parameters);
+- :func:`cv_error`: the cross-validated error over interleaved folds of blocks;
+- :func:`excitation`, :func:`canonical_correlation`: what the motion shows of a parameter, and
+  how far two groups of parameters can be told apart, noise-free.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from .theta import NP, PARAMS
+
+__all__ = ["Normal", "Rows", "block_length_s", "block_means", "canonical_correlation", "covariance", "cv_error",
+           "excitation", "huber_weights", "normal_equations", "solve", "wald",
+           "FOLDS", "MAX_ROWS", "TARGET_BLOCKS", "MIN_BLOCK_S", "HUBER_K"]
+
+#: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
+#: by sample; longer records are averaged in blocks (y and regressors alike, so the model stays exact).
+MAX_ROWS = 250_000
+#: Cross-validation folds: interleaved blocks.
+FOLDS = 5
+#: Blocks the record is cut into for the robust covariance: 100 blocks estimate a variance to
+#: +-14 % (sqrt(2/100)), and leave the sandwich well conditioned for the ~20 parameters a rich
+#: diagnosis frees. Never shorter than :data:`MIN_BLOCK_S`: scores must decorrelate within a block.
+TARGET_BLOCKS = 100
+MIN_BLOCK_S = 0.25
+#: Huber's constant in units of the channel's robust sigma: 3 leaves Gaussian rows untouched
+#: (0.3 % of them are down-weighted, by at most a few percent) and caps a glitch's pull.
+HUBER_K = 3.0
+
+
+def block_means(x, L):
+    """Means of consecutive blocks of ``L`` rows of ``x`` [n, ...] (a last partial block is dropped)."""
+    n = (x.shape[0] // L) * L
+    return x[:n].reshape(-1, L, *x.shape[1:]).mean(axis=1)
+
+
+def block_length_s(span_s: float) -> float:
+    """Length of the blocks of the normal equations [s]: :data:`TARGET_BLOCKS` over the span, at least
+    :data:`MIN_BLOCK_S`."""
+    return max(MIN_BLOCK_S, span_s / TARGET_BLOCKS)
+
+
+class Rows:
+    """How the samples become the rows of the fit, the same for the residual and every regressor.
+
+    Without a bandwidth: means over blocks of ``L`` samples (``L = 1`` for records up to
+    :data:`MAX_ROWS` samples). With ``bandwidth_hz``: a zero-phase 4th-order Butterworth
+    low-pass (``scipy.signal.sosfiltfilt``), then every ``L``-th sample with ``L`` giving
+    2.5 samples per period of the cut-off. A linear filter applied to both sides keeps the
+    model exact (``F y = (F H) theta + F e``); it is what a reference differentiated from
+    noisy motion capture needs, whose noise grows with frequency. Unusable samples are set
+    to zero before filtering and their neighbourhood (three periods of the cut-off) is left out.
+    """
+
+    def __init__(self, t, mask, dt, bandwidth_hz=None):
+        n = t.size
+        self.bandwidth_hz = bandwidth_hz
+        if bandwidth_hz is not None:
+            from scipy.signal import butter
+
+            nyquist = 0.5 / dt
+            if not 0.0 < bandwidth_hz < 0.8 * nyquist:
+                raise ConfigError(f"--bandwidth-hz {bandwidth_hz:g} must lie between 0 and {0.8 * nyquist:g} Hz "
+                                  f"(0.8 times the Nyquist frequency of this {1 / dt:g} Hz record)")
+            self.sos = butter(4, bandwidth_hz / nyquist, output="sos")
+            self.L = max(1, math.floor(1.0 / (2.5 * bandwidth_hz * dt)), math.ceil(n / MAX_ROWS))
+            pad = max(1, round(3.0 / (bandwidth_hz * dt)))
+            bad = np.convolve((~mask).astype(float), np.ones(2 * pad + 1), mode="same") > 0
+            self.mask = mask
+            keep = ~bad[::self.L]
+            self.t = t[::self.L]
+        else:
+            self.L = max(1, math.ceil(n / MAX_ROWS))
+            self.mask = mask
+            keep = block_means(mask.astype(float), self.L) == 1.0 if self.L > 1 else mask
+            self.t = block_means(t, self.L) if self.L > 1 else t
+        self.keep = keep
+        self.dt = dt * self.L
+
+    def __call__(self, x):
+        """Rows ``[m, ...]`` of a per-sample series ``x [n, ...]`` (all rows; index with ``keep``)."""
+        if self.bandwidth_hz is not None:
+            from scipy.signal import sosfiltfilt
+
+            x = np.where(self.mask.reshape(-1, *([1] * (x.ndim - 1))), x, 0.0)
+            return sosfiltfilt(self.sos, x, axis=0)[::self.L]
+        return block_means(x, self.L) if self.L > 1 else x
+
+
+@dataclass
+class Normal:
+    """Weighted normal equations per block of the record; sums over blocks give the whole record."""
+
+    N: np.ndarray  #: [B, P, P]
+    b: np.ndarray  #: [B, P]
+    yy: np.ndarray  #: [B]
+    rows: int
+    excitation: np.ndarray  #: [P] RMS of each regressor over its primary channels (SI)
+    block_s: float  #: block length [s]
+    t0: np.ndarray  #: [B] start time of each block [s]
+
+    @property
+    def blocks(self) -> int:
+        return self.N.shape[0]
+
+    def total(self):
+        return self.N.sum(0), self.b.sum(0), float(self.yy.sum())
+
+    def fold(self) -> np.ndarray:
+        """Fold of each block (interleaved: block k in fold k mod :data:`FOLDS`)."""
+        return np.arange(self.blocks) % FOLDS
+
+    def groups(self, K: int) -> list:
+        """``K`` contiguous groups of blocks (index arrays), as equal as the blocks allow."""
+        return [g for g in np.array_split(np.arange(self.blocks), K) if g.size]
+
+
+def huber_weights(u: np.ndarray, k: float = HUBER_K) -> np.ndarray:
+    """Huber's weights ``min(1, k / |u|)`` of standardised residuals ``u``."""
+    a = np.abs(u)
+    return np.where(a > k, k / np.maximum(a, 1e-300), 1.0)
+
+
+def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Normal:
+    """The weighted normal equations of the residual ``y`` [n, 6] on the Jacobian columns ``cols``
+    (:func:`sizefx.diagnose.candidates.jacobian_columns`), one set per block; ``weights`` [6] per
+    channel, ``row_weights`` [m, 6] per row of :class:`Rows` (robust weights; None: all 1)."""
+    keep = rows_of.keep
+    rows = np.flatnonzero(keep)
+    t = rows_of.t[rows]
+    span = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    block_s = block_length_s(span)
+    block = np.minimum(np.floor((t - t[0]) / block_s).astype(int), max(0, int(span // block_s) - 1))
+    B = int(block.max()) + 1 if block.size else 1
+    edges = np.searchsorted(block, np.arange(B + 1))
+    full = np.flatnonzero(np.diff(edges) > 0)  # blocks inside a gap hold no rows: not blocks at all
+    edges = np.append(edges[full], edges[full[-1] + 1]) if full.size else edges[:2]
+    B = max(1, edges.size - 1)
+    yb = rows_of(y)[rows]
+    rw = np.ones_like(yb) if row_weights is None else np.asarray(row_weights)[rows]
+    sumsq = np.zeros(NP)
+    count = np.zeros(NP)
+    N = np.zeros((B, NP, NP))
+    b = np.zeros((B, NP))
+    yy = np.zeros(B)
+    for c in range(6):
+        js = [j for j in range(NP) if c in cols[j][0]]
+        if not js:
+            continue
+        H = rows_of(np.column_stack([cols[j][1][:, list(cols[j][0]).index(c)] for j in js]))[rows]
+        for k, j in enumerate(js):
+            if not PARAMS[j].primary or c in PARAMS[j].primary:
+                sumsq[j] += H[:, k] @ H[:, k]
+                count[j] += H.shape[0]
+        w = weights[c] * rw[:, c]
+        Hw = H * w[:, None]
+        G = np.empty((B, len(js), len(js)))  # per block, then one scatter into N per channel
+        for k in range(B):
+            s = slice(edges[k], edges[k + 1])
+            G[k] = Hw[s].T @ H[s]
+        N[:, np.array(js)[:, None], np.array(js)[None, :]] += G
+        b[:, js] += np.add.reduceat(Hw * yb[:, c:c + 1], edges[:-1], axis=0)
+        yy += np.add.reduceat(w * yb[:, c] ** 2, edges[:-1])
+    return Normal(N, b, yy, int(rows.size) * 6, np.sqrt(sumsq / np.maximum(count, 1)), block_s,
+                  t[edges[:-1]] if t.size else np.zeros(B))
+
+
+def _pinned(free, offset):
+    pinned = np.setdiff1d(np.arange(NP), free)
+    return pinned, offset[pinned]
+
+
+def _inverse(Nf):
+    d = np.sqrt(np.where(np.diag(Nf) > 0, np.diag(Nf), 1.0))
+    Ns = Nf / np.outer(d, d)
+    try:
+        return np.linalg.inv(Ns) / np.outer(d, d)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(Ns) / np.outer(d, d)
+
+
+def solve(N, b, yy, free, offset):
+    """Fit ``free`` with the other parameters held at ``offset``: (x_free, rss, covariance N^-1)."""
+    free = np.asarray(free, dtype=int)
+    pinned, c = _pinned(free, offset)
+    bf = b[free] - N[np.ix_(free, pinned)] @ c
+    yy_ = yy - 2.0 * c @ b[pinned] + c @ N[np.ix_(pinned, pinned)] @ c
+    if len(free) == 0:
+        return np.zeros(0), yy_, np.zeros((0, 0))
+    inv = _inverse(N[np.ix_(free, free)])
+    x = inv @ bf
+    return x, float(yy_ - bf @ x), inv
+
+
+def covariance(nrm: Normal, free, offset, blocks=None):
+    """Estimates of ``free`` and two covariances: ``(x, white, robust)``.
+
+    ``white`` is ``N^-1`` (right when the weights are the inverse noise variances and the noise is
+    white); ``robust`` the block sandwich ``N^-1 (B/(B-1) sum_b s_b s_b') N^-1`` with the scores
+    ``s_b = b_b - N_b x`` of each block at the estimate. ``blocks`` restricts everything to those
+    blocks (the consistency check fits groups of blocks alone).
+    """
+    free = np.asarray(free, dtype=int)
+    Nb, bb, yyb = (nrm.N, nrm.b, nrm.yy) if blocks is None else (nrm.N[blocks], nrm.b[blocks], nrm.yy[blocks])
+    N, b, yy = Nb.sum(0), bb.sum(0), float(yyb.sum())
+    x, _, inv = solve(N, b, yy, free, offset)
+    if free.size == 0:
+        return x, inv, inv
+    pinned, c = _pinned(free, offset)
+    s = bb[:, free] - np.einsum("bij,j->bi", Nb[:, free][:, :, pinned], c) - np.einsum("bij,j->bi",
+                                                                                      Nb[:, free][:, :, free], x)
+    B = s.shape[0]
+    meat = s.T @ s * (B / max(B - 1, 1))
+    return x, inv, inv @ meat @ inv
+
+
+def wald(x, cov, group) -> float:
+    """Wald statistic ``x_g' cov_gg^-1 x_g`` of the parameters at positions ``group`` of ``x``."""
+    g = np.asarray(group, dtype=int)
+    C = cov[np.ix_(g, g)]
+    try:
+        return float(x[g] @ np.linalg.solve(C, x[g]))
+    except np.linalg.LinAlgError:
+        return float(x[g] @ np.linalg.pinv(C) @ x[g])
+
+
+def cv_error(nrm: Normal, free, offset):
+    """Cross-validated weighted squared error of the model with ``free`` estimated: each fold of
+    interleaved blocks predicted from the others."""
+    free = np.asarray(free, dtype=int)
+    N, b, yy = nrm.total()
+    pinned, c = _pinned(free, offset)
+    fold = nrm.fold()
+    err = 0.0
+    for k in range(FOLDS):
+        sel = fold == k
+        if not sel.any():
+            continue
+        Nk, bk, yyk0 = nrm.N[sel].sum(0), nrm.b[sel].sum(0), float(nrm.yy[sel].sum())
+        x, _, _ = solve(N - Nk, b - bk, yy - yyk0, free, offset)
+        bf = bk[free] - Nk[np.ix_(free, pinned)] @ c
+        yyk = yyk0 - 2.0 * c @ bk[pinned] + c @ Nk[np.ix_(pinned, pinned)] @ c
+        err += yyk - 2.0 * x @ bf + x @ Nk[np.ix_(free, free)] @ x
+    return float(err)
+
+
+def excitation(nrm: Normal, free) -> dict:
+    """Per parameter of ``free``: its regressor's RMS divided by sqrt(VIF) given the others in ``free``.
+
+    VIF = cov_jj N_jj (1 when the regressor is orthogonal to the others; infinite when
+    they explain it). Noise-free: it says what the motion shows, not how well.
+    """
+    N = nrm.N.sum(0)
+    free = np.asarray(free, dtype=int)
+    diag = np.diag(N)[free]
+    out = {}
+    live = diag > 0
+    if live.any():
+        sub = free[live]
+        Nf = N[np.ix_(sub, sub)]
+        d = np.sqrt(np.diag(Nf))
+        try:
+            inv = np.linalg.inv(Nf / np.outer(d, d))
+            vif = np.maximum(np.diag(inv), 1.0)
+        except np.linalg.LinAlgError:
+            vif = np.full(sub.size, np.inf)
+        for j, v in zip(sub.tolist(), vif):
+            out[j] = float(nrm.excitation[j] / np.sqrt(v)) if np.isfinite(v) and v > 0 else 0.0
+    for j in free[~live].tolist():
+        out[j] = 0.0
+    return out
+
+
+def canonical_correlation(N: np.ndarray, a, b, rest=()) -> float:
+    """Largest canonical correlation between the regressors of parameter groups ``a`` and ``b``
+    after both are regressed on the group ``rest``, from the normal matrix ``N`` alone.
+
+    1 means some combination of ``a`` is a combination of ``b`` on this motion: the record cannot
+    say which of the two it sees. Computed from the Schur complements of ``rest``.
+    """
+    a, b, rest = (np.asarray(g, dtype=int) for g in (a, b, rest))
+    ab = np.concatenate([a, b])
+    S = N[np.ix_(ab, ab)]
+    if rest.size:
+        S = S - N[np.ix_(ab, rest)] @ _inverse(N[np.ix_(rest, rest)]) @ N[np.ix_(rest, ab)]
+    na = a.size
+    Saa, Sbb, Sab = S[:na, :na], S[na:, na:], S[:na, na:]
+    try:
+        La = np.linalg.cholesky(Saa + 1e-300 * np.eye(na))
+        Lb = np.linalg.cholesky(Sbb + 1e-300 * np.eye(b.size))
+    except np.linalg.LinAlgError:
+        return 1.0  # a group is degenerate by itself on this motion
+    M = np.linalg.solve(La, np.linalg.solve(Lb, Sab.T).T)
+    return float(min(1.0, np.linalg.svd(M, compute_uv=False).max()))
