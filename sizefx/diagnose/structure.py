@@ -24,16 +24,18 @@ the adjusted one (the raw p-value times the number of tests of its kind on its c
 1. ``correlation``: the residual follows a regressor (rate, angular acceleration, omega^2,
    specific force). Regressor and residual are first freed of a quadratic in time (a drift must
    not pass for a correlation); the slope ``beta = sum(x y) / sum(x^2)`` is tested with a
-   batch-means (block) standard error: the sums ``S_b = sum_b x e`` over the time blocks below,
-   ``var(beta) = B / (B - 1) sum_b (S_b - mean S)^2 / (sum x^2)^2``, a Student t with ``B - 1``
-   degrees of freedom. That error holds for any residual correlated over less than a block
-   (the HAC estimator with a flat kernel over whole blocks). Greedy: the most significant
+   batch-means standard error: the sums ``S_b = sum_b x e`` over :data:`CORRELATION_BATCHES`
+   batches of consecutive time blocks, ``var(beta) = B / (B - 1) sum_b (S_b - mean S)^2 /
+   (sum x^2)^2``, a Student t with ``B - 1`` degrees of freedom. That error holds for any
+   product ``x e`` correlated over less than a batch (the HAC estimator with a flat kernel over
+   whole batches). Greedy: the most significant
    regressor is taken, added to the nuisance, and the others tested again, at most
    :data:`MAX_CORRELATIONS` per channel. ``size`` = ``|beta|`` times the RMS of the regressor
    (freed of the quadratic in time). The found correlations are removed before the next tests.
 2. ``step``: block means ``y_b`` (:data:`MIN_BLOCK_S` or longer, at most :data:`MAX_BLOCKS`)
    are fitted by a quadratic in time plus a step ``H(t - t_j)`` at each block boundary with at
-   least two blocks on each side; the largest F statistic (1 and ``B - 4`` degrees of freedom),
+   least two blocks on each side, by generalised least squares under the noise model below; the
+   largest F statistic (1 and ``B - 4`` degrees of freedom),
    Bonferroni over the boundaries. The step time is then refined row by row over the two blocks
    at the boundary (the split that maximises ``k (n - k) (mean_left - mean_right)^2``).
    ``size`` = the step height.
@@ -41,10 +43,15 @@ the adjusted one (the raw p-value times the number of tests of its kind on its c
    a constant (plus the step): an F test with 2 and ``B - p`` degrees of freedom. ``size`` = the
    peak-to-peak of the fitted drift over the record.
 
-   Both block tests divide the F statistic by the variance inflation ``(1 + r1) / (1 - r1)`` of
-   an AR(1) with the lag-one autocorrelation ``r1 > 0`` of the block residuals of the fuller
-   model: block means of coloured noise (flicker, a slow random walk) are not independent, and
-   a smooth contrast of them is that much more variable than the white-noise formula says.
+   Both block tests are a test against the residual's own low-frequency spectrum, not a
+   white-noise formula: block means of coloured noise (flicker, a random walk) are not
+   independent, and a smooth contrast of them is much more variable than white noise would
+   allow. The block means are taken to the DCT-II basis, where such noise is nearly uncorrelated,
+   and each coefficient is divided by the square root of a power law ``k^-gamma`` (``gamma`` in
+   [0, :data:`MAX_NOISE_SLOPE`]) fitted to the fuller model's residual (:func:`_whitener`); the
+   F tests are then ordinary F tests of the whitened rows. The drift's own two lowest
+   coefficients get the spectrum extrapolated :data:`EXTRAPOLATION_Z` standard errors of the
+   slope upwards.
 4. ``spectral_line``: the Welch spectrum (Hann window, 50 % overlap, constant detrend, segments
    of :data:`WELCH_MIN_SEGMENTS` or more per record, inside runs) of what remains after the
    correlations. Each bin's power is compared with the median of its neighbours (at most
@@ -74,6 +81,7 @@ At most :data:`MAX_LINES` lines (the largest) are reported per channel.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -83,7 +91,7 @@ from .theta import CHANNELS, DEG_PER_H, UG
 
 __all__ = ["unexplained", "KINDS", "ALPHA_SHARE", "SIZE_FLOOR", "MIN_BLOCK_S", "MAX_BLOCKS", "MIN_BLOCKS",
            "WELCH_MIN_SEGMENTS", "WELCH_MAX_NPERSEG", "WELCH_MIN_NPERSEG", "FLOOR_HALF_BINS", "GUARD_BINS",
-           "MIN_FLOOR_BINS", "SIDELOBE_FRACTION", "MAX_LINES", "MAX_CORRELATIONS", "GAP_FACTOR"]
+           "MIN_FLOOR_BINS", "SIDELOBE_FRACTION", "MAX_LINES", "MAX_CORRELATIONS", "CORRELATION_BATCHES", "MAX_NOISE_SLOPE", "EXTRAPOLATION_Z", "GAP_FACTOR"]
 
 #: The kinds of structure, in the order they are tested.
 KINDS = ("correlation", "step", "trend", "spectral_line")
@@ -94,7 +102,7 @@ ALPHA_SHARE = {kind: 0.25 for kind in KINDS}
 SIZE_FLOOR = 0.1
 #: Shortest time block of the time-domain tests [s]: five times the 0.2 s correlation time of a
 #: typical coloured residual, so that block means are nearly independent (lag-one correlation
-#: about 0.2 for an AR(1) of 0.2 s, which the AR(1) inflation then allows for).
+#: about 0.2 for an AR(1) of 0.2 s; the whitening of the block tests allows for the rest).
 MIN_BLOCK_S = 1.0
 #: Most time blocks: 2 % of the record per block resolves a step's time to a few percent, and
 #: 50 blocks give the F and t tests 45 or more degrees of freedom.
@@ -120,8 +128,19 @@ MIN_FLOOR_BINS = 8
 SIDELOBE_FRACTION = 1e-2
 #: Lines reported per channel at most (the largest).
 MAX_LINES = 5
+#: Batches of the correlation test's batch-means error (consecutive time blocks merged): few and
+#: long, since a slow regressor (a 0.1 Hz sway) times a slow residual (flicker) stays correlated over
+#: many seconds; the Student t with CORRELATION_BATCHES - 1 degrees of freedom pays for the few.
+CORRELATION_BATCHES = 12
 #: Regressors a channel may follow, at most.
 MAX_CORRELATIONS = 3
+#: Steepest power law of the block means' noise spectrum the block tests allow for: 2, a random
+#: walk (a bias random walk is sensor noise, not a drift); steeper would let a drift explain itself.
+MAX_NOISE_SLOPE = 2.0
+#: Standard errors of the fitted noise slope added when the block tests extrapolate the noise
+#: spectrum to the two lowest coefficients (where a drift lies): one, so that a flicker whose slope
+#: the record measures poorly does not pass for a drift (tests/test_diagnose_structure.py, coloured).
+EXTRAPOLATION_Z = 1.0
 #: A jump in t_s larger than this many dt cuts the record like a row not kept.
 GAP_FACTOR = 1.5
 
@@ -267,8 +286,12 @@ class _Design:
 
     def __init__(self, t, X, blocks):
         self.rows = np.concatenate(blocks)
-        self.offsets = np.cumsum([0] + [b.size for b in blocks[:-1]])
-        self.n_blocks = len(blocks)
+        # batches of consecutive blocks: a slow regressor times a slow residual stays correlated over
+        # several seconds, so the batch-means error needs long batches (CORRELATION_BATCHES of them)
+        group = np.arange(len(blocks)) * CORRELATION_BATCHES // len(blocks)
+        sizes = np.bincount(group, weights=[b.size for b in blocks]).astype(int)
+        self.offsets = np.cumsum(np.concatenate(([0], sizes[:-1])))
+        self.n_blocks = sizes.size
         self.q, _ = np.linalg.qr(_time_poly(t[self.rows], t[self.rows[0]], t[self.rows[-1]]))
         self.X = X
         self.Xt = self.free_of_time(X[self.rows])
@@ -322,19 +345,61 @@ def _correlations(y, names, design, sigma, level):
     return found, y - d.X[:, chosen] @ coef
 
 
-def _ar1_inflation(e):
-    """Variance inflation (1 + r1) / (1 - r1) of smooth contrasts under an AR(1), from residuals e."""
-    if e.size < 3 or not np.any(e):
-        return 1.0
-    r1 = float(np.sum(e[1:] * e[:-1]) / np.sum(e * e))
-    r1 = min(max(r1, 0.0), 0.9)  # negative: no deflation; 0.9 bounds the inflation at 19
-    return (1.0 + r1) / (1.0 - r1)
+@functools.lru_cache(maxsize=4)
+def _dct_matrix(n):
+    """The orthonormal DCT-II matrix [n, n] (read-only: shared between calls)."""
+    from scipy.fft import dct
+
+    out = dct(np.eye(n), norm="ortho", axis=0)
+    out.flags.writeable = False
+    return out
 
 
-def _fit(A, y):
-    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
-    e = y - A @ coef
-    return coef, e, float(e @ e)
+def _whitener(e):
+    """[B, B]: the orthonormal DCT-II of the block means, each coefficient k divided by the square
+    root of a power law ``k^-gamma`` fitted to the log power of coefficients 3..B-1 of the fuller
+    model's residual ``e`` (``gamma`` in [0, 2]: white to random walk). Block means of coloured
+    noise (flicker, a random walk) are nearly uncorrelated in this basis with that spectrum; the
+    two lowest coefficients, which a drift occupies, take the extrapolated spectrum, raised by
+    EXTRAPOLATION_Z standard errors of the fitted slope (the log of a chi-square(1) power scatters
+    by pi / sqrt(2)): a drift must stand out from the noise's low end, not just from its fit."""
+    n = e.size
+    dct_matrix = _dct_matrix(n)
+    k = np.arange(n, dtype=float)
+    power = (dct_matrix @ e) ** 2
+    fit = slice(3, n)
+    ok = power[fit] > 0.0
+    gamma, margin = 0.0, np.zeros(n)
+    if ok.sum() >= 3:
+        log_k = np.log(k[fit][ok])
+        gamma = -float(np.polyfit(log_k, np.log(power[fit][ok]), 1)[0])
+        gamma = min(max(gamma, 0.0), MAX_NOISE_SLOPE)
+        se_gamma = (math.pi / math.sqrt(2.0)) / math.sqrt(float(np.sum((log_k - log_k.mean()) ** 2)))
+        margin[1:3] = EXTRAPOLATION_Z * se_gamma * (log_k.mean() - np.log(k[1:3]))
+    spectrum = np.maximum(k, 1.0) ** -gamma * np.exp(margin)
+    return dct_matrix / np.sqrt(spectrum)[:, None]
+
+
+def _gls(W, A, y):
+    """Least squares of y on the columns of A after whitening with W: coefficients and the whitened RSS."""
+    coef, *_ = np.linalg.lstsq(W @ A, W @ y, rcond=None)
+    r = W @ (y - A @ coef)
+    return coef, float(r @ r)
+
+
+def _f_test(y, base, extra, W=None):
+    """F statistic and its degrees of freedom for adding the columns ``extra`` to ``base``, under
+    the power-law noise of the fuller model's residual (:func:`_whitener`) unless ``W`` is given;
+    the fuller model's coefficients."""
+    full = np.column_stack((base, extra))
+    if W is None:
+        coef, *_ = np.linalg.lstsq(full, y, rcond=None)
+        W = _whitener(y - full @ coef)
+    coef, rss_full = _gls(W, full, y)
+    _, rss_base = _gls(W, base, y)
+    dof = y.size - full.shape[1]
+    F = (rss_base - rss_full) / extra.shape[1] / max(rss_full / dof, np.finfo(float).tiny)
+    return F, dof, coef
 
 
 def _steps_and_trends(t, y, keep, blocks, sigma, level):
@@ -346,22 +411,20 @@ def _steps_and_trends(t, y, keep, blocks, sigma, level):
     n_blocks = yb.size
     t0, t1 = t[blocks[0][0]], t[blocks[-1][-1]]
     Z = _time_poly(tb, t0, t1)
-    _, _, rss0 = _fit(Z, yb)
-    # step: the best boundary j (blocks j.. after the step), at least two blocks on each side
+    # step: the best boundary j (blocks j.. after the step), at least two blocks on each side, over
+    # a quadratic in time
     splits = np.arange(2, n_blocks - 1)
     best = None
     for j in splits:
-        H = (np.arange(n_blocks) >= j).astype(float)
-        coef, e, rss1 = _fit(np.column_stack((Z, H)), yb)
-        F = (rss0 - rss1) / max(rss1 / (n_blocks - 4), np.finfo(float).tiny)
+        H = (np.arange(n_blocks) >= j).astype(float)[:, None]
+        F, dof, coef = _f_test(yb, Z, H)
         if best is None or F > best[0]:
-            best = (F, j, coef, e)
+            best = (F, dof, j, coef)
     step_col = None
     if best is not None:
-        F, j, coef, e = best
-        F /= _ar1_inflation(e)
-        p_adj = min(1.0, float(fisher.sf(F, 1, n_blocks - 4)) * splits.size)
-        t_step = _refine_step(t, y, blocks[j - 1], blocks[j], Z[:, :3] @ coef[:3], tb)
+        F, dof, j, coef = best
+        p_adj = min(1.0, float(fisher.sf(F, 1, dof)) * splits.size)
+        t_step = _refine_step(t, y, blocks[j - 1], blocks[j], Z @ coef[:3], tb)
         share = float(np.mean(t[np.concatenate(blocks)] < t_step))
         height = float(coef[3])
         if p_adj <= level["step"] and abs(height) * math.sqrt(share * (1.0 - share)) >= SIZE_FLOOR * sigma:
@@ -370,11 +433,7 @@ def _steps_and_trends(t, y, keep, blocks, sigma, level):
                           "signed": height, "time_s": t_step, "statistic": float(F), "p_value": p_adj})
     # trend: a quadratic in time against a constant, the step (if found) in both
     base = np.ones((n_blocks, 1)) if step_col is None else np.column_stack((np.ones(n_blocks), step_col))
-    full = np.column_stack((base, Z[:, 1:]))
-    _, _, rss_base = _fit(base, yb)
-    coef, e, rss_full = _fit(full, yb)
-    dof = n_blocks - full.shape[1]
-    F = (rss_base - rss_full) / 2.0 / max(rss_full / dof, np.finfo(float).tiny) / _ar1_inflation(e)
+    F, dof, coef = _f_test(yb, base, Z[:, 1:])
     p_adj = float(min(1.0, fisher.sf(F, 2, dof)))
     tt = np.linspace(t0, t1, 201)
     drift = _time_poly(tt, t0, t1)[:, 1:] @ coef[-2:]
