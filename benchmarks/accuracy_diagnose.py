@@ -116,8 +116,8 @@ def coloured_noise(seeds):
            "false_positive_records": len(false), "false_positive_rate": len(false) / seeds, "cases": false,
            "parameters": int(z.size), "rms_z": float(np.sqrt(np.mean(z**2))), "max_abs_z": float(np.abs(z).max()),
            "records_with_inflated_errors": inflated}
-    print(f"  {seeds} records: both effects found in {found} ({100 * found / seeds:.0f} %), other effects accepted "
-          f"in {len(false)} ({100 * len(false) / seeds:.0f} %); z RMS {out['rms_z']:.2f} over {z.size} parameters "
+    print(f"  {seeds} records: both effects found in {found} ({100 * found / seeds:.0f} %), effects other than "
+          f"these and the walk's bias accepted in {len(false)} ({100 * len(false) / seeds:.0f} %); z RMS {out['rms_z']:.2f} over {z.size} parameters "
           f"(target 0.7-1.4), max |z| {out['max_abs_z']:.2f}; errors inflated by the block check in {inflated}")
     return out
 
