@@ -17,9 +17,11 @@
    (:mod:`.plausibility`) is rejected with the reason; of two selected effects the record cannot
    tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding (the model
    keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE` of the
-   structure on its channels is rejected. The survivors are refitted with the selection fixed.
-6. **Errors**: the block sandwich (never under the white one), then inflated where the record's
-   K parts disagree beyond them (:mod:`.consistency`).
+   structure on its channels is rejected; so is one no longer significant once its errors are
+   widened to the scatter of the record's parts (a selection must be stable across them). The
+   survivors are refitted with the selection fixed.
+6. **Errors**: the block sandwich (never under the white one), widened to the scatter of the
+   record's parts, cut in time, by rotation rate and by translation (:mod:`.consistency`).
 7. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
    the motion left in each channel's final residual.
 """
@@ -31,14 +33,16 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import chi2
 
+from ..constants import STANDARD_GRAVITY_MPS2
 from ..io.telemetry import Telemetry
 from .bandwidth import choose_bandwidth
-from .candidates import CANDIDATES, PRIORITY, jacobian_columns
-from .consistency import block_consistency
+from .candidates import CANDIDATES, PRIORITY, columns_between
+from .consistency import block_consistency, motion_groups
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
-from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve
+from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve, wald
 from .plausibility import infer_grade, judge, likely_cause
 from .predictor import Predictor
 from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, select
@@ -167,7 +171,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
     penalty = math.log(max(int(rows_of.keep.sum()) * 6, 2))
     chosen, unrevealed = list(fixed or []), {}
     for passes in range(1, MAX_PASSES + 1):
-        cols = jacobian_columns(theta, pred.terms(theta), pred.t)
+        cols = columns_between(theta, pred.terms(theta), pred.t)  # formed chunk by chunk
         weights = 1.0 / (sigma_c**2 * kappa)
         nrm = normal_equations(rows_of, residual, cols, weights, row_w)
         offset = theta0 - theta  # a parameter not selected stays at its nominal value
@@ -195,6 +199,30 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
 
 
 # --------------------------------------------------------------------------- judging the selection
+
+
+def _errors(pred: Predictor, state: _State, theta0):
+    """The selection's honest covariance (block sandwich, never under white) at ``state``, and the
+    consistency factors per parameter (the largest over parts in time, by rate and by translation).
+
+    Returns (cov, factors {param: factor}, sigma {param: SI}, white sigma, (parts, entries))."""
+    nrm, free = state.nrm, _free(state.chosen)
+    offset = theta0 - state.theta
+    _, white, robust = covariance(nrm, free, offset)
+    cov = honest(white, robust)
+    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(cov)))))
+    sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
+    parts, cons = block_consistency(nrm, free, offset, sig, sig_white)
+    for split, stat in (("rate", np.sum(pred.gyro**2, axis=1)),
+                        ("translation", np.abs(np.linalg.norm(pred.accel, axis=1) - STANDARD_GRAVITY_MPS2))):
+        _, by_motion = block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat),
+                                         split=split)
+        for j, entry in by_motion.items():
+            if j not in cons or entry["factor"] > cons[j]["factor"]:
+                cons[j] = entry
+    factors = {j: e["factor"] for j, e in cons.items()}
+    return cov, factors, sig, sig_white, (parts, cons)
+
 
 
 def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
@@ -294,6 +322,20 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                                                            f"channels, under the {100 * MIN_SHARE:g} % a finding needs",
                                            likely="a side effect of another effect or of the noise's colour"))
         if not drop:
+            # stable across the record's parts: still significant with the errors widened to their scatter
+            cov, factors, _, _, _ = _errors(pred, state, theta0)
+            free = _free(state.chosen)
+            for i, c in enumerate(state.chosen):
+                pos = [int(np.searchsorted(free, j)) for j in c.active]
+                x = (state.theta - theta0)[free]
+                f = np.array([factors.get(j, 1.0) for j in free])
+                p = float(chi2.sf(wald(x, cov * np.outer(f, f), pos), len(pos)))
+                if p > level:
+                    drop.add(c.cand.key)
+                    rejected.append(_entry(c, state.theta, f"not significant (p = {p:.2g}) once its errors are "
+                                                           "widened to the scatter of the record's parts",
+                                           likely="the noise's colour or an effect that changes along the record"))
+        if not drop:
             break
         kept = [c for c in state.chosen if c.cand.key not in drop]
         theta = state.theta.copy()
@@ -305,16 +347,13 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     free = _free(chosen)
     offset = theta0 - theta
-    _, white, robust = covariance(nrm, free, offset)
-    cov = honest(white, robust)
-    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(cov)))))
-    sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
-    parts, cons = block_consistency(nrm, free, offset, sig, sig_white)
+    _, factors, sig, sig_white, (parts, cons) = _errors(pred, state, theta0)
     for j, entry in cons.items():
+        sig[j] *= factors[j]  # never smaller than the parts' scatter says
         if entry["inflated"]:
-            sig[j] *= entry["factor"]
             warnings.append({"kind": "inconsistent_blocks", "time_s": None, "size": entry["chi2_dof"], "unit": None,
-                             "message": f"{entry['effect']} {entry['parameter']}: the record's parts disagree "
+                             "message": f"{entry['effect']} {entry['parameter']}: the record's parts (by "
+                                        f"{entry['split']}) disagree "
                                         f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
                                         f"error is multiplied by {entry['factor']:.2f}"})
     # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed

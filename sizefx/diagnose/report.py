@@ -246,9 +246,10 @@ def format_report(d: Diagnosis, start: str) -> str:
     flagged = [p for p in cons.get("parameters", []) if p["inflated"]]
     if cons.get("parameters"):
         worst = max(cons["parameters"], key=lambda p: p["chi2_dof"])
-        lines.append(f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks; {cons['parts']} parts of the "
-                     f"record agree with them (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
-                     f"{worst['parameter']})" + (f"; {len(flagged)} inflated where they do not" if flagged else ""))
+        lines.append(f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks, checked on {cons['parts']} "
+                     f"parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
+                     f"{worst['parameter']}); errors widened to the parts' scatter where it is larger"
+                     + (f"; {len(flagged)} disagree beyond chance (see the warnings)" if flagged else ""))
     band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
     lines.append(f"residual RMS per channel{band}, start model -> extended model:")
     for name in CHANNELS:
