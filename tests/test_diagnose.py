@@ -447,3 +447,23 @@ def test_broad_residual_gain_is_reported(broad_diagnoses):
         assert "lag the gyros" in report or "lead the gyros" in report
         assert ("the reference leads the IMU by" in report or "the reference lags the IMU by" in report)
         assert "full band" in report
+
+
+def test_normal_equations_chunk_by_chunk_equal_the_whole_records(monkeypatch):
+    """Regressors formed a chunk at a time (bounded memory) give the same normal equations as the whole
+    record's columns at once: the chunks overlap by one sample for the time derivatives."""
+    from sizefx.diagnose import normal
+    from sizefx.diagnose.candidates import columns_between, jacobian_columns
+
+    tel, truth = record({"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"]}, duration_s=20.0)
+    pred = D.Predictor(tel)
+    rows_of = normal.Rows(pred.t, pred.mask, pred.dt)
+    y = pred.measured - pred.predict(truth)
+    terms = pred.terms(truth)
+    whole = normal.normal_equations(rows_of, y, jacobian_columns(truth, terms, pred.t), np.ones(6))
+    monkeypatch.setattr(normal, "CHUNK_SAMPLES", 1999)  # several chunks, boundaries inside blocks
+    chunked = normal.normal_equations(rows_of, y, columns_between(truth, terms, pred.t), np.ones(6))
+    scale = np.abs(whole.N).max()
+    assert np.abs(chunked.N - whole.N).max() < 1e-12 * scale
+    assert np.abs(chunked.b - whole.b).max() < 1e-12 * np.abs(whole.b).max()
+    assert np.allclose(chunked.yy, whole.yy, rtol=1e-12)

@@ -11,14 +11,14 @@ when a record cannot tell two apart.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, is_dataclass, replace
 
 import numpy as np
 
 from .. import sensor_model as sm
 from .theta import A_BIAS, A_K2, A_MIS, A_SF, G_BIAS, G_G, G_MIS, G_SF, LEVER, MOUNT, NP, PARAMS, TAU_A, TAU_R, TILT
 
-__all__ = ["CANDIDATES", "PRIORITY", "Candidate", "jacobian_columns", "numeric_jacobian"]
+__all__ = ["CANDIDATES", "PRIORITY", "Candidate", "columns_between", "jacobian_columns", "numeric_jacobian"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,26 @@ def jacobian_columns(theta: np.ndarray, terms: dict, t: np.ndarray) -> dict:
     # the accelerometers' lever terms come from the measured gyros, which the mount does not turn
     cols = dict(sm.jacobian(p, at_g, at_a, effects=_ALL_BUT_REFERENCE_DELAY, measured_lever_rates=True))
     cols.update(sm.jacobian(p, at_g, replace(at_a, omegaddot_ib_b=None), effects=["reference_delay"]))
+    return cols
+
+
+def columns_between(theta: np.ndarray, terms: dict, t: np.ndarray):
+    """``(lo, hi) -> jacobian_columns`` for the samples ``lo:hi`` only, as
+    :func:`sizefx.diagnose.normal.normal_equations` asks for them chunk by chunk. One sample more on
+    each side feeds the time derivatives, so the columns equal the whole record's exactly."""
+    n = t.size
+
+    def piece(x, a, b):
+        return x[a:b] if isinstance(x, np.ndarray) and x.ndim and x.shape[0] == n else x
+
+    def cols(lo, hi):
+        a, b = max(0, lo - 1), min(n, hi + 1)
+        part = {k: (replace(v, **{f.name: piece(getattr(v, f.name), a, b) for f in fields(v)})
+                    if is_dataclass(v) and not isinstance(v, type) and k != "params" else v)
+                for k, v in terms.items()}
+        full = jacobian_columns(theta, part, t[a:b])
+        return {j: (ch, x[lo - a:lo - a + hi - lo]) for j, (ch, x) in full.items()}
+
     return cols
 
 

@@ -32,7 +32,7 @@ from .theta import NP, PARAMS
 
 __all__ = ["Normal", "Rows", "block_length_s", "block_means", "canonical_correlation", "covariance", "cv_error",
            "excitation", "huber_weights", "normal_equations", "solve", "wald",
-           "FOLDS", "MAX_ROWS", "TARGET_BLOCKS", "MIN_BLOCK_S", "HUBER_K"]
+           "CHUNK_SAMPLES", "FOLDS", "MAX_ROWS", "TARGET_BLOCKS", "MIN_BLOCK_S", "HUBER_K"]
 
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
 #: by sample; longer records are averaged in blocks (y and regressors alike, so the model stays exact).
@@ -44,6 +44,10 @@ FOLDS = 5
 #: diagnosis frees. Never shorter than :data:`MIN_BLOCK_S`: scores must decorrelate within a block.
 TARGET_BLOCKS = 100
 MIN_BLOCK_S = 0.25
+#: Samples whose regressors are formed at once: the Jacobian columns take about 650 bytes per
+#: sample, so a chunk holds about 20 MiB of them whatever the record's length (with a bandwidth, the
+#: low-pass needs the whole series and there is one chunk).
+CHUNK_SAMPLES = 32_768
 #: Huber's constant in units of the channel's robust sigma: 3 leaves Gaussian rows untouched
 #: (0.3 % of them are down-weighted, by at most a few percent) and caps a glitch's pull.
 HUBER_K = 3.0
@@ -98,6 +102,11 @@ class Rows:
         self.keep = keep
         self.dt = dt * self.L
 
+    def chunk(self, x):
+        """Rows of the samples ``x`` of one chunk starting at a multiple of ``L`` (block means; with a
+        bandwidth, only the whole series is a chunk)."""
+        return self(x) if self.bandwidth_hz is not None or self.L == 1 else block_means(x, self.L)
+
     def __call__(self, x):
         """Rows ``[m, ...]`` of a per-sample series ``x [n, ...]`` (all rows; index with ``keep``)."""
         if self.bandwidth_hz is not None:
@@ -145,7 +154,11 @@ def huber_weights(u: np.ndarray, k: float = HUBER_K) -> np.ndarray:
 def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Normal:
     """The weighted normal equations of the residual ``y`` [n, 6] on the Jacobian columns ``cols``
     (:func:`sizefx.diagnose.candidates.jacobian_columns`), one set per block; ``weights`` [6] per
-    channel, ``row_weights`` [m, 6] per row of :class:`Rows` (robust weights; None: all 1)."""
+    channel, ``row_weights`` [m, 6] per row of :class:`Rows` (robust weights; None: all 1).
+
+    ``cols`` is the columns' dict for all samples, or a function ``(lo, hi) -> dict`` for the samples
+    ``lo:hi``, called chunk by chunk (:data:`CHUNK_SAMPLES`) so that only one chunk of regressors
+    is held at a time."""
     keep = rows_of.keep
     rows = np.flatnonzero(keep)
     t = rows_of.t[rows]
@@ -159,29 +172,46 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
     B = max(1, edges.size - 1)
     yb = rows_of(y)[rows]
     rw = np.ones_like(yb) if row_weights is None else np.asarray(row_weights)[rows]
+    block_of = np.repeat(np.arange(B), np.diff(edges))  # block of each kept row
     sumsq = np.zeros(NP)
     count = np.zeros(NP)
     N = np.zeros((B, NP, NP))
     b = np.zeros((B, NP))
     yy = np.zeros(B)
-    for c in range(6):
-        js = [j for j in range(NP) if c in cols[j][0]]
-        if not js:
+    n, L = rows_of.mask.size, rows_of.L
+    if callable(cols) and rows_of.bandwidth_hz is None:  # a filter needs the whole series; block means do not
+        step = max(1, CHUNK_SAMPLES // L) * L
+        spans = [(lo, min(n, lo + step)) for lo in range(0, n, step)]
+    else:
+        spans = [(0, n)]
+    for lo, hi in spans:
+        cc = cols(lo, hi) if callable(cols) else cols
+        a, z = np.searchsorted(rows, [lo // L, -(-hi // L)])  # the kept rows inside [lo, hi)
+        if z <= a:
             continue
-        H = rows_of(np.column_stack([cols[j][1][:, list(cols[j][0]).index(c)] for j in js]))[rows]
-        for k, j in enumerate(js):
-            if not PARAMS[j].primary or c in PARAMS[j].primary:
-                sumsq[j] += H[:, k] @ H[:, k]
-                count[j] += H.shape[0]
-        w = weights[c] * rw[:, c]
-        Hw = H * w[:, None]
-        G = np.empty((B, len(js), len(js)))  # per block, then one scatter into N per channel
-        for k in range(B):
-            s = slice(edges[k], edges[k + 1])
-            G[k] = Hw[s].T @ H[s]
-        N[:, np.array(js)[:, None], np.array(js)[None, :]] += G
-        b[:, js] += np.add.reduceat(Hw * yb[:, c:c + 1], edges[:-1], axis=0)
-        yy += np.add.reduceat(w * yb[:, c] ** 2, edges[:-1])
+        local = rows[a:z] - lo // L
+        bl = block_of[a:z]
+        ks = np.arange(bl[0], bl[-1] + 1)  # every block between holds rows here: blocks are contiguous
+        le = np.searchsorted(bl, np.append(ks, ks[-1] + 1))
+        for c in range(6):
+            js = [j for j in range(NP) if c in cc[j][0]]
+            if not js:
+                continue
+            H = rows_of.chunk(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]))[local]
+            for k, j in enumerate(js):
+                if not PARAMS[j].primary or c in PARAMS[j].primary:
+                    sumsq[j] += H[:, k] @ H[:, k]
+                    count[j] += H.shape[0]
+            w = weights[c] * rw[a:z, c]
+            Hw = H * w[:, None]
+            G = np.empty((ks.size, len(js), len(js)))  # per block, then one scatter into N per channel
+            for i in range(ks.size):
+                sl = slice(le[i], le[i + 1])
+                G[i] = Hw[sl].T @ H[sl]
+            N[np.ix_(ks, js, js)] += G
+            b[np.ix_(ks, js)] += np.add.reduceat(Hw * yb[a:z, c:c + 1], le[:-1], axis=0)
+            yy[ks] += np.add.reduceat(w * yb[a:z, c] ** 2, le[:-1])
+        del cc
     return Normal(N, b, yy, int(rows.size) * 6, np.sqrt(sumsq / np.maximum(count, 1)), block_s,
                   t[edges[:-1]] if t.size else np.zeros(B))
 
