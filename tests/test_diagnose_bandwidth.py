@@ -153,3 +153,19 @@ def test_broad_trial_07_band_lies_where_the_hand_chosen_one_does(tmp_path):
     assert choice.bandwidth_hz is not None and 5.0 <= choice.bandwidth_hz <= 20.0, choice.reason
     for c in ("accel_x", "accel_y", "accel_z"):  # the position twice differentiated: noisy from 10-16 Hz
         assert choice.per_channel[c] is not None and choice.per_channel[c] < 20.0, choice.per_channel
+
+
+def test_a_record_without_motion_says_so_instead_of_failing():
+    """No band where the motion dominates (a part of a record where nothing moves, its reference noisy):
+    the band still comes out, and the reason says there is no motion band (it once failed formatting
+    a missing motion frequency)."""
+    rng = np.random.default_rng(3)
+    dt_s, n = 1.0 / 286.0, 286 * 40
+    t_s = np.arange(n) * dt_s
+    measured = 1e-3 * rng.normal(size=(n, 6))
+    noise = np.cumsum(rng.normal(size=(n, 6)), axis=0)
+    rising = np.gradient(np.gradient(noise, axis=0), axis=0)  # differentiated twice: power ~ f^4
+    predicted = 1e-2 * rising  # nothing the IMU sees: no motion at all
+    choice = choose_bandwidth(t_s, measured, predicted, np.ones(n, bool), dt_s)
+    assert choice.motion_hz is None
+    assert choice.bandwidth_hz is None or "no band where the motion dominates" in choice.reason, choice

@@ -244,7 +244,8 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
     band = readable_floor(limits[first])
     why = (f"below {band:g} Hz: the reference's noise (the prediction's power the IMU does not see) exceeds "
            f"{NOISE_TO_MOTION:g} of the motion's power and the IMU's own noise from {limits[first]:.1f} Hz on "
-           f"{first}; the motion lies below {motion_hz:.1f} Hz")
+           f"{first}" + (f"; the motion lies below {motion_hz:.1f} Hz" if motion_hz is not None else
+                         "; no band where the motion dominates both noises"))
     if motion_hz is not None and band < motion_hz:
         band = readable_ceil(motion_hz)
         why = (f"below {band:g} Hz, the motion's band: the reference's noise exceeds {NOISE_TO_MOTION:g} of the "
