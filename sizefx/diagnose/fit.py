@@ -412,8 +412,14 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
 
 def _structure(pred: Predictor, rows_of: Rows, residual, white_rows):
     """The final residual's structure per channel (:func:`sizefx.diagnose.structure.unexplained`),
-    with the motion's rates, omega^2, angular accelerations and specific force as regressors."""
-    w, wd, f = pred.gyro, pred.gyro_dot, pred.accel
+    with the motion's rates, omega^2, angular accelerations and specific force as regressors.
+
+    The regressors are the *predicted* readings (the reference's motion through the extended model),
+    not the measured ones: the measured gyros and accelerometers carry the very noise the residual
+    holds, and a residual regressed on them would "follow" them by construction."""
+    predicted = pred.measured - residual
+    w, f = predicted[:, :3], predicted[:, 3:]
+    wd = np.gradient(w, pred.t, axis=0)
     series = {**{f"omega_{a}": w[:, i] for i, a in enumerate("xyz")},
               "omega_sq": np.sum(w**2, axis=1),
               **{f"omegadot_{a}": wd[:, i] for i, a in enumerate("xyz")},

@@ -296,9 +296,15 @@ class _Design:
         self.X = X
         self.Xt = self.free_of_time(X[self.rows])
         self.xx_blocks = np.add.reduceat(self.Xt**2, self.offsets, axis=0)  # [B, R]: per-block sums of x^2
+        self.xx_raw = np.sum(X[self.rows] ** 2, axis=0)  # [R]: the regressors' energy before the time fit
 
     def free_of_time(self, A):
         return A - self.q @ (self.q.T @ A)
+
+
+#: A regressor whose RMS, freed of the quadratic in time, is under this fraction of its raw RMS is
+#: left out of the correlation tests (1e-6: far above rounding, far below any motion).
+_CONSTANT_REGRESSOR = 1e-6
 
 
 def _correlations(y, names, design, sigma, level):
@@ -322,7 +328,9 @@ def _correlations(y, names, design, sigma, level):
         else:
             yt, xt, xx_blocks = yt0, d.Xt, d.xx_blocks
         sxx = xx_blocks.sum(axis=0)
-        ok = sxx > 0.0
+        # a regressor this record holds (nearly) constant or quadratic in time is no regressor here: what is
+        # left of it is rounding, and a residual "follows" rounding only by chance (f_z on a heading sway)
+        ok = sxx > _CONSTANT_REGRESSOR**2 * d.xx_raw[free]
         beta = np.where(ok, xt.T @ yt / np.where(ok, sxx, 1.0), 0.0)
         # batch-means standard error: the per-block sums of x e, e = y - beta x
         s = np.add.reduceat(xt * yt[:, None], d.offsets, axis=0) - xx_blocks * beta[None, :]
