@@ -43,7 +43,7 @@ from .consistency import block_consistency, motion_groups
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
 from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve, wald
-from .plausibility import infer_grade, judge, likely_cause
+from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
 from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, select
 from .structure import unexplained as unexplained_structure
@@ -286,8 +286,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     unrevealed = state.unrevealed
     white_rows = _white(rows_of, state.residual)
     if grade is None:
-        grade, grade_reason = infer_grade(white_rows if rows_of.L == 1 and bandwidth_hz is None else
-                                          _white(Rows(pred.t, pred.mask, pred.dt), state.residual), pred.dt)
+        grade, grade_reason = infer_grade(noise_density(pred.measured, pred.mask, pred.dt))
     else:
         grade_reason = f"grade {grade}, as given"
     rejected, aliased = [], []
