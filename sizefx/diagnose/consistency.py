@@ -8,16 +8,15 @@ each part alone and compares the spread of the part estimates with their stated 
     chi2_j = sum_k (x_kj - xbar_j)^2 / sigma_kj^2,   dof = K' - 1   (K' parts that determine j)
 
 ``sigma_kj`` is the part's white standard error scaled by the whole record's ratio of honest
-(block-sandwich) to white error, so that chi2/dof is near 1 when the errors are honest. Whenever
-the parts scatter more than the errors say (chi2/dof > 1), the parameter's standard error is
-multiplied by sqrt(chi2/dof): an error is never smaller than what the record's own parts show
-(with white noise this widens errors by about 10 % on average, the price of not trusting a
-sandwich estimated from ~100 blocks). Beyond the chi-square 99 % point the disagreement is no
-chance (a drifting sensor, a reference that changes, an effect outside the model): the parameter
-is flagged as well.
+(block-sandwich) to white error, so that chi2/dof is near 1 when the errors are honest. Beyond
+the chi-square point of :data:`CONSISTENCY_LEVEL` the disagreement is no chance (a drifting
+sensor, a reference that changes, an effect outside the model): the parameter's standard error
+is multiplied by sqrt(chi2/dof) and the parameter is flagged. Below it the error stands: widening
+every error to its parts' chance scatter would bias them all upwards.
 
 The same check runs on parts cut by motion instead of time (:func:`motion_groups`: quartiles of
-rotation rate and of translation), and each parameter takes the largest of the factors.
+rotation rate and of translation); the level is shared by the three cuts (Bonferroni), and each
+parameter takes the largest factor.
 """
 
 from __future__ import annotations
@@ -28,7 +27,7 @@ from scipy.stats import chi2
 from .normal import Normal, covariance
 from .theta import PARAMS
 
-__all__ = ["block_consistency", "motion_groups", "CONSISTENCY_LEVEL", "MOTION_PARTS", "PARTS"]
+__all__ = ["block_consistency", "motion_groups", "CONSISTENCY_LEVEL", "MOTION_PARTS", "PARTS", "SPLITS"]
 
 #: Parts the record is cut into: 8 give chi2/dof 7 degrees of freedom (99 % point 2.64) while each
 #: part of a one-minute record still holds 7.5 s of motion.
@@ -38,7 +37,9 @@ PARTS = 8
 #: model lacks shows with the motion that excites it: estimates from the calm and the violent
 #: quarter disagree while contiguous parts of similar motion agree.
 MOTION_PARTS = 4
-#: One-sided level at which the parts' disagreement inflates a standard error.
+#: The cuts of the record the check is run on: in time, by rotation rate, by translation.
+SPLITS = 3
+#: One-sided level, shared by the cuts, at which the parts' disagreement inflates a standard error.
 CONSISTENCY_LEVEL = 0.01
 #: A part determines a parameter when its standard error there is within this factor of
 #: sqrt(K) times the whole record's (a part that barely sees the parameter says nothing about it).
@@ -58,7 +59,9 @@ def motion_groups(nrm: Normal, t_s, stat, K: int = MOTION_PARTS) -> list:
 def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict, groups=None,
                       split: str = "time") -> tuple[int, dict]:
     """The number of parts K, and per parameter of ``free``: ``{"parameter", "effect", "split", "chi2_dof",
-    "dof", "factor", "inflated"}`` (parameters fewer than two parts determine are left out).
+    "dof", "factor", "inflated", "scatter"}`` (parameters fewer than two parts determine are left out);
+    ``scatter`` = sqrt(max(1, chi2/dof)), the widening the parts' scatter asks for, significant or not
+    (the selection's stability test uses it).
 
     ``sigma``, ``white_sigma``: the whole record's honest and white standard errors by parameter.
     ``groups``: the parts as lists of blocks (default :data:`PARTS` contiguous ones); ``split`` names them.
@@ -86,8 +89,8 @@ def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict,
         xbar = float(np.sum(w * xs[seen, pos]) / np.sum(w))
         c2 = float(np.sum(w * (xs[seen, pos] - xbar) ** 2))
         dof = int(seen.sum()) - 1
-        bad = c2 > chi2.isf(CONSISTENCY_LEVEL, dof)
+        bad = c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof)
         out[j] = {"parameter": PARAMS[j].label, "effect": PARAMS[j].effect, "split": split, "chi2_dof": c2 / dof,
-                  "dof": dof,
-                  "factor": float(np.sqrt(max(1.0, c2 / dof))), "inflated": bool(bad)}
+                  "dof": dof, "factor": float(np.sqrt(c2 / dof)) if bad else 1.0, "inflated": bool(bad),
+                  "scatter": float(np.sqrt(max(1.0, c2 / dof)))}
     return K, out

@@ -18,10 +18,10 @@
    tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding (the model
    keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE` of the
    structure on its channels is rejected; so is one no longer significant once its errors are
-   widened to the scatter of the record's parts (a selection must be stable across them). The
-   survivors are refitted with the selection fixed.
-6. **Errors**: the block sandwich (never under the white one), widened to the scatter of the
-   record's parts, cut in time, by rotation rate and by translation (:mod:`.consistency`).
+   widened to the scatter of the record's parts, cut in time, by rotation rate and by translation
+   (a selection must be stable across them). The survivors are refitted with the selection fixed.
+6. **Errors**: the block sandwich (never under the white one), widened where those parts disagree
+   beyond chance (:mod:`.consistency`).
 7. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
    the motion left in each channel's final residual.
 """
@@ -60,8 +60,6 @@ MAX_PASSES = 6
 #: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
 #: more likely a side effect of something else than a finding.
 MIN_SHARE = 0.01
-#: Rounds of judging and refitting at most (each removes at least one effect).
-_ROUNDS = 4
 
 
 @dataclass
@@ -203,9 +201,12 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
 
 def _errors(pred: Predictor, state: _State, theta0):
     """The selection's honest covariance (block sandwich, never under white) at ``state``, and the
-    consistency factors per parameter (the largest over parts in time, by rate and by translation).
+    consistency factors per parameter (the largest over parts in time, by rate and by translation):
+    ``factors`` widen the reported errors where the parts disagree beyond chance; ``scatter`` is the
+    widening their scatter asks for even within chance, which the stability test of the selection
+    uses (a finding must not hang on the errors being right to the last ten percent).
 
-    Returns (cov, factors {param: factor}, sigma {param: SI}, white sigma, (parts, entries))."""
+    Returns (cov, factors, scatter, sigma {param: SI}, white sigma, (parts, entries))."""
     nrm, free = state.nrm, _free(state.chosen)
     offset = theta0 - state.theta
     _, white, robust = covariance(nrm, free, offset)
@@ -213,15 +214,20 @@ def _errors(pred: Predictor, state: _State, theta0):
     sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(cov)))))
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
     parts, cons = block_consistency(nrm, free, offset, sig, sig_white)
+    extra = []
     for split, stat in (("rate", np.sum(pred.gyro**2, axis=1)),
                         ("translation", np.abs(np.linalg.norm(pred.accel, axis=1) - STANDARD_GRAVITY_MPS2))):
         _, by_motion = block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat),
                                          split=split)
+        extra.append((split, by_motion))
         for j, entry in by_motion.items():
             if j not in cons or entry["factor"] > cons[j]["factor"]:
                 cons[j] = entry
     factors = {j: e["factor"] for j, e in cons.items()}
-    return cov, factors, sig, sig_white, (parts, cons)
+    scatter = {}
+    for j, e in list(cons.items()) + [(j, e) for _, entries in extra for j, e in entries.items()]:
+        scatter[j] = max(scatter.get(j, 1.0), e["scatter"])
+    return cov, factors, scatter, sig, sig_white, (parts, cons)
 
 
 
@@ -268,6 +274,15 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     started = time.perf_counter()
     check = check_reference(tel)
     warnings = list(check.warnings)
+    if check.breaks_s:
+        times = ", ".join(f"{b:.3f}" for b in check.breaks_s[:5]) + (" ..." if len(check.breaks_s) > 5 else "")
+        warnings.append({"kind": "segments_share_model", "time_s": float(check.breaks_s[0]),
+                         "size": float(len(check.breaks_s)), "unit": None,
+                         "message": f"the reference is split at {len(check.breaks_s)} discontinuit"
+                                    f"{'y' if len(check.breaks_s) == 1 else 'ies'} (t = {times} s) and its segments "
+                                    "are fitted with one model: if the IMU was turned or moved between them (a "
+                                    "re-mount), arms, biases and misalignments differ per segment; diagnose each "
+                                    "segment alone with --from-s/--to-s"})
     pred = Predictor(without_bad_rows(tel, check), breaks_s=check.breaks_s)
     theta0 = np.asarray(theta_nominal, dtype=float).copy()
     residual_before = pred.measured - pred.predict(theta0)
@@ -291,7 +306,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         grade_reason = f"grade {grade}, as given"
     rejected, aliased = [], []
     level = FAMILY_ALPHA / len(CANDIDATES)  # the selection's family-wise level, per candidate
-    for _ in range(_ROUNDS):
+    for _ in range(len(CANDIDATES) + 1):  # each round removes an effect, or ends the loop
         drop = set()
         # implausible values first: they say the reference or the model is wrong, not the sensor
         for c in state.chosen:
@@ -322,12 +337,12 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                                            likely="a side effect of another effect or of the noise's colour"))
         if not drop:
             # stable across the record's parts: still significant with the errors widened to their scatter
-            cov, factors, _, _, _ = _errors(pred, state, theta0)
+            cov, _, scatter, _, _, _ = _errors(pred, state, theta0)
             free = _free(state.chosen)
             for i, c in enumerate(state.chosen):
                 pos = [int(np.searchsorted(free, j)) for j in c.active]
                 x = (state.theta - theta0)[free]
-                f = np.array([factors.get(j, 1.0) for j in free])
+                f = np.array([scatter.get(j, 1.0) for j in free])
                 p = float(chi2.sf(wald(x, cov * np.outer(f, f), pos), len(pos)))
                 if p > level:
                     drop.add(c.cand.key)
@@ -346,9 +361,9 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     free = _free(chosen)
     offset = theta0 - theta
-    _, factors, sig, sig_white, (parts, cons) = _errors(pred, state, theta0)
+    _, factors, _, sig, sig_white, (parts, cons) = _errors(pred, state, theta0)
     for j, entry in cons.items():
-        sig[j] *= factors[j]  # never smaller than the parts' scatter says
+        sig[j] *= factors[j]  # widened where the parts disagree beyond chance
         if entry["inflated"]:
             warnings.append({"kind": "inconsistent_blocks", "time_s": None, "size": entry["chi2_dof"], "unit": None,
                              "message": f"{entry['effect']} {entry['parameter']}: the record's parts (by "
@@ -388,7 +403,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
             unrev.append({"id": me.id, "channel": me.channel, "parameters": [PARAMS[j].label for j in params],
                           "reason": f"indistinguishable from {other} on this motion (canonical correlation "
                                     f"{rho:.4f}); the extended model carries it as {c.cand.key}"})
-    structure = _structure(pred, rows_of, residual, white_rows)
+    structure = _structure(pred, rows_of, residual, white_rows, theta)
     rms_b, rms_a = _rms(rows_of, residual_before), _rms(rows_of, residual)
     return Diagnosis(
         path=str(tel.path), effects=effects, unrevealed=unrev,
@@ -409,15 +424,17 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     )
 
 
-def _structure(pred: Predictor, rows_of: Rows, residual, white_rows):
+def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     """The final residual's structure per channel (:func:`sizefx.diagnose.structure.unexplained`),
     with the motion's rates, omega^2, angular accelerations and specific force as regressors.
 
-    The regressors are the *predicted* readings (the reference's motion through the extended model),
-    not the measured ones: the measured gyros and accelerometers carry the very noise the residual
-    holds, and a residual regressed on them would "follow" them by construction."""
-    predicted = pred.measured - residual
-    w, f = predicted[:, :3], predicted[:, 3:]
+    The regressors are the reference's motion alone (the gyros' true rates and the specific force at
+    the reference point under the extended model, :func:`sizefx.diagnose.predictor.predict_readings`'
+    ``at_gyro``), never the measured readings nor the predicted accelerometers (whose lever terms use
+    the measured gyros): the residual carries the IMU's noise, and regressed on anything that carries
+    it too, it would "follow" it by construction."""
+    at = pred.terms(theta)["at_gyro"]
+    w, f = at.omega_ib_b, at.f_b
     wd = np.gradient(w, pred.t, axis=0)
     series = {**{f"omega_{a}": w[:, i] for i, a in enumerate("xyz")},
               "omega_sq": np.sum(w**2, axis=1),

@@ -67,10 +67,9 @@ RANGES = {
 #: second tactical, above it industrial (MEMS). Navigation gyros: 0.001-0.005 deg/sqrt(h); tactical
 #: 0.01-0.1; MEMS 0.1-1. Accelerometers: 5-25, 25-100, 100-400 ug/sqrt(Hz).
 ARW_LIMITS_DEG_SQRT_H = (0.01, 0.15)
-#: Share of the band, at its top, where the readings are taken to be noise alone (at 1600 Hz:
-#: 640-800 Hz; at 286 Hz: 114-143 Hz; a hand-held motion lives under 10 Hz, a vehicle's vibration
-#: lines are single bins the median passes over).
-NOISE_BAND = 0.2
+#: Lowest frequency, as a share of the Nyquist frequency, where the noise plateau is looked for
+#: (at 1600 Hz: 80 Hz; at 286 Hz: 14 Hz), whatever the motion's band.
+NOISE_BAND = 0.1
 VRW_LIMITS_UG_SQRT_HZ = (30.0, 150.0)
 
 
@@ -84,13 +83,18 @@ def check_grade(grade: str | None) -> str | None:
 
 
 def noise_density(measured, mask, dt_s: float) -> np.ndarray:
-    """Per channel, the IMU's own white-noise density ``sigma sqrt(dt)`` (rad/s*sqrt(s), m/s^2*sqrt(s)):
-    the median of the measured readings' Welch spectrum over the top :data:`NOISE_BAND` of the band,
-    where no motion of a vehicle, a table or a hand has power left.
+    """Per channel, the IMU's own white-noise density ``sigma sqrt(dt)`` (rad/s*sqrt(s), m/s^2*sqrt(s)),
+    from the measured readings' Welch spectrum above the motion.
+
+    The motion's band ends where 99 % of the channel's power lies below; from twice that (and at
+    least :data:`NOISE_BAND` of the Nyquist frequency) up, the spectrum is cut into octaves and the
+    largest of their medians is the noise plateau. The median passes over vibration lines; the
+    largest octave passes over an anti-alias filter's roll-off towards Nyquist, which would otherwise
+    make a tactical part look navigation grade (and shrink its plausible ranges tenfold).
 
     Measured on the readings themselves, not on the residual: a motion-capture reference's
-    differentiated noise fills the residual (ARW of 25 deg/sqrt(h) on BROAD) and would make any IMU
-    look industrial.
+    differentiated noise fills the residual (an "ARW" of 25 deg/sqrt(h) on BROAD) and would make any
+    IMU look industrial.
     """
     from scipy.signal import welch
 
@@ -101,8 +105,20 @@ def noise_density(measured, mask, dt_s: float) -> np.ndarray:
     seg = np.asarray(measured)[starts[k]:stops[k]] if starts.size else np.asarray(measured)
     nper = int(min(4096, max(64, seg.shape[0] // 8)))
     f, pxx = welch(seg, fs=1.0 / dt_s, nperseg=min(nper, seg.shape[0]), axis=0)
-    top = f >= (1.0 - NOISE_BAND) * f[-1]
-    return np.sqrt(np.median(pxx[top], axis=0) / 2.0)  # one-sided PSD = 2 sigma^2 dt
+    out = np.empty(pxx.shape[1])
+    for c in range(pxx.shape[1]):
+        cum = np.cumsum(pxx[:, c])
+        f_motion = f[min(int(np.searchsorted(cum, 0.99 * cum[-1])), f.size - 1)]
+        lo = max(2.0 * f_motion, NOISE_BAND * f[-1])
+        plateau = []
+        while lo < f[-1]:
+            band = (f >= lo) & (f < 2.0 * lo)
+            if band.sum() >= 4:
+                plateau.append(np.median(pxx[band, c]))
+            lo *= 2.0
+        level = max(plateau) if plateau else float(np.median(pxx[f >= (1.0 - NOISE_BAND) * f[-1], c]))
+        out[c] = np.sqrt(level / 2.0)  # one-sided PSD = 2 sigma^2 dt
+    return out
 
 
 def infer_grade(density) -> tuple[str, str]:
@@ -114,8 +130,8 @@ def infer_grade(density) -> tuple[str, str]:
     g = sum(arw > lim for lim in ARW_LIMITS_DEG_SQRT_H)
     a = sum(vrw > lim for lim in VRW_LIMITS_UG_SQRT_HZ)
     grade = GRADES[max(g, a)]
-    return grade, (f"grade {grade}, inferred from the IMU's own noise (the top {100 * NOISE_BAND:.0f} % of its "
-                   f"band): gyro {arw:.3g} deg/sqrt(h), accelerometer {vrw:.3g} ug/sqrt(Hz)")
+    return grade, (f"grade {grade}, inferred from the IMU's own noise (the plateau of its spectrum above the "
+                   f"motion): gyro {arw:.3g} deg/sqrt(h), accelerometer {vrw:.3g} ug/sqrt(Hz)")
 
 
 def judge(effect: str, values_si, grade: str) -> str | None:

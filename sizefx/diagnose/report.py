@@ -26,6 +26,7 @@ from ..io.toml import dumps_toml
 from ..sensor_model import SensorParams
 from .fit import Diagnosis
 from .normal import block_means
+from .selection import FAMILY_ALPHA
 from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, MOUNT, OFFDIAG,
                     PARAMS, TAU_A, TAU_R, TILT, UG)
 
@@ -213,7 +214,7 @@ def format_report(d: Diagnosis, start: str) -> str:
         lines += [f"  ? {u['channel']} {u['kind']}: {u['sentence']}" for u in d.unexplained]
     if d.effects:
         lines.append(f"found {len(d.effects)} effect(s) (forward selection: information criterion, robust Wald test at "
-                     f"a family-wise 1 %, cross-validation; {d.passes} Gauss-Newton passes):")
+                     f"a family-wise {100 * FAMILY_ALPHA:g} %, cross-validation; {d.passes} Gauss-Newton passes):")
         for k, e in enumerate(d.effects, 1):
             where = f"{e.id}" + (f", {e.channel}" if e.channel else "")
             lines.append(f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
@@ -248,8 +249,8 @@ def format_report(d: Diagnosis, start: str) -> str:
         worst = max(cons["parameters"], key=lambda p: p["chi2_dof"])
         lines.append(f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks, checked on {cons['parts']} "
                      f"parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
-                     f"{worst['parameter']}); errors widened to the parts' scatter where it is larger"
-                     + (f"; {len(flagged)} disagree beyond chance (see the warnings)" if flagged else ""))
+                     f"{worst['parameter']})" + (f"; {len(flagged)} disagree beyond chance, their errors widened "
+                                                 "to the parts' scatter (see the warnings)" if flagged else ""))
     band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
     lines.append(f"residual RMS per channel{band}, start model -> extended model:")
     for name in CHANNELS:

@@ -350,7 +350,11 @@ def _correlations(y, names, design, sigma, level):
         return found, y
     # the joint fit of the chosen regressors (the time polynomial a nuisance), removed on every row
     coef, *_ = np.linalg.lstsq(d.Xt[:, chosen], yt0, rcond=None)
-    return found, y - d.X[:, chosen] @ coef
+    # only the time-free part of the regressors was fitted: removing their raw values would put their
+    # slow part back into the residual, where the trend and step tests would read it as a drift
+    out = y.copy()
+    out[d.rows] -= d.Xt[:, chosen] @ coef
+    return found, out
 
 
 @functools.lru_cache(maxsize=4)
