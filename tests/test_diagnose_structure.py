@@ -63,10 +63,10 @@ def _flicker(rng, std):
     return x / x.std(axis=0) * std
 
 
-def _run(y, keep=None, t=None):
+def _run(y, keep=None, t=None, **options):
     t = _t() if t is None else t
     keep = np.ones(M, dtype=bool) if keep is None else keep
-    return unexplained(t, y, keep, _regressors(_t()), SIGMA)
+    return unexplained(t, y, keep, _regressors(_t()), SIGMA, **options)
 
 
 def _on(found, channel, kind):
@@ -104,6 +104,16 @@ def test_a_37_hz_line_on_accel_y_is_found_there_and_nowhere_else():
     assert line["unit"] == "m/s^2" and "Hz" in line["sentence"] and "ug" in line["sentence"]
     assert line["p_value"] <= 0.01
     assert [f for f in found if f["channel"] != "accel_y"] == []
+
+
+def test_lines_above_the_pass_band_are_not_looked_for():
+    """With a low-pass before (diagnose with a bandwidth), lines are looked for only up to
+    ``max_line_hz``: the same 37 Hz line is not reported with the limit at 30 Hz, and is at 40 Hz."""
+    t = _t()
+    y = _white(1)
+    y[:, 4] += 3.0 * SIGMA[4] * np.sin(2 * np.pi * 37.0 * t + 0.4)
+    assert not _on(_run(y, max_line_hz=30.0), "accel_y", "spectral_line")
+    assert _on(_run(y, max_line_hz=40.0), "accel_y", "spectral_line")
 
 
 def test_a_linear_drift_on_gyro_z_is_a_trend_there():

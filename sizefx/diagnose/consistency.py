@@ -10,13 +10,12 @@ each part alone and compares the spread of the part estimates with their stated 
 ``sigma_kj`` is the part's white standard error scaled by the whole record's ratio of honest
 (block-sandwich) to white error, so that chi2/dof is near 1 when the errors are honest. Beyond
 the chi-square point of :data:`CONSISTENCY_LEVEL` the disagreement is no chance (a drifting
-sensor, a reference that changes, an effect outside the model): the parameter's standard error
-is multiplied by sqrt(chi2/dof) and the parameter is flagged. Below it the error stands: widening
-every error to its parts' chance scatter would bias them all upwards.
+sensor, a reference that changes, an effect outside the model): ``factor`` is then sqrt(chi2/dof)
+and the parameter is flagged.
 
 The same check runs on parts cut by motion instead of time (:func:`motion_groups`: quartiles of
-rotation rate and of translation); the level is shared by the three cuts (Bonferroni), and each
-parameter takes the largest factor.
+rotation rate and of translation); the level is shared by the three cuts (Bonferroni). How the
+cuts widen an error is :func:`sizefx.diagnose.fit._errors`' choice (the largest sqrt(chi2/dof)).
 """
 
 from __future__ import annotations
@@ -59,9 +58,7 @@ def motion_groups(nrm: Normal, t_s, stat, K: int = MOTION_PARTS) -> list:
 def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict, groups=None,
                       split: str = "time") -> tuple[int, dict]:
     """The number of parts K, and per parameter of ``free``: ``{"parameter", "effect", "split", "chi2_dof",
-    "dof", "factor", "inflated", "scatter"}`` (parameters fewer than two parts determine are left out);
-    ``scatter`` = sqrt(max(1, chi2/dof)), the widening the parts' scatter asks for, significant or not
-    (the selection's stability test uses it).
+    "dof", "factor", "inflated"}`` (parameters fewer than two parts determine are left out).
 
     ``sigma``, ``white_sigma``: the whole record's honest and white standard errors by parameter.
     ``groups``: the parts as lists of blocks (default :data:`PARTS` contiguous ones); ``split`` names them.
@@ -91,6 +88,5 @@ def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict,
         dof = int(seen.sum()) - 1
         bad = c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof)
         out[j] = {"parameter": PARAMS[j].label, "effect": PARAMS[j].effect, "split": split, "chi2_dof": c2 / dof,
-                  "dof": dof, "factor": float(np.sqrt(c2 / dof)) if bad else 1.0, "inflated": bool(bad),
-                  "scatter": float(np.sqrt(max(1.0, c2 / dof)))}
+                  "dof": dof, "factor": float(np.sqrt(c2 / dof)) if bad else 1.0, "inflated": bool(bad)}
     return K, out

@@ -155,7 +155,7 @@ _CAUSE = {
 # --------------------------------------------------------------------------- the entry point
 
 
-def unexplained(t_s, residual, keep, regressors, noise_sigma, *, alpha=0.01) -> list[dict]:
+def unexplained(t_s, residual, keep, regressors, noise_sigma, *, alpha=0.01, max_line_hz=None) -> list[dict]:
     """Structure left in each channel's final residual: lines, trends, steps, correlations.
 
     Parameters
@@ -173,6 +173,9 @@ def unexplained(t_s, residual, keep, regressors, noise_sigma, *, alpha=0.01) -> 
         Each channel's white (row-to-row) noise sigma, SI: the scale of the size floor.
     alpha : float
         Family-wise false-alarm level over every test of every channel.
+    max_line_hz : float or None
+        Look for spectral lines only up to this frequency (rows low-passed before: above the
+        filter's pass band the spectrum is the filter's, not the residual's).
 
     Returns
     -------
@@ -200,7 +203,7 @@ def unexplained(t_s, residual, keep, regressors, noise_sigma, *, alpha=0.01) -> 
             yc[~keep] = 0.0
             found += corr
             found += _steps_and_trends(t, yc, keep, blocks, sigma[c], level)
-        found += _lines(yc, runs, dt, sigma[c], level["spectral_line"])
+        found += _lines(yc, runs, dt, sigma[c], level["spectral_line"], max_line_hz)
         for f in found:
             f["channel"] = channel
             f["unit"] = _unit(c)
@@ -475,7 +478,7 @@ def _refine_step(t, y, before, after, trend_blocks, tb):
 # --------------------------------------------------------------------------- the spectrum
 
 
-def _lines(y, runs, dt, sigma, level):
+def _lines(y, runs, dt, sigma, level, max_hz=None):
     """Spectral lines of one channel's residual over its local floor (see the module docstring)."""
     from scipy.stats import f as fisher
 
@@ -511,6 +514,8 @@ def _lines(y, runs, dt, sigma, level):
     floor, n_nb = _floor(power)
     floor /= median_bias
     tested = np.isfinite(floor) & (floor > 0.0)
+    if max_hz is not None:
+        tested &= np.arange(n_bins) * df <= max_hz
     n_tests = int(tested.sum())
     if n_tests == 0:
         return []
