@@ -467,3 +467,15 @@ def test_normal_equations_chunk_by_chunk_equal_the_whole_records(monkeypatch):
     assert np.abs(chunked.N - whole.N).max() < 1e-12 * scale
     assert np.abs(chunked.b - whole.b).max() < 1e-12 * np.abs(whole.b).max()
     assert np.allclose(chunked.yy, whole.yy, rtol=1e-12)
+
+
+def test_cli_grade_option_sets_the_ranges_and_is_reported(tumble_file, tmp_path):
+    out = tmp_path / "g.json"
+    result = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--grade", "tactical", "--json", str(out),
+                                       "--model-out", str(tmp_path / "g.toml"), "--no-navigation"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text())
+    assert doc["grade"] == "tactical" and "as given" in doc["grade_reason"]
+    assert "grade tactical, as given" in result.output
+    bad = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--grade", "consumer"])
+    assert bad.exit_code == 2 and "--grade" in bad.output
