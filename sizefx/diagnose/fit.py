@@ -367,7 +367,6 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         log.append("refit without " + ", ".join(sorted(drop)))
         state = _iterate(pred, rows_of, theta0, theta, log, fixed=kept)
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
-    free = _free(chosen)
     offset = theta0 - theta
     _, factors, sig, sig_white, (parts, cons) = _errors(pred, state, theta0)
     for j, entry in cons.items():
@@ -403,8 +402,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                                     f"correlation {rho:.4f}); the extended model carries their sum as "
                                     f"{keep.cand.key}"})
     for c, cand, rho in outside:
-        for key, me, other, params in ((c.cand.key, c.cand, cand.key, c.active),
-                                       (cand.key, cand, c.cand.key, cand.idx)):
+        for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
             if any((u["id"], u["channel"]) == (me.id, me.channel) and "on this motion" in u["reason"] for u in unrev):
                 continue
             unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.id, me.channel)]
