@@ -1,5 +1,9 @@
 """Is the record's ``/reference`` whole? Its glitches, discontinuities, gaps and rate changes, found against the IMU.
 
+One module of some 500 lines on purpose: the attitude, velocity/position and timing checks share the
+pairing of reference steps with IMU intervals, the robust thresholds and the warning records; split,
+they would pass all three around.
+
 Method (issue 15, item 1). Each reference step ``k`` (rows ``k`` and ``k+1``) is compared with the
 IMU over the same interval:
 

@@ -1,5 +1,9 @@
 """What the final model leaves unexplained: tests for structure in each channel's residual.
 
+One module of some 600 lines on purpose: the four tests share the rows, the runs between gaps, the
+time blocks and the family-wise level, and the correlations found are removed before the others
+run; split, each would need all of that passed in.
+
 After the fit, :func:`unexplained` asks of every channel's residual whether it is white noise
 or still holds structure that none of the candidates explains, and names each structure it
 finds: its channel, its kind, its size in SI, and a sentence in report units with a plausible
