@@ -58,6 +58,8 @@ KAPPA_BLOCK_S = 0.5
 LINE_BAND = 0.5
 #: Gauss-Newton passes at most; selection and estimates settle in two or three.
 MAX_PASSES = 6
+#: Passes at most of a refit with the selection fixed (after judging removed an effect).
+REFIT_PASSES = 3
 #: Least share of the structure on its channels (the residual power beyond white noise, without the
 #: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
 #: more likely a side effect of something else than a finding.
@@ -170,7 +172,9 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
     history = []
     penalty = math.log(max(int(rows_of.keep.sum()) * 6, 2))
     chosen, unrevealed = list(fixed or []), {}
-    for passes in range(1, MAX_PASSES + 1):
+    # a refit with the selection fixed starts where the last one ended, with a few parameters reset:
+    # it settles in two passes, three at most
+    for passes in range(1, (MAX_PASSES if fixed is None else REFIT_PASSES) + 1):
         cols = columns_between(theta, pred.terms(theta), pred.t)  # formed chunk by chunk
         weights = 1.0 / (sigma_c**2 * kappa)
         nrm = normal_equations(rows_of, residual, cols, weights, row_w)

@@ -33,9 +33,12 @@ __all__ = ["Predictor", "predict_readings", "GYRO_DOT_WINDOW_S"]
 
 #: Span of the Savitzky-Golay gyro derivative [s]: 41 samples at 1600 Hz, 7 at 286 Hz.
 GYRO_DOT_WINDOW_S = 0.025
-#: Most cached evaluations per time shift: the delays move a little each Gauss-Newton pass, and
-#: the judging steps evaluate at two or three; each cached motion costs about 150 bytes per sample.
-_CACHED_SHIFTS = 3
+#: Memory for the cached reference motion at the time shifts the delays ask for (each pass moves
+#: them a little, and judging an effect evaluates the model without it): as many shifts as fit, at
+#: about 150 bytes per sample each, and at least three (a 51 000-sample BROAD trial keeps 35; a
+#: two-minute 1600 Hz record 9; three million samples 3).
+_CACHE_BYTES = 256 * 2**20
+_MIN_CACHED_SHIFTS = 3
 
 
 def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b: np.ndarray,
@@ -121,6 +124,7 @@ class Predictor:
         if self.mask.sum() < MIN_SAMPLES:
             raise DiagnoseError(f"{tel.path}: only {int(self.mask.sum())} IMU samples lie inside the reference's "
                                 f"span (minus {EDGE_S * 1e3:.0f} ms at ends and gaps); diagnose needs {MIN_SAMPLES}")
+        self._cached_shifts = max(_MIN_CACHED_SHIFTS, _CACHE_BYTES // (150 * max(1, self.t.size)))
         self._kin = {}
         self._gyro_at = {}
         self._spline = None
@@ -129,7 +133,7 @@ class Predictor:
         """The reference motion at ``t + shift`` (clipped to the reference's span)."""
         key = round(shift, 12)
         if key not in self._kin:
-            if len(self._kin) > _CACHED_SHIFTS:
+            if len(self._kin) > self._cached_shifts:
                 self._kin.pop(next(iter(self._kin)))
             tt = np.clip(self.t + shift, self.motion.t[0], self.motion.t[-1])
             self._kin[key] = self.motion.evaluate(tt)
@@ -143,7 +147,7 @@ class Predictor:
         if key not in self._gyro_at:
             if self._spline is None:
                 self._spline = CubicSpline(self.t, np.hstack([self.gyro, self.gyro_dot]), axis=0)
-            if len(self._gyro_at) > _CACHED_SHIFTS:
+            if len(self._gyro_at) > self._cached_shifts:
                 self._gyro_at.pop(next(iter(self._gyro_at)))
             v = self._spline(np.clip(self.t + shift, self.t[0], self.t[-1]))
             self._gyro_at[key] = (v[:, :3], v[:, 3:])
