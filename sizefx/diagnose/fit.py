@@ -33,7 +33,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import chi2
 
 from ..constants import STANDARD_GRAVITY_MPS2
 from ..io.telemetry import Telemetry
@@ -42,10 +41,10 @@ from .candidates import CANDIDATES, PRIORITY, columns_between
 from .consistency import block_consistency, motion_groups
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
-from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve, wald
+from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
-from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, select
+from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, robust_p, select
 from .structure import unexplained as unexplained_structure
 from .theta import CHANNELS, PARAMS
 
@@ -318,7 +317,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         grade_reason = f"grade {grade}, as given"
     rejected, aliased = [], []
     level = FAMILY_ALPHA / len(CANDIDATES)  # the selection's family-wise level, per candidate
-    for _ in range(len(CANDIDATES) + 1):  # each round removes an effect, or ends the loop
+    while True:  # each round removes at least one effect from a finite selection, or ends the loop
         drop = set()
         # implausible values first: they say the reference or the model is wrong, not the sensor
         for c in state.chosen:
@@ -338,10 +337,10 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                 aliased.append((keep, gone, rho))
         if not drop:
             weights = 1.0 / (state.sigma_c**2 * state.kappa)
-            noise = white_rows**2
+            shares = {}
             for c in state.chosen:
                 r_wo, chans = _channels_of(pred, rows_of, state.theta, theta0, c, state.residual, state.sigma_c)
-                share = _share(rows_of, r_wo, state.residual, weights, chans, noise)
+                share = shares[c.cand.key] = _share(rows_of, r_wo, state.residual, weights, chans, white_rows**2)
                 if share < MIN_SHARE:
                     drop.add(c.cand.key)
                     rejected.append(_entry(c, state.theta, f"explains {100 * share:.2f} % of the structure on its "
@@ -349,13 +348,9 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                                            likely="a side effect of another effect or of the noise's colour"))
         if not drop:
             # stable across the record's parts: still significant with the errors widened to their scatter
-            cov, factors, _, _, _ = _errors(pred, state, theta0)
-            free = _free(state.chosen)
+            errors = _errors(pred, state, theta0)
             for i, c in enumerate(state.chosen):
-                pos = [int(np.searchsorted(free, j)) for j in c.active]
-                x = (state.theta - theta0)[free]
-                f = np.array([factors.get(j, 1.0) for j in free])
-                p = float(chi2.sf(wald(x, cov * np.outer(f, f), pos), len(pos)))
+                p = robust_p(state.nrm, state.chosen, theta0 - state.theta, which=i, factors=errors[1])
                 if p > level:
                     drop.add(c.cand.key)
                     rejected.append(_entry(c, state.theta, f"not significant (p = {p:.2g}) once its errors are "
@@ -372,7 +367,8 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         state = _iterate(pred, rows_of, theta0, theta, log, fixed=kept)
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     offset = theta0 - theta
-    _, factors, sig, sig_white, (parts, cons) = _errors(pred, state, theta0)
+    # the last round judged this very state: its shares and errors stand
+    _, factors, sig, sig_white, (parts, cons) = errors
     for j, entry in cons.items():
         sig[j] *= factors[j]  # widened to the parts' scatter
         if entry["inflated"]:
@@ -386,14 +382,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     outside = [(chosen[i], cand, rho) for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
                if chosen[i].cand.key not in alias_keys]
     alias_keys |= {c.cand.key for c, _, _ in outside}
-    weights = 1.0 / (state.sigma_c**2 * state.kappa)
-    effects = []
-    for c in chosen:
-        if c.cand.key in alias_keys:
-            continue
-        r_wo, chans = _channels_of(pred, rows_of, theta, theta0, c, residual, state.sigma_c)
-        effects.append(name_effect(c, theta, theta0, sig, _share(rows_of, r_wo, residual, weights, chans,
-                                                                 white_rows**2)))
+    effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in chosen if c.cand.key not in alias_keys]
     effects.sort(key=lambda e: -e.explained_fraction)
     unrev = [{"id": cand.id, "channel": cand.channel, "parameters": [PARAMS[j].label for j in hidden],
               "reason": reason} for cand, hidden, reason in unrevealed.values()]

@@ -71,13 +71,18 @@ def _free(chosen) -> np.ndarray:
     return np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
 
 
-def robust_p(nrm: Normal, chosen, offset, which=-1) -> float:
-    """p-value of the robust Wald test of ``chosen[which]``'s parameters, fitted with all of ``chosen``."""
+def robust_p(nrm: Normal, chosen, offset, which=-1, factors=None) -> float:
+    """p-value of the robust Wald test of ``chosen[which]``'s parameters, fitted with all of ``chosen``;
+    ``factors`` {param: factor} widen the standard errors first (the consistency check's)."""
     free = _free(chosen)
     x, white, robust = covariance(nrm, free, offset)
+    cov = honest(white, robust)
+    if factors:
+        f = np.array([factors.get(j, 1.0) for j in free.tolist()])
+        cov = cov * np.outer(f, f)
     pos = [int(np.searchsorted(free, j)) for j in chosen[which].active]
     # x is the step from the linearisation point; the test is of the value against the start model
-    return float(chi2.sf(wald(x - offset[free], honest(white, robust), pos), len(pos)))
+    return float(chi2.sf(wald(x - offset[free], cov, pos), len(pos)))
 
 
 def select(nrm: Normal, offset, penalty, alpha: float = FAMILY_ALPHA):
