@@ -319,6 +319,15 @@ def test_cli_writes_report_model_and_plots(tumble_file, tmp_path):
     assert lever["channel"] == "accel_y" and len(lever["parameters"]["r_m"]) == 3
     assert doc["residual_rms_after"]["accel_y"] < doc["residual_rms_before"]["accel_y"]
     assert doc["model"] == str(model)
+    # the arms split at the triad point as the model file splits them, with errors where fitted
+    g = doc["geometry"]
+    assert "arms split at the triad point" in result.output
+    written = tomllib.loads(model.read_text())["lever_arm"]
+    np.testing.assert_allclose(g["triad_point_m"], written["r_vehicle_m"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(g["d_m"], [written[f"d_{a}_m"] for a in "xyz"], rtol=0, atol=1e-12)
+    # only accelerometer y's arm was fitted: C's y comes from the x and z arms alone, held at nominal
+    sc = g["triad_point_sigma_m"]
+    assert all(s > 0 for s in g["d_sigma_m"][1]) and sc[0] > 0 and sc[2] > 0 and sc[1] == 0
     assert (plots / "residuals.png").stat().st_size > 10_000 and (plots / "spectra.png").stat().st_size > 10_000
     # the written model is accepted by diagnose --model (and finds nothing more)
     again = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--model", str(model),

@@ -36,6 +36,8 @@ import numpy as np
 
 from ..constants import STANDARD_GRAVITY_MPS2
 from ..io.telemetry import Telemetry
+from ..sensor_model import SensorParams
+from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .candidates import CANDIDATES, PRIORITY, columns_between
 from .consistency import block_consistency, motion_groups
@@ -46,7 +48,7 @@ from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
 from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, robust_p, select
 from .structure import unexplained as unexplained_structure
-from .theta import CHANNELS, PARAMS
+from .theta import CHANNELS, LEVER, PARAMS
 
 __all__ = ["Diagnosis", "diagnose", "KAPPA_BLOCK_S", "MAX_PASSES", "MIN_SHARE"]
 
@@ -103,6 +105,11 @@ class Diagnosis:
     grade_reason: str = ""
     bandwidth_reason: str = ""  #: how the band was chosen (given, measured, or full band)
     sigma_white: dict = field(default_factory=dict)  #: param -> white-noise standard error (SI), for comparison
+    #: [NP, NP] covariance of ``theta`` (SI) with the errors widened as in ``sigma_theta``; zero where fixed
+    covariance: np.ndarray | None = None
+    #: the arms split at the triad point, with errors (:func:`sizefx.diagnose.arms.split_arms`); None
+    #: when no arm was estimated
+    geometry: dict | None = None
 
 
 # --------------------------------------------------------------------------- noise and weights
@@ -368,7 +375,14 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     offset = theta0 - theta
     # the last round judged this very state: its shares and errors stand
-    _, factors, sig, sig_white, (parts, cons) = errors
+    cov_free, factors, sig, sig_white, (parts, cons) = errors
+    free = _free(chosen)
+    widen = np.array([factors.get(j, 1.0) for j in free.tolist()])
+    cov = np.zeros((theta.size, theta.size))
+    cov[np.ix_(free, free)] = cov_free * np.outer(widen, widen)
+    geometry = (split_arms(theta[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)],
+                           SensorParams.from_vector(theta).accel_axes())
+                if np.intersect1d(free, LEVER).size else None)
     for j, entry in cons.items():
         sig[j] *= factors[j]  # widened to the parts' scatter
         if entry["inflated"]:
@@ -419,7 +433,7 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         consistency={"parts": parts, "block_s": nrm.block_s,
                      "parameters": [cons[j] for j in sorted(cons)]},
         grade=grade, grade_reason=grade_reason, bandwidth_reason=band_reason,
-        sigma_white=sig_white,
+        sigma_white=sig_white, covariance=cov, geometry=geometry,
     )
 
 

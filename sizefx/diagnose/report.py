@@ -136,6 +136,7 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "rejected": d.rejected,
         "not_revealed": d.unrevealed,
         "consistency": cons,
+        "geometry": d.geometry,
         "grade": d.grade,
         "grade_reason": d.grade_reason,
         "bandwidth_hz": d.bandwidth_hz,
@@ -198,6 +199,18 @@ def _gain(before, after):
     return f"{change:.1f} % lower" if change > 0 else f"{-change:.1f} % higher"
 
 
+def _geometry_lines(g: dict) -> list[str]:
+    """The arms split at the triad point (:mod:`.arms`), in mm."""
+    def mm(v, s):
+        return "(" + ", ".join(f"{1e3 * a:.3f}" for a in v) + ") +- (" + ", ".join(f"{1e3 * b:.3f}" for b in s) + ")"
+    lines = ["arms split at the triad point C [mm, body axes]:",
+             f"  C from the reference point {mm(g['triad_point_m'], g['triad_point_sigma_m'])}: the set-up's offset, "
+             "as repeatable as the set-up"]
+    lines += [f"  d_{a} (C to accelerometer {a}) {mm(v, s)}" for a, v, s in zip("xyz", g["d_m"], g["d_sigma_m"])]
+    lines[-1] += ": the IMU's own size effect"
+    return lines
+
+
 def format_report(d: Diagnosis, start: str) -> str:
     """The report ``sizefx diagnose`` prints. What may make the result untrustworthy comes first (the
     warnings), then what the model cannot explain; then the effects found, those rejected and what the
@@ -242,6 +255,8 @@ def format_report(d: Diagnosis, start: str) -> str:
         for u in d.unrevealed:
             where = u["id"] + (f" {u['channel']}" if u["channel"] else "")
             lines.append(f"  - {where} ({', '.join(u['parameters'])}): {u['reason']}")
+    if d.geometry:
+        lines += _geometry_lines(d.geometry)
     lines.append(f"band: {d.bandwidth_reason}; {d.grade_reason}")
     cons = d.consistency or {}
     flagged = [p for p in cons.get("parameters", []) if p["inflated"]]
