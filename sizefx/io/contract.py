@@ -23,6 +23,15 @@ from .gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
 from .records import Reference, Site
 from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
 
+#: Deepest group nesting and most objects the link check visits: a telemetry file has two levels
+#: and a few dozen objects; the bounds keep a crafted file (thousands of nested groups, a tree
+#: of millions of links) from making the check itself the attack.
+MAX_GROUP_DEPTH = 32
+MAX_OBJECTS = 10_000
+#: Largest offset of /imu/accel_time from /imu/time, in nominal sample periods: a sensor's own
+#: sampling offset and filter delay are a few periods at most (1.3 ms = 0.4 period on BROAD).
+MAX_ACCEL_TIME_OFFSET_PERIODS = 10
+
 __all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs"]
 
 
@@ -70,8 +79,18 @@ class ContractReader:
         link could point anywhere on the machine).
         """
 
-        def walk(group: h5py.Group, prefix: str):
+        # iterative, each object once (a hard link may point back at a parent), with the depth and
+        # the number of objects bounded: a crafted file cannot recurse or loop the check
+        seen = {self.h5.id}
+        stack = [(self.h5, "/", 0)]
+        count = 0
+        while stack:
+            group, prefix, depth = stack.pop()
             for name in group:
+                count += 1
+                if count > MAX_OBJECTS:
+                    self.fail(prefix, f"the file holds more than {MAX_OBJECTS} HDF5 objects; a telemetry file "
+                                      "needs a few dozen (copy /imu and /reference into a new file)")
                 full = f"{prefix}/{name}" if prefix != "/" else f"/{name}"
                 link = group.get(name, getlink=True)
                 if isinstance(link, h5py.ExternalLink):
@@ -81,18 +100,22 @@ class ContractReader:
                     continue  # resolved by name lookups inside this file; not followed here (no cycles)
                 try:
                     obj = group[name]
-                except (KeyError, OSError) as exc:
+                except (KeyError, OSError, RuntimeError) as exc:
                     self.fail(full, f"cannot be opened ({exc}); the file may be truncated or corrupt")
+                if obj.id in seen:
+                    continue  # a second hard link to an object already checked
+                seen.add(obj.id)
                 if isinstance(obj, h5py.Group):
-                    walk(obj, full)
+                    if depth + 1 > MAX_GROUP_DEPTH:
+                        self.fail(full, f"groups nest deeper than {MAX_GROUP_DEPTH} levels; a telemetry file "
+                                        "needs two (copy /imu and /reference into a new file)")
+                    stack.append((obj, full, depth + 1))
                 elif isinstance(obj, h5py.Dataset):
                     if obj.is_virtual:
                         self.fail(full, "is an HDF5 virtual dataset (its data lives in other files); "
                                         "store the data in this file")
                     if obj.external:
                         self.fail(full, "stores its raw data in external files; store the data in this file")
-
-        walk(self.h5, "/")
 
     def root_attributes(self):
         spec = self.schema["root_attributes"]
@@ -151,7 +174,28 @@ class ContractReader:
             first = int(np.argwhere(bad)[0][0]) + first_row
             self.fail(name, f"holds NaN/Inf values, the first at row {first}; "
                             "remove or interpolate them (or cut the record) before processing")
-        return data * np.asarray(factor, dtype=float)
+        data = data * np.asarray(factor, dtype=float)
+        self.check_limits(name, data, first_row)
+        return data
+
+    def check_limits(self, name: str, data: np.ndarray, first_row: int):
+        """Refuse, with its first row, a sample beyond what is physically possible (the schema's
+        ``sample_limits``: one bound for all columns, or one per column, symmetric or [low, high])."""
+        limit = self.schema["sample_limits"].get(name)
+        if limit is None:
+            return
+        per_column = limit if isinstance(limit, list) else [limit] * (data.shape[1] if data.ndim > 1 else 1)
+        low = np.array([b[0] if isinstance(b, list) else -b for b in per_column])
+        high = np.array([b[1] if isinstance(b, list) else b for b in per_column])
+        values = data.reshape(data.shape[0], -1)
+        bad = (values < low) | (values > high)
+        if not bad.any():
+            return
+        row, col = (int(v) for v in np.argwhere(bad)[0])
+        column = f", column {col}" if values.shape[1] > 1 else ""
+        self.fail(name, f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, "
+                        f"outside the physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} "
+                        "rows in this read); check the units attribute, or remove or interpolate those samples")
 
     def handle(self, name: str, required: bool):
         """``(h5py dataset, SI factor)`` of a dataset listed in the schema, its structure, dtype and units
@@ -227,6 +271,21 @@ class ContractReader:
         if spec["gaps"] == "report":
             self.gaps.extend(gaps)
         return nominal, gaps
+
+    def check_accel_time(self, time_s: np.ndarray, accel_time_s: np.ndarray, nominal: float, first_row: int = 0):
+        """``/imu/accel_time`` within :data:`MAX_ACCEL_TIME_OFFSET_PERIODS` sample periods of ``/imu/time``,
+        row by row (rows ``first_row ...``): the accelerometers sample the same instants as the gyros
+        up to their own timing offset, a fraction of a period; a larger offset is a different clock
+        or a stamp in other units, which no delay estimate should absorb."""
+        offset = accel_time_s - time_s
+        bad = np.flatnonzero(np.abs(offset) > MAX_ACCEL_TIME_OFFSET_PERIODS * nominal)
+        if bad.size:
+            k = int(bad[0])
+            self.fail("/imu/accel_time", f"is {offset[k]:.6g} s from /imu/time at row {k + first_row} "
+                                         f"({bad.size} rows in this read), more than {MAX_ACCEL_TIME_OFFSET_PERIODS} "
+                                         f"sample periods ({MAX_ACCEL_TIME_OFFSET_PERIODS * nominal:.4g} s); both "
+                                         "must count the same clock in seconds (subtract the offset, or drop "
+                                         "/imu/accel_time if the accelerometers sample with the gyros)")
 
     def declared_gaps(self, n_samples: int):
         """``/imu/gaps`` as ``[G, 2]`` seconds (time before the gap, length), or None when absent."""
@@ -391,9 +450,7 @@ def side_groups(r, h5, reference: bool = True):
         pos = r.dataset("/reference/position", required=False)
         vel = r.dataset("/reference/velocity", required=False)
         reference = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
-        if pos is not None:
-            if np.any(np.abs(pos[:, 0]) > np.pi / 2):
-                r.fail("/reference/position", "latitude outside [-90, 90] deg; columns are latitude, longitude, height")
+        if pos is not None:  # columns within their limits (ContractReader.check_limits)
             reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
     source = None
     if "/source" in h5:

@@ -55,6 +55,7 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
         accel_time = r.dataset("/imu/accel_time", required=False)
         if accel_time is not None:
             found += r.check_time("/imu/accel_time", accel_time, nominal=nominal)[1]
+            r.check_accel_time(time_s, accel_time, nominal)
         r.settle_imu_gaps(found, nominal, r.declared_gaps(time_s.shape[0]))
         rows, seg, gaps = slice(None), None, r.gaps
         if segment is not None:
@@ -196,6 +197,8 @@ class TelemetryStream:
             found = self._scan("/imu/time", self._handles[0], n_all, nominal)
             if self._accel_time is not None:
                 found += self._scan("/imu/accel_time", self._accel_time, n_all, nominal)
+                probe = slice(0, min(n_all, NOMINAL_ROWS + 1))
+                r.check_accel_time(head, r.rows("/imu/accel_time", self._accel_time, probe), nominal)
             r.settle_imu_gaps(found, nominal, r.declared_gaps(n_all))
             self.gaps = r.gaps
             self.n_segments = len(segment_bounds(n_all, self.gaps))
@@ -270,4 +273,6 @@ class TelemetryStream:
         g = r.rows(self.names[1], self._handles[1], rows, a0)
         a = r.rows(self.names[2], self._handles[2], rows, a0)
         ta = None if self._accel_time is None else r.rows("/imu/accel_time", self._accel_time, rows, a0)
+        if ta is not None:
+            r.check_accel_time(t, ta, self.sample_period_s, a0)
         return t, g, a, ta
