@@ -2,22 +2,46 @@
 
 from __future__ import annotations
 
+import signal
+import threading
+
 import click
 
 from sizefx import __version__
 from sizefx.errors import SizefxError
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` and temporary-file cleanup runs."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 class SizefxGroup(click.Group):
-    """Turns every user-facing error into one line on stderr and exit code 2 (no traceback)."""
+    """Turns every user-facing error into one line on stderr and exit code 2 (no traceback); SIGINT
+    and SIGTERM into one line and 130 / 143 (128 + the signal, as a shell reports them), after the
+    temporary outputs are removed (:func:`sizefx.io.files.atomic_output` cleans up on any exception)."""
 
     def invoke(self, ctx):
+        main_thread = threading.current_thread() is threading.main_thread()  # signals go to the main thread only
+        previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
         try:
             return super().invoke(ctx)
         except SizefxError as exc:
             message = " ".join(str(exc).split())
             click.echo(f"sizefx: error: {message}", err=True)
             ctx.exit(exc.exit_code)
+        except (KeyboardInterrupt, click.exceptions.Abort):
+            click.echo("sizefx: interrupted (SIGINT); unfinished outputs removed", err=True)
+            ctx.exit(128 + signal.SIGINT)
+        except Terminated:
+            click.echo("sizefx: terminated (SIGTERM); unfinished outputs removed", err=True)
+            ctx.exit(128 + signal.SIGTERM)
+        finally:
+            if main_thread:
+                signal.signal(signal.SIGTERM, previous)
 
 
 @click.group(cls=SizefxGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})

@@ -31,6 +31,9 @@ MAX_OBJECTS = 10_000
 #: Largest offset of /imu/accel_time from /imu/time, in nominal sample periods: a sensor's own
 #: sampling offset and filter delay are a few periods at most (1.3 ms = 0.4 period on BROAD).
 MAX_ACCEL_TIME_OFFSET_PERIODS = 10
+#: Largest HDF5 chunk read at once: one row of a dataset costs its whole chunk, decompressed.
+#: sizefx writes 1.5 MiB chunks; h5py's automatic chunking stays under 1 MiB.
+MAX_CHUNK_BYTES = 64 * 2**20
 
 __all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs"]
 
@@ -221,6 +224,7 @@ class ContractReader:
                 if got != bound:
                     self.fail(name, f"has {got} rows but its companions have {bound}; "
                                     "all datasets of a group share the time axis")
+        self.check_storage(name, dset)
         if dset.dtype.name not in self.schema["dtypes"]:
             self.fail(name, f"has dtype {dset.dtype}; expected one of {', '.join(self.schema['dtypes'])} "
                             "(convert with numpy .astype(float))")
@@ -237,6 +241,27 @@ class ContractReader:
         self.units[name] = units
         self.dtypes[name] = dset.dtype.name
         return dset, factor
+
+    def check_storage(self, name: str, dset: h5py.Dataset):
+        """Before any read: a dataset that declares rows it never stored (a sparse chunked dataset reads
+        back as fill values and, read whole, allocates its declared size) or whose chunks are so large
+        that reading one row decompresses more than :data:`MAX_CHUNK_BYTES`."""
+        if dset.size and dset.id.get_storage_size() == 0:
+            self.fail(name, f"declares shape {dset.shape} but stores no data (never written); the file is "
+                            "incomplete: write the samples, or re-import the source")
+        if dset.chunks is not None:
+            chunk_bytes = int(np.prod(dset.chunks, dtype=np.int64)) * dset.dtype.itemsize
+            if chunk_bytes > MAX_CHUNK_BYTES:
+                self.fail(name, f"is stored in chunks of {chunk_bytes / 2**20:.0f} MiB (chunk shape {dset.chunks}); "
+                                f"at most {MAX_CHUNK_BYTES // 2**20} MiB can be read at a time (rewrite it with "
+                                "h5py chunks=True, or with sizefx import)")
+
+    def check_rows(self, name: str, limit: int, why: str):
+        """Before a whole read: the dataset's declared rows within ``limit`` (bounded memory); ``why``
+        may name ``{limit}``."""
+        rows = int(self.h5[name].shape[0]) if name in self.h5 and self.h5[name].ndim else 0
+        if rows > limit:
+            self.fail(name, f"holds {rows} rows; {why.format(limit=limit)}")
 
     def check_time(self, name: str, t: np.ndarray, first_row: int = 0, nominal: float | None = None):
         """Check time stamps ``t`` (rows ``first_row ...`` of dataset ``name``); return ``(nominal, gaps)``.

@@ -10,13 +10,15 @@ only when the caller says ``force=True``.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import resource
 import tempfile
 from pathlib import Path
 
 from ..errors import OutputError
 
-__all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder"]
+__all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder", "check_room"]
 
 
 def _require_writable_parent(out: Path) -> None:
@@ -89,14 +91,74 @@ def _umask() -> int:
     return mask
 
 
+#: Bytes every output is assumed to need at least (HDF5 metadata, a JSON report, a plot).
+MIN_OUTPUT_BYTES = 1 << 20
+
+
+def check_room(out: Path, n_bytes: int) -> None:
+    """Refuse, before any work, an output of about ``n_bytes`` that the file-size limit (``ulimit -f``)
+    or the free space of its disk cannot hold. HDF5 cannot recover from a write that fails half way
+    (it may crash closing the file), so the check comes first; a write that still fails is caught
+    by :func:`atomic_output`."""
+    need = max(int(n_bytes), MIN_OUTPUT_BYTES)
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY and need > soft:
+        raise OutputError(f"{out}: needs about {need / 2**20:.1f} MiB, but the file-size limit (ulimit -f) is "
+                          f"{soft / 2**20:.1f} MiB; raise the limit or write a shorter record")
+    parent = out.parent if str(out.parent) else Path(".")
+    try:
+        st = os.statvfs(parent)
+    except OSError:
+        return  # a file system without statvfs: the write itself reports a full disk
+    free = st.f_bavail * st.f_frsize
+    if need > free:
+        raise OutputError(f"{out}: needs about {need / 2**20:.1f} MiB, but {parent} has {free / 2**20:.1f} MiB free; "
+                          "free some space or write elsewhere")
+
+
+def _remove_stale_temporaries(out: Path) -> None:
+    """Remove temporary files of earlier runs towards ``out`` whose process is gone (killed with
+    SIGKILL, or a machine that lost power): the names carry the writer's process id."""
+    parent = out.parent if str(out.parent) else Path(".")
+    for tmp in parent.glob(f".{out.name}.*.tmp"):
+        parts = tmp.name[len(out.name) + 2:].split(".")
+        if not parts or not parts[0].isdigit():
+            continue
+        pid = int(parts[0])
+        if pid == os.getpid():
+            continue
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        except OSError:
+            pass  # alive, under another user
+
+
+def _write_failed(out: Path, exc: OSError) -> OutputError:
+    hint = (": a file-size limit (ulimit -f), a full disk or a quota"
+            if exc.errno in (errno.EFBIG, errno.ENOSPC, errno.EDQUOT) else "")
+    return OutputError(f"{out}: cannot be written ({exc.strerror or exc}){hint}; nothing was written")
+
+
 @contextlib.contextmanager
-def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp"):
+def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp", expected_bytes: int = 0):
     """Yield a temporary path next to ``path``; rename it to ``path`` on success.
 
-    On any exception the temporary file is removed and ``path`` is untouched.
+    On any exception the temporary file is removed and ``path`` is untouched. ``expected_bytes``:
+    about how large the output will be (:func:`check_room` refuses it first if it cannot fit). An
+    ``OSError`` while writing (a full disk, a file-size limit, permissions) becomes an
+    :class:`~sizefx.errors.OutputError` naming ``path``, never the temporary file.
     """
     out = check_output_path(path, inputs=inputs, force=force)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=suffix, dir=out.parent if str(out.parent) else ".")
+    check_room(out, expected_bytes)
+    _remove_stale_temporaries(out)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.{os.getpid()}.", suffix=suffix,
+                                   dir=out.parent if str(out.parent) else ".")
+    except OSError as exc:
+        raise _write_failed(out, exc) from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -106,6 +168,10 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp")
         # mkstemp creates 0600; an output gets the permissions any new file would (umask applied)
         os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, out)
+    except OSError as exc:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        raise _write_failed(out, exc) from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()

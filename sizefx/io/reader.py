@@ -14,10 +14,17 @@ from .contract import (ContractReader, check_magnitudes, open_hdf5, open_structu
 from .gaps import NOMINAL_ROWS, choose_segment, segment_bounds
 from .records import Reference, Telemetry
 
-__all__ = ["read_telemetry", "TelemetryStream", "ReferenceStream", "SCAN_ROWS"]
+__all__ = ["read_telemetry", "TelemetryStream", "ReferenceStream", "SCAN_ROWS", "MAX_WHOLE_READ_ROWS"]
 
 #: Rows read at a time when a stream scans /imu/time for gaps at open (8 MiB of float64).
 SCAN_ROWS = 1 << 20
+#: Most IMU (and reference) rows a whole read loads: 12 M rows hold the paper's 1.8 h flight at
+#: 1600 Hz (10.4 M) and take about 0.8 GB as SI arrays; a file declaring more (or a decompression
+#: bomb of that size) is refused before anything is read. Streamed commands (navigate) have no
+#: such limit: their memory does not grow with the record.
+MAX_WHOLE_READ_ROWS = 12_000_000
+WHOLE_READ_WHY = ("commands that load the whole record (inspect, calibrate, compensate, diagnose, compare) take at "
+                  "most {limit} rows (2 h at 1600 Hz): cut the record, or use sizefx navigate, which streams")
 
 
 def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True,
@@ -50,6 +57,8 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
     with open_hdf5(path, "convert it with sizefx import") as h5:
         r, attrs, form = open_structure(path, h5, allow_gaps, check_plausibility)
         schema = r.schema
+        for name in ("/imu/time", "/reference/time"):  # before anything is allocated
+            r.check_rows(name, MAX_WHOLE_READ_ROWS, WHOLE_READ_WHY)
         time_s = r.dataset("/imu/time", required=True)
         nominal, found = r.check_time("/imu/time", time_s)
         accel_time = r.dataset("/imu/accel_time", required=False)

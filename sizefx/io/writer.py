@@ -70,7 +70,7 @@ class TelemetryWriter:
         self._written = dict.fromkeys(self._plan, 0)
 
     def __enter__(self):
-        self._ctx = atomic_output(self.path, inputs=self.inputs, force=self.force)
+        self._ctx = atomic_output(self.path, inputs=self.inputs, force=self.force, expected_bytes=self.expected_bytes())
         tmp = self._ctx.__enter__()
         try:
             self.h5 = h5py.File(tmp, "w")
@@ -79,6 +79,16 @@ class TelemetryWriter:
             self._ctx.__exit__(type(exc), exc, exc.__traceback__)
             raise
         return self
+
+    def expected_bytes(self) -> int:
+        """The file's size as planned: every declared row, plus 1 MiB for metadata and attributes."""
+        total = 0
+        for name, rows in self._plan.items():
+            spec = self.schema["datasets"][name]
+            width = int(np.prod([s for s in spec["shape"] if not isinstance(s, str)] or [1]))
+            size = 8 if spec["quantity"] == "time" else self.dtype.itemsize
+            total += rows * width * size
+        return total + (1 << 20)
 
     def _create(self):
         h5 = self.h5
