@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import allow_gaps_option, force_option, segment_option
+from .options import allow_gaps_option, force_option, segment_option, span
 
 
 @click.command()
@@ -23,7 +23,7 @@ from .options import allow_gaps_option, force_option, segment_option
                    "savgol for rates, increments for increments].")
 @click.option("--centripetal-only", is_flag=True,
               help="Drop the tangential term (the paper: it does not accumulate). Only with --levers.")
-@click.option("--accel-delay-us", type=float,
+@click.option("--accel-delay-us", type=span(-1e5, 1e5),
               help="Known delay of the accelerometers behind the gyros [us] (default: from the levers file). "
                    "Only with --levers; a model gives it in [accel_delay].")
 @segment_option

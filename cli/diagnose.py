@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import allow_gaps_option, force_option, segment_option
+from .options import allow_gaps_option, force_option, segment_option, span
 
 
 @click.command()
@@ -21,7 +21,7 @@ from .options import allow_gaps_option, force_option, segment_option
                    "spectra.png; existing ones are replaced only with --force).")
 @click.option("--model-out", type=click.Path(dir_okay=False),
               help="Where to write the extended model [default: MEASURED with .model.toml].")
-@click.option("--bandwidth-hz", type=float,
+@click.option("--bandwidth-hz", type=span(0.0, 1e5, low_open=True),
               help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
                    "alike). Without it, the band is measured: where the reference's own differentiated noise "
                    "(motion capture) overtakes the IMU's, or the full band for a table's or simulation's "
@@ -30,8 +30,8 @@ from .options import allow_gaps_option, force_option, segment_option
               show_default=True,
               help="Sensor grade whose plausible ranges an estimate must lie in to be a finding (auto: inferred "
                    "from the noise, and reported).")
-@click.option("--from-s", type=float, help="Diagnose the record from this time on [s] (IMU clock).")
-@click.option("--to-s", type=float, help="Diagnose the record up to this time [s]; records over 3 million "
+@click.option("--from-s", type=span(-1e10, 1e10), help="Diagnose the record from this time on [s] (IMU clock).")
+@click.option("--to-s", type=span(-1e10, 1e10), help="Diagnose the record up to this time [s]; records over 3 million "
                                           "samples must be cut (about 3 kB per sample).")
 @click.option("--navigation/--no-navigation", default=True, show_default=True,
               help="On records of 10 minutes or more with reference position, also navigate with the start "

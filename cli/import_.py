@@ -6,7 +6,7 @@ import click
 
 from sizefx.constants import BROAD_SITE_DEG
 
-from .options import NO_UNITS_CHECK_HELP, force_option, parse_vector
+from .options import NO_UNITS_CHECK_HELP, force_option, parse_vector, span
 
 #: Where --no-units-check leaves its value for :func:`run_import` (click's per-invocation ``meta``).
 NO_UNITS_CHECK = "sizefx.import.no_units_check"
@@ -82,7 +82,7 @@ def _names(text):
 @click.option("--time", "time_col", required=True, help="Time column name.")
 @click.option("--time-units", type=click.Choice(["s", "ms", "us", "ns", "samples"]), default="s", show_default=True,
               help="Units of the time column; 'samples' for a counter (needs --rate-hz).")
-@click.option("--rate-hz", type=float, help="Sample rate [Hz] when time is a sample counter.")
+@click.option("--rate-hz", type=span(1.0, 1e5), help="Sample rate [Hz] when time is a sample counter.")
 @click.option("--form", type=click.Choice(["rates", "increments"]), default="rates", show_default=True,
               help="Rates (gyro, accel) or increments (dtheta, dvel) in the columns.")
 @click.option("--gyro", required=True, metavar="X,Y,Z", help="Gyro (or dtheta) column names.")

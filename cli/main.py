@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 
 import click
@@ -23,6 +24,29 @@ class SizefxGroup(click.Group):
     """Turns every user-facing error into one line on stderr and exit code 2 (no traceback); SIGINT
     and SIGTERM into one line and 130 / 143 (128 + the signal, as a shell reports them), after the
     temporary outputs are removed (:func:`sizefx.io.files.atomic_output` cleans up on any exception)."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """Click's own errors (a bad option value, an unknown option, a missing argument) as one line
+        too, naming the command and the option, exit code 2; everything else as click does it."""
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.exceptions.ClickException as exc:
+            ctx = getattr(exc, "ctx", None)
+            if type(exc).__name__ == "NoArgsIsHelpError":  # plain `sizefx`: the help, as a help request
+                click.echo(ctx.get_help())
+                code = 0
+            else:
+                path = ctx.command_path if ctx is not None else "sizefx"
+                where = path.partition(" ")[2]  # the subcommand; empty for the group's own options
+                message = " ".join(exc.format_message().split())
+                click.echo(f"sizefx: error: {where + ': ' if where else ''}{message} (see {path} --help)", err=True)
+                code = exc.exit_code
+        except click.exceptions.Abort:  # Ctrl-C at a prompt, outside any command
+            click.echo("sizefx: interrupted (SIGINT)", err=True)
+            code = 128 + signal.SIGINT
+        if not standalone_mode:
+            return code
+        sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
         main_thread = threading.current_thread() is threading.main_thread()  # signals go to the main thread only

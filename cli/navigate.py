@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import Progress, allow_gaps_option, force_option, quiet_option, segment_option
+from .options import Progress, allow_gaps_option, force_option, quiet_option, segment_option, span
 
 
 @click.command()
@@ -18,12 +18,12 @@ from .options import Progress, allow_gaps_option, force_option, quiet_option, se
 @click.option("--init", type=click.Choice(["auto", "reference", "align"]), default="auto", show_default=True,
               help="Initial attitude from /reference, or by static alignment over --align-s "
                    "(auto: the reference when it covers the start and is not approximate).")
-@click.option("--align-s", default=300.0, show_default=True, type=float,
+@click.option("--align-s", default=300.0, show_default=True, type=span(0.0, 86400.0, low_open=True),
               help="Alignment window from the start of the record [s]; the vehicle must be at rest.")
 @click.option("--vertical", type=click.Choice(["auto", "held", "reference", "free"]), default="auto",
               show_default=True, help="Vertical channel: held at the known height, replaced by the reference "
                                       "height, or free (auto: held at rest, reference when moving).")
-@click.option("--output-rate-hz", default=10.0, show_default=True, type=float,
+@click.option("--output-rate-hz", default=10.0, show_default=True, type=span(0.0, 1e5),
               help="Rate of the written solution [Hz] (0: every navigation interval).")
 @click.option("--levers", type=click.Path(dir_okay=False),
               help="Compensate the size effect first with these lever arms (sizefx/levers/1).")

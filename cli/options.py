@@ -2,12 +2,34 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import tomllib
 
 import click
 
 from sizefx.errors import ConfigError
+
+
+class Span(click.FloatRange):
+    """A float option's valid range, finite by construction: NaN and +-inf are refused (click's
+    FloatRange lets NaN through, since every comparison with it is false), with the range in the
+    message. Every numeric option has one; ``docs/reliability.md`` lists them."""
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number; give a value in {self._describe_range()}", param, ctx)
+        return number
+
+
+def span(low=None, high=None, *, low_open: bool = False, high_open: bool = False) -> Span:
+    """A finite float in [low, high] (either end open, or absent)."""
+    return Span(low, high, min_open=low_open, max_open=high_open)
+
+
+#: Seeds are numpy's: non-negative, below 2**63 here.
+SEED = click.IntRange(0, 2**63 - 1)
 
 
 def parse_vector(text: str, name: str, n: int = 3) -> tuple[float, ...]:
@@ -18,6 +40,8 @@ def parse_vector(text: str, name: str, n: int = 3) -> tuple[float, ...]:
         raise click.BadParameter(f"'{text}' is not {n} comma-separated numbers", param_hint=name) from None
     if len(values) != n:
         raise click.BadParameter(f"'{text}' has {len(values)} values, expected {n}", param_hint=name)
+    if not all(math.isfinite(v) for v in values):
+        raise click.BadParameter(f"'{text}' holds a value that is not a finite number", param_hint=name)
     return values
 
 

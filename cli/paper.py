@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from .options import SEED
+
 
 @click.command()
 @click.argument("experiment", type=click.Choice(["turntable", "sway", "flight", "all"]), default="all")
@@ -16,7 +18,7 @@ import click
 @click.option("--out", "out_dir", default="sizefx-paper", show_default=True, type=click.Path(file_okay=False),
               help="Folder for the simulated records, lever-arm files and figures (PNG); created.")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write every figure as JSON.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the simulated noise.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of the simulated noise.")
 @click.option("--keep-records/--no-keep-records", default=True, show_default=True,
               help="Keep the simulated HDF5 records in --out (the full flight is 611 MiB).")
 def paper(experiment, size, out_dir, json_path, seed, keep_records):

@@ -6,7 +6,7 @@ import click
 
 from sizefx.constants import PAPER_AIRFIELD_DEG
 
-from .options import Progress, force_option, parse_overrides, parse_vector, quiet_option
+from .options import SEED, Progress, force_option, parse_overrides, parse_vector, quiet_option, span
 
 
 def common_options(f):
@@ -14,11 +14,11 @@ def common_options(f):
     opts = [
         click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
                      help="Telemetry file to write (HDF5, sizefx/telemetry/1)."),
-        click.option("--rate-hz", default=1600.0, show_default=True, type=click.FloatRange(min=1.0),
+        click.option("--rate-hz", default=1600.0, show_default=True, type=span(1.0, 1e5),
                      help="IMU sample rate [Hz]."),
         click.option("--form", type=click.Choice(["rates", "increments"]), default="rates", show_default=True,
                      help="Output rates (gyro [rad/s], accel [m/s^2]) or increments (dtheta [rad], dvel [m/s])."),
-        click.option("--seed", default=0, show_default=True, type=int, help="Seed of every noise stream."),
+        click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of every noise stream."),
         click.option("--effects", "effects_path", type=click.Path(exists=True, dir_okay=False),
                      help="Effect model (TOML, sizefx/effects/1); see 'sizefx simulate --print-effects'."),
         click.option("--ideal", is_flag=True,
@@ -31,13 +31,13 @@ def common_options(f):
         click.option("--offset-mm", metavar="X,Y,Z",
                      help="Offset r from the rotation centre to the triad point, body axes [mm] "
                           "(sets lever_arm.r_vehicle_m)."),
-        click.option("--reference-rate-hz", type=float,
+        click.option("--reference-rate-hz", type=span(0.0, 1e5, low_open=True),
                      help="Rate of /reference [Hz]; must divide the IMU rate [default: turntable the IMU rate; sway, flight 100]."),
         click.option("--latitude-deg", default=PAPER_AIRFIELD_DEG[0], show_default=True,
-                     type=click.FloatRange(-89.9, 89.9), help="Site or start latitude [deg]."),
+                     type=span(-89.5, 89.5), help="Site or start latitude [deg]."),
         click.option("--longitude-deg", default=PAPER_AIRFIELD_DEG[1], show_default=True,
-                     type=click.FloatRange(-180.0, 360.0), help="Site or start longitude [deg]."),
-        click.option("--height-m", default=PAPER_AIRFIELD_DEG[2], show_default=True, type=float,
+                     type=span(-180.0, 360.0), help="Site or start longitude [deg]."),
+        click.option("--height-m", default=PAPER_AIRFIELD_DEG[2], show_default=True, type=span(-12000.0, 100000.0),
                      help="Site or start height above the WGS-84 ellipsoid [m]."),
         force_option,
         quiet_option,
@@ -89,14 +89,15 @@ def simulate(ctx, print_effects):
 @simulate.command()
 @common_options
 @click.option("--axes", default="YXZ", show_default=True, help="Order of the vertical body axes, e.g. YXZ.")
-@click.option("--seconds-per-axis", default=120.0, show_default=True, type=float,
+@click.option("--seconds-per-axis", default=120.0, show_default=True, type=span(1.0, 86400.0),
               help="Duration of the rotations about each axis [s].")
 @click.option("--cycles", default=5, show_default=True, type=click.IntRange(min=1),
               help="Positive-and-negative rotation cycles per axis.")
-@click.option("--peak-rate-dps", default=20.0, show_default=True, type=float, help="Peak table rate [deg/s].")
-@click.option("--accel-dps2", default=10.0, show_default=True, type=float,
+@click.option("--peak-rate-dps", default=20.0, show_default=True, type=span(0.0, 5000.0, low_open=True),
+              help="Peak table rate [deg/s].")
+@click.option("--accel-dps2", default=10.0, show_default=True, type=span(0.0, 1e5, low_open=True),
               help="Angular acceleration of the table [deg/s^2] (jerk-limited).")
-@click.option("--static-s", default=60.0, show_default=True, type=float, help="Static lead-in [s].")
+@click.option("--static-s", default=60.0, show_default=True, type=span(0.0, 86400.0), help="Static lead-in [s].")
 def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_s, **common):
     """The paper's turntable calibration plan: rotations about body Y, X, then Z, each vertical.
 
@@ -116,15 +117,20 @@ def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_
               help="Sway axis: heading (about the vertical), roll (body x) or pitch (body y).")
 @click.option("--amplitudes-dps", default="10,20,30", show_default=True,
               help="Rate amplitude A of each segment [deg/s]; rate = A sin(2 pi f t).")
-@click.option("--frequency-hz", default=1.0, show_default=True, type=float, help="Sway frequency f [Hz].")
-@click.option("--static-s", default=600.0, show_default=True, type=float, help="Static lead-in [s].")
-@click.option("--segment-s", default=600.0, show_default=True, type=float, help="Duration of each amplitude [s].")
+@click.option("--frequency-hz", default=1.0, show_default=True, type=span(0.0, 100.0, low_open=True),
+              help="Sway frequency f [Hz].")
+@click.option("--static-s", default=600.0, show_default=True, type=span(0.0, 86400.0), help="Static lead-in [s].")
+@click.option("--segment-s", default=600.0, show_default=True, type=span(0.0, 86400.0, low_open=True),
+              help="Duration of each amplitude [s].")
 def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
     """The paper's sway test: static, then harmonic sway at each amplitude in turn."""
     try:
         amps = tuple(float(a) for a in amplitudes_dps.split(","))
     except ValueError:
         raise click.BadParameter(f"'{amplitudes_dps}' is not a list of numbers", param_hint="--amplitudes-dps") from None
+    if not all(0.0 < a <= 5000.0 for a in amps):  # NaN fails every comparison
+        raise click.BadParameter(f"'{amplitudes_dps}': each amplitude must be in (0, 5000] deg/s",
+                                 param_hint="--amplitudes-dps")
     from sizefx import scenarios
 
     plan = scenarios.SwayPlan(axis=axis, amplitudes_dps=amps, frequency_hz=frequency_hz, static_s=static_s,
@@ -134,13 +140,15 @@ def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
 
 @simulate.command()
 @common_options
-@click.option("--duration-h", default=1.8, show_default=True, type=click.FloatRange(min=0.05),
+@click.option("--duration-h", default=1.8, show_default=True, type=span(0.05, 24.0),
               help="Flight record length [h].")
-@click.option("--align-s", default=600.0, show_default=True, type=float, help="Static alignment before take-off [s].")
-@click.option("--speed-mps", default=40.0, show_default=True, type=float, help="Cruise ground speed [m/s].")
-@click.option("--altitude-m", default=300.0, show_default=True, type=float, help="Cruise height above the start [m].")
-@click.option("--heading-deg", default=45.0, show_default=True, type=float, help="Outbound track [deg].")
-@click.option("--rotor-hz", default=8.0, show_default=True, type=float,
+@click.option("--align-s", default=600.0, show_default=True, type=span(0.0, 86400.0),
+              help="Static alignment before take-off [s].")
+@click.option("--speed-mps", default=40.0, show_default=True, type=span(0.0, 1000.0), help="Cruise ground speed [m/s].")
+@click.option("--altitude-m", default=300.0, show_default=True, type=span(0.0, 20000.0),
+              help="Cruise height above the start [m].")
+@click.option("--heading-deg", default=45.0, show_default=True, type=span(-360.0, 360.0), help="Outbound track [deg].")
+@click.option("--rotor-hz", default=8.0, show_default=True, type=span(0.0, 200.0),
               help="Main rotor rate [Hz]; vibration at 1, 2 and 4 times it.")
 def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **common):
     """A helicopter flight from the paper's airfield: align, take off, out, turn, back, land."""
@@ -153,7 +161,7 @@ def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **
 
 @simulate.command()
 @common_options
-@click.option("--duration-s", default=120.0, show_default=True, type=click.FloatRange(min=1.0),
+@click.option("--duration-s", default=120.0, show_default=True, type=span(1.0, 86400.0),
               help="Record length [s].")
 @click.option("--axes", default="zyx", show_default=True,
               help="Gimbals that move: z heading, y pitch, x roll (z alone: rotation about the vertical only).")
