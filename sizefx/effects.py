@@ -20,7 +20,6 @@ or keys, wrong shapes and types are errors naming the key) and returns an
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,6 +27,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .geometry import preset_arms_m
+from .io.documents import read_toml
 from .io.schema import load_schema
 from .sensor_model import SensorParams, unit_axes
 
@@ -149,6 +149,11 @@ def _convert(section: str, key: str, rule: dict, value, units: dict, where: str)
                           f"{ {'number': 'a number', 'vector': 'a list of 3 numbers', 'matrix': 'a 3x3 list of lists'}[kind]}")
     if not np.all(np.isfinite(arr)):
         raise ConfigError(f"{label} holds NaN or Inf")
+    low, high = rule.get("range", (-np.inf, np.inf))
+    outside = (arr < low) | (arr > high)
+    if np.any(outside):
+        raise ConfigError(f"{label} = {arr[outside].ravel()[0]:g} is outside its range [{low:g}, {high:g}] "
+                          f"{rule['unit']}; check the value and its unit")
     si = arr * factor
     return float(si) if kind == "number" else si
 
@@ -166,13 +171,7 @@ def load_effects(path=None, overrides: dict | None = None, base: dict | None = N
     source = "defaults" if not base else "ideal"
     if path is not None:
         path = Path(path)
-        try:
-            with open(path, "rb") as fh:
-                layers.append((str(path), tomllib.load(fh)))
-        except FileNotFoundError:
-            raise ConfigError(f"{path}: effects file does not exist") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+        layers.append((str(path), read_toml(path, "effects file (sizefx/effects/1 TOML)")))
         source = f"{source} + {path}"
     if overrides:
         layers.append(("overrides", overrides))

@@ -16,6 +16,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .geometry import PRESETS, preset_arms_m
+from .io.documents import read_json
 from .io.files import atomic_output
 from .io.schema import check_document, load_schema, validate_input
 
@@ -96,16 +97,10 @@ def _parse(path: Path):
     """The JSON document in ``path``; every number in it finite (Python's json reads NaN and
     Infinity, which JSON does not allow, and 1e999 as inf): a one-line ConfigError otherwise."""
     try:
-        return json.loads(path.read_text("utf-8"), parse_float=_finite_float, parse_int=_finite_int,
-                          parse_constant=_no_constant)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: levers file does not exist") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{path}: is a directory; give a levers file (sizefx/levers/1 JSON)") from None
+        return read_json(path, "levers file (sizefx/levers/1 JSON)", parse_float=_finite_float,
+                         parse_int=_finite_int, parse_constant=_no_constant)
     except _NotFinite as exc:
         raise ConfigError(f"{path}: {exc}; write finite numbers (null where the contract allows it)") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: not valid JSON ({exc})") from None
 
 
 def read_levers(path) -> Levers:

@@ -20,6 +20,7 @@ from ..constants import ARCSEC, STANDARD_GRAVITY_MPS2
 from ..effects import EFFECTS_SCHEMA
 from ..errors import ConfigError
 from ..geometry import triad_point
+from ..io.documents import read_json
 from ..io.files import atomic_output
 from ..io.schema import check_document, validate_input
 from ..io.toml import dumps_toml
@@ -173,12 +174,7 @@ def check_diagnosis(doc: dict, source: str = "report") -> dict:
 
 def read_diagnosis(path) -> dict:
     """A ``sizefx diagnose --json`` file, version 1 or 2, validated."""
-    import json
-
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"{path}: not a readable JSON diagnosis report ({exc})") from None
+    doc = read_json(path, "diagnosis report (sizefx diagnose --json)")
     return check_diagnosis(doc, str(path))
 
 

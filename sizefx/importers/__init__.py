@@ -25,7 +25,8 @@ import numpy as np
 from .. import __version__
 from ..errors import OutputError, SourceError, TelemetryError
 from ..io.files import atomic_output
-from ..io.schema import allowed_units
+from ..io.contract import limit_problem
+from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
 __all__ = ["FORMATS", "ImportConfig", "ImportResult", "run", "run_import", "provenance"]
@@ -210,10 +211,12 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         except OSError as exc:  # disk full, quota: name the output the user asked for
             raise OutputError(f"{out}: cannot be written ({exc.strerror or exc}); check the space and "
                               "permissions of its folder") from None
+        except OutputError as exc:  # the writer's own refusal (no room) names its file: ours is temporary
+            raise OutputError(str(exc).replace(str(tmp), str(out))) from None
         # gaps only the accelerometer stamps show cannot be declared: allowed here, reported below;
         # the magnitudes are judged by the units check (its messages speak of the import's options)
         try:
-            back = read_telemetry(tmp, allow_gaps=True, check_plausibility=False)
+            back = read_telemetry(tmp, allow_gaps=True, check_plausibility=False, check_limits=False)
         except TelemetryError as exc:  # name the user's file, never the temporary one
             raise SourceError(source, f"converts to a record that breaks sizefx/telemetry/1: {exc.dataset}: "
                                       f"{exc.problem}") from None
@@ -221,6 +224,11 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
             declared, where, fix = _units_context(fmt, back)
             report = units_of(back, declared=declared)
             refuse_wrong_units(report, source, where=where, fix=fix)
+        # then what no unit explains: samples beyond the physical limits (the reader's, here after the units)
+        for name, data in _datasets(back):
+            problem = limit_problem(load_schema(TELEMETRY_SCHEMA), name, data)
+            if problem:
+                raise SourceError(source, f"converts to a record that breaks sizefx/telemetry/1: {name}: {problem}")
     back.path = str(out)
     imu_gaps = [g for g in back.gaps if g.dataset.startswith("/imu")]
     ref_gaps = [g for g in back.gaps if g.dataset.startswith("/reference")]
@@ -234,6 +242,19 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         reference_gaps=len(ref_gaps), accel_time=back.accel_time_s is not None, site=back.site is not None,
         units_check=None if report is None else report.as_dict(),
     )
+
+
+def _datasets(tel):
+    """``(dataset name, SI rows)`` of a record, as the telemetry contract names them."""
+    gyro, accel = ("/imu/gyro", "/imu/accel") if tel.form == "rates" else ("/imu/dtheta", "/imu/dvel")
+    gyro_like, accel_like = tel.imu_arrays()
+    pairs = [("/imu/time", tel.time_s), (gyro, gyro_like), (accel, accel_like), ("/imu/accel_time", tel.accel_time_s)]
+    ref = tel.reference
+    if ref is not None:
+        pairs += [("/reference/time", ref.time_s), ("/reference/velocity", ref.velocity_n_mps)]
+        if ref.lat_rad is not None:
+            pairs.append(("/reference/position", np.column_stack([ref.lat_rad, ref.lon_rad, ref.height_m])))
+    return [(name, data) for name, data in pairs if data is not None]
 
 
 def run_import(fmt: str, source, out, *, force: bool = False, check_units: bool = True, **options) -> dict:

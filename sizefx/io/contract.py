@@ -35,7 +35,8 @@ MAX_ACCEL_TIME_OFFSET_PERIODS = 10
 #: sizefx writes 1.5 MiB chunks; h5py's automatic chunking stays under 1 MiB.
 MAX_CHUNK_BYTES = 64 * 2**20
 
-__all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs"]
+__all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs",
+           "limit_problem"]
 
 
 def attr_value(value):
@@ -57,6 +58,27 @@ def attr_str(value) -> str:
     return str(value)
 
 
+def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0) -> str | None:
+    """What is wrong with the rows ``data`` (SI; rows ``first_row ...``) of dataset ``name`` against the
+    schema's ``sample_limits`` (one bound for all columns, or one per column, symmetric or
+    [low, high]); None when every sample is within them."""
+    limit = schema["sample_limits"].get(name)
+    if limit is None or data.size == 0:
+        return None
+    per_column = limit if isinstance(limit, list) else [limit] * (data.shape[1] if data.ndim > 1 else 1)
+    low = np.array([b[0] if isinstance(b, list) else -b for b in per_column])
+    high = np.array([b[1] if isinstance(b, list) else b for b in per_column])
+    values = data.reshape(data.shape[0], -1)
+    bad = (values < low) | (values > high)
+    if not bad.any():
+        return None
+    row, col = (int(v) for v in np.argwhere(bad)[0])
+    column = f", column {col}" if values.shape[1] > 1 else ""
+    return (f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
+            f"physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} rows in this read); check "
+            "the units attribute, or remove or interpolate those samples")
+
+
 class ContractReader:
     """One validation pass over an open file; raises on the first problem."""
 
@@ -66,6 +88,7 @@ class ContractReader:
         self.schema = load_schema(TELEMETRY_SCHEMA)
         self.allow_gaps = allow_gaps
         self.check_plausibility = check_plausibility
+        self.limits = True  #: check each sample against the schema's sample_limits (:meth:`check_limits`)
         self.sizes: dict[str, int] = {}
         self.units: dict[str, str] = {}
         self.dtypes: dict[str, str] = {}
@@ -183,22 +206,11 @@ class ContractReader:
 
     def check_limits(self, name: str, data: np.ndarray, first_row: int):
         """Refuse, with its first row, a sample beyond what is physically possible (the schema's
-        ``sample_limits``: one bound for all columns, or one per column, symmetric or [low, high])."""
-        limit = self.schema["sample_limits"].get(name)
-        if limit is None:
-            return
-        per_column = limit if isinstance(limit, list) else [limit] * (data.shape[1] if data.ndim > 1 else 1)
-        low = np.array([b[0] if isinstance(b, list) else -b for b in per_column])
-        high = np.array([b[1] if isinstance(b, list) else b for b in per_column])
-        values = data.reshape(data.shape[0], -1)
-        bad = (values < low) | (values > high)
-        if not bad.any():
-            return
-        row, col = (int(v) for v in np.argwhere(bad)[0])
-        column = f", column {col}" if values.shape[1] > 1 else ""
-        self.fail(name, f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, "
-                        f"outside the physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} "
-                        "rows in this read); check the units attribute, or remove or interpolate those samples")
+        ``sample_limits``, :func:`limit_problem`); skipped while ``limits`` is off."""
+        if self.limits:
+            problem = limit_problem(self.schema, name, data, first_row)
+            if problem:
+                self.fail(name, problem)
 
     def handle(self, name: str, required: bool):
         """``(h5py dataset, SI factor)`` of a dataset listed in the schema, its structure, dtype and units

@@ -28,7 +28,7 @@ WHOLE_READ_WHY = ("commands that load the whole record (inspect, calibrate, comp
 
 
 def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True,
-                   segment: int | None = None) -> Telemetry:
+                   segment: int | None = None, check_limits: bool = True) -> Telemetry:
     """Read and validate a ``sizefx/telemetry/1`` file; return SI arrays.
 
     Parameters
@@ -45,6 +45,10 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
     segment : int, optional
         Read only the IMU rows of continuous segment ``segment`` (1-based, between gaps, as
         ``sizefx inspect`` numbers them); ``/reference`` is read whole.
+    check_limits : bool
+        Refuse samples beyond the schema's ``sample_limits`` (physically impossible values).
+        Off only for a caller that checks them itself, later (import, after its units check,
+        whose message explains a wrong unit better).
 
     Raises
     ------
@@ -56,6 +60,7 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
     path = Path(path)
     with open_hdf5(path, "convert it with sizefx import") as h5:
         r, attrs, form = open_structure(path, h5, allow_gaps, check_plausibility)
+        r.limits = check_limits
         schema = r.schema
         for name in ("/imu/time", "/reference/time"):  # before anything is allocated
             r.check_rows(name, MAX_WHOLE_READ_ROWS, WHOLE_READ_WHY)
