@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from sizefx.io.reader import MAX_WHOLE_READ_ROWS
+
 from .options import Progress, allow_gaps_option, force_option, quiet_option, segment_option, span
 
 
@@ -34,7 +36,7 @@ from .options import Progress, allow_gaps_option, force_option, quiet_option, se
 @click.option("--mode", type=click.Choice(["triad", "center"]), default="triad", show_default=True,
               help="With --levers or --model: bring the accelerometers to the triad point or to the rotation "
                    "centre.")
-@click.option("--chunk-samples", default=1 << 20, show_default=True, type=click.IntRange(min=0),
+@click.option("--chunk-samples", default=1 << 20, show_default=True, type=click.IntRange(0, MAX_WHOLE_READ_ROWS),
               help="IMU rows read and processed at a time (memory is bounded by the chunk, results are identical); "
                    "0 reads the whole record into memory.")
 @segment_option

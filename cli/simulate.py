@@ -91,7 +91,7 @@ def simulate(ctx, print_effects):
 @click.option("--axes", default="YXZ", show_default=True, help="Order of the vertical body axes, e.g. YXZ.")
 @click.option("--seconds-per-axis", default=120.0, show_default=True, type=span(1.0, 86400.0),
               help="Duration of the rotations about each axis [s].")
-@click.option("--cycles", default=5, show_default=True, type=click.IntRange(min=1),
+@click.option("--cycles", default=5, show_default=True, type=click.IntRange(1, 10000),
               help="Positive-and-negative rotation cycles per axis.")
 @click.option("--peak-rate-dps", default=20.0, show_default=True, type=span(0.0, 5000.0, low_open=True),
               help="Peak table rate [deg/s].")
