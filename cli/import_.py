@@ -8,8 +8,10 @@ from sizefx.constants import BROAD_SITE_DEG
 
 from .options import NO_UNITS_CHECK_HELP, force_option, parse_vector, span
 
-#: Where --no-units-check leaves its value for :func:`run_import` (click's per-invocation ``meta``).
+#: Where --no-units-check and --drop-invalid-rows leave their values for :func:`run_import` (click's
+#: per-invocation ``meta``).
 NO_UNITS_CHECK = "sizefx.import.no_units_check"
+DROP_INVALID_ROWS = "sizefx.import.drop_invalid_rows"
 
 
 def run_import(fmt, source, output, *, force, **options):
@@ -19,7 +21,9 @@ def run_import(fmt, source, output, *, force, **options):
 
     ctx = click.get_current_context(silent=True)
     check_units = not (ctx is not None and ctx.meta.get(NO_UNITS_CHECK, False))
-    result = run(ImportConfig(fmt, source, output, force=force, check_units=check_units, options=options))
+    drop = ctx is not None and ctx.meta.get(DROP_INVALID_ROWS, False)
+    result = run(ImportConfig(fmt, source, output, force=force, check_units=check_units, drop_invalid_rows=drop,
+                              options=options))
     click.echo(result.report())
 
 
@@ -161,9 +165,17 @@ def _remember_no_units_check(ctx, param, value):
     ctx.meta[NO_UNITS_CHECK] = value
 
 
-# Every importer takes --no-units-check. It is added here, once, to each command of the group (a new
-# importer gets it too), and reaches run_import through the context, so the commands keep their own
-# signatures.
+def _remember_drop_invalid_rows(ctx, param, value):
+    ctx.meta[DROP_INVALID_ROWS] = value
+
+
+# Every importer takes --no-units-check and --drop-invalid-rows. They are added here, once, to each
+# command of the group (a new importer gets them too), and reach run_import through the context, so
+# the commands keep their own signatures.
 for _command in import_.commands.values():
     click.option("--no-units-check", is_flag=True, expose_value=False, callback=_remember_no_units_check,
                  help=NO_UNITS_CHECK_HELP)(_command)
+    click.option("--drop-invalid-rows", is_flag=True, expose_value=False, callback=_remember_drop_invalid_rows,
+                 help="Drop IMU rows holding NaN, inf or values beyond the physical limits (docs/reliability.md) "
+                      "instead of refusing the source; they become declared gaps, and the report counts them "
+                      "and names the first.")(_command)

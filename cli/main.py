@@ -39,8 +39,8 @@ class SizefxGroup(click.Group):
                 path = ctx.command_path if ctx is not None else "sizefx"
                 where = path.partition(" ")[2]  # the subcommand; empty for the group's own options
                 message = " ".join(exc.format_message().split())
-                click.echo(f"sizefx: error: {where + ': ' if where else ''}{message} (see sizefx {where + ' ' if where else ''}"
-                           "--help)", err=True)
+                command = f"sizefx {where}" if where else "sizefx"
+                click.echo(f"sizefx: error: {where + ': ' if where else ''}{message} (see {command} --help)", err=True)
                 code = exc.exit_code
         except click.exceptions.Abort:  # Ctrl-C at a prompt, outside any command
             click.echo("sizefx: interrupted (SIGINT)", err=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from sizefx.io.reader import MAX_WHOLE_READ_ROWS
+from sizefx.constants import MAX_WHOLE_READ_ROWS
 
 from .options import Progress, allow_gaps_option, force_option, quiet_option, segment_option, span
 

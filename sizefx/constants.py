@@ -48,3 +48,9 @@ GAP_FACTOR = 1.5
 
 #: One international nautical mile [m] (drift is quoted in nmi/h).
 METRES_PER_NMI = 1852.0
+
+#: Most IMU (and reference) rows a whole read loads: 12 M rows hold the paper's 1.8 h flight at
+#: 1600 Hz (10.4 M) and take about 0.8 GB as SI arrays; a file declaring more (or a decompression
+#: bomb of that size) is refused before anything is read (docs/reliability.md has the memory this
+#: takes). Streamed commands (navigate, simulate) read in chunks and have no such limit.
+MAX_WHOLE_READ_ROWS = 12_000_000

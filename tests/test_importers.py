@@ -412,3 +412,23 @@ def test_import_names_the_output_not_the_temporary_file_when_writing_fails(tmp_p
     message = str(info.value)
     assert message.startswith(f"{out}: cannot be written (No space left on device)") and ".tmp" not in message
     assert not out.exists() and list(tmp_path.glob(".out.h5.*")) == []  # no temporary file left behind
+
+
+def test_invalid_rows_are_refused_or_dropped_as_gaps(tmp_path):
+    """A CSV with a NaN and an absurd sample: refused in one line by default; with
+    --drop-invalid-rows the two rows become declared gaps, counted, the first named."""
+    rows = [f"{k / 100},0,0,0,0,0,-9.8\n" for k in range(200)]
+    rows[50] = "0.5,0,nan,0,0,0,-9.8\n"
+    rows[120] = "1.2,0,0,0,1e300,0,-9.8\n"
+    src = _csv(tmp_path, "t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
+    out = tmp_path / "o.h5"
+    args = ["import", "csv", str(src), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"]
+    refused = CliRunner().invoke(main, args)
+    assert refused.exit_code == 2 and refused.stderr.count("\n") == 1 and "'gy' (--gyro) holds NaN" in refused.stderr, \
+        refused.stderr
+    assert str(src) in refused.stderr and ".tmp" not in refused.stderr and not out.exists()
+    kept = CliRunner().invoke(main, args + ["--drop-invalid-rows"])
+    assert kept.exit_code == 0, kept.output
+    assert "dropped 2 IMU rows" in kept.stdout and "source row 50, after t = 0.490000 s" in kept.stdout
+    tel = read_telemetry(out)  # the holes are declared gaps: no --allow-gaps needed
+    assert tel.n_samples == 198 and sum(g.declared for g in tel.gaps) == 2

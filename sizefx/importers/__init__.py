@@ -25,7 +25,7 @@ import numpy as np
 from .. import __version__
 from ..errors import OutputError, SourceError, TelemetryError
 from ..io.files import atomic_output
-from ..io.contract import limit_problem
+from ..io.contract import invalid_rows, limit_problem
 from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
@@ -62,14 +62,19 @@ def check_source(path) -> Path:
     return path
 
 
-def load_source(fmt: str, path, **options):
-    """Convert ``path`` of format ``fmt`` into a :class:`~sizefx.io.telemetry.Telemetry` (not written)."""
+def load_source(fmt: str, path, *, keep_invalid: bool = False, **options):
+    """Convert ``path`` of format ``fmt`` into a :class:`~sizefx.io.telemetry.Telemetry` (not written).
+    ``keep_invalid``: ask a loader that refuses NaN cells itself (csv) to keep them, for
+    ``--drop-invalid-rows``; the other loaders pass them on anyway."""
     import importlib
+    import inspect
 
     if fmt not in FORMATS:
         raise SourceError(path, f"unknown format '{fmt}'; use one of {', '.join(FORMATS)}")
     module_name, function = FORMATS[fmt]
     loader = getattr(importlib.import_module(f"{__name__}.{module_name}"), function)
+    if keep_invalid and "keep_invalid" in inspect.signature(loader).parameters:
+        options = {**options, "keep_invalid": True}
     return loader(check_source(path), **options)
 
 
@@ -124,6 +129,9 @@ class ImportConfig:
     force: bool = False  #: replace ``output`` if it exists (never an input)
     #: check the magnitudes against physics (:func:`sizefx.sanity.check_units`); ``--no-units-check`` turns it off
     check_units: bool = True
+    #: drop IMU rows with NaN, inf or values beyond the physical limits (they become declared gaps)
+    #: instead of refusing the source; ``--drop-invalid-rows``
+    drop_invalid_rows: bool = False
     options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
@@ -157,6 +165,9 @@ class ImportResult:
     accel_time: bool  #: separate accelerometer stamps (/imu/accel_time)
     site: bool
     units_check: dict | None  #: :meth:`sizefx.sanity.UnitsReport.as_dict`, None when skipped
+    #: with ``drop_invalid_rows``: ``{"rows": count, "first_row": its source row, "after_time_s": the kept
+    #: stamp before it}``
+    dropped_rows: dict | None = None
 
     def to_json(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -177,6 +188,10 @@ class ImportResult:
             if self.declared_gaps < gaps:
                 lines.append(f"note: {gaps - self.declared_gaps} gaps only the accelerometer stamps show cannot be "
                              "declared; pass --allow-gaps to the commands that read this file")
+        if self.dropped_rows:
+            d = self.dropped_rows
+            lines.append(f"dropped {d['rows']} IMU rows holding NaN, inf or values beyond the physical limits (the "
+                         f"first: source row {d['first_row']}, after t = {d['after_time_s']:.6f} s); they are gaps now")
         checked = report_lines(self.units_check)
         lines.append(f"units: {checked[0]}")
         lines.extend(f"       {line}" for line in checked[1:])
@@ -201,7 +216,8 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
 
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     fmt, source, out = config.format, config.source, config.output
-    tel = load_source(fmt, source, **config.options)
+    tel = load_source(fmt, source, keep_invalid=config.drop_invalid_rows, **config.options)
+    dropped = _drop_invalid_rows(tel, source) if config.drop_invalid_rows else None
     tel.gaps = find_imu_gaps(tel.time_s, tel.accel_time_s, declared=True)  # written to /imu/gaps
     report = None
     # write and validate the temporary file: a file the reader or the units check refuses never reaches OUT
@@ -240,8 +256,32 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         segments=len(imu_gaps) + 1,
         reference_rows=0 if back.reference is None else int(back.reference.time_s.shape[0]),
         reference_gaps=len(ref_gaps), accel_time=back.accel_time_s is not None, site=back.site is not None,
-        units_check=None if report is None else report.as_dict(),
+        units_check=None if report is None else report.as_dict(), dropped_rows=dropped,
     )
+
+
+def _drop_invalid_rows(tel, source) -> dict | None:
+    """Remove, in place, the IMU rows whose time, gyro-like or accel-like samples are not finite or lie
+    beyond the telemetry schema's physical limits; the holes become gaps (declared when written).
+    Returns what was dropped, or None when every row was valid."""
+    schema = load_schema(TELEMETRY_SCHEMA)
+    bad = np.zeros(tel.n_samples, dtype=bool)
+    for name, data in _datasets(tel):
+        if name.startswith("/imu"):
+            bad |= invalid_rows(schema, name, data).any(axis=1)
+    if not bad.any():
+        return None
+    first = int(np.flatnonzero(bad)[0])
+    keep = ~bad
+    if keep.sum() < 2:
+        raise SourceError(source, f"every IMU row but {int(keep.sum())} is invalid (NaN, inf or "
+                                                "beyond the physical limits); nothing is left to import")
+    for field_name in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s"):
+        data = getattr(tel, field_name)
+        if data is not None:
+            setattr(tel, field_name, data[keep])
+    # rows before the first dropped one are all kept: the kept row before the hole is at first - 1
+    return {"rows": int(bad.sum()), "first_row": first, "after_time_s": float(tel.time_s[max(0, first - 1)])}
 
 
 def _datasets(tel):

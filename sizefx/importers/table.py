@@ -382,8 +382,11 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
          reference_file=None, reference_time: str | None = None, reference_time_units: str | None = None,
          reference_quaternion=None, reference_euler=None, reference_euler_units: str = "deg",
          reference_velocity=None, reference_position=None, reference_position_units: str = "deg",
-         reference_frame: str = "ned") -> Telemetry:
+         reference_frame: str = "ned", keep_invalid: bool = False) -> Telemetry:
     """A CSV record (and its reference) as :class:`~sizefx.io.telemetry.Telemetry` in SI, body FRD, NED.
+
+    ``keep_invalid``: keep IMU cells holding NaN or inf (for a caller that drops those rows,
+    ``sizefx import --drop-invalid-rows``) instead of refusing the file at the first.
 
     Column arguments are tuples of header names; see the module docstring for
     the rules and :func:`sizefx.importers.run_import` for writing the result.
@@ -428,7 +431,7 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
     if data.shape[0] < 2:
         raise SourceError(path, f"has {data.shape[0]} data rows; at least 2 are needed")
     bad = ~np.isfinite(data)
-    if bad.any():
+    if bad.any() and not keep_invalid:
         row, col = (int(v) for v in np.argwhere(bad)[0])
         raise SourceError(path, f"column '{wanted[col]}' ({option_of[wanted[col]]}) holds NaN/Inf on line "
                                 f"{table.line_number(row)}; IMU samples must be finite (cut the record there)")

@@ -36,7 +36,7 @@ MAX_ACCEL_TIME_OFFSET_PERIODS = 10
 MAX_CHUNK_BYTES = 64 * 2**20
 
 __all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs",
-           "limit_problem"]
+           "invalid_rows", "limit_problem"]
 
 
 def attr_value(value):
@@ -58,25 +58,44 @@ def attr_str(value) -> str:
     return str(value)
 
 
-def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0) -> str | None:
-    """What is wrong with the rows ``data`` (SI; rows ``first_row ...``) of dataset ``name`` against the
-    schema's ``sample_limits`` (one bound for all columns, or one per column, symmetric or
-    [low, high]); None when every sample is within them."""
+def _bounds(schema: dict, name: str, columns: int):
+    """Per column (low, high) of dataset ``name`` from the schema's ``sample_limits`` (one bound for
+    all columns, or one per column, symmetric or [low, high]); None without a limit."""
     limit = schema["sample_limits"].get(name)
-    if limit is None or data.size == 0:
+    if limit is None:
         return None
-    per_column = limit if isinstance(limit, list) else [limit] * (data.shape[1] if data.ndim > 1 else 1)
-    low = np.array([b[0] if isinstance(b, list) else -b for b in per_column])
-    high = np.array([b[1] if isinstance(b, list) else b for b in per_column])
+    per_column = limit if isinstance(limit, list) else [limit] * columns
+    return (np.array([b[0] if isinstance(b, list) else -b for b in per_column]),
+            np.array([b[1] if isinstance(b, list) else b for b in per_column]))
+
+
+def invalid_rows(schema: dict, name: str, data: np.ndarray) -> np.ndarray:
+    """[rows, columns] bool: samples of dataset ``name`` (SI) that are not finite or lie beyond the
+    schema's ``sample_limits``."""
     values = data.reshape(data.shape[0], -1)
-    bad = (values < low) | (values > high)
+    bad = ~np.isfinite(values)
+    bounds = _bounds(schema, name, values.shape[1])
+    if bounds is not None:
+        with np.errstate(invalid="ignore"):
+            bad |= (values < bounds[0]) | (values > bounds[1])
+    return bad
+
+
+def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0) -> str | None:
+    """What is wrong with the rows ``data`` (SI, finite; rows ``first_row ...``) of dataset ``name``
+    against the schema's ``sample_limits``; None when every sample is within them."""
+    if data.size == 0 or _bounds(schema, name, 1) is None:
+        return None
+    values = data.reshape(data.shape[0], -1)
+    bad = invalid_rows(schema, name, values)
     if not bad.any():
         return None
+    low, high = _bounds(schema, name, values.shape[1])
     row, col = (int(v) for v in np.argwhere(bad)[0])
     column = f", column {col}" if values.shape[1] > 1 else ""
     return (f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
             f"physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} rows in this read); check "
-            "the units attribute, or remove or interpolate those samples")
+            "the units attribute, or remove or interpolate those samples (sizefx import --drop-invalid-rows)")
 
 
 class ContractReader:

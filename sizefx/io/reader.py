@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..constants import GAP_FACTOR
+from ..constants import GAP_FACTOR, MAX_WHOLE_READ_ROWS
 from .contract import (ContractReader, check_magnitudes, open_hdf5, open_structure, side_groups,
                        site_from_attrs)
 from .gaps import NOMINAL_ROWS, choose_segment, segment_bounds
@@ -18,11 +18,6 @@ __all__ = ["read_telemetry", "TelemetryStream", "ReferenceStream", "SCAN_ROWS", 
 
 #: Rows read at a time when a stream scans /imu/time for gaps at open (8 MiB of float64).
 SCAN_ROWS = 1 << 20
-#: Most IMU (and reference) rows a whole read loads: 12 M rows hold the paper's 1.8 h flight at
-#: 1600 Hz (10.4 M) and take about 0.8 GB as SI arrays; a file declaring more (or a decompression
-#: bomb of that size) is refused before anything is read. Streamed commands (navigate) have no
-#: such limit: their memory does not grow with the record.
-MAX_WHOLE_READ_ROWS = 12_000_000
 WHOLE_READ_WHY = ("commands that load the whole record (inspect, calibrate, compensate, diagnose, compare) take at "
                   "most {limit} rows (2 h at 1600 Hz): cut the record, or use sizefx navigate, which streams")
 
