@@ -36,7 +36,7 @@ MAX_ACCEL_TIME_OFFSET_PERIODS = 10
 MAX_CHUNK_BYTES = 64 * 2**20
 
 __all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs",
-           "invalid_rows", "limit_problem"]
+           "invalid_rows", "limit_problem", "storage_problem"]
 
 
 def attr_value(value):
@@ -56,6 +56,23 @@ def attr_str(value) -> str:
     if isinstance(value, np.ndarray) and value.shape == ():
         return attr_str(value[()])
     return str(value)
+
+
+def storage_problem(dset: h5py.Dataset) -> str | None:
+    """What makes a dataset unsafe to read, found before reading it: rows declared but never stored
+    (a sparse chunked dataset reads back as fill values and, read whole, allocates its declared
+    size), or chunks so large that reading one row decompresses more than :data:`MAX_CHUNK_BYTES`.
+    None when it is safe."""
+    if dset.size and dset.id.get_storage_size() == 0:
+        return (f"declares shape {dset.shape} but stores no data (never written); the file is incomplete: write the "
+                "samples, or re-import the source")
+    if dset.chunks is not None:
+        chunk_bytes = int(np.prod(dset.chunks, dtype=np.int64)) * dset.dtype.itemsize
+        if chunk_bytes > MAX_CHUNK_BYTES:
+            return (f"is stored in chunks of {chunk_bytes / 2**20:.0f} MiB (chunk shape {dset.chunks}); at most "
+                    f"{MAX_CHUNK_BYTES // 2**20} MiB can be read at a time (rewrite it with h5py chunks=True, or with "
+                    "sizefx import)")
+    return None
 
 
 def _bounds(schema: dict, name: str, columns: int):
@@ -274,18 +291,10 @@ class ContractReader:
         return dset, factor
 
     def check_storage(self, name: str, dset: h5py.Dataset):
-        """Before any read: a dataset that declares rows it never stored (a sparse chunked dataset reads
-        back as fill values and, read whole, allocates its declared size) or whose chunks are so large
-        that reading one row decompresses more than :data:`MAX_CHUNK_BYTES`."""
-        if dset.size and dset.id.get_storage_size() == 0:
-            self.fail(name, f"declares shape {dset.shape} but stores no data (never written); the file is "
-                            "incomplete: write the samples, or re-import the source")
-        if dset.chunks is not None:
-            chunk_bytes = int(np.prod(dset.chunks, dtype=np.int64)) * dset.dtype.itemsize
-            if chunk_bytes > MAX_CHUNK_BYTES:
-                self.fail(name, f"is stored in chunks of {chunk_bytes / 2**20:.0f} MiB (chunk shape {dset.chunks}); "
-                                f"at most {MAX_CHUNK_BYTES // 2**20} MiB can be read at a time (rewrite it with "
-                                "h5py chunks=True, or with sizefx import)")
+        """Before any read: :func:`storage_problem`."""
+        problem = storage_problem(dset)
+        if problem:
+            self.fail(name, problem)
 
     def check_rows(self, name: str, limit: int, why: str):
         """Before a whole read: the dataset's declared rows within ``limit`` (bounded memory); ``why``

@@ -95,16 +95,16 @@ def _umask() -> int:
 MIN_OUTPUT_BYTES = 1 << 20
 
 
-def check_room(out: Path, n_bytes: int) -> None:
-    """Refuse, before any work, an output of about ``n_bytes`` that the file-size limit (``ulimit -f``)
-    or the free space of its disk cannot hold. HDF5 cannot recover from a write that fails half way
-    (it may crash closing the file), so the check comes first; a write that still fails is caught
-    by :func:`atomic_output`."""
+def check_room(out: Path, n_bytes: int, *, already: int = 0) -> None:
+    """Refuse, before any work, an output of about ``n_bytes`` more (``already`` written) that the
+    file-size limit (``ulimit -f``) or the free space of its disk cannot hold. HDF5 cannot recover
+    from a write that fails half way (it may crash closing the file), so the check comes first; a
+    write that still fails is caught by :func:`atomic_output`."""
     need = max(int(n_bytes), MIN_OUTPUT_BYTES)
     soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
-    if soft != resource.RLIM_INFINITY and need > soft:
-        raise OutputError(f"{out}: needs about {need / 2**20:.1f} MiB, but the file-size limit (ulimit -f) is "
-                          f"{soft / 2**20:.1f} MiB; raise the limit or write a shorter record")
+    if soft != resource.RLIM_INFINITY and already + need > soft:
+        raise OutputError(f"{out}: needs about {(already + need) / 2**20:.1f} MiB, but the file-size limit "
+                          f"(ulimit -f) is {soft / 2**20:.1f} MiB; raise the limit or write a shorter record")
     parent = out.parent if str(out.parent) else Path(".")
     try:
         st = os.statvfs(parent)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,11 +22,11 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from ..constants import QUATERNION_NORM_TOLERANCE
+from ..constants import MAX_WHOLE_READ_ROWS, QUATERNION_NORM_TOLERANCE
 from ..errors import TelemetryError
 from ..rotation import mat_to_euler, quat_to_mat
-from .contract import attr_str, open_hdf5
-from .files import atomic_output
+from .contract import attr_str, open_hdf5, storage_problem
+from .files import atomic_output, check_room
 from .schema import load_schema, normalise_units, unit_factor
 
 __all__ = ["NAVIGATION_SCHEMA", "Solution", "read_navigation", "read_navigation_datasets", "write_navigation",
@@ -91,6 +92,11 @@ def _dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
                                          "all datasets share the time axis")
     if dset.dtype.kind not in "fiu":
         raise TelemetryError(path, name, f"has dtype {dset.dtype}; expected numbers (float64)")
+    problem = storage_problem(dset)
+    if problem is None and dset.shape[0] > MAX_WHOLE_READ_ROWS:
+        problem = f"holds {dset.shape[0]} rows; a solution is read whole, at most {MAX_WHOLE_READ_ROWS} rows"
+    if problem:
+        raise TelemetryError(path, name, problem)
     # The navigation contract allows its own units only (an absent attribute means them); the
     # telemetry contract's units table converts them to SI.
     units = dset.attrs.get("units")
@@ -167,8 +173,9 @@ class NavigationWriter:
     """
 
     def __init__(self, path, *, input_file, force: bool = False):
+        self.path = Path(path)
         self._ctx = atomic_output(path, inputs=[input_file], force=force)
-        tmp = self._ctx.__enter__()
+        tmp = self._tmp = self._ctx.__enter__()
         try:
             self.h5 = h5py.File(tmp, "w")
             self.h5.attrs["schema"] = NAVIGATION_SCHEMA
@@ -196,6 +203,10 @@ class NavigationWriter:
                  "velocity": v_n, "quaternion": quat_nb,
                  "euler": np.column_stack([np.degrees(roll), np.degrees(pitch), np.degrees(heading) % 360.0])}
         n0, n1 = self.rows, self.rows + len(time_s)
+        # room for the block (and 1 MiB of metadata at close) before HDF5 writes a byte of it: a write
+        # HDF5 sees fail leaves the file in a state it may crash closing
+        check_room(self.path, sum(np.asarray(d).nbytes for d in block.values()) + (1 << 20),
+                   already=os.path.getsize(self._tmp))
         for name, data in block.items():
             dset = self._sets[name]
             dset.resize(n1, axis=0)
