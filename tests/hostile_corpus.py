@@ -293,6 +293,8 @@ HDF5_BREAKERS = {
     "gyro-all-1e300": (_set("imu/gyro", lambda a: np.full_like(a, 1e300)), REFUSE, REFUSE),
     "quaternion-nan": (_poke("reference/quaternion", (5, 0), np.nan), REFUSE, REFUSE),
     "quaternion-zero": (_poke("reference/quaternion", 5, 0.0), REFUSE, REFUSE),
+    # hypothesis found it: a 1e288 component is refused, after numpy's overflow warnings on stderr
+    "quaternion-1e300": (_poke("reference/quaternion", (5, 1), 1e300), REFUSE, REFUSE),
     "reference-velocity-1e30": (_ref_velocity(1e30), REFUSE, REFUSE),
     "reference-velocity-nan": (_ref_velocity(np.nan), REFUSE, REFUSE),
     "reference-position-lat-100": (_ref_position(100.0), REFUSE, REFUSE),

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 import hostile_corpus as hc
@@ -36,6 +36,9 @@ import hostile_corpus as hc
 #: Hypothesis examples per property: each is one forked run (~0.1-1 s), and the file must stay
 #: under a minute on two cores.
 EXAMPLES = 12
+#: No shrinking: each example is a forked sizefx run, and shrinking one failure took 106 s
+#: (measured); the failure message names the generated case, which is what a developer needs.
+PHASES = (Phase.explicit, Phase.reuse, Phase.generate)
 
 
 def _corpus_root(config) -> Path:
@@ -193,7 +196,8 @@ _VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
                     st.sampled_from([0.0, -0.0, 1e300, -1e300, 1e-300, 5e-324, 1e30, np.nan, np.inf, -np.inf]))
 
 
-@settings(max_examples=EXAMPLES, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES,
+          suppress_health_check=list(HealthCheck))
 @given(dataset=st.sampled_from(sorted(hc.MUTATION_TARGETS)), row=st.integers(0, 999), col=st.integers(0, 3),
        value=_VALUES, command=st.sampled_from(["inspect", "navigate"]))
 def test_mutated_record_keeps_promises(tmp_path_factory, dataset, row, col, value, command):
@@ -213,7 +217,8 @@ _OPTION_VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(re
                            st.sampled_from(["nan", "-nan", "+inf", "-Infinity", "1e309", "0", "-0", "1e-320"]))
 
 
-@settings(max_examples=EXAMPLES, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES,
+          suppress_health_check=list(HealthCheck))
 @given(option=st.sampled_from(hc.numeric_options()), value=_OPTION_VALUES)
 def test_numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
     """Any value for any numeric option (click introspection): non-finite values are refused
