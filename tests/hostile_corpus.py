@@ -403,7 +403,7 @@ CSV_BREAKERS = {
     "csv-missing-column": (lambda: _csv_text().replace("az", "zz", 1), REFUSE),
     "csv-header-only": (lambda: "t,gx,gy,gz,ax,ay,az\n", REFUSE),
     "csv-one-row": (lambda: _csv_text(n=1), REFUSE),
-    "csv-two-rows": (lambda: _csv_text(n=2), REFUSE),
+    "csv-two-rows": (lambda: _csv_text(n=2), ACCEPT_OR_REFUSE),  # as legal as samples-2-inspect
     "csv-empty": (lambda: "", REFUSE),
     "csv-nan": (lambda: _replace_cell(_csv_text(), 50, 4, "nan"), REFUSE),
     "csv-inf": (lambda: _replace_cell(_csv_text(), 50, 1, "inf"), REFUSE),
