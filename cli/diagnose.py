@@ -21,7 +21,7 @@ from .options import allow_gaps_option, force_option, segment_option, span
                    "spectra.png; existing ones are replaced only with --force).")
 @click.option("--model-out", type=click.Path(dir_okay=False),
               help="Where to write the extended model [default: MEASURED with .model.toml].")
-@click.option("--bandwidth-hz", type=span(0.0, 1e5, low_open=True),
+@click.option("--bandwidth-hz", type=span(0.01, 1e5),
               help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
                    "alike). Without it, the band is measured: where the reference's own differentiated noise "
                    "(motion capture) overtakes the IMU's, or the full band for a table's or simulation's "

@@ -9,6 +9,13 @@ from sizefx.constants import MAX_WHOLE_READ_ROWS
 from .options import Progress, allow_gaps_option, force_option, quiet_option, segment_option, span
 
 
+def _every_or_rate(ctx, param, value):
+    """0 (every navigation interval) or a rate of at least 0.001 Hz (a row every 17 minutes)."""
+    if 0.0 < value < 1e-3:
+        raise click.BadParameter(f"{value:g} Hz is below 0.001 Hz; give 0 for every interval, or 0.001 to 100000 Hz")
+    return value
+
+
 @click.command()
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
@@ -25,7 +32,7 @@ from .options import Progress, allow_gaps_option, force_option, quiet_option, se
 @click.option("--vertical", type=click.Choice(["auto", "held", "reference", "free"]), default="auto",
               show_default=True, help="Vertical channel: held at the known height, replaced by the reference "
                                       "height, or free (auto: held at rest, reference when moving).")
-@click.option("--output-rate-hz", default=10.0, show_default=True, type=span(0.0, 1e5),
+@click.option("--output-rate-hz", default=10.0, show_default=True, type=span(0.0, 1e5), callback=_every_or_rate,
               help="Rate of the written solution [Hz] (0: every navigation interval).")
 @click.option("--levers", type=click.Path(dir_okay=False),
               help="Compensate the size effect first with these lever arms (sizefx/levers/1).")

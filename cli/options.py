@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 import sys
-import tomllib
 
 import click
 
 from sizefx.errors import ConfigError
+from sizefx.io.documents import parse_toml
 
 
 class Span(click.FloatRange):
@@ -54,10 +54,11 @@ def parse_overrides(items) -> dict:
         if not sep or not dot:
             raise ConfigError(f"--set '{item}': write SECTION.KEY=VALUE, e.g. accel_delay.tau_s=0.0005")
         try:
-            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            raise ConfigError(f"--set '{item}': '{value}' is not a TOML value (numbers, true/false, "
-                              "\"text\", [1, 2, 3])") from None
+            parsed = parse_toml(f"v = {value.strip()}", f"--set {key.strip()}")["v"]
+        except ConfigError:
+            shown = value if len(value) <= 60 else value[:60] + "..."
+            raise ConfigError(f"--set '{key.strip()}={shown}': not a TOML value (numbers, true/false, "
+                              "\"text\", [1, 2, 3]) of reasonable size") from None
         out.setdefault(section, {})[name] = parsed
     return out
 

@@ -31,7 +31,7 @@ def common_options(f):
         click.option("--offset-mm", metavar="X,Y,Z",
                      help="Offset r from the rotation centre to the triad point, body axes [mm] "
                           "(sets lever_arm.r_vehicle_m)."),
-        click.option("--reference-rate-hz", type=span(0.0, 1e5, low_open=True),
+        click.option("--reference-rate-hz", type=span(1.0, 1e5),
                      help="Rate of /reference [Hz]; must divide the IMU rate [default: turntable the IMU rate; sway, flight 100]."),
         click.option("--latitude-deg", default=PAPER_AIRFIELD_DEG[0], show_default=True,
                      type=span(-89.5, 89.5), help="Site or start latitude [deg]."),
@@ -93,11 +93,11 @@ def simulate(ctx, print_effects):
               help="Duration of the rotations about each axis [s].")
 @click.option("--cycles", default=5, show_default=True, type=click.IntRange(1, 10000),
               help="Positive-and-negative rotation cycles per axis.")
-@click.option("--peak-rate-dps", default=20.0, show_default=True, type=span(0.0, 5000.0, low_open=True),
+@click.option("--peak-rate-dps", default=20.0, show_default=True, type=span(0.01, 5000.0),
               help="Peak table rate [deg/s].")
-@click.option("--accel-dps2", default=10.0, show_default=True, type=span(0.0, 1e5, low_open=True),
+@click.option("--accel-dps2", default=10.0, show_default=True, type=span(0.01, 1e5),
               help="Angular acceleration of the table [deg/s^2] (jerk-limited).")
-@click.option("--static-s", default=60.0, show_default=True, type=span(0.0, 86400.0), help="Static lead-in [s].")
+@click.option("--static-s", default=60.0, show_default=True, type=span(1.0, 86400.0), help="Static lead-in [s].")
 def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_s, **common):
     """The paper's turntable calibration plan: rotations about body Y, X, then Z, each vertical.
 
@@ -117,10 +117,10 @@ def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_
               help="Sway axis: heading (about the vertical), roll (body x) or pitch (body y).")
 @click.option("--amplitudes-dps", default="10,20,30", show_default=True,
               help="Rate amplitude A of each segment [deg/s]; rate = A sin(2 pi f t).")
-@click.option("--frequency-hz", default=1.0, show_default=True, type=span(0.0, 100.0, low_open=True),
+@click.option("--frequency-hz", default=1.0, show_default=True, type=span(0.01, 100.0),
               help="Sway frequency f [Hz].")
-@click.option("--static-s", default=600.0, show_default=True, type=span(0.0, 86400.0), help="Static lead-in [s].")
-@click.option("--segment-s", default=600.0, show_default=True, type=span(0.0, 86400.0, low_open=True),
+@click.option("--static-s", default=600.0, show_default=True, type=span(1.0, 86400.0), help="Static lead-in [s].")
+@click.option("--segment-s", default=600.0, show_default=True, type=span(1.0, 86400.0),
               help="Duration of each amplitude [s].")
 def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
     """The paper's sway test: static, then harmonic sway at each amplitude in turn."""
@@ -142,13 +142,13 @@ def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
 @common_options
 @click.option("--duration-h", default=1.8, show_default=True, type=span(0.05, 24.0),
               help="Flight record length [h].")
-@click.option("--align-s", default=600.0, show_default=True, type=span(0.0, 86400.0),
+@click.option("--align-s", default=600.0, show_default=True, type=span(1.0, 86400.0),
               help="Static alignment before take-off [s].")
-@click.option("--speed-mps", default=40.0, show_default=True, type=span(0.0, 1000.0), help="Cruise ground speed [m/s].")
+@click.option("--speed-mps", default=40.0, show_default=True, type=span(1.0, 1000.0), help="Cruise ground speed [m/s].")
 @click.option("--altitude-m", default=300.0, show_default=True, type=span(0.0, 20000.0),
               help="Cruise height above the start [m].")
 @click.option("--heading-deg", default=45.0, show_default=True, type=span(-360.0, 360.0), help="Outbound track [deg].")
-@click.option("--rotor-hz", default=8.0, show_default=True, type=span(0.0, 200.0),
+@click.option("--rotor-hz", default=8.0, show_default=True, type=span(1.0, 200.0),
               help="Main rotor rate [Hz]; vibration at 1, 2 and 4 times it.")
 def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **common):
     """A helicopter flight from the paper's airfield: align, take off, out, turn, back, land."""

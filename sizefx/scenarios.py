@@ -94,8 +94,10 @@ class TurntablePlan:
         spin = max(self.peak_rate_dps / self.accel_dps2, self.ramp_s) + self.ramp_s
         cruise = half - 2 * spin - 2 * self.dwell_s
         if cruise <= 0:
-            raise ConfigError(f"turntable: {self.cycles} cycles in {self.seconds_per_axis} s leave no time at "
-                              f"{self.peak_rate_dps} deg/s; allow more seconds per axis or fewer cycles")
+            raise ConfigError(f"turntable: {self.cycles} cycles (--cycles) in {self.seconds_per_axis} s "
+                              f"(--seconds-per-axis) leave no time at {self.peak_rate_dps} deg/s (--peak-rate-dps) "
+                              f"reached at {self.accel_dps2} deg/s^2 (--accel-dps2); allow more seconds per axis, "
+                              "fewer cycles, a lower rate or a higher acceleration")
         return half, cruise
 
 
@@ -164,13 +166,13 @@ class SwayPlan:
 
     def check(self):
         if not (self.frequency_hz > 0 and self.static_s > 0 and self.segment_s > 0):
-            raise ConfigError("sway: frequency, static and segment durations must be positive")
+            raise ConfigError("sway: --frequency-hz, --static-s and --segment-s must be positive")
         if self.axis not in ("heading", "roll", "pitch"):
             raise ConfigError(f"sway axis '{self.axis}': use heading, roll or pitch")
         cycles = self.segment_s * self.frequency_hz
         if abs(cycles - round(cycles)) > 1e-9 or cycles < 1:
-            raise ConfigError(f"sway: {self.segment_s} s at {self.frequency_hz} Hz is not a whole number of "
-                              "periods; choose durations that are")
+            raise ConfigError(f"sway: {self.segment_s} s (--segment-s) at {self.frequency_hz} Hz (--frequency-hz) "
+                              "is not a whole number of periods; choose a segment that is")
 
 
 def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:

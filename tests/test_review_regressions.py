@@ -49,7 +49,7 @@ def test_a_rejected_import_leaves_no_output(tmp_path):
 @pytest.mark.parametrize("args,words", [
     (["simulate", "turntable", "--reference-rate-hz", "7"], "must divide the IMU rate"),
     (["simulate", "sway", "--amplitudes-dps", "10,x"], "not a list of numbers"),
-    (["simulate", "turntable", "--static-s", "0"], "static_s = 0.0 must be positive"),
+    (["simulate", "turntable", "--static-s", "0"], "'--static-s': 0.0 is not in the range 1.0<=x"),
     (["simulate", "turntable", "--accel-dps2", "0"], "'--accel-dps2': 0.0 is not in the range 0.0<x"),
     (["simulate", "turntable", "--accel-dps2", "nan"], "'nan' is not a finite number"),
 ])

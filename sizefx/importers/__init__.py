@@ -238,7 +238,8 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
                                       f"{exc.problem}") from None
         if config.check_units:
             declared, where, fix = _units_context(fmt, back)
-            report = units_of(back, declared=declared)
+            with np.errstate(over="ignore", invalid="ignore"):  # a 1e300 sample: refused by the limits below
+                report = units_of(back, declared=declared)
             refuse_wrong_units(report, source, where=where, fix=fix)
         # then what no unit explains: samples beyond the physical limits (the reader's, here after the units)
         for name, data in _datasets(back):

@@ -159,7 +159,14 @@ class ContractReader:
                     self.fail(full, f"is an HDF5 external link to {link.filename}:{link.path}; "
                                     "telemetry files must be self-contained (copy the data in with h5copy or h5py)")
                 if isinstance(link, h5py.SoftLink):
-                    continue  # resolved by name lookups inside this file; not followed here (no cycles)
+                    # not followed (its target is visited under its own name); but one that loops
+                    # (a -> b -> a) is refused here, once, rather than where a dataset is looked up
+                    try:
+                        group.get(name)
+                    except (RuntimeError, KeyError, OSError):
+                        self.fail(full, f"is a soft link to {link.path} that cannot be resolved (links that point "
+                                        "at each other); store the dataset itself")
+                    continue
                 try:
                     obj = group[name]
                 except (KeyError, OSError, RuntimeError) as exc:
@@ -252,11 +259,15 @@ class ContractReader:
         """``(h5py dataset, SI factor)`` of a dataset listed in the schema, its structure, dtype and units
         checked; None if absent and optional. The values are read by :meth:`rows`."""
         spec = self.schema["datasets"][name]
-        if name not in self.h5:
+        try:
+            present = name in self.h5
+            dset = self.h5[name] if present else None
+        except (RuntimeError, KeyError, OSError) as exc:  # a link chain that loops, a damaged object header
+            self.fail(name, f"cannot be opened ({exc}); store the dataset itself, not links to it")
+        if not present:
             if required:
                 self.fail(name, "dataset is missing")
             return None
-        dset = self.h5[name]
         if not isinstance(dset, h5py.Dataset):
             self.fail(name, f"is a {type(dset).__name__}, expected a dataset")
         shape = spec["shape"]

@@ -13,29 +13,34 @@ from pathlib import Path
 
 from ..errors import ConfigError
 
-__all__ = ["MAX_DOCUMENT_BYTES", "read_json", "read_toml"]
+__all__ = ["MAX_DOCUMENT_BYTES", "MAX_TOML_BYTES", "parse_toml", "read_json", "read_toml"]
 
-#: Largest TOML or JSON document read: an effect model or a levers file is a few kB, a diagnosis
-#: report with its selection log some 100 kB; anything near this is not one of ours.
+#: Largest JSON document read: a levers file is a few kB, a diagnosis report with its selection log
+#: some 100 kB; anything near this is not one of ours.
 MAX_DOCUMENT_BYTES = 16 * 2**20
+#: Largest TOML document and longest TOML line: an effect model is about 2 kB in lines under 200
+#: characters. The standard library's parser is quadratic in a dotted key's parts (16 000 parts
+#: took 0.7 s, 100 000 about 27 s), so a long line is refused before parsing.
+MAX_TOML_BYTES = 2**20
+MAX_TOML_LINE_CHARS = 10_000
 
 
-def _text(path: Path, what: str) -> str:
+def _text(path: Path, what: str, limit: int = MAX_DOCUMENT_BYTES) -> str:
     try:
         size = os.stat(path).st_size
-        if size > MAX_DOCUMENT_BYTES:
-            raise ConfigError(f"{path}: {what} of {size / 2**20:.1f} MiB; at most {MAX_DOCUMENT_BYTES // 2**20} MiB "
-                              "is read (is it the right file?)")
+        if size > limit:
+            raise ConfigError(f"{path}: {what} of {size / 2**20:.2f} MiB; at most {limit / 2**20:g} MiB is read (is "
+                              "it the right file?)")
         with open(path, "rb") as fh:
-            raw = fh.read(MAX_DOCUMENT_BYTES + 1)  # a file that grows while read is cut, not followed
+            raw = fh.read(limit + 1)  # a file that grows while read (a FIFO, /dev/zero) is cut, not followed
     except FileNotFoundError:
         raise ConfigError(f"{path}: {what} does not exist; check the path") from None
     except IsADirectoryError:
         raise ConfigError(f"{path}: is a directory; give a {what}") from None
     except OSError as exc:
         raise ConfigError(f"{path}: {what} cannot be read ({exc.strerror or exc})") from None
-    if len(raw) > MAX_DOCUMENT_BYTES:
-        raise ConfigError(f"{path}: {what} over {MAX_DOCUMENT_BYTES // 2**20} MiB; is it the right file?")
+    if len(raw) > limit:
+        raise ConfigError(f"{path}: {what} over {limit / 2**20:g} MiB; is it the right file?")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -45,13 +50,25 @@ def _text(path: Path, what: str) -> str:
 def read_toml(path, what: str = "TOML file") -> dict:
     """The TOML document in ``path`` (``tomllib``), or a one-line ConfigError."""
     path = Path(path)
-    text = _text(path, what)
+    text = _text(path, what, MAX_TOML_BYTES)
+    return parse_toml(text, f"{path}: {what}")
+
+
+def parse_toml(text: str, where: str) -> dict:
+    """TOML ``text`` (a file's, or a ``--set`` value's) parsed with the bounds of :func:`read_toml`;
+    ``where`` starts each error."""
+    for number, line in enumerate(text.splitlines(), 1):
+        if len(line) > MAX_TOML_LINE_CHARS:
+            raise ConfigError(f"{where}: line {number} has {len(line)} characters; at most {MAX_TOML_LINE_CHARS} "
+                              "(is it the right file?)")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: {what} is not valid TOML ({exc})") from None
+        raise ConfigError(f"{where} is not valid TOML ({exc})") from None
     except RecursionError:
-        raise ConfigError(f"{path}: {what} nests arrays or tables too deeply to be one of ours") from None
+        raise ConfigError(f"{where} nests arrays or tables too deeply to be one of ours") from None
+    except ValueError as exc:  # an integer of more digits than Python converts (4300)
+        raise ConfigError(f"{where} holds a value Python cannot convert ({exc})") from None
 
 
 def read_json(path, what: str = "JSON file", **loads_options):
@@ -65,3 +82,8 @@ def read_json(path, what: str = "JSON file", **loads_options):
         raise ConfigError(f"{path}: {what} is not valid JSON ({exc})") from None
     except RecursionError:
         raise ConfigError(f"{path}: {what} nests arrays or objects too deeply to be one of ours") from None
+    except ValueError as exc:
+        if type(exc) is not ValueError:  # an option's own refusal (a parse_float that raises a subclass)
+            raise
+        # an integer of more digits than Python converts (4300)
+        raise ConfigError(f"{path}: {what} holds a value Python cannot convert ({exc})") from None
