@@ -50,7 +50,7 @@ def test_a_rejected_import_leaves_no_output(tmp_path):
     (["simulate", "turntable", "--reference-rate-hz", "7"], "must divide the IMU rate"),
     (["simulate", "sway", "--amplitudes-dps", "10,x"], "not a list of numbers"),
     (["simulate", "turntable", "--static-s", "0"], "'--static-s': 0.0 is not in the range 1.0<=x"),
-    (["simulate", "turntable", "--accel-dps2", "0"], "'--accel-dps2': 0.0 is not in the range 0.0<x"),
+    (["simulate", "turntable", "--accel-dps2", "0"], "'--accel-dps2': 0.0 is not in the range 0.01<=x"),
     (["simulate", "turntable", "--accel-dps2", "nan"], "'nan' is not a finite number"),
 ])
 def test_bad_simulate_options_are_one_line(tmp_path, args, words):
