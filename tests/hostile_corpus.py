@@ -260,7 +260,24 @@ def _strings(name):
     return mutate
 
 
+def _simulation_truth(text):
+    """A /simulation group whose truth_json attribute is ``text`` (the reader parses it)."""
+    def mutate(h5):
+        g = h5.create_group("simulation")
+        g.attrs["truth_json"] = text
+    return mutate
+
+
+#: Depth of the nested truth_json: past Python's recursion limit (1000), inside an HDF5 attribute
+#: (40 kB; compact attributes are limited to 64 kB).
+DEEP_ATTRIBUTE_JSON = 20_000
+
+
 HDF5_BREAKERS = {
+    # JSON inside an attribute: parsed by the reader, so bounded like a JSON file
+    "simulation-truth-deep": (_simulation_truth("[" * DEEP_ATTRIBUTE_JSON + "]" * DEEP_ATTRIBUTE_JSON), REFUSE,
+                              REFUSE),
+    "simulation-truth-huge-int": (_simulation_truth('{"seed": 1' + "0" * 5000 + "}"), REFUSE, REFUSE),
     # links and structure
     "soft-link-cycle-gyro": (_soft_cycle_gyro, REFUSE, REFUSE),
     "soft-link-cycle-extra": (_soft_cycle_extra, ACCEPT_OR_REFUSE, ACCEPT_OR_REFUSE),

@@ -540,6 +540,9 @@ def side_groups(r, h5, reference: bool = True):
             simulation = json.loads(attr_str(sim_attrs["truth_json"]))
         except json.JSONDecodeError as exc:
             r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
+        except (RecursionError, ValueError) as exc:  # nesting past the parser, a 5000-digit integer
+            r.fail("/simulation", f"attribute truth_json cannot be read ({type(exc).__name__}); it is not one "
+                                  "sizefx simulate wrote")
     return reference, source, simulation
 
 
