@@ -268,6 +268,9 @@ def _simulation_truth(text):
     return mutate
 
 
+#: Rows of the many-gaps case: a gap after every third sample gives 110 000 gaps, above the
+#: reader's 100 000.
+MANY_GAPS_ROWS = 330_000
 #: Depth of the nested truth_json: past Python's recursion limit (1000), inside an HDF5 attribute
 #: (40 kB; compact attributes are limited to 64 kB).
 DEEP_ATTRIBUTE_JSON = 20_000
@@ -750,6 +753,16 @@ def _hdf5_cases(f):
                 kept.append(other)
                 argv, expect = ("compare", str(rec), str(other), "--json", str(d / "cmp.json")), REFUSE
             out.append(Case(name, argv, d, tuple(kept), expect, (str(rec),)))
+    # a gap after every third sample: more gaps than any record can have (sizefx.io.contract.MAX_GAPS),
+    # refused even with --allow-gaps, before a list of 100 000 gaps is built and reported
+    for command in ("inspect", "navigate"):
+        name = f"many-gaps-allowed-{command}"
+        d = f.new(name)
+        steps = np.tile([1.0, 1.0, 3.0], MANY_GAPS_ROWS // 3) / RATE_HZ  # median step 1 period: 3 is a gap
+        rec = write_raw(d / "rec.h5", n=MANY_GAPS_ROWS, reference=False,
+                        mutate=_replace("imu/time", np.concatenate([[0.0], np.cumsum(steps)[:-1]])))
+        argv = ("inspect", str(rec)) if command == "inspect" else _nav(rec, d)
+        out.append(Case(name, argv + ("--allow-gaps",), d, (rec,), REFUSE, (str(rec),)))
     for n in range(1, 6):
         for command in ("inspect", "navigate"):
             name = f"samples-{n}-{command}"

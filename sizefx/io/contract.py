@@ -31,6 +31,9 @@ MAX_OBJECTS = 10_000
 #: Largest offset of /imu/accel_time from /imu/time, in nominal sample periods: a sensor's own
 #: sampling offset and filter delay are a few periods at most (1.3 ms = 0.4 period on BROAD).
 MAX_ACCEL_TIME_OFFSET_PERIODS = 10
+#: Most gaps a time dataset may have: each is kept, listed and reported; a record with more dropouts
+#: than this is not one recording that can be navigated (or its time axis is in other units).
+MAX_GAPS = 100_000
 #: Largest HDF5 chunk read at once: one row of a dataset costs its whole chunk, decompressed.
 #: sizefx writes 1.5 MiB chunks; h5py's automatic chunking stays under 1 MiB.
 MAX_CHUNK_BYTES = 64 * 2**20
@@ -125,6 +128,7 @@ class ContractReader:
         self.allow_gaps = allow_gaps
         self.check_plausibility = check_plausibility
         self.limits = True  #: check each sample against the schema's sample_limits (:meth:`check_limits`)
+        self.n_gaps: dict[str, int] = {}  #: gaps found so far per time dataset (bounded by MAX_GAPS)
         self.sizes: dict[str, int] = {}
         self.units: dict[str, str] = {}
         self.dtypes: dict[str, str] = {}
@@ -343,7 +347,13 @@ class ContractReader:
                 self.fail(name, f"median time step is {own:g} s ({1.0 / own:g} Hz), outside "
                                 f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
             nominal = own if nominal is None else nominal
-        gaps = [Gap(name, int(k) + first_row, float(t[k - 1]), float(t[k] - t[k - 1])) for k in gap_rows(t, nominal)]
+        rows = gap_rows(t, nominal)
+        self.n_gaps[name] = self.n_gaps.get(name, 0) + rows.size
+        if self.n_gaps[name] > MAX_GAPS:
+            self.fail(name, f"has more than {MAX_GAPS} gaps longer than {GAP_FACTOR} sample periods (the "
+                            f"{MAX_GAPS + 1}th at row {int(rows[MAX_GAPS - self.n_gaps[name]]) + first_row}); is "
+                            "the time axis in the units it declares, and the record one recording?")
+        gaps = [Gap(name, int(k) + first_row, float(t[k - 1]), float(t[k] - t[k - 1])) for k in rows]
         if spec["gaps"] == "report":
             self.gaps.extend(gaps)
         return nominal, gaps
