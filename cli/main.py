@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -45,6 +46,10 @@ class SizefxGroup(click.Group):
         except click.exceptions.Abort:  # Ctrl-C at a prompt, outside any command
             click.echo("sizefx: interrupted (SIGINT)", err=True)
             code = 128 + signal.SIGINT
+        except BrokenPipeError:  # `sizefx ... | head`: the reader left (Python's documented recipe: no
+            # second error when the interpreter flushes stdout at exit)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            code = 1
         if not standalone_mode:
             return code
         sys.exit(code if isinstance(code, int) else 0)

@@ -116,14 +116,18 @@ def check_room(out: Path, n_bytes: int, *, already: int = 0) -> None:
                           "free some space or write elsewhere")
 
 
+#: Largest process id Linux hands out (pid_max's ceiling): a longer number in a name is not a pid.
+MAX_PID = 4_194_304
+
+
 def _remove_stale_temporaries(out: Path) -> None:
     """Remove temporary files of earlier runs towards ``out`` whose process is gone (killed with
     SIGKILL, or a machine that lost power): the names carry the writer's process id."""
     parent = out.parent if str(out.parent) else Path(".")
     for tmp in parent.glob(f".{out.name}.*.tmp"):
         parts = tmp.name[len(out.name) + 2:].split(".")
-        if not parts or not parts[0].isdigit():
-            continue
+        if not parts or not parts[0].isdigit() or int(parts[0]) > MAX_PID:
+            continue  # another program's file, or a name from before the pid was written into it
         pid = int(parts[0])
         if pid == os.getpid():
             continue

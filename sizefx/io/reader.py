@@ -203,6 +203,7 @@ class TelemetryStream:
             n_all = int(self._handles[0][0].shape[0])
             head = r.rows("/imu/time", self._handles[0], slice(0, min(n_all, NOMINAL_ROWS + 1)))
             nominal, _ = r.check_time("/imu/time", head)  # >= 2 samples, a plausible rate
+            r.n_gaps.pop("/imu/time", None)  # the scan below counts the head's gaps again
             found = self._scan("/imu/time", self._handles[0], n_all, nominal)
             if self._accel_time is not None:
                 found += self._scan("/imu/accel_time", self._accel_time, n_all, nominal)
