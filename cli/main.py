@@ -10,21 +10,19 @@ import threading
 import click
 
 from sizefx import __version__
-from sizefx.errors import SizefxError
+from sizefx.errors import Interrupted, SizefxError
+from sizefx.io.files import INTERRUPTED, interrupt
 
 
-class Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that every ``finally`` and temporary-file cleanup runs."""
-
-
-def _terminate(signum, frame):
-    raise Terminated()
+#: What the command line says after a signal: the output promise (no unfinished output is left).
+SIGNAL_WORDS = {signal.SIGINT: "interrupted (SIGINT)", signal.SIGTERM: "terminated (SIGTERM)"}
 
 
 class SizefxGroup(click.Group):
     """Turns every user-facing error into one line on stderr and exit code 2 (no traceback); SIGINT
     and SIGTERM into one line and 130 / 143 (128 + the signal, as a shell reports them), after the
-    temporary outputs are removed (:func:`sizefx.io.files.atomic_output` cleans up on any exception)."""
+    temporary outputs are removed (:func:`sizefx.io.files.atomic_output` cleans up on any exception,
+    and publishes nothing once a signal has arrived)."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         """Click's own errors (a bad option value, an unknown option, a missing argument) as one line
@@ -55,23 +53,32 @@ class SizefxGroup(click.Group):
         sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
-        main_thread = threading.current_thread() is threading.main_thread()  # signals go to the main thread only
-        previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+        # signals go to the main thread only; its handlers raise Interrupted, and remember the signal
+        # for atomic_output in case Python swallows that exception (sizefx.io.files.INTERRUPTED)
+        handled = (signal.SIGINT, signal.SIGTERM) if threading.current_thread() is threading.main_thread() else ()
+        previous = {s: signal.signal(s, interrupt) for s in handled}
         try:
-            return super().invoke(ctx)
+            result = super().invoke(ctx)
         except SizefxError as exc:
             message = " ".join(str(exc).split())
             click.echo(f"sizefx: error: {message}", err=True)
             ctx.exit(exc.exit_code)
         except (KeyboardInterrupt, click.exceptions.Abort):
-            click.echo("sizefx: interrupted (SIGINT); unfinished outputs removed", err=True)
-            ctx.exit(128 + signal.SIGINT)
-        except Terminated:
-            click.echo("sizefx: terminated (SIGTERM); unfinished outputs removed", err=True)
-            ctx.exit(128 + signal.SIGTERM)
+            self._interrupted(ctx, signal.SIGINT)
+        except Interrupted as exc:
+            self._interrupted(ctx, exc.signum)
         finally:
-            if main_thread:
-                signal.signal(signal.SIGTERM, previous)
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+        if INTERRUPTED["signum"] is not None:  # arrived, but its exception was swallowed on the way
+            self._interrupted(ctx, INTERRUPTED["signum"])
+        return result
+
+    @staticmethod
+    def _interrupted(ctx, signum):
+        words = SIGNAL_WORDS.get(signum, f"stopped by signal {signum}")
+        click.echo(f"sizefx: {words}; unfinished outputs removed", err=True)
+        ctx.exit(128 + signum)
 
 
 @click.group(cls=SizefxGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})

@@ -14,6 +14,7 @@ __all__ = [
     "OutputError",
     "SourceError",
     "UnitsError",
+    "Interrupted",
 ]
 
 
@@ -78,3 +79,14 @@ class UnitsError(SizefxError):
         self.where = where
         self.problem = problem
         super().__init__(f"{self.path}: {where}: {problem}")
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM (``signum``) arrived: raised in the main thread so that every ``finally`` and
+    temporary-file clean-up runs; the command line exits with 128 + ``signum``. A BaseException,
+    as KeyboardInterrupt is: no ``except Exception`` may swallow it."""
+
+    def __init__(self, signum: int):
+        self.signum = int(signum)
+        super().__init__(f"signal {self.signum}")
+

@@ -16,9 +16,10 @@ import resource
 import tempfile
 from pathlib import Path
 
-from ..errors import OutputError
+from ..errors import Interrupted, OutputError
 
-__all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder", "check_room"]
+__all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder", "check_room", "interrupt",
+           "INTERRUPTED"]
 
 
 def _require_writable_parent(out: Path) -> None:
@@ -91,6 +92,20 @@ def _umask() -> int:
     return mask
 
 
+#: The signal that interrupted this process, once one has (:func:`interrupt`). Python may swallow the
+#: exception a signal handler raises (when it lands in a weakref callback or a ``__del__``, it is
+#: printed as "Exception ignored" and the program goes on), so :func:`atomic_output` also looks
+#: here before it publishes an output.
+INTERRUPTED = {"signum": None}
+
+
+def interrupt(signum: int, frame=None):
+    """A signal handler (the command line installs it for SIGINT and SIGTERM): remember the signal,
+    then raise :class:`~sizefx.errors.Interrupted`."""
+    INTERRUPTED["signum"] = signum
+    raise Interrupted(signum)
+
+
 #: Bytes every output is assumed to need at least (HDF5 metadata, a JSON report, a plot).
 MIN_OUTPUT_BYTES = 1 << 20
 
@@ -140,9 +155,12 @@ def _remove_stale_temporaries(out: Path) -> None:
             pass  # alive, under another user
 
 
+#: The errors of a write that ran out of room.
+NO_ROOM = (errno.EFBIG, errno.ENOSPC, errno.EDQUOT)
+
+
 def _write_failed(out: Path, exc: OSError) -> OutputError:
-    hint = (": a file-size limit (ulimit -f), a full disk or a quota"
-            if exc.errno in (errno.EFBIG, errno.ENOSPC, errno.EDQUOT) else "")
+    hint = ": a file-size limit (ulimit -f), a full disk or a quota" if exc.errno in NO_ROOM else ""
     return OutputError(f"{out}: cannot be written ({exc.strerror or exc}){hint}; nothing was written")
 
 
@@ -152,8 +170,9 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp",
 
     On any exception the temporary file is removed and ``path`` is untouched. ``expected_bytes``:
     about how large the output will be (:func:`check_room` refuses it first if it cannot fit). An
-    ``OSError`` while writing (a full disk, a file-size limit, permissions) becomes an
-    :class:`~sizefx.errors.OutputError` naming ``path``, never the temporary file.
+    ``OSError`` of a write that ran out of room (a full disk, a file-size limit, a quota), or of
+    the rename, becomes an :class:`~sizefx.errors.OutputError` naming ``path``, never the
+    temporary file; other errors raised in the ``with`` block (an input's) pass unchanged.
     """
     out = check_output_path(path, inputs=inputs, force=force)
     check_room(out, expected_bytes)
@@ -165,18 +184,33 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp",
         raise _write_failed(out, exc) from None
     os.close(fd)
     tmp_path = Path(tmp)
+
+    def discard():
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+
     try:
         yield tmp_path
+    except OSError as exc:
+        discard()
+        if exc.errno in NO_ROOM:  # the body's writes ran out of room; other errors (an input's) pass as they are
+            raise _write_failed(out, exc) from None
+        raise
+    except BaseException:
+        discard()
+        raise
+    if INTERRUPTED["signum"] is not None:  # a signal whose exception was swallowed: do not publish
+        discard()
+        raise Interrupted(INTERRUPTED["signum"])
+    try:
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
         # mkstemp creates 0600; an output gets the permissions any new file would (umask applied)
         os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, out)
     except OSError as exc:
-        with contextlib.suppress(FileNotFoundError):
-            tmp_path.unlink()
+        discard()
         raise _write_failed(out, exc) from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp_path.unlink()
+        discard()
         raise

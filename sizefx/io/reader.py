@@ -18,6 +18,7 @@ __all__ = ["read_telemetry", "TelemetryStream", "ReferenceStream", "SCAN_ROWS", 
 
 #: Rows read at a time when a stream scans /imu/time for gaps at open (8 MiB of float64).
 SCAN_ROWS = 1 << 20
+#: Why a whole read refuses a file over :data:`~sizefx.constants.MAX_WHOLE_READ_ROWS` (the message's tail).
 WHOLE_READ_WHY = ("commands that load the whole record (inspect, calibrate, compensate, diagnose, compare) take at "
                   "most {limit} rows (2 h at 1600 Hz): cut the record, or use sizefx navigate, which streams")
 
