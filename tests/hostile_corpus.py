@@ -245,6 +245,12 @@ def _accel_time(fn):
     return mutate
 
 
+def _time_is_group(h5):
+    """/imu/time a group where a dataset belongs (the whole reader sizes its read from it first)."""
+    del h5["imu/time"]
+    h5.create_group("imu/time")
+
+
 def _imu_is_dataset(h5):
     del h5["imu"]
     h5.create_dataset("imu", data=np.zeros((10, 3)))
@@ -289,6 +295,7 @@ HDF5_BREAKERS = {
     "external-link-gyro": (_external_link, REFUSE, REFUSE),
     "external-storage-gyro": (_external_storage, REFUSE, REFUSE),
     "imu-is-a-dataset": (_imu_is_dataset, REFUSE, REFUSE),
+    "imu-time-is-a-group": (_time_is_group, REFUSE, REFUSE),
     "schema-attr-missing": (_attr("/", "schema", _DELETE), REFUSE, REFUSE),
     "schema-attr-other": (_attr("/", "schema", "sizefx/telemetry/99"), REFUSE, REFUSE),
     # time axes

@@ -314,7 +314,10 @@ class ContractReader:
     def check_rows(self, name: str, limit: int, why: str):
         """Before a whole read: the dataset's declared rows within ``limit`` (bounded memory); ``why``
         may name ``{limit}``."""
-        rows = int(self.h5[name].shape[0]) if name in self.h5 and self.h5[name].ndim else 0
+        dset = self.h5.get(name)
+        if not isinstance(dset, h5py.Dataset) or dset.ndim == 0:
+            return  # absent, or not a dataset: handle() says so when the dataset is read
+        rows = int(dset.shape[0])
         if rows > limit:
             self.fail(name, f"holds {rows} rows; {why.format(limit=limit)}")
 
