@@ -1207,6 +1207,15 @@ def resource_cases(f, *, bomb_rows: int = BOMB_ROWS) -> list:
     out.append(Case("fifo-input-inspect", ("inspect", str(fifo)), d, (), REFUSE, (str(fifo),), resource=True))
     out.append(Case("dev-zero-input-inspect", ("inspect", "/dev/zero"), f.new("dev-zero-input-inspect"), (), REFUSE,
                     ("/dev/zero",), resource=True))
+    # a pipe or a device where a TOML model belongs: opening a FIFO blocks until a writer comes
+    d = f.new("fifo-model-simulate")
+    fifo = d / "model.toml"
+    os.mkfifo(fifo)
+    out.append(Case("fifo-model-simulate", ("simulate", "tumble", "-o", str(d / "t.h5"), "--effects", str(fifo)), d,
+                    (), REFUSE, (str(fifo),), resource=True))
+    d = f.new("dev-zero-model-simulate")
+    out.append(Case("dev-zero-model-simulate", ("simulate", "tumble", "-o", str(d / "t.h5"), "--effects", "/dev/zero"),
+                    d, (), REFUSE, ("/dev/zero",), resource=True))
     return out
 
 

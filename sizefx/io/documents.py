@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import tomllib
 from pathlib import Path
 
@@ -27,7 +28,12 @@ MAX_TOML_LINE_CHARS = 10_000
 
 def _text(path: Path, what: str, limit: int = MAX_DOCUMENT_BYTES) -> str:
     try:
-        size = os.stat(path).st_size
+        info = os.stat(path)
+        if stat.S_ISDIR(info.st_mode):
+            raise IsADirectoryError
+        if not stat.S_ISREG(info.st_mode):  # a FIFO would block the read until a writer came; /dev/zero never ends
+            raise ConfigError(f"{path}: {what} is not a regular file (a pipe or a device); give a file")
+        size = info.st_size
         if size > limit:
             raise ConfigError(f"{path}: {what} of {size / 2**20:.2f} MiB; at most {limit / 2**20:g} MiB is read (is "
                               "it the right file?)")
