@@ -161,21 +161,20 @@ def ulog(source, output, site_deg, force):
                site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None)
 
 
-def _remember_no_units_check(ctx, param, value):
-    ctx.meta[NO_UNITS_CHECK] = value
-
-
-def _remember_drop_invalid_rows(ctx, param, value):
-    ctx.meta[DROP_INVALID_ROWS] = value
+def _remember(key):
+    """A click callback that leaves a flag's value in the context's ``meta`` under ``key``."""
+    def callback(ctx, param, value):
+        ctx.meta[key] = value
+    return callback
 
 
 # Every importer takes --no-units-check and --drop-invalid-rows. They are added here, once, to each
 # command of the group (a new importer gets them too), and reach run_import through the context, so
 # the commands keep their own signatures.
 for _command in import_.commands.values():
-    click.option("--no-units-check", is_flag=True, expose_value=False, callback=_remember_no_units_check,
+    click.option("--no-units-check", is_flag=True, expose_value=False, callback=_remember(NO_UNITS_CHECK),
                  help=NO_UNITS_CHECK_HELP)(_command)
-    click.option("--drop-invalid-rows", is_flag=True, expose_value=False, callback=_remember_drop_invalid_rows,
+    click.option("--drop-invalid-rows", is_flag=True, expose_value=False, callback=_remember(DROP_INVALID_ROWS),
                  help="Drop IMU rows holding NaN, inf or values beyond the physical limits (docs/reliability.md) "
                       "instead of refusing the source; they become declared gaps, and the report counts them "
                       "and names the first.")(_command)

@@ -40,7 +40,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from support import RATE_HZ, write_raw
+from support import RATE_HZ, write_raw, write_root_attributes
 
 #: The command exits 2 (bad input or option), with one line.
 REFUSE = (2,)
@@ -780,6 +780,17 @@ def _hdf5_cases(f):
     return out
 
 
+def _reader_argv(f, command, rec, d):
+    """The command line of ``inspect``, ``navigate`` or ``compensate`` (with a levers file copied into
+    ``d``) on record ``rec``, and the extra inputs it reads: ``(argv, (levers,) or ())``."""
+    if command == "inspect":
+        return ("inspect", str(rec)), ()
+    if command == "navigate":
+        return _nav(rec, d), ()
+    lev = f.copy(d, "levers")
+    return ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5")), (lev,)
+
+
 def _file_kind_cases(f):
     """Files that are not HDF5 at all, or not files."""
     out = []
@@ -789,16 +800,8 @@ def _file_kind_cases(f):
             name = f"{kind}-{command}"
             d = f.new(name)
             rec = make(d)
-            kept = (rec,) if rec.is_file() else ()
-            if command == "inspect":
-                argv = ("inspect", str(rec))
-            elif command == "navigate":
-                argv = _nav(rec, d)
-            else:
-                lev = f.copy(d, "levers")
-                kept += (lev,)
-                argv = ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5"))
-            out.append(Case(name, argv, d, kept, REFUSE, (str(rec),)))
+            argv, extra = _reader_argv(f, command, rec, d)
+            out.append(Case(name, argv, d, ((rec,) if rec.is_file() else ()) + extra, REFUSE, (str(rec),)))
 
     def truncated(fraction):
         def make(d):
@@ -1115,10 +1118,7 @@ def write_gzip_bomb(path, rows: int = BOMB_ROWS):
     block3 = zlib.compress(bytes(chunk * 3 * 8), 9)
     block1 = zlib.compress(bytes(chunk * 8), 9)
     with h5py.File(path, "w") as h5:
-        h5.attrs["schema"] = "sizefx/telemetry/1"
-        h5.attrs["latitude_deg"] = 57.9825
-        h5.attrs["longitude_deg"] = 55.7089
-        h5.attrs["height_m"] = 120.0
+        write_root_attributes(h5)
         imu = h5.create_group("imu")
         t = imu.create_dataset("time", shape=(rows,), dtype="f8", chunks=(chunk,), compression="gzip")
         t.attrs["units"] = "s"
@@ -1136,10 +1136,7 @@ def write_huge_declared(path, rows: int = HUGE_DECLARED_ROWS):
     """A telemetry file declaring ``rows`` samples (240 GB at 10**10) of which none is written:
     chunked, resizable, only the fill value behind it."""
     with h5py.File(path, "w") as h5:
-        h5.attrs["schema"] = "sizefx/telemetry/1"
-        h5.attrs["latitude_deg"] = 57.9825
-        h5.attrs["longitude_deg"] = 55.7089
-        h5.attrs["height_m"] = 120.0
+        write_root_attributes(h5)
         imu = h5.create_group("imu")
         imu.create_dataset("time", shape=(rows,), maxshape=(None,), chunks=(1 << 16,), dtype="f8").attrs["units"] = "s"
         for name, units in (("gyro", "rad/s"), ("accel", "m/s^2")):
@@ -1185,16 +1182,8 @@ def resource_cases(f, *, bomb_rows: int = BOMB_ROWS) -> list:
             name = f"{kind}-{command}"
             d = f.new(name)
             rec = writer(d / "rec.h5")
-            kept = [rec]
-            if command == "inspect":
-                argv = ("inspect", str(rec))
-            elif command == "navigate":
-                argv = _nav(rec, d)
-            else:
-                lev = f.copy(d, "levers")
-                kept.append(lev)
-                argv = ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5"))
-            out.append(Case(name, argv, d, tuple(kept), REFUSE, (str(rec),), resource=True))
+            argv, extra = _reader_argv(f, command, rec, d)
+            out.append(Case(name, argv, d, (rec,) + extra, REFUSE, (str(rec),), resource=True))
     for name, args in HANG_CANDIDATES.items():
         d = f.new(name)
         argv = args[:2] + ("-o", str(d / "s.h5"), "-q") + args[2:]

@@ -14,6 +14,14 @@ RATE_HZ = 100.0
 N = 1000
 
 
+def write_root_attributes(h5):
+    """The contract's root attributes of a test record: the schema and the paper's airfield."""
+    h5.attrs["schema"] = "sizefx/telemetry/1"
+    h5.attrs["latitude_deg"] = 57.9825
+    h5.attrs["longitude_deg"] = 55.7089
+    h5.attrs["height_m"] = 120.0
+
+
 def write_raw(path, *, n=N, rate_hz=RATE_HZ, form="rates", mutate=None, reference=True):
     """A valid static record written with h5py directly (not with sizefx's writer).
 
@@ -22,10 +30,7 @@ def write_raw(path, *, n=N, rate_hz=RATE_HZ, form="rates", mutate=None, referenc
     rng = np.random.default_rng(1)
     t = np.arange(n) / rate_hz
     with h5py.File(path, "w") as h5:
-        h5.attrs["schema"] = "sizefx/telemetry/1"
-        h5.attrs["latitude_deg"] = 57.9825
-        h5.attrs["longitude_deg"] = 55.7089
-        h5.attrs["height_m"] = 120.0
+        write_root_attributes(h5)
         imu = h5.create_group("imu")
         imu.create_dataset("time", data=t).attrs["units"] = "s"
         w = np.tile([3.9e-5, 0.0, -6.2e-5], (n, 1)) + 1e-6 * rng.standard_normal((n, 3))
