@@ -18,6 +18,17 @@ from sizefx.io.files import INTERRUPTED, interrupt
 SIGNAL_WORDS = {signal.SIGINT: "interrupted (SIGINT)", signal.SIGTERM: "terminated (SIGTERM)"}
 
 
+def _quiet_interrupted(hook):
+    """``sys.unraisablehook`` that stays silent about a swallowed :class:`Interrupted`: a signal
+    landing in a weakref callback or a ``__del__`` (h5py closes objects in both) would otherwise print
+    an "Exception ignored" traceback. The signal is still honoured: :func:`interrupt` recorded it in
+    ``INTERRUPTED``, which :func:`~sizefx.io.files.atomic_output` and ``invoke`` look at."""
+    def quiet(unraisable):
+        if not isinstance(unraisable.exc_value, Interrupted):
+            hook(unraisable)
+    return quiet
+
+
 class SizefxGroup(click.Group):
     """Turns every user-facing error into one line on stderr and exit code 2 (no traceback); SIGINT
     and SIGTERM into one line and 130 / 143 (128 + the signal, as a shell reports them), after the
@@ -57,6 +68,7 @@ class SizefxGroup(click.Group):
         # for atomic_output in case Python swallows that exception (sizefx.io.files.INTERRUPTED)
         handled = (signal.SIGINT, signal.SIGTERM) if threading.current_thread() is threading.main_thread() else ()
         previous = {s: signal.signal(s, interrupt) for s in handled}
+        previous_hook, sys.unraisablehook = sys.unraisablehook, _quiet_interrupted(sys.unraisablehook)
         try:
             result = super().invoke(ctx)
         except SizefxError as exc:
@@ -70,6 +82,7 @@ class SizefxGroup(click.Group):
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            sys.unraisablehook = previous_hook
         if INTERRUPTED["signum"] is not None:  # arrived, but its exception was swallowed on the way
             self._interrupted(ctx, INTERRUPTED["signum"])
         return result

@@ -163,6 +163,33 @@ def test_signal_mid_write_leaves_nothing(sig, tmp_path):
 FSIZE_LIMIT_BYTES = 1 << 20
 
 
+def test_signal_swallowed_by_a_finalizer_prints_no_traceback():
+    """A signal landing in a ``__del__`` or weakref callback (h5py closes objects in both) has its
+    Interrupted swallowed by Python and printed as "Exception ignored": the command line's hook keeps
+    that quiet (``INTERRUPTED`` still records the signal) and reports every other exception."""
+    import sys
+
+    from sizefx_cli.main import _quiet_interrupted
+    from sizefx.errors import Interrupted
+
+    reported = []
+
+    class Finalizer:
+        def __init__(self, exc):
+            self.exc = exc
+
+        def __del__(self):
+            raise self.exc
+
+    previous, sys.unraisablehook = sys.unraisablehook, _quiet_interrupted(reported.append)
+    try:
+        Finalizer(Interrupted(signal.SIGTERM))
+        Finalizer(ValueError("a real bug"))
+    finally:
+        sys.unraisablehook = previous
+    assert [type(u.exc_value) for u in reported] == [ValueError]
+
+
 def test_file_size_limit_is_a_one_line_refusal(tmp_path):
     """``ulimit -f 1024``: writing past 1 MiB fails with EFBIG (Python ignores SIGXFSZ). That is
     an output the command cannot write: exit 2, one line naming the output, no ``*.tmp``; not a
