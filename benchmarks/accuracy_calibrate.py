@@ -1,98 +1,221 @@
-"""Figures of the size-effect stage (issue 5) on simulated data, as text and JSON.
+"""Figures of the calibration on simulated data: unbiased, honest errors, at the bound (issues 5, 13, 17).
 
-    python benchmarks/accuracy_calibrate.py [--seeds 20] [--json out.json]
+    python benchmarks/accuracy_calibrate.py [--seeds 100] [--jobs 2] [--variants paper,sway,coloured]
+                                            [--skip-reference-rate] [--json out.json]
 
-Monte Carlo over seeds of the paper's plan (default noise, a 1 mm offset of the
-triad point), the table tilt (joint fit against the paper's per-rotation fit), the
-accelerometer delay with roll and pitch sway added, the compact geometry, and the
-reference rate: the paper's plan and a 40-minute roll sway at 1600 Hz (10, 20, 30 deg/s),
-written to files and calibrated by ``sizefx.calibrate.run`` (the command's path) with the
-sway's reference at 1600 Hz and at 100 Hz (issue 13: the arms must agree within 0.01 mm).
+Monte Carlo (issue 17) of three set-ups, every seed an independent record (only the noise seed varies):
+
+Three set-ups, every seed an independent record (only the noise seed varies):
+
+- ``paper``: the paper's plan (rotations about Y, X, Z; 20 deg/s, 10 deg/s^2, 2 min per axis, 1600 Hz),
+  the compact geometry plus an offset (100, -50, 20) mm from the table centre, a table tilt of
+  10 arcsec (8 north, -6 east), accelerometer biases, white noise 2.96 ug/sqrt(Hz) (2.9e-5 m/s^2/sqrt(Hz))
+  and the default bias random walk. Fitted in the increment domain (the default) and, to compare, in
+  the rates domain (the gyros' Savitzky-Golay derivative).
+- ``sway``: the same record plus a minute of roll and of pitch sway (20 deg/s at 1 Hz), the
+  accelerometers 0.5 ms late; the delay estimated too.
+- ``coloured``: the paper set-up with a Gauss-Markov part added to the accelerometer noise
+  (10 ug/sqrt(Hz) below 0.8 Hz, correlation time 0.2 s): residuals far from white.
+
+Per parameter: the mean of z = (estimate - truth) / stated sigma (target |mean z| <= 0.3), the z RMS
+(target 0.8..1.25), the largest |z|, the scatter across seeds over the mean stated sigma, and the
+efficiency: the Cramer-Rao bound over the stated sigma and over the scatter (target >= 0.9 on the
+paper's plan). Prints a table per set-up; ``--json`` writes every figure.
+
+Then (issues 5 and 13): the paper's per-rotation fit, which ignores the tilt, against the joint fit
+on one tilted record; and the paper's plan with a 40-minute roll sway, the sway's reference at
+1600 Hz and at 100 Hz, calibrated through ``sizefx.calibrate.run`` (the arms must agree within
+0.01 mm).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from sizefx import scenarios
-from sizefx.calibrate import joint_fit, per_rotation_fit, prepare
-from sizefx.calibrate import CalibrateConfig
+from sizefx.calibrate import CalibrateConfig, joint_fit, per_rotation_fit, prepare
 from sizefx.calibrate import run as calibrate_files
 from sizefx.constants import ARCSEC
 from sizefx.effects import load_effects
-from sizefx.simulate import SimulateConfig, run as simulate_file
-from sizefx.simulate import simulate_in_memory
+from sizefx.simulate import SimulateConfig, simulate_in_memory
+from sizefx.simulate import run as simulate_file
 
-OFFSET_M = [0.0010, -0.0005, 0.0008]
+OFFSET_M = [0.10, -0.05, 0.02]
+TILT_ARCSEC = (8.0, -6.0)
+DELAY_S = 0.5e-3
+BASE = {"lever_arm": {"preset": "compact", "r_vehicle_m": OFFSET_M},
+        "level_tilt": {"enabled": True, "north_arcsec": TILT_ARCSEC[0], "east_arcsec": TILT_ARCSEC[1]},
+        "accel_bias": {"enabled": True, "bias_ug": [50.0, -30.0, 20.0]},
+        "accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": 2.96}}
+VARIANTS = {
+    "paper": {},
+    "sway": {"accel_delay": {"enabled": True, "tau_s": DELAY_S}},
+    "coloured": {"accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": 2.96,
+                                 "markov_density_ug_per_sqrt_hz": 10.0, "markov_correlation_s": 0.2}},
+}
+#: Seeds of different set-ups never coincide.
+SEED_BASE = {"paper": 0, "sway": 100_000, "coloured": 200_000}
 
 
-def fx(preset="high-precision", **more):
-    return load_effects(overrides={"lever_arm": {"preset": preset, "r_vehicle_m": OFFSET_M}, **more})
+def effects(variant: str):
+    return load_effects(overrides={**BASE, **VARIANTS[variant]})
+
+
+def truth_of(variant: str) -> dict:
+    fx = effects(variant)
+    out = {f"r_{a}[{c}]": fx.arms_total_m()[i, j] for i, a in enumerate("xyz") for j, c in enumerate("xyz")}
+    out["tilt_north"], out["tilt_east"] = TILT_ARCSEC[0] * ARCSEC, TILT_ARCSEC[1] * ARCSEC
+    if variant == "sway":
+        out["accel_delay"] = DELAY_S
+    return out
+
+
+def one_seed(job):
+    """Fit one record: ``{domain: (estimates, sigmas, bounds)}`` over :func:`truth_of`'s names."""
+    variant, seed, compare_rates = job
+    fx = effects(variant)
+    seed = SEED_BASE[variant] + seed
+    plan = scenarios.turntable(scenarios.TurntablePlan())[0]
+    records = [prepare(simulate_in_memory(plan, fx, form="rates", seed=seed), "turntable")]
+    with_delay = variant == "sway"
+    if with_delay:
+        for k, axis in enumerate(("roll", "pitch")):
+            sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=10.0, segment_s=60.0))[0]
+            records.append(prepare(simulate_in_memory(sway, fx, form="rates", seed=seed + 50_000 * (k + 1)),
+                                   f"sway-{axis}"))
+    names = list(truth_of(variant))
+    out = {}
+    for domain, interval in (("increments", "default"), ("rates", None)):
+        if domain == "rates" and not compare_rates:
+            continue
+        t0 = time.perf_counter()
+        res = joint_fit(records, with_delay=with_delay) if interval == "default" else \
+            joint_fit(records, with_delay=with_delay, interval_s=None)
+        wall = time.perf_counter() - t0
+        index = [res.names.index(n) for n in names]
+        x = np.r_[res.arms.ravel(), np.zeros(len(res.names) - 9)]
+        c = 9 + 3 * (len(res.names) - 9 - 2 - with_delay) // 3
+        x[c:c + 2] = res.tilt_rad
+        if with_delay:
+            x[-1] = res.delay_s
+        sig = np.sqrt(np.diag(res.covariance))
+        out[domain] = (x[index].tolist(), sig[index].tolist(), res.bound_sigma[index].tolist(), wall)
+    return out
+
+
+def summarise(names, truth, rows) -> dict:
+    """Per parameter: the figures of the module's docstring, from the seeds' ``(x, sigma, bound)``."""
+    x = np.array([r[0] for r in rows])
+    s = np.array([r[1] for r in rows])
+    b = np.array([r[2] for r in rows])
+    t = np.array([truth[n] for n in names])
+    z = (x - t) / s
+    scatter = x.std(axis=0, ddof=1)
+    out = {}
+    for j, n in enumerate(names):
+        out[n] = {"mean_z": float(z[:, j].mean()), "z_rms": float(np.sqrt(np.mean(z[:, j] ** 2))),
+                  "max_abs_z": float(np.abs(z[:, j]).max()), "mean_error": float((x[:, j] - t[j]).mean()),
+                  "sigma": float(s[:, j].mean()), "scatter": float(scatter[j]), "bound": float(b[:, j].mean()),
+                  "scatter_over_sigma": float(scatter[j] / s[:, j].mean()),
+                  "efficiency_stated": float(b[:, j].mean() / s[:, j].mean()),
+                  "efficiency_scatter": float(b[:, j].mean() / scatter[j])}
+    return out
+
+
+def unit(name):
+    if name.startswith("r_"):
+        return 1e3, "mm"
+    if name.startswith("tilt"):
+        return 1 / ARCSEC, "arcsec"
+    return 1e6, "us"
+
+
+def print_table(title, table, seeds):
+    print(f"\n{title} ({seeds} seeds)")
+    print(f"  {'parameter':12s} {'mean z':>7s} {'z RMS':>6s} {'max|z|':>6s} {'mean error':>11s} {'sigma':>8s} "
+          f"{'scatter':>8s} {'bound':>8s} {'bound/sigma':>11s} {'bound/scatter':>13s}")
+    for n, r in table.items():
+        k, u = unit(n)
+        print(f"  {n:12s} {r['mean_z']:+7.2f} {r['z_rms']:6.2f} {r['max_abs_z']:6.2f} {r['mean_error'] * k:+8.4f} "
+              f"{u:>2s} {r['sigma'] * k:8.4f} {r['scatter'] * k:8.4f} {r['bound'] * k:8.4f} {r['efficiency_stated']:11.3f} "
+              f"{r['efficiency_scatter']:13.3f}")
+    worst_mean = max(abs(r["mean_z"]) for r in table.values())
+    rms = [r["z_rms"] for r in table.values()]
+    eff = min(r["efficiency_stated"] for r in table.values())
+    print(f"  worst |mean z| {worst_mean:.2f} (target <= 0.3); z RMS {min(rms):.2f}..{max(rms):.2f} (target 0.8..1.25); "
+          f"pooled z RMS {np.sqrt(np.mean(np.square(rms))):.2f}; least bound/sigma {eff:.3f}")
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=20)
-    ap.add_argument("--json", type=Path)
+    ap.add_argument("--seeds", type=int, default=100)
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--variants", default="paper,sway,coloured")
+    ap.add_argument("--no-rates", action="store_true", help="skip the rates-domain comparison on the paper set-up")
     ap.add_argument("--skip-reference-rate", action="store_true", help="leave out the 40-minute sway files")
+    ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
-    plan = scenarios.turntable(scenarios.TurntablePlan())[0]
-    out = {}
-    model = fx()
-    truth = model.arms_total_m()
-    z, sig = [], []
-    for seed in range(args.seeds):
-        res = joint_fit([prepare(simulate_in_memory(plan, model, form="rates", seed=seed))])
-        z.append((res.arms - truth) / res.sigma_arms)
-        sig.append(res.sigma_arms)
-    z, sig = np.array(z), np.array(sig)
-    out["monte_carlo"] = {"seeds": args.seeds, "max_abs_z": float(np.abs(z).max()),
-                          "pooled_spread_over_sigma": float(np.sqrt(np.mean(z**2))),
-                          "sigma_mean_mm": float(sig.mean() * 1e3), "sigma_max_mm": float(sig.max() * 1e3)}
-    tilted = fx(level_tilt={"enabled": True, "north_arcsec": -11.0, "east_arcsec": -6.0})
-    rec = prepare(simulate_in_memory(plan, tilted, form="rates", seed=11))
-    res = joint_fit([rec])
-    paper = per_rotation_fit(rec)
-    out["tilt"] = {"estimated_arcsec": (res.tilt_rad / ARCSEC).tolist(), "sigma_arcsec": (res.sigma_tilt_rad / ARCSEC).tolist(),
-                   "joint_max_abs_z": float(np.abs((res.arms - truth) / res.sigma_arms).max()),
-                   "per_rotation_bias_mm": {f"{r['axis']}/{r['channel']}": (r["r_own"] - truth["xyz".index(r["channel"])]
-                                                                             ["xyz".index(r["channel"])]) * 1e3 for r in paper}}
-    delayed = fx(accel_delay={"enabled": True, "tau_s": 0.5e-3})
-    records = [prepare(simulate_in_memory(plan, delayed, form="rates", seed=21), "turntable")]
-    for k, axis in enumerate(("roll", "pitch")):
-        sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=10.0, segment_s=60.0))[0]
-        records.append(prepare(simulate_in_memory(sway, delayed, form="rates", seed=22 + k), f"sway-{axis}"))
-    res = joint_fit(records, with_delay=True)
-    out["delay"] = {"true_us": 500.0, "estimated_us": res.delay_s * 1e6, "sigma_us": res.sigma_delay_s * 1e6}
-    compact = fx("compact")
-    res = joint_fit([prepare(simulate_in_memory(plan, compact, form="rates", seed=31))])
-    out["compact"] = {"estimated_mm": (res.arms * 1e3).tolist(), "truth_mm": (compact.arms_total_m() * 1e3).tolist(),
-                      "max_abs_z": float(np.abs((res.arms - compact.arms_total_m()) / res.sigma_arms).max())}
+    variants = [v for v in args.variants.split(",") if v]
+    unknown = set(variants) - set(VARIANTS)
+    if unknown:
+        ap.error(f"unknown variant(s) {sorted(unknown)}; choose from {', '.join(VARIANTS)}")
+    out = {"seeds": args.seeds, "variants": {}}
+    t_start = time.perf_counter()
+    for variant in variants:
+        names = list(truth_of(variant))
+        jobs = [(variant, s, variant == "paper" and not args.no_rates) for s in range(args.seeds)]
+        t0 = time.perf_counter()
+        with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            results = list(pool.map(one_seed, jobs))
+        wall = time.perf_counter() - t0
+        out["variants"][variant] = {"wall_s": wall}
+        for domain in results[0]:
+            rows = [r[domain] for r in results]
+            table = summarise(names, truth_of(variant), rows)
+            fit_s = float(np.median([r[3] for r in rows]))
+            out["variants"][variant][domain] = {"parameters": table, "median_fit_s": fit_s}
+            print_table(f"{variant}, {domain} domain (median fit {fit_s:.2f} s)", table, args.seeds)
+        print(f"  ({variant}: {wall:.0f} s for {args.seeds} seeds with {args.jobs} processes)")
+    out["per_rotation"] = per_rotation()
+    pr = out["per_rotation"]
+    print(f"\ntilt 8, -6 arcsec, one record of the paper set-up: joint fit {pr['joint_tilt_arcsec'][0]:.2f}, "
+          f"{pr['joint_tilt_arcsec'][1]:.2f} arcsec, arms max |z| {pr['joint_max_abs_z']:.2f}; the paper's per-rotation "
+          "fit (ignores the tilt), r_ii - truth [mm]: " + ", ".join(f"{k} {v:+.3f}" for k, v in pr["per_rotation_error_mm"].items()))
     if not args.skip_reference_rate:
-        out["reference_rate"] = reference_rate()
-    mc, t, d = out["monte_carlo"], out["tilt"], out["delay"]
-    print(f"Monte Carlo, {mc['seeds']} seeds: max |estimate - truth| / sigma = {mc['max_abs_z']:.2f}; spread / sigma "
-          f"(pooled) = {mc['pooled_spread_over_sigma']:.3f}; sigma mean {mc['sigma_mean_mm']:.4f} mm, "
-          f"max {mc['sigma_max_mm']:.4f} mm (paper: 0.04, 0.12)")
-    print(f"tilt -11, -6 arcsec: joint fit {t['estimated_arcsec'][0]:.2f}, {t['estimated_arcsec'][1]:.2f} arcsec "
-          f"(+- {t['sigma_arcsec'][0]:.2f}); arms max |z| {t['joint_max_abs_z']:.2f}; paper's per-rotation fit, "
-          "r_ii - truth [mm]: " + ", ".join(f"{k} {v:+.2f}" for k, v in t["per_rotation_bias_mm"].items()))
-    print(f"delay 500 us (turntable + roll and pitch sway): {d['estimated_us']:.2f} +- {d['sigma_us']:.2f} us")
-    print(f"compact geometry: max |z| {out['compact']['max_abs_z']:.2f}")
-    if "reference_rate" in out:
-        rr = out["reference_rate"]
+        out["reference_rate"] = rr = reference_rate()
         print(f"reference rate: turntable + 40-min roll sway at 1600 Hz, the sway's reference at 100 Hz against "
               f"1600 Hz: arms differ by at most {rr['max_difference_mm']:.5f} mm (sigma {rr['sigma_min_mm']:.4f}"
               f"..{rr['sigma_max_mm']:.4f} mm)")
+    print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
     if args.json:
         args.json.write_text(json.dumps(out, indent=2) + "\n")
     return 0
+
+
+def per_rotation() -> dict:
+    """One record of the paper set-up: the joint fit against the paper's per-rotation fit."""
+    fx = effects("paper")
+    rec = prepare(simulate_in_memory(scenarios.turntable(scenarios.TurntablePlan())[0], fx, form="rates", seed=11))
+    res = joint_fit([rec])
+    truth = fx.arms_total_m()
+    return {"joint_tilt_arcsec": (res.tilt_rad / ARCSEC).tolist(),
+            "joint_max_abs_z": float(np.abs((res.arms - truth) / res.sigma_arms).max()),
+            "per_rotation_error_mm": {f"{r['axis']}/{r['channel']}": (r["r_own"] - truth["xyz".index(r["channel"])]
+                                                                       ["xyz".index(r["channel"])]) * 1e3
+                                      for r in per_rotation_fit(rec)}}
+
+
+#: The reference-rate study's offset of the table centre (issue 13).
+RR_OFFSET_M = [0.0010, -0.0005, 0.0008]
 
 
 def reference_rate() -> dict:
@@ -100,7 +223,7 @@ def reference_rate() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         sway_plan = scenarios.SwayPlan(axis="roll")  # 10 min static, then 10, 20, 30 deg/s for 10 min each
-        overrides = {"lever_arm": {"r_vehicle_m": OFFSET_M}}
+        overrides = {"lever_arm": {"r_vehicle_m": RR_OFFSET_M}}
         simulate_file(SimulateConfig("turntable", tmp / "turntable.h5", overrides=overrides, seed=41))
         arms = {}
         for hz in (1600.0, 100.0):

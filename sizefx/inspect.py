@@ -64,7 +64,9 @@ def _effects_found(sim: dict) -> list[str]:
     if on("accel_noise"):
         a = fx["accel_noise"]
         lines.append(f"accel_noise: {a['density_mps2_per_sqrt_hz'] / MICRO_G:.2f} ug/sqrt(Hz), "
-                     f"bias RW {a['bias_rw_mps2_per_sqrt_s'] * 60 / MICRO_G:.2f} ug/sqrt(h)")
+                     f"bias RW {a['bias_rw_mps2_per_sqrt_s'] * 60 / MICRO_G:.2f} ug/sqrt(h)"
+                     + (f", Gauss-Markov {a['markov_density_mps2_per_sqrt_hz'] / MICRO_G:.2f} ug/sqrt(Hz) over "
+                        f"{a['markov_correlation_s'] * 1e3:.1f} ms" if a.get("markov_density_mps2_per_sqrt_hz") else ""))
     if on("quantisation"):
         lines.append("quantisation: on")
     return lines

@@ -136,9 +136,11 @@ class ImuSynthesizer:
             self.n_samples = int(np.floor(traj.duration_s * self.rate_hz + 1e-9))
             self.first_index = 1
         self.params = effects.sensor_params()  #: the deterministic effects (sizefx.sensor_model)
-        streams = np.random.SeedSequence(self.seed).spawn(4)
+        # a new stream goes last: SeedSequence.spawn gives the earlier ones the same numbers
+        streams = np.random.SeedSequence(self.seed).spawn(5)
         self._rng = {name: np.random.default_rng(s)
-                     for name, s in zip(("gyro_white", "accel_white", "gyro_rw", "accel_rw"), streams)}
+                     for name, s in zip(("gyro_white", "accel_white", "gyro_rw", "accel_rw", "accel_markov"), streams)}
+        self._accel_markov = None  # the coloured part's last value, drawn from its stationary law at the start
         self._gyro_rw = np.zeros(3)
         self._accel_rw = np.zeros(3)
         self._carry = {"gyro": np.zeros(3), "accel": np.zeros(3)}
@@ -181,6 +183,23 @@ class ImuSynthesizer:
         self._carry[name] = total[-1]
         return (counts - prev) * lsb_increment
 
+    def _markov(self, n: int, density: float, correlation_s: float) -> np.ndarray:
+        """The next ``n`` values [n, 3] of the first-order Gauss-Markov part of the accelerometer
+        noise: exact discretisation ``x[k+1] = phi x[k] + w``, ``phi = exp(-dt / T)``, stationary
+        variance ``density^2 / (2 T)`` (its spectrum below ``1 / (2 pi T)`` is white noise of that
+        density), carried over chunks by one sequential filter (the same values whatever the chunk size)."""
+        from scipy.signal import lfilter
+
+        rng = self._rng["accel_markov"]
+        variance = density**2 / (2.0 * correlation_s)
+        phi = float(np.exp(-self.dt / correlation_s))
+        if self._accel_markov is None:
+            self._accel_markov = rng.standard_normal(3) * np.sqrt(variance)
+        w = rng.standard_normal((n, 3)) * np.sqrt(variance * (1.0 - phi * phi))
+        x = lfilter([1.0], [1.0, -phi], w, axis=0, zi=(phi * self._accel_markov)[None, :])[0]
+        self._accel_markov = x[-1].copy()
+        return x
+
     def next_chunk(self, n: int):
         """The next ``n`` samples (fewer at the end): ``(time_s, gyro_like, accel_like)``."""
         k0 = self._next
@@ -203,6 +222,9 @@ class ImuSynthesizer:
             walk, self._accel_rw = self._random_walk("accel_rw", fx.get("accel_noise", "bias_rw_mps2_per_sqrt_s"),
                                                      n, self._accel_rw)
             accel += walk * per_sample
+            if fx.get("accel_noise", "markov_density_mps2_per_sqrt_hz") > 0:
+                accel += self._markov(n, fx.get("accel_noise", "markov_density_mps2_per_sqrt_hz"),
+                                      fx.get("accel_noise", "markov_correlation_s")) * per_sample
         if fx.enabled("quantisation"):
             gyro = self._quantise("gyro", gyro, fx.get("quantisation", "gyro_lsb_rad"))
             accel = self._quantise("accel", accel, fx.get("quantisation", "accel_lsb_m_per_s"))

@@ -19,10 +19,12 @@ optionally tau. Two estimators:
   ``H = [1, omega^2, omegadot]`` for each rotation block and horizontal channel
   (Morozov & Bogdanov 2024, section "Calibration"). It ignores the tilt, which
   therefore biases it.
-* :func:`joint_fit`: one weighted least squares over every sample of every record, its
-  design the sensor model's Jacobian (:func:`sizefx.sensor_model.jacobian`), with standard
-  errors, the condition number, residual RMS per channel, and an explicit observability
-  check: parameters the motion cannot reveal are named instead of inverting a singular matrix.
+* :func:`joint_fit`: one generalised least squares over every record, on 20 ms interval means
+  with the exact mean angular acceleration (no derivative of the gyros), prewhitened by an AR
+  model of each channel's noise; its design the sensor model's Jacobian
+  (:func:`sizefx.sensor_model.jacobian`), with standard errors, their Cramer-Rao bound, the
+  condition number, residual RMS per channel, and an explicit observability check: parameters
+  the motion cannot reveal are named instead of inverting a singular matrix (:mod:`.joint`).
 
 The package: :mod:`.records` (a record's rates, angular acceleration and attitude),
 :mod:`.per_rotation`, :mod:`.joint`, :mod:`.preflight` (what refuses a calibration before
@@ -171,6 +173,11 @@ def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
                     accel_delay_s=res.delay_s,
                     extra={"triad_point": config.triad, "sigma_tilt_arcsec": sigma_tilt,
                            "sigma_accel_delay_s": res.sigma_delay_s,
+                           "bound_sigma": res.bound_arms.tolist(),
+                           "bound_sigma_tilt_arcsec": None if res.tilt_rad is None else
+                           (res.bound_sigma[res.names.index("tilt_north"):][:2] / ARCSEC).tolist(),
+                           "bound_sigma_accel_delay_s": float(res.bound_sigma[-1]) if res.delay_s is not None else None,
+                           "interval_s": res.interval_s, "noise_model": res.noise,
                            "accel_bias_mps2": res.biases.tolist(), "condition_number": res.condition,
                            "residual_rms_mps2": res.residual_rms.tolist(), "samples": res.samples,
                            "nominal": config.nominal, "difference_from_nominal_m": (res.arms - nom.arms_total).tolist(),

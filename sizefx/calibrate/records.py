@@ -38,12 +38,18 @@ class Record:
     omega: np.ndarray  #: [N, 3] rad/s (gyros)
     omegadot: np.ndarray  #: [N, 3] rad/s^2 (Savitzky-Golay, centred)
     mat_nb: np.ndarray  #: [N, 3, 3] reference attitude
-    g_down: float  #: normal gravity at the site [m/s^2]
+    #: normal gravity at the site, NED [3] m/s^2, with its small north component (Groves eq. 2.139:
+    #: 0.09 ug at 380 m, which a fit that took only the down component would call 0.018 arcsec of tilt)
+    g_n: np.ndarray
+
+    @property
+    def g_down(self) -> float:
+        return float(self.g_n[2])
 
     @property
     def f_grav(self):
         """C_bn (-g_n) [N, 3]: gravity's specific force in body axes."""
-        return -self.g_down * self.mat_nb[:, 2, :]
+        return _gravity_in_body(self.mat_nb, self.g_n)
 
 
 def _require_reference_site_samples(path, reference, site, n_samples: int):
@@ -72,7 +78,12 @@ def prepare(tel: Telemetry, name: str = "") -> Record:
     lat, h = (tel.site.lat_rad, tel.site.height_m) if tel.site is not None else (
         tel.reference.lat_rad[0], tel.reference.height_m[0])
     return Record(name or str(tel.path), t, accel, omega, savgol(omega, dt), mat_nb,
-                  float(earth.gravity_n(lat, h)[2]))
+                  np.asarray(earth.gravity_n(lat, h), dtype=float))
+
+
+def _gravity_in_body(mat_nb, g_n):
+    """``C_bn (-g_n)`` [N, 3] for attitudes ``mat_nb`` [N, 3, 3] (body to NED)."""
+    return -np.einsum("nji,j->ni", mat_nb, g_n)
 
 
 #: A reference whose median step exceeds this many IMU steps is interpolated by a C2 rotation
@@ -98,6 +109,12 @@ def motion_of(rec: Record, sl: slice, *, with_rate: bool = False) -> Motion:
     """The motion the calibration model assumes on samples ``sl``: the gyros' rates and their derivative,
     and gravity's specific force in the reported attitude (a table at rest on the Earth; its own
     acceleration is the lever terms). ``with_rate``: ``d f_b/dt = -omega x f_b`` (gravity is fixed in
-    NED), for the delay's column."""
-    w, f = rec.omega[sl], -rec.g_down * rec.mat_nb[sl, 2, :]  # Record.f_grav on the slice alone
-    return Motion(w, rec.omegadot[sl], f, mat_nb=rec.mat_nb[sl], fdot_b=-cross(w, f) if with_rate else None)
+    NED) and the angular jerk, for the delay's column."""
+    w, f = rec.omega[sl], _gravity_in_body(rec.mat_nb[sl], rec.g_n)  # Record.f_grav on the slice alone
+    if not with_rate:
+        return Motion(w, rec.omegadot[sl], f, mat_nb=rec.mat_nb[sl])
+    # the angular jerk (the delay's lever terms): central differences of the filtered derivative,
+    # with a neighbour either side of the slice where the record has one
+    lo, hi = max(sl.start - 1, 0), min(sl.stop + 1, rec.t.size)
+    jerk = np.gradient(rec.omegadot[lo:hi], rec.t[lo:hi], axis=0)[sl.start - lo:sl.stop - lo]
+    return Motion(w, rec.omegadot[sl], f, mat_nb=rec.mat_nb[sl], fdot_b=-cross(w, f), omegaddot_ib_b=jerk)

@@ -20,15 +20,29 @@ def report_lines(res, nom: Levers, lev: Levers, records: list[Record], skipped: 
     """The lines ``sizefx calibrate`` prints: the joint fit ``res`` (:class:`~.joint.CalibrationResult`)
     against the nominal arms ``nom``, the split ``lev`` into offset and d_i, the per-rotation fits."""
     mm = 1e3
-    lines = [f"joint weighted least squares over {res.samples} samples "
-             f"(condition number {res.condition:.3g}; residual RMS x, y, z = "
-             + ", ".join(f"{v / 9.80665e-6:.2f}" for v in res.residual_rms) + " ug)",
-             "  arm   r [mm] (from the rotation centre)          sigma [mm]              estimate - nominal [mm]"]
+    domain = (f"the increment domain ({res.interval_s * 1e3:g} ms intervals, exact mean angular acceleration)"
+              if res.interval_s else "the rates domain (every sample, the gyros' filtered derivative)")
+    # the noise model of each channel (the record whose colour matters most): AR order and how much
+    # the colour changes the variance of a long mean (1: as white)
+    noisiest = max(res.noise, key=lambda rec: max(abs(ch["long_run_variance_ratio"] - 1) for ch in rec["channels"]),
+                   default=None)
+    noise = "; noise model (AR order, long-run variance / variance) " + ", ".join(
+        f"{a} {ch['ar_order']}, {ch['long_run_variance_ratio']:.2f}" for a, ch in zip("xyz", noisiest["channels"])) \
+        if noisiest else ""
+    lines = [f"joint generalised least squares over {res.samples} samples in {domain}; condition number "
+             f"{res.condition:.3g}; residual RMS x, y, z = " + ", ".join(f"{v / 9.80665e-6:.2f}" for v in res.residual_rms)
+             + " ug" + noise,
+             "  arm   r [mm] (from the rotation centre)          sigma [mm]              bound [mm]"
+             "              estimate - nominal [mm]"]
+    bound = res.bound_arms if res.bound_sigma is not None else np.full((3, 3), np.nan)
     for i, a in enumerate("xyz"):
         lines.append(f"  r_{a}  " + " ".join(f"{v * mm:8.4f}" for v in res.arms[i]) + "   "
                      + " ".join(f"{v * mm:7.4f}" for v in res.sigma_arms[i]) + "   "
+                     + " ".join(f"{v * mm:7.4f}" for v in bound[i]) + "   "
                      + " ".join(f"{v * mm:7.4f}" for v in (res.arms[i] - nom.arms_total[i])))
-    lines.append(f"  sigma: mean {res.sigma_arms.mean() * mm:.4f} mm, max {res.sigma_arms.max() * mm:.4f} mm")
+    lines.append(f"  sigma: mean {res.sigma_arms.mean() * mm:.4f} mm, max {res.sigma_arms.max() * mm:.4f} mm; "
+                 "bound: the Cramer-Rao bound on this motion and measured noise; bound / sigma "
+                 f"{res.efficiency[:9].min():.3f}..{res.efficiency[:9].max():.3f}")
     segmented = [rec.name for rec in records if " segment " in rec.name]
     if segmented or skipped:
         lines.append(f"  records cut at their IMU gaps, each continuous segment fitted on its own: {len(segmented)} "
@@ -39,10 +53,13 @@ def report_lines(res, nom: Levers, lev: Levers, records: list[Record], skipped: 
     for i, a in enumerate("xyz"):
         lines.append(f"  d_{a}  " + " ".join(f"{v * mm:8.4f}" for v in lev.arms_triad[i]))
     if res.tilt_rad is not None:
-        lines.append(f"  table tilt: north {res.tilt_rad[0] / ARCSEC:.2f} +- {res.sigma_tilt_rad[0] / ARCSEC:.2f} arcsec, "
-                     f"east {res.tilt_rad[1] / ARCSEC:.2f} +- {res.sigma_tilt_rad[1] / ARCSEC:.2f} arcsec")
+        tb = res.bound_sigma[res.names.index("tilt_north"):][:2] / ARCSEC
+        lines.append(f"  table tilt: north {res.tilt_rad[0] / ARCSEC:.2f} +- {res.sigma_tilt_rad[0] / ARCSEC:.2f} "
+                     f"(bound {tb[0]:.2f}) arcsec, east {res.tilt_rad[1] / ARCSEC:.2f} +- "
+                     f"{res.sigma_tilt_rad[1] / ARCSEC:.2f} (bound {tb[1]:.2f}) arcsec")
     if res.delay_s is not None:
-        lines.append(f"  accelerometer delay: {res.delay_s * 1e6:.2f} +- {res.sigma_delay_s * 1e6:.2f} us")
+        lines.append(f"  accelerometer delay: {res.delay_s * 1e6:.2f} +- {res.sigma_delay_s * 1e6:.2f} "
+                     f"(bound {res.bound_sigma[-1] * 1e6:.2f}) us")
     for path, rows in per_rotation.items():
         if not rows:  # no block of rotation about one vertical axis (a tumble, a flight): nothing to show
             continue

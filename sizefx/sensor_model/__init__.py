@@ -30,7 +30,8 @@ z down; ``e_i`` the body axis i, ``omega = omega_ib_b``, ``f = f_b`` at the refe
                                                                        turned by psi: omega, omegadot, f in b are
                                                                        C_b_b' times the reference's, C_b_b' =
                                                                        exp(-[psi x]) ~ I - [psi x]
-    accel_noise          accel      random (simulate only)             white noise and a bias random walk
+    accel_noise          accel      random (simulate only)             white noise, a bias random walk,
+                                                                       a Gauss-Markov coloured part
     gyro_noise           gyro       random (simulate only)             angle and rate random walk
     quantisation         both       random (simulate only)             outputs rounded to a count
 

@@ -80,8 +80,9 @@ EFFECTS = (
     Effect("reference_mount", "reference", tuple(_XYZ), (3,), "rad", "arcsec [arcsec]", "angles_rad",
            "the IMU's axes are the reference's body axes turned by psi: omega_ib_b = C omega_ib_b', "
            "f_b = C f_b', mat_nb = mat_nb' C^T, C = C_b_b' = exp(-[psi x]) ~ I - [psi x] (mount_matrix())", None),
-    Effect("accel_noise", "accel", (), (), "", "density_ug_per_sqrt_hz, bias_rw_ug_per_sqrt_h", None,
-           "white noise and a bias random walk, drawn by sizefx.simulate", None),
+    Effect("accel_noise", "accel", (), (), "", "density_ug_per_sqrt_hz, bias_rw_ug_per_sqrt_h, "
+           "markov_density_ug_per_sqrt_hz, markov_correlation_s", None,
+           "white noise, a bias random walk and a Gauss-Markov coloured part, drawn by sizefx.simulate", None),
     Effect("gyro_noise", "gyro", (), (), "", "arw_deg_per_sqrt_h, rrw_deg_per_h_per_sqrt_h", None,
            "angle random walk and a rate random walk, drawn by sizefx.simulate", None),
     Effect("quantisation", "both", (), (), "", "gyro_lsb_rad, accel_lsb_m_per_s", None,
