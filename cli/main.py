@@ -116,6 +116,7 @@ from . import import_ as _import  # noqa: E402
 from . import inspect as _inspect  # noqa: E402
 from . import navigate as _navigate  # noqa: E402
 from . import paper as _paper  # noqa: E402
+from . import plan as _plan  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
 main.add_command(_calibrate.calibrate)
@@ -127,4 +128,5 @@ main.add_command(_import.import_)
 main.add_command(_inspect.inspect)
 main.add_command(_navigate.navigate)
 main.add_command(_paper.paper)
+main.add_command(_plan.plan)
 main.add_command(_simulate.simulate)

@@ -48,7 +48,7 @@ def common_options(f):
 
 
 def _run(scenario, plan, output, rate_hz, form, seed, effects_path, ideal, overrides, geometry, offset_mm,
-         reference_rate_hz, latitude_deg, longitude_deg, height_m, force, quiet):
+         reference_rate_hz, latitude_deg, longitude_deg, height_m, force, quiet, plan_path=None):
     from sizefx import scenarios
     from sizefx.simulate import SimulateConfig, run
 
@@ -62,7 +62,7 @@ def _run(scenario, plan, output, rate_hz, form, seed, effects_path, ideal, overr
     site = scenarios.SiteSpec(latitude_deg, longitude_deg, height_m)
     config = SimulateConfig(scenario, output, plan=plan, site=site, effects_path=effects_path, overrides=sets,
                             ideal=ideal, rate_hz=rate_hz, form=form, seed=seed, reference_rate_hz=reference_rate_hz,
-                            force=force)
+                            force=force, plan_path=plan_path)
     click.echo(run(config, progress=Progress(f"simulate {scenario}", quiet)).report())
 
 
@@ -98,14 +98,29 @@ def simulate(ctx, print_effects):
 @click.option("--accel-dps2", default=10.0, show_default=True, type=span(0.01, 1e5),
               help="Angular acceleration of the table [deg/s^2] (jerk-limited).")
 @click.option("--static-s", default=60.0, show_default=True, type=span(1.0, 86400.0), help="Static lead-in [s].")
-def turntable(axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_s, **common):
+@click.option("--plan", "plan_path", type=click.Path(dir_okay=False),
+              help="Run the plan in this file (sizefx/plan/1, written by sizefx plan) instead of the options above.")
+@click.pass_context
+def turntable(ctx, axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, static_s, plan_path, **common):
     """The paper's turntable calibration plan: rotations about body Y, X, then Z, each vertical.
 
     Each axis: --cycles positive and negative rotations at --peak-rate-dps with
-    +-accel in --seconds-per-axis; smooth repositioning between axes.
+    +-accel in --seconds-per-axis; smooth repositioning between axes. --plan runs
+    a designed plan (sizefx plan) instead.
     """
+    from click.core import ParameterSource
+
     from sizefx import scenarios
 
+    plan_options = ("axes", "seconds_per_axis", "cycles", "peak_rate_dps", "accel_dps2", "static_s")
+    if plan_path:
+        given = [f"--{name.replace('_', '-')}" for name in plan_options
+                 if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]
+        if given:
+            raise click.UsageError(f"--plan {plan_path} holds the plan; leave out {', '.join(given)} "
+                                   "(or edit the plan file)")
+        _run("turntable", None, plan_path=plan_path, **common)
+        return
     plan = scenarios.TurntablePlan(axes=axes.upper(), static_s=static_s, seconds_per_axis=seconds_per_axis,
                                    cycles=cycles, peak_rate_dps=peak_rate_dps, accel_dps2=accel_dps2)
     _run("turntable", plan, **common)

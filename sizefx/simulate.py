@@ -363,9 +363,10 @@ class SimulateConfig:
     reference_rate_hz: float | None = None
     force: bool = False
     chunk_samples: int = CHUNK_SAMPLES  #: IMU rows per chunk (memory; the output does not depend on it)
+    plan_path: str | None = None  #: a sizefx/plan/1 file (``sizefx plan``): the turntable plan, instead of ``plan``
 
     def inputs(self) -> dict:
-        return {"--effects": self.effects_path}
+        return {"--effects": self.effects_path, "--plan": self.plan_path}
 
     def outputs(self) -> dict:
         return {"-o": self.output}
@@ -385,12 +386,24 @@ def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
     if reference_rate_hz is None and config.scenario in ("sway", "flight"):
         reference_rate_hz = NAVIGATION_REFERENCE_RATE_HZ
     _reference_rate(config.rate_hz, reference_rate_hz)
+    if config.plan_path and config.scenario != "turntable":
+        raise ConfigError(f"--plan {config.plan_path}: a plan file holds a turntable plan; the {config.scenario} "
+                          "scenario takes its own options")
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     build, plan_cls = SCENARIOS[config.scenario]
-    traj, info = build(config.plan or plan_cls(), config.site or scenarios.PAPER_AIRFIELD)
+    plan = config.plan
+    if config.plan_path:
+        from .io.plan_file import read_plan_document
+
+        plan = scenarios.TurntablePlan(**read_plan_document(config.plan_path)["turntable"])
+        try:
+            plan.check()
+        except ConfigError as exc:
+            raise ConfigError(f"{config.plan_path}: {exc}") from None
+    traj, info = build(plan or plan_cls(), config.site or scenarios.PAPER_AIRFIELD)
     fx = load_effects(config.effects_path, overrides=dict(config.overrides or {}),
                       base=IDEAL if config.ideal else None)
-    inputs = [config.effects_path] if config.effects_path else []
+    inputs = [p for p in (config.effects_path, config.plan_path) if p]
     return simulate_to_file(traj, info, fx, config.output, rate_hz=config.rate_hz, form=config.form,
                             seed=config.seed, reference_rate_hz=reference_rate_hz, force=config.force,
                             chunk_samples=config.chunk_samples, inputs=inputs, progress=progress)

@@ -1,0 +1,45 @@
+"""``sizefx plan``: design a turntable calibration plan from the Fisher information."""
+
+from __future__ import annotations
+
+import click
+
+from .options import force_option, span
+
+
+@click.command()
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="Write the plan (TOML, sizefx/plan/1) for sizefx simulate turntable --plan.")
+@click.option("--noise-ug", "noise_ug", required=True, type=span(0.0, 1e6, low_open=True),
+              help="Accelerometer white noise density [ug/sqrt(Hz)] (e.g. 2.96).")
+@click.option("--max-rate-dps", default=20.0, show_default=True, type=span(0.01, 5000.0),
+              help="The table's largest rate [deg/s].")
+@click.option("--max-accel-dps2", default=10.0, show_default=True, type=span(0.01, 1e5),
+              help="The table's largest angular acceleration [deg/s^2].")
+@click.option("--axes", default="XYZ", show_default=True,
+              help="Body axes the table can make vertical (letters X, Y, Z).")
+@click.option("--reposition-s", default=10.0, show_default=True, type=span(0.1, 3600.0),
+              help="Time to turn the next axis vertical [s].")
+@click.option("--settle-s", default=10.0, show_default=True, type=span(0.1, 3600.0),
+              help="Rest after each turn [s].")
+@click.option("--budget-s", type=span(1.0, 1e7), help="Time budget [s]: the plan with the smallest largest arm sigma.")
+@click.option("--target-sigma-mm", type=span(0.0, 1000.0, low_open=True),
+              help="Wanted largest arm sigma [mm]: the shortest plan that reaches it.")
+@click.option("--static-s", type=span(1.0, 86400.0), help="Fix the static lead-in [s] (default: the search picks it).")
+@force_option
+def plan(output, noise_ug, max_rate_dps, max_accel_dps2, axes, reposition_s, settle_s, budget_s, target_sigma_mm,
+         static_s, force):
+    """Design a turntable calibration plan for the lever arms.
+
+    From the accelerometers' noise and the table's limits, the plan (axes,
+    rate, acceleration, cycles, durations) with the smallest largest arm
+    sigma in --budget-s, or the shortest one reaching --target-sigma-mm,
+    from the Fisher information of the calibration model (what sizefx
+    calibrate will state). Prints the predicted sigmas beside the paper's
+    plan; -o writes the plan for sizefx simulate turntable --plan.
+    """
+    from sizefx.plan import PlanConfig, PlanRequest, TableLimits, run
+
+    req = PlanRequest(noise_ug, TableLimits(max_rate_dps, max_accel_dps2, axes, reposition_s, settle_s),
+                      budget_s=budget_s, target_sigma_mm=target_sigma_mm, static_s=static_s)
+    click.echo(run(PlanConfig(req, output=output, force=force)).report())

@@ -1,0 +1,409 @@
+"""Design a turntable calibration plan from the Fisher information of the calibration model: ``sizefx plan``.
+
+What a calibration can reach is known before anything is recorded. The joint fit
+(:func:`sizefx.calibrate.joint_fit`) is a least squares whose design depends only on the motion
+(the rates, the angular acceleration, gravity's direction) and whose noise is the accelerometers';
+so for a candidate plan the inverse of :func:`sizefx.calibrate.joint.information` on the plan's
+noise-free motion is the covariance of the arms, the biases and the tilt the fit will state
+(the Cramer-Rao bound, which the fit reaches on white noise: benchmarks/accuracy_calibrate.py).
+
+The plan is the paper's kind (:class:`sizefx.scenarios.TurntablePlan`: each reachable body axis
+vertical in turn, the table swinging it through whole positive and negative rotations, dwells
+and jerk-limited changes of rate), and the search is over what the table's limits leave free:
+
+- the peak rate and the angular acceleration (fractions of the table's limits);
+- the number of rotation cycles per axis (how the time is shared between accelerating, which
+  shows the arms through the tangential term, and cruising, which shows them through the
+  centripetal term);
+- the time per axis: the budget's share (``objective="min-sigma"``: the smallest largest arm
+  sigma in the time), or the least that reaches the wanted sigma (``objective="least-time"``).
+
+A plan is a TOML document (``data-schemas/plan-1.json``) that ``sizefx simulate turntable --plan``
+runs. Conventions: SI inside; the file and the options in the table's own units (deg/s, deg/s^2,
+s, ug/sqrt(Hz), mm).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from . import earth, scenarios
+from .calibrate.joint import PARAMS_R, information
+from .calibrate.records import Record
+from .constants import ARCSEC, MICRO_G
+from .effects import IDEAL, load_effects
+from .errors import ConfigError
+from .io.plan_file import PLAN_SCHEMA
+from .io.schema import check_document
+from .simulate import true_motion
+
+__all__ = ["TableLimits", "PlanRequest", "Prediction", "PlanDesign", "PlanConfig", "PlanResult", "run", "predict",
+           "design_plan", "plan_document", "duration_of", "PlanError", "PLAN_SCHEMA", "PLAN_RATE_HZ",
+           "RATE_FRACTIONS", "ACCEL_FRACTIONS"]
+
+#: Rows per second of the plan's motion in the information. The table's changes of rate take 0.5 s
+#: or more: on the paper's plan 25, 50 and 12.5 rows a second give the same sigmas to 0.1 %
+#: (and the 1600 Hz fit's to 1 %; benchmarks/plan_calibrate.py), 25 at a third of 50's cost.
+PLAN_RATE_HZ = 25.0
+#: Fractions of the table's rate and acceleration limits tried. More rate is more centripetal
+#: signal (as the rate squared); less acceleration leaves more of a cycle accelerating.
+RATE_FRACTIONS = (1.0, 0.7)
+ACCEL_FRACTIONS = (1.0, 0.5, 0.25)
+#: Static lead-ins tried [s]: rest separates the biases and the tilt from the arms, but adds time.
+LEAD_IN_S = (10.0, 30.0, 60.0)
+#: Cruise at the peak rate, in units of the half cycle's changes of rate and dwells, tried by the
+#: least-time search (the budget search tries :data:`CYCLE_CHOICES` instead).
+CRUISE_FACTORS = (1.0, 3.0)
+#: Rests at each end of a rotation tried [s]. The centripetal term is always positive, so only the
+#: contrast of turning with resting separates it (and the arms along their own axis, seen only
+#: through it) from the bias; the paper rests 0.5 s.
+DWELL_S = (0.5, 3.0, 8.0)
+#: Cycles per axis tried when the time is given (more are tried by the least-time search).
+CYCLE_CHOICES = (1, 2, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40)
+#: The most cycles per axis a plan may have (the simulator's own limit on --cycles).
+MAX_CYCLES = 10_000
+
+
+class PlanError(ConfigError):
+    """A plan the table cannot run, or a request no plan can meet (one line, exit code 2)."""
+
+
+@dataclass(frozen=True)
+class TableLimits:
+    """What the table can do: its largest rate and angular acceleration, the body axes it can make
+    vertical, and the time it takes to turn the IMU to the next axis and let it settle."""
+
+    max_rate_dps: float = 20.0
+    max_accel_dps2: float = 10.0
+    axes: str = "XYZ"
+    reposition_s: float = 10.0
+    settle_s: float = 10.0
+
+    def check(self):
+        axes = self.axes.upper()
+        if not axes or any(a not in "XYZ" for a in axes) or len(set(axes)) != len(axes):
+            raise PlanError(f"table axes '{self.axes}': give the body axes the table can make vertical, each once "
+                            "(letters X, Y, Z, e.g. XYZ)")
+        for name in ("max_rate_dps", "max_accel_dps2", "reposition_s", "settle_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise PlanError(f"table {name} = {value!r}: give a positive, finite number")
+        return replace(self, axes=axes)
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """``sizefx plan``'s question: the accelerometers' white noise, the table, and either a time
+    budget (the best plan in it) or a wanted largest arm sigma (the shortest plan that reaches it).
+    ``static_s``: a fixed lead-in at rest (None: the search picks one of :data:`LEAD_IN_S`)."""
+
+    noise_ug_per_sqrt_hz: float
+    table: TableLimits = field(default_factory=TableLimits)
+    budget_s: float | None = None
+    target_sigma_mm: float | None = None
+    static_s: float | None = None
+
+    def check(self):
+        if not (math.isfinite(self.noise_ug_per_sqrt_hz) and self.noise_ug_per_sqrt_hz > 0):
+            raise PlanError(f"noise {self.noise_ug_per_sqrt_hz!r} ug/sqrt(Hz): give the accelerometers' white noise "
+                            "density, positive and finite")
+        if (self.budget_s is None) == (self.target_sigma_mm is None):
+            raise PlanError("give either a time budget (--budget-s) or a wanted largest sigma (--target-sigma-mm), "
+                            "one of the two")
+        for name in ("budget_s", "target_sigma_mm", "static_s"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise PlanError(f"{name} = {value!r}: give a positive, finite number")
+        return replace(self, table=self.table.check())
+
+
+@dataclass
+class Prediction:
+    """The standard errors a calibration on a plan will state (the inverse Fisher information)."""
+
+    sigma_arms_m: np.ndarray  #: [3, 3]
+    sigma_tilt_rad: np.ndarray  #: [2]
+    duration_s: float
+
+    @property
+    def max_sigma_mm(self) -> float:
+        return float(self.sigma_arms_m.max() * 1e3)
+
+
+@dataclass
+class PlanDesign:
+    """The plan chosen, its prediction, and the paper's plan under the same noise and table."""
+
+    plan: scenarios.TurntablePlan
+    prediction: Prediction
+    request: PlanRequest
+    paper: Prediction | None = None
+    paper_plan: scenarios.TurntablePlan | None = None
+    tried: int = 0
+
+
+def _plan_record(plan: scenarios.TurntablePlan) -> Record:
+    """The plan's noise-free motion as the fit sees it, at :data:`PLAN_RATE_HZ` (true angular acceleration)."""
+    traj, _ = scenarios.turntable(plan)
+    t = np.arange(0.0, traj.duration_s, 1.0 / PLAN_RATE_HZ)
+    site = traj.evaluate(t[:1])
+    motion = true_motion(traj, t, load_effects(base=IDEAL).sensor_params())
+    g_n = np.asarray(earth.gravity_n(site.lat_rad[0], site.height_m[0]), dtype=float)
+    return Record("plan", t, np.zeros((t.size, 3)), motion.omega_ib_b, motion.omegadot_ib_b, motion.mat_nb, g_n)
+
+
+def duration_of(plan: scenarios.TurntablePlan) -> float:
+    """Seconds the plan takes: lead-in, every axis, the turns between them, the last settling."""
+    n = len(plan.axes)
+    return plan.static_s + n * plan.seconds_per_axis + (n - 1) * (plan.reposition_s + plan.settle_s) + plan.settle_s
+
+
+def _fisher(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit"):
+    """``(names, Fisher information)`` of the joint fit's parameters on the plan's motion; the bias
+    windows the fit's (``"fit"``) or one bias per channel (None: the information is then a sum
+    over the cycles, which :func:`_least_cycles` uses)."""
+    windows = {} if bias_window_s == "fit" else {"bias_window_s": bias_window_s}
+    return information([_plan_record(plan)], noise_ug_per_sqrt_hz * MICRO_G, **windows)
+
+
+def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
+    """Standard errors from a Fisher information, or :class:`PlanError` naming what is unobservable."""
+    scale = 1.0 / np.sqrt(np.where(np.diag(fisher) > 0, np.diag(fisher), 1.0))
+    scaled = fisher * np.outer(scale, scale)
+    eigval, eigvec = np.linalg.eigh(scaled)
+    weak = eigval < 1e-6 * eigval.max()
+    if weak.any() or np.any(np.diag(fisher) == 0):
+        bad = set(np.flatnonzero(np.diag(fisher) == 0))
+        for v in eigvec[:, weak].T:
+            bad |= set(np.flatnonzero(np.abs(v) > 0.3))
+        raise PlanError(f"rotations about {', '.join(plan_axes)} leave unobservable: "
+                        f"{', '.join(names[j] for j in sorted(bad))}; the table must reach at least two body axes "
+                        "(all three for every arm)")
+    return np.sqrt(np.diag(np.linalg.inv(scaled))) * scale
+
+
+def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float) -> Prediction:
+    """The arms' and the tilt's standard errors a calibration on ``plan`` will state, the
+    accelerometers' noise white with this density. Raises :class:`PlanError` naming what the
+    plan leaves unobservable."""
+    plan.check()
+    names, fisher = _fisher(plan, noise_ug_per_sqrt_hz)
+    sigma = _sigmas(names, fisher, plan.axes)
+    tilt = [names.index("tilt_north"), names.index("tilt_east")]
+    return Prediction(sigma[:9].reshape(3, 3), sigma[tilt], duration_of(plan))
+
+
+def _spin_s(rate_dps: float, accel_dps2: float, ramp_s: float) -> float:
+    """Seconds of one change of rate from rest to the peak (as :meth:`TurntablePlan.check` counts it)."""
+    return max(rate_dps / accel_dps2, ramp_s) + ramp_s
+
+
+def _shape(req: PlanRequest, shape: tuple, seconds_per_axis: float, cycles: int):
+    """The candidate plan of ``shape`` = (rate, acceleration, lead-in, dwell), or None when its
+    cycles leave no time at the peak rate."""
+    t = req.table
+    rate, accel, static_s, dwell_s = shape
+    plan = scenarios.TurntablePlan(axes=t.axes, static_s=static_s, seconds_per_axis=float(seconds_per_axis),
+                                   cycles=int(cycles), peak_rate_dps=float(rate), accel_dps2=float(accel),
+                                   dwell_s=float(dwell_s), reposition_s=t.reposition_s, settle_s=t.settle_s)
+    try:
+        plan.check()
+    except ConfigError:
+        return None
+    return plan
+
+
+def _overhead_s(req: PlanRequest, static_s: float) -> float:
+    n = len(req.table.axes)
+    return static_s + (n - 1) * (req.table.reposition_s + req.table.settle_s) + req.table.settle_s
+
+
+def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:
+    """The plan that answers ``req`` (see the module), with the paper's plan beside it."""
+    req = req.check()
+    t = req.table
+    leads = LEAD_IN_S if req.static_s is None else (req.static_s,)
+    shapes = [(f_r * t.max_rate_dps, f_a * t.max_accel_dps2, lead, dwell) for f_r in RATE_FRACTIONS
+              for f_a in ACCEL_FRACTIONS for lead in leads for dwell in DWELL_S]
+    best, tried = None, 0
+    if req.budget_s is not None:
+        for shape in shapes:
+            per_axis = (req.budget_s - _overhead_s(req, shape[2])) / len(t.axes)
+            for cycles in CYCLE_CHOICES if per_axis > 0 else ():
+                plan = _shape(req, shape, per_axis, cycles)
+                if plan is None:
+                    continue
+                pred = predict(plan, req.noise_ug_per_sqrt_hz)
+                tried += 1
+                if best is None or pred.max_sigma_mm < best[1].max_sigma_mm:
+                    best = (plan, pred)
+                if progress is not None:
+                    progress(tried)
+        if best is None:
+            raise PlanError(f"--budget-s {req.budget_s:g}: too short for one rotation each way about each of "
+                            f"{len(t.axes)} axes at up to {t.max_rate_dps:g} deg/s and {t.max_accel_dps2:g} deg/s^2, "
+                            f"with the turns between them ({_overhead_s(req, min(leads)):g} s with the lead-in); "
+                            "allow more time")
+    else:
+        for shape in shapes:
+            # half a cycle: the changes of rate and the dwells, and cruising CRUISE_FACTORS times as long
+            base = 2 * _spin_s(shape[0], shape[1], scenarios.TurntablePlan.ramp_s) + 2 * shape[3]
+            for cruise_factor in CRUISE_FACTORS:
+                plan, pred, evals = _least_cycles(req, shape, base * (1.0 + cruise_factor))
+                tried += evals
+                if plan is not None and (best is None or pred.duration_s < best[1].duration_s):
+                    best = (plan, pred)
+                if progress is not None:
+                    progress(tried)
+        if best is None:
+            raise PlanError(f"--target-sigma-mm {req.target_sigma_mm:g}: no plan of up to {MAX_CYCLES} cycles per axis "
+                            f"reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) of noise; allow a larger sigma")
+    paper_plan = replace(scenarios.TurntablePlan(), reposition_s=t.reposition_s, settle_s=t.settle_s)
+    paper = None
+    if set(paper_plan.axes) <= set(t.axes) and paper_plan.peak_rate_dps <= t.max_rate_dps \
+            and paper_plan.accel_dps2 <= t.max_accel_dps2:
+        paper = predict(paper_plan, req.noise_ug_per_sqrt_hz)
+    return PlanDesign(best[0], best[1], req, paper, paper_plan if paper else None, tried)
+
+
+def _least_cycles(req: PlanRequest, shape: tuple, half_s: float):
+    """The fewest cycles (each ``2 half_s`` long) per axis whose plan reaches the wanted sigma:
+    ``(plan, prediction, evaluations)``, or ``(None, None, evaluations)``.
+
+    With one bias per channel the information is a sum over identical cycles, ``I(c) = A + c B``
+    (``B = I(2) - I(1)``), so two evaluations give every cycle count's sigma and a bisection finds
+    the least; the fit's bias windows give up a little of it, so the plan found is then evaluated
+    with them and lengthened until it reaches the wanted sigma.
+    """
+    target = req.target_sigma_mm
+    plans = [_shape(req, shape, 2 * half_s * c, c) for c in (1, 2)]
+    if plans[0] is None:
+        return None, None, 0
+    (names, one), (_, two) = (_fisher(p, req.noise_ug_per_sqrt_hz, bias_window_s=None) for p in plans)
+    step, start = two - one, 2 * one - two
+
+    def largest_mm(c):
+        try:
+            return float(_sigmas(names, start + c * step, plans[0].axes)[:9].max() * 1e3)
+        except np.linalg.LinAlgError:
+            return math.inf
+
+    lo, hi = 0, 1
+    while largest_mm(hi) > target:
+        if hi >= MAX_CYCLES:
+            return None, None, 2
+        lo, hi = hi, min(MAX_CYCLES, 2 * hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if largest_mm(mid) <= target else (mid, hi)
+    evals = 2
+    while True:
+        plan = _shape(req, shape, 2 * half_s * hi, hi)
+        pred = predict(plan, req.noise_ug_per_sqrt_hz)
+        evals += 1
+        if pred.max_sigma_mm <= target:
+            return plan, pred, evals
+        if hi >= MAX_CYCLES:
+            return None, None, evals
+        hi = min(MAX_CYCLES, hi + max(1, math.ceil(hi * ((pred.max_sigma_mm / target) ** 2 - 1))))
+
+
+def plan_document(design: PlanDesign) -> dict:
+    """The ``sizefx/plan/1`` document: what ``sizefx simulate turntable --plan`` runs, with the
+    request and the prediction it was designed with."""
+    p, pred, req = design.plan, design.prediction, design.request
+    doc = {
+        "schema": PLAN_SCHEMA,
+        "turntable": {k: v for k, v in asdict(p).items()},
+        "designed_for": {
+            "noise_ug_per_sqrt_hz": req.noise_ug_per_sqrt_hz,
+            "objective": "min-sigma" if req.budget_s is not None else "least-time",
+            **({"budget_s": req.budget_s} if req.budget_s is not None else {"target_sigma_mm": req.target_sigma_mm}),
+            "table": asdict(req.table),
+        },
+        "prediction": {
+            "duration_s": pred.duration_s,
+            "max_sigma_mm": pred.max_sigma_mm,
+            "sigma_mm": (pred.sigma_arms_m * 1e3).tolist(),
+            "sigma_tilt_arcsec": (pred.sigma_tilt_rad / ARCSEC).tolist(),
+            "arms": PARAMS_R,
+        },
+    }
+    if design.paper is not None:
+        doc["paper_plan"] = {"duration_s": design.paper.duration_s, "max_sigma_mm": design.paper.max_sigma_mm}
+    check_document(doc, PLAN_SCHEMA)
+    return doc
+
+
+def report_lines(design: PlanDesign) -> list[str]:
+    """What ``sizefx plan`` prints."""
+    p, pred, req = design.plan, design.prediction, design.request
+    goal = (f"the smallest largest arm sigma in {req.budget_s:g} s" if req.budget_s is not None
+            else f"the shortest plan with every arm sigma <= {req.target_sigma_mm:g} mm")
+    lines = [f"plan for {goal}; noise {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz); table up to "
+             f"{req.table.max_rate_dps:g} deg/s, {req.table.max_accel_dps2:g} deg/s^2, axes {req.table.axes} "
+             f"({design.tried} plans evaluated)",
+             f"  axes {p.axes}: {p.cycles} cycles in {p.seconds_per_axis:.1f} s per axis at {p.peak_rate_dps:g} deg/s, "
+             f"{p.accel_dps2:g} deg/s^2, resting {p.dwell_s:g} s between rotations; lead-in {p.static_s:g} s; "
+             f"{pred.duration_s:.0f} s in all",
+             "  predicted sigma [mm] (rows r_x, r_y, r_z; columns x, y, z):"]
+    for i, a in enumerate("xyz"):
+        lines.append(f"    r_{a}  " + " ".join(f"{v * 1e3:8.4f}" for v in pred.sigma_arms_m[i]))
+    lines.append(f"  largest {pred.max_sigma_mm:.4f} mm; tilt sigma {pred.sigma_tilt_rad[0] / ARCSEC:.3f}, "
+                 f"{pred.sigma_tilt_rad[1] / ARCSEC:.3f} arcsec")
+    if design.paper is not None:
+        lines.append(f"  the paper's plan ({design.paper_plan.axes}, {design.paper_plan.cycles} cycles, "
+                     f"{design.paper_plan.seconds_per_axis:g} s per axis): {design.paper.duration_s:.0f} s, largest "
+                     f"sigma {design.paper.max_sigma_mm:.4f} mm")
+    return lines
+
+
+@dataclass(frozen=True)
+class PlanConfig:
+    """``sizefx plan``: the request and the plan file to write (``-o``, ``sizefx/plan/1``)."""
+
+    request: PlanRequest
+    output: str | None = None
+    force: bool = False
+
+    def inputs(self) -> dict:
+        return {}
+
+    def outputs(self) -> dict:
+        return {"-o": self.output}
+
+
+@dataclass
+class PlanResult:
+    """The plan designed (:attr:`design`) and the file written (:attr:`written`)."""
+
+    design: PlanDesign
+    written: dict = field(default_factory=dict)
+
+    def report(self) -> str:
+        lines = report_lines(self.design)
+        if "-o" in self.written:
+            lines.append(f"plan -> {self.written['-o']}")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        return {"plan": plan_document(self.design), "written": dict(self.written)}
+
+
+def run(config: PlanConfig, *, progress=None) -> PlanResult:
+    """The ``plan`` stage: the request checked, the output's pre-flight, the search, the file."""
+    from .io.toml import write_toml
+    from .stage import preflight
+
+    request = config.request.check()
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
+    out = PlanResult(design_plan(request, progress=progress))
+    if config.output:
+        write_toml(config.output, plan_document(out.design), force=config.force,
+                   header="sizefx plan: a turntable calibration plan\n"
+                          "run it with: sizefx simulate turntable --plan THIS_FILE -o turntable.h5")
+        out.written["-o"] = str(config.output)
+    return out
