@@ -31,7 +31,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from . import earth, scenarios
-from .calibrate.joint import PARAMS_R, information
+from .calibrate.joint import PARAMS_R, information, unobservable
 from .calibrate.records import Record
 from .constants import ARCSEC, MICRO_G
 from .effects import IDEAL, load_effects
@@ -170,19 +170,14 @@ def _fisher(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_win
 
 
 def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
-    """Standard errors from a Fisher information, or :class:`PlanError` naming what is unobservable."""
-    scale = 1.0 / np.sqrt(np.where(np.diag(fisher) > 0, np.diag(fisher), 1.0))
-    scaled = fisher * np.outer(scale, scale)
-    eigval, eigvec = np.linalg.eigh(scaled)
-    weak = eigval < 1e-6 * eigval.max()
-    if weak.any() or np.any(np.diag(fisher) == 0):
-        bad = set(np.flatnonzero(np.diag(fisher) == 0))
-        for v in eigvec[:, weak].T:
-            bad |= set(np.flatnonzero(np.abs(v) > 0.3))
-        raise PlanError(f"rotations about {', '.join(plan_axes)} leave unobservable: "
-                        f"{', '.join(names[j] for j in sorted(bad))}; the table must reach at least two body axes "
-                        "(all three for every arm)")
-    return np.sqrt(np.diag(np.linalg.inv(scaled))) * scale
+    """Standard errors from a Fisher information, or :class:`PlanError` naming what is unobservable
+    (the fit's own test, :func:`sizefx.calibrate.joint.unobservable`)."""
+    _, bad = unobservable(fisher, names)
+    if bad:
+        raise PlanError(f"rotations about {', '.join(plan_axes)} leave unobservable: {', '.join(bad)}; the table "
+                        "must reach at least two body axes (all three for every arm)")
+    scale = 1.0 / np.sqrt(np.diag(fisher))
+    return np.sqrt(np.diag(np.linalg.inv(fisher * np.outer(scale, scale)))) * scale
 
 
 def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float) -> Prediction:

@@ -137,3 +137,21 @@ def test_plan_with_plan_options_is_refused(plan_file, tmp_path):
 def test_plan_never_overwrites_its_input(plan_file):
     _one_line_refusal(["simulate", "turntable", "--plan", str(plan_file), "-o", str(plan_file), "--force"],
                       needle=str(plan_file))
+
+
+@pytest.mark.parametrize("text, needle", [
+    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\n', "seconds_per_axis"),
+    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 120.0\ncycles = "five"\n'
+     'peak_rate_dps = 20.0\naccel_dps2 = 10.0\n', "cycles"),
+    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 120.0\ncycles = 5\n'
+     'peak_rate_dps = 1e9\naccel_dps2 = 10.0\n', "peak_rate_dps"),
+    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 2.0\ncycles = 5\n'
+     'peak_rate_dps = 20.0\naccel_dps2 = 10.0\n', "leave no time"),
+    ('schema = "sizefx/levers/1"\n', "schema"),
+    ("[turntable\n", "plan file"),
+], ids=["missing-keys", "wrong-type", "absurd-rate", "no-time", "other-schema", "not-toml"])
+def test_malformed_plan_files_are_one_line(tmp_path, text, needle):
+    path = tmp_path / "plan.toml"
+    path.write_text(text)
+    _one_line_refusal(["simulate", "turntable", "--plan", str(path), "-o", str(tmp_path / "t.h5")], needle=needle)
+    assert not (tmp_path / "t.h5").exists()

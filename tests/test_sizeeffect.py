@@ -196,7 +196,7 @@ CAL_RATE_HZ = 400.0
 @pytest.fixture(scope="module")
 def paper_plan():
     """The paper's plan (Y, X, Z in turn, 20 deg/s, +-10 deg/s^2) shortened to 214 s: 2 cycles in
-    48 s per axis and a 20 s lead-in. The full 7.8 min plan and 20 seeds of it:
+    48 s per axis and a 20 s lead-in. The full 7.8 min plan and 100 seeds of it:
     benchmarks/accuracy_calibrate.py."""
     return scenarios.turntable(scenarios.TurntablePlan(static_s=20.0, seconds_per_axis=48.0, cycles=2))[0]
 
@@ -208,7 +208,7 @@ def _fx(preset="high-precision", **more):
 def test_calibration_is_unbiased_with_honest_sigma_over_four_seeds(paper_plan):
     """Issue 5, in small: all nine components within 3.5 sigma, the scatter matches sigma, no bias.
 
-    The full study (20 seeds of the full plan) is ``benchmarks/accuracy_calibrate.py``; four
+    The full study (100 seeds of the full plan, three set-ups) is ``benchmarks/accuracy_calibrate.py``; four
     fixed seeds give 36 z-scores, enough to catch a broken estimator: the pooled RMS of z has
     a standard error of about 0.12, so a sigma off by half fails, and so does a bias of two
     sigma on a component (the mean of four z-scores has a standard error of 0.5).

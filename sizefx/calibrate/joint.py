@@ -37,7 +37,7 @@ from ..sensor_model import SensorParams, accel_inputs, accel_readings, jacobian,
 from .records import ROTATING_RAD_S, CalibrationError, Record, motion_of
 
 __all__ = ["CalibrationResult", "joint_fit", "UNOBSERVABLE_EIG", "BIAS_WINDOW_S", "UNDETERMINED_SIGMA",
-           "PARAMS_R", "FIT_EFFECTS", "INTERVAL_S", "AR_MAX_ORDER", "cramer_rao_fisher", "information", "interval_samples",
+           "PARAMS_R", "FIT_EFFECTS", "INTERVAL_S", "AR_MAX_ORDER", "cramer_rao_fisher", "information", "unobservable", "interval_samples",
            "mean_angular_acceleration"]
 
 #: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable:
@@ -270,18 +270,25 @@ def _normal_equations(segments, noise, p, n_bias, with_tilt, with_delay):
     return N, b
 
 
-def _check_observable(N, names, with_delay):
-    """Refuse a normal matrix with directions the motion does not reveal, naming the parameters in them.
-    Returns the eigenvalues of the column-scaled matrix (for the condition number)."""
+def unobservable(N, names) -> tuple[np.ndarray, list]:
+    """``(eigenvalues of the column-scaled N, names of the parameters it leaves unobservable)``:
+    those with no information, and those in a direction determined :data:`UNOBSERVABLE_EIG` times
+    worse than the best (components above 0.3 of it)."""
     scale = 1.0 / np.sqrt(np.where(np.diag(N) > 0, np.diag(N), 1.0))
     eigval, eigvec = np.linalg.eigh(N * np.outer(scale, scale))
     weak = eigval < UNOBSERVABLE_EIG * eigval.max()
-    if weak.any() or np.any(np.diag(N) == 0):
-        bad = set(np.flatnonzero(np.diag(N) == 0))
-        for v in eigvec[:, weak].T:
-            bad |= set(np.flatnonzero(np.abs(v) > 0.3))
-        listed = ", ".join(names[j] for j in sorted(bad))
-        raise CalibrationError(f"the rotations in the record(s) leave unobservable: {listed}; "
+    bad = set(np.flatnonzero(np.diag(N) == 0))
+    for v in eigvec[:, weak].T:
+        bad |= set(np.flatnonzero(np.abs(v) > 0.3))
+    return eigval, [names[j] for j in sorted(bad)]
+
+
+def _check_observable(N, names, with_delay):
+    """Refuse a normal matrix with directions the motion does not reveal, naming the parameters in them.
+    Returns the eigenvalues of the column-scaled matrix (for the condition number)."""
+    eigval, bad = unobservable(N, names)
+    if bad:
+        raise CalibrationError(f"the rotations in the record(s) leave unobservable: {', '.join(bad)}; "
                                "record rotations about at least two body axes (the paper rotates about Y, X "
                                "and Z in turn)" + (", and about horizontal axes for the delay" if with_delay else ""))
     return eigval
