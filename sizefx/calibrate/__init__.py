@@ -177,6 +177,8 @@ def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
                            "bound_sigma_tilt_arcsec": None if res.tilt_rad is None else
                            (res.bound_sigma[res.names.index("tilt_north"):][:2] / ARCSEC).tolist(),
                            "bound_sigma_accel_delay_s": float(res.bound_sigma[-1]) if res.delay_s is not None else None,
+                           "sigma_accel_bias_windows_mps2": res.bias_windows().tolist(),
+                           "bound_accel_bias_windows_mps2": res.bias_windows(res.bound_sigma).tolist(),
                            "interval_s": res.interval_s, "noise_model": res.noise,
                            "accel_bias_mps2": res.biases.tolist(), "condition_number": res.condition,
                            "residual_rms_mps2": res.residual_rms.tolist(), "samples": res.samples,

@@ -106,6 +106,12 @@ class CalibrationResult:
         """The bound of the arms [3, 3] m."""
         return self.bound_sigma[:9].reshape(3, 3)
 
+    def bias_windows(self, of=None) -> np.ndarray:
+        """Standard errors (default) or bounds (``of=self.bound_sigma``) of every bias window [w, 3] m/s^2."""
+        values = np.sqrt(np.diag(self.covariance)) if of is None else of
+        index = [j for j, name in enumerate(self.names) if name.startswith("bias_")]
+        return values[index].reshape(-1, 3)
+
     @property
     def efficiency(self) -> np.ndarray:
         """Bound over stated standard error, per parameter (1: the bound reached)."""

@@ -52,6 +52,12 @@ def report_lines(res, nom: Levers, lev: Levers, records: list[Record], skipped: 
                  + " ".join(f"{v * mm:.4f}" for v in lev.offset))
     for i, a in enumerate("xyz"):
         lines.append(f"  d_{a}  " + " ".join(f"{v * mm:8.4f}" for v in lev.arms_triad[i]))
+    if res.bound_sigma is not None:
+        ug = 9.80665e-6
+        lines.append("  accelerometer biases (per 120 s window): sigma x, y, z = "
+                     + ", ".join(f"{v / ug:.3f}" for v in res.bias_windows().mean(axis=0)) + " ug (bound "
+                     + ", ".join(f"{v / ug:.3f}" for v in res.bias_windows(res.bound_sigma).mean(axis=0))
+                     + "), mean over the windows")
     if res.tilt_rad is not None:
         tb = res.bound_sigma[res.names.index("tilt_north"):][:2] / ARCSEC
         lines.append(f"  table tilt: north {res.tilt_rad[0] / ARCSEC:.2f} +- {res.sigma_tilt_rad[0] / ARCSEC:.2f} "
