@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from sizefx import scenarios
-from sizefx.calibrate import CalibrateConfig, joint_fit, per_rotation_fit, prepare
+from sizefx.calibrate import PARAMS_R, CalibrateConfig, joint_fit, per_rotation_fit, prepare
 from sizefx.calibrate import run as calibrate_files
 from sizefx.constants import ARCSEC
 from sizefx.effects import load_effects
@@ -94,21 +94,18 @@ def one_seed(job):
                                    f"sway-{axis}"))
     names = list(truth_of(variant))
     out = {}
-    for domain, interval in (("increments", "default"), ("rates", None)):
-        if domain == "rates" and not compare_rates:
-            continue
+    domains = {"increments": {}, "rates": {"interval_s": None}} if compare_rates else {"increments": {}}
+    for domain, options in domains.items():
         t0 = time.perf_counter()
-        res = joint_fit(records, with_delay=with_delay) if interval == "default" else \
-            joint_fit(records, with_delay=with_delay, interval_s=None)
+        res = joint_fit(records, with_delay=with_delay, **options)
         wall = time.perf_counter() - t0
-        index = [res.names.index(n) for n in names]
-        x = np.r_[res.arms.ravel(), np.zeros(len(res.names) - 9)]
-        c = 9 + 3 * (len(res.names) - 9 - 2 - with_delay) // 3
-        x[c:c + 2] = res.tilt_rad
+        estimate = dict(zip(PARAMS_R, res.arms.ravel()))
+        estimate["tilt_north"], estimate["tilt_east"] = res.tilt_rad
         if with_delay:
-            x[-1] = res.delay_s
+            estimate["accel_delay"] = res.delay_s
+        index = [res.names.index(n) for n in names]
         sig = np.sqrt(np.diag(res.covariance))
-        out[domain] = (x[index].tolist(), sig[index].tolist(), res.bound_sigma[index].tolist(), wall)
+        out[domain] = ([estimate[n] for n in names], sig[index].tolist(), res.bound_sigma[index].tolist(), wall)
     return out
 
 

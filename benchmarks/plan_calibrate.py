@@ -28,7 +28,7 @@ import numpy as np
 from sizefx import scenarios
 from sizefx.calibrate import joint_fit, prepare
 from sizefx.effects import load_effects
-from sizefx.plan import PlanRequest, TableLimits, design_plan, duration_of, predict
+from sizefx.plan import PlanRequest, TableLimits, design_plan, predict
 from sizefx.simulate import simulate_in_memory
 
 NOISE_UG = 2.96
@@ -56,7 +56,7 @@ def confirm(name, plan, seeds, jobs, seed0):
     ratio = scatter / p
     pooled = float(np.sqrt(np.mean(ratio**2)))
     print(f"\n{name}: {plan.axes}, {plan.cycles} cycles x {plan.seconds_per_axis:.1f} s at {plan.peak_rate_dps:g} deg/s, "
-          f"{plan.accel_dps2:g} deg/s^2, lead-in {plan.static_s:g} s, {duration_of(plan):.0f} s; {seeds} seeds")
+          f"{plan.accel_dps2:g} deg/s^2, lead-in {plan.static_s:g} s, {plan.duration_s:.0f} s; {seeds} seeds")
     print("  component     predicted   scatter  ratio   stated/predicted")
     for j, n in enumerate(f"r_{a}[{c}]" for a in "xyz" for c in "xyz"):
         print(f"  {n:10s}  {p[j] * 1e3:10.4f} {scatter[j] * 1e3:9.4f}  {ratio[j]:5.2f}   {stated[j] / p[j]:6.3f}")
@@ -64,7 +64,7 @@ def confirm(name, plan, seeds, jobs, seed0):
     print(f"  pooled scatter / predicted {pooled:.3f} (its own standard error {se / 3:.3f}); per component "
           f"{ratio.min():.2f}..{ratio.max():.2f} (each +- {se:.2f}); stated / predicted "
           f"{(stated / p).min():.3f}..{(stated / p).max():.3f}")
-    return {"plan": asdict(plan), "duration_s": duration_of(plan), "predicted_mm": (p * 1e3).tolist(),
+    return {"plan": asdict(plan), "duration_s": plan.duration_s, "predicted_mm": (p * 1e3).tolist(),
             "scatter_mm": (scatter * 1e3).tolist(), "ratio": ratio.tolist(), "pooled_ratio": pooled,
             "stated_over_predicted": (stated / p).tolist(), "seeds": seeds}
 
@@ -90,21 +90,21 @@ def main(argv=None):
     paper = scenarios.TurntablePlan()
     paper_pred = predict(paper, NOISE_UG)
     target = paper_pred.max_sigma_mm
-    print(f"paper's plan: {duration_of(paper):.0f} s, largest predicted sigma {target:.4f} mm at {NOISE_UG} ug/sqrt(Hz)")
+    print(f"paper's plan: {paper.duration_s:.0f} s, largest predicted sigma {target:.4f} mm at {NOISE_UG} ug/sqrt(Hz)")
     same_table, t1 = designed("shortest plan to the paper's sigma, paper's table (20 deg/s, 10 deg/s^2)",
                               PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target))
     fast_table, t2 = designed("shortest plan to the paper's sigma, 100 deg/s, 50 deg/s^2 table",
                               PlanRequest(NOISE_UG, TableLimits(100.0, 50.0), target_sigma_mm=target))
     half, t3 = designed("best plan in half the paper's time, paper's table",
-                        PlanRequest(NOISE_UG, TableLimits(), budget_s=duration_of(paper) / 2))
-    out = {"noise_ug_per_sqrt_hz": NOISE_UG, "paper": {"duration_s": duration_of(paper), "max_sigma_mm": target},
+                        PlanRequest(NOISE_UG, TableLimits(), budget_s=paper.duration_s / 2))
+    out = {"noise_ug_per_sqrt_hz": NOISE_UG, "paper": {"duration_s": paper.duration_s, "max_sigma_mm": target},
            "designs": {k: {"plan": asdict(d.plan), "duration_s": d.prediction.duration_s,
                            "max_sigma_mm": d.prediction.max_sigma_mm, "design_s": w, "plans_evaluated": d.tried}
                        for k, (d, w) in {"paper_table": (same_table, t1), "fast_table": (fast_table, t2),
                                          "half_time": (half, t3)}.items()}}
     for k, d in (("paper_table", same_table), ("fast_table", fast_table)):
-        print(f"  {k}: {d.prediction.duration_s:.0f} s against the paper's {duration_of(paper):.0f} s "
-              f"({1 - d.prediction.duration_s / duration_of(paper):.0%} shorter)")
+        print(f"  {k}: {d.prediction.duration_s:.0f} s against the paper's {paper.duration_s:.0f} s "
+              f"({1 - d.prediction.duration_s / paper.duration_s:.0%} shorter)")
     out["confirm"] = {"paper": confirm("paper's plan", paper, args.seeds, args.jobs, 300_000),
                       "designed": confirm("designed plan (fast table)", fast_table.plan, args.seeds, args.jobs, 400_000)}
     print(f"\ntotal {time.perf_counter() - t_start:.0f} s")

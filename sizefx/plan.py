@@ -41,7 +41,7 @@ from .io.schema import check_document
 from .simulate import true_motion
 
 __all__ = ["TableLimits", "PlanRequest", "Prediction", "PlanDesign", "PlanConfig", "PlanResult", "run", "predict",
-           "design_plan", "plan_document", "duration_of", "PlanError", "PLAN_SCHEMA", "PLAN_RATE_HZ",
+           "design_plan", "plan_document", "PlanError", "PLAN_SCHEMA", "PLAN_RATE_HZ",
            "RATE_FRACTIONS", "ACCEL_FRACTIONS"]
 
 #: Rows per second of the plan's motion in the information. The table's changes of rate take 0.5 s
@@ -155,12 +155,6 @@ def _plan_record(plan: scenarios.TurntablePlan) -> Record:
     return Record("plan", t, np.zeros((t.size, 3)), motion.omega_ib_b, motion.omegadot_ib_b, motion.mat_nb, g_n)
 
 
-def duration_of(plan: scenarios.TurntablePlan) -> float:
-    """Seconds the plan takes: lead-in, every axis, the turns between them, the last settling."""
-    n = len(plan.axes)
-    return plan.static_s + n * plan.seconds_per_axis + (n - 1) * (plan.reposition_s + plan.settle_s) + plan.settle_s
-
-
 def _fisher(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit"):
     """``(names, Fisher information)`` of the joint fit's parameters on the plan's motion; the bias
     windows the fit's (``"fit"``) or one bias per channel (None: the information is then a sum
@@ -188,7 +182,7 @@ def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float) -> Predi
     names, fisher = _fisher(plan, noise_ug_per_sqrt_hz)
     sigma = _sigmas(names, fisher, plan.axes)
     tilt = [names.index("tilt_north"), names.index("tilt_east")]
-    return Prediction(sigma[:9].reshape(3, 3), sigma[tilt], duration_of(plan))
+    return Prediction(sigma[:9].reshape(3, 3), sigma[tilt], plan.duration_s)
 
 
 def _spin_s(rate_dps: float, accel_dps2: float, ramp_s: float) -> float:
@@ -212,8 +206,9 @@ def _shape(req: PlanRequest, shape: tuple, seconds_per_axis: float, cycles: int)
 
 
 def _overhead_s(req: PlanRequest, static_s: float) -> float:
-    n = len(req.table.axes)
-    return static_s + (n - 1) * (req.table.reposition_s + req.table.settle_s) + req.table.settle_s
+    t = req.table
+    return scenarios.TurntablePlan(axes=t.axes, static_s=static_s, reposition_s=t.reposition_s,
+                                   settle_s=t.settle_s).overhead_s
 
 
 def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:

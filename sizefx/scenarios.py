@@ -80,6 +80,16 @@ class TurntablePlan:
     reposition_s: float = 10.0
     settle_s: float = 10.0
 
+    @property
+    def overhead_s(self) -> float:
+        """Seconds not spent rotating: the lead-in, the turns to each next axis, the last settling."""
+        return self.static_s + (len(self.axes) - 1) * (self.reposition_s + self.settle_s) + self.settle_s
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds the plan takes (:func:`turntable`'s trajectory is this long)."""
+        return self.overhead_s + len(self.axes) * self.seconds_per_axis
+
     def check(self):
         if not self.axes or any(a not in TABLE_ORIENTATIONS_DEG for a in self.axes):
             raise ConfigError(f"turntable axes '{self.axes}': use letters X, Y, Z (e.g. YXZ)")

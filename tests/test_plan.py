@@ -20,7 +20,7 @@ from sizefx import scenarios
 from sizefx.calibrate import joint_fit, prepare
 from sizefx.effects import load_effects
 from sizefx.io.telemetry import read_telemetry
-from sizefx.plan import PlanError, PlanRequest, TableLimits, design_plan, duration_of, predict
+from sizefx.plan import PlanError, PlanRequest, TableLimits, design_plan, predict
 from sizefx.simulate import simulate_in_memory
 from sizefx_cli.main import main
 
@@ -41,8 +41,8 @@ def test_prediction_is_what_the_fit_states():
 
 def test_budget_search_beats_the_paper_in_its_time():
     paper = scenarios.TurntablePlan()
-    design = design_plan(PlanRequest(NOISE_UG, TableLimits(), budget_s=duration_of(paper)))
-    assert design.prediction.duration_s <= duration_of(paper) + 1e-6
+    design = design_plan(PlanRequest(NOISE_UG, TableLimits(), budget_s=paper.duration_s))
+    assert design.prediction.duration_s <= paper.duration_s + 1e-6
     assert design.prediction.max_sigma_mm <= design.paper.max_sigma_mm * (1 + 1e-9)
     assert design.plan.peak_rate_dps <= 20.0 and design.plan.accel_dps2 <= 10.0
 

@@ -255,6 +255,15 @@ def _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, arms=No
     return segments
 
 
+def _residual_autocovariance(segments, x, max_lag, n_records, n_bias, with_tilt, with_delay):
+    """Autocovariances [record][channel] of the rows' residuals at ``x``, pooled over each record's windows."""
+    acov = [[Autocovariance(max_lag) for _ in range(3)] for _ in range(n_records)]
+    for k, window, Hs, ys in segments:
+        for i in range(3):
+            acov[k][i].add(ys[i] - Hs[i] @ x[_columns(i, window, n_bias, with_tilt, with_delay)])
+    return acov
+
+
 def _floored(model: ARNoise) -> ARNoise:
     """The noise model, or white noise at :data:`NOISE_FLOOR_MPS2` when the residuals are below it."""
     floor = NOISE_FLOOR_MPS2**2
@@ -333,10 +342,7 @@ def cramer_rao_fisher(segments, x, p, n_bias, with_tilt, with_delay, n_records) 
     from these rows; on white noise it is ``H'H / s2``. The rows are interval means: what the
     averaging itself gives up is not in it (on the paper's plan the rates domain's standard errors,
     from every sample, are within 1 % of the increment domain's; benchmarks/accuracy_calibrate.py)."""
-    acov = [[Autocovariance(BOUND_AR_ORDER) for _ in range(3)] for _ in range(n_records)]
-    for k, window, Hs, ys in segments:
-        for i in range(3):
-            acov[k][i].add(ys[i] - Hs[i] @ x[_columns(i, window, n_bias, with_tilt, with_delay)])
+    acov = _residual_autocovariance(segments, x, BOUND_AR_ORDER, n_records, n_bias, with_tilt, with_delay)
     noise = [[_floored(fit_ar(a, criterion="aic")) for a in per_record] for per_record in acov]
     return _normal_equations(segments, noise, p, n_bias, with_tilt, with_delay)[0]
 
@@ -406,10 +412,7 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         if step == 0 and with_delay:  # the delay's column with the lever terms, at the first arms and delay
             segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, x[:9].reshape(3, 3),
                              float(x[-1]))
-        acov = [[Autocovariance(AR_MAX_ORDER) for _ in range(3)] for _ in records]
-        for k, window, Hs, ys in segments:
-            for i in range(3):
-                acov[k][i].add(ys[i] - Hs[i] @ x[_columns(i, window, n_bias, with_tilt, with_delay)])
+        acov = _residual_autocovariance(segments, x, AR_MAX_ORDER, n_rec, n_bias, with_tilt, with_delay)
         noise = [[_floored(fit_ar(a)) for a in per_record] for per_record in acov]
     cov = np.linalg.inv(N)  # weights are the whitened rows' 1 / s2: the inverse is the covariance
     sig = np.sqrt(np.diag(cov))

@@ -43,10 +43,6 @@ class Record:
     g_n: np.ndarray
 
     @property
-    def g_down(self) -> float:
-        return float(self.g_n[2])
-
-    @property
     def f_grav(self):
         """C_bn (-g_n) [N, 3]: gravity's specific force in body axes."""
         return _gravity_in_body(self.mat_nb, self.g_n)

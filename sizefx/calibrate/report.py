@@ -6,9 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..constants import ARCSEC
+from ..constants import ARCSEC, MICRO_G
 from ..io.files import atomic_output
 from ..levers import Levers
+from .joint import BIAS_WINDOW_S
 from .per_rotation import detect_rotations
 from .records import MIN_SAMPLES, CalibrationError, Record
 
@@ -53,10 +54,9 @@ def report_lines(res, nom: Levers, lev: Levers, records: list[Record], skipped: 
     for i, a in enumerate("xyz"):
         lines.append(f"  d_{a}  " + " ".join(f"{v * mm:8.4f}" for v in lev.arms_triad[i]))
     if res.bound_sigma is not None:
-        ug = 9.80665e-6
-        lines.append("  accelerometer biases (per 120 s window): sigma x, y, z = "
-                     + ", ".join(f"{v / ug:.3f}" for v in res.bias_windows().mean(axis=0)) + " ug (bound "
-                     + ", ".join(f"{v / ug:.3f}" for v in res.bias_windows(res.bound_sigma).mean(axis=0))
+        lines.append(f"  accelerometer biases (per {BIAS_WINDOW_S:g} s window): sigma x, y, z = "
+                     + ", ".join(f"{v / MICRO_G:.3f}" for v in res.bias_windows().mean(axis=0)) + " ug (bound "
+                     + ", ".join(f"{v / MICRO_G:.3f}" for v in res.bias_windows(res.bound_sigma).mean(axis=0))
                      + "), mean over the windows")
     if res.tilt_rad is not None:
         tb = res.bound_sigma[res.names.index("tilt_north"):][:2] / ARCSEC
