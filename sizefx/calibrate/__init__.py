@@ -180,6 +180,7 @@ def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
                            "sigma_accel_bias_windows_mps2": res.bias_windows().tolist(),
                            "bound_accel_bias_windows_mps2": res.bias_windows(res.bound_sigma).tolist(),
                            "interval_s": res.interval_s, "noise_model": res.noise,
+                           "left_out_steps": res.left_out_steps, "left_out_s": res.left_out_s,
                            "accel_bias_mps2": res.biases.tolist(), "condition_number": res.condition,
                            "residual_rms_mps2": res.residual_rms.tolist(), "samples": res.samples,
                            "nominal": config.nominal, "difference_from_nominal_m": (res.arms - nom.arms_total).tolist(),

@@ -33,12 +33,13 @@ import numpy as np
 
 from ..constants import ARCSEC
 from ..noise_model import WHITE, ARNoise, Autocovariance, fit_ar
+from ..omegadot import SAVGOL_WINDOW
 from ..sensor_model import SensorParams, accel_inputs, accel_readings, jacobian, param_index
 from .records import ROTATING_RAD_S, CalibrationError, Record, motion_of
 
 __all__ = ["CalibrationResult", "joint_fit", "UNOBSERVABLE_EIG", "BIAS_WINDOW_S", "UNDETERMINED_SIGMA",
            "PARAMS_R", "FIT_EFFECTS", "INTERVAL_S", "AR_MAX_ORDER", "cramer_rao_fisher", "information", "unobservable", "interval_samples",
-           "mean_angular_acceleration"]
+           "mean_angular_acceleration", "steps_in_angular_acceleration", "STEP_FLOOR_RAD_S2", "STEP_SIGMAS"]
 
 #: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable:
 #: determined 1000 times worse than the best. Earth rate (5e-5 rad/s) against the table's
@@ -60,6 +61,16 @@ AR_MAX_ORDER = 8
 #: A bias random walk (2 ug/sqrt(h) by default) drifts ~0.7 ug over the paper's plan; one
 #: constant per channel would pass that drift into the centripetal estimate (~0.1 mm, 4 sigma).
 BIAS_WINDOW_S = 120.0
+#: Steps in angular acceleration (a sway or a table's acceleration switched on at once) are left
+#: out of a fit with the delay: the delay's lever terms need the angular jerk, a spike at a step,
+#: which the gyros' filtered derivative smears over its 25 ms window (a 2 rad/s^2 sway start left
+#: in costs 0.24 % of the delay, issue 17). A step under this size [rad/s^2] stays in: its error
+#: is 1 % of that, and a 1 Hz, 20 deg/s sway's own smooth change of angular acceleration has a
+#: third difference of 0.004 rad/s^2 per 20 ms interval, five times below it.
+STEP_FLOOR_RAD_S2 = 0.02
+#: ... and one within this many robust standard deviations of the record's third differences
+#: (the gyros' noise, or a fast motion's own smooth change) is not told from them.
+STEP_SIGMAS = 8.0
 #: Standard errors beyond which a parameter counts as not determined. Column scaling makes a
 #: parameter seen only through Earth rate look well conditioned, so the check is in physical
 #: units: arms are known to ~0.02-0.05 mm from a proper plan; 1 mm is no calibration.
@@ -100,6 +111,10 @@ class CalibrationResult:
     bound_sigma: np.ndarray | None = None
     interval_s: float | None = None  #: the increment domain's interval; None: the rates domain
     noise: list = field(default_factory=list)  #: per record, per channel: the noise model fitted
+    #: with the delay: the steps in angular acceleration whose neighbourhood the fit left out
+    #: (:func:`steps_in_angular_acceleration`), and the time left out [s]
+    left_out_steps: int = 0
+    left_out_s: float = 0.0
 
     @property
     def bound_arms(self) -> np.ndarray:
@@ -157,6 +172,39 @@ def mean_angular_acceleration(rec: Record, starts: np.ndarray, stop: int) -> np.
     t_e[first], w_e[first] = t[0] - 0.5 * (t[1] - t[0]), w[0] - 0.5 * (w[1] - w[0])
     t_e[last], w_e[last] = t[-1] + 0.5 * (t[-1] - t[-2]), w[-1] + 0.5 * (w[-1] - w[-2])
     return np.diff(w_e, axis=0) / np.diff(t_e)[:, None]
+
+
+def steps_in_angular_acceleration(rec: Record) -> np.ndarray:
+    """Samples [n] bool near a step in angular acceleration, where a fit with the delay leaves its
+    rows out (:data:`STEP_FLOOR_RAD_S2`).
+
+    A step shows in the third difference of the intervals' exact mean angular acceleration
+    (:func:`mean_angular_acceleration`, :data:`INTERVAL_S`): at least half the step on one of four
+    intervals, against ``T^3`` times the third derivative for smooth motion. An interval is flagged
+    where that difference on any axis exceeds :data:`STEP_FLOOR_RAD_S2` and :data:`STEP_SIGMAS`
+    robust standard deviations of the record's own (the median absolute deviation, so the steps
+    themselves do not widen it); the flag covers the four intervals it spans and the filtered
+    derivative's reach either side (half its window and the jerk's central difference).
+    """
+    n = rec.t.size
+    block = interval_samples(rec, INTERVAL_S)
+    m = n // block
+    flagged = np.zeros(n, dtype=bool)
+    if m < 8:
+        return flagged
+    d3 = np.diff(mean_angular_acceleration(rec, np.arange(0, m * block, block), m * block), n=3, axis=0)
+    spread = 1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0)
+    over = np.any(np.abs(d3) > np.maximum(STEP_FLOOR_RAD_S2, STEP_SIGMAS * spread), axis=1)
+    reach = SAVGOL_WINDOW // 2 + 1
+    for j in np.flatnonzero(over):  # d3[j] spans intervals j .. j + 3
+        flagged[max(0, j * block - reach):min(n, (j + 4) * block + reach)] = True
+    return flagged
+
+
+def _runs(keep: np.ndarray):
+    """``(start, stop)`` of every run of True in ``keep``."""
+    edges = np.flatnonzero(np.diff(np.r_[False, keep, False].astype(np.int8)))
+    return zip(edges[::2], edges[1::2])
 
 
 def _design(rec: Record, sl: slice, with_tilt: bool, with_delay: bool, block: int = 1, arms=None,
@@ -240,18 +288,26 @@ def _names(window_labels, with_tilt, with_delay):
     return names
 
 
-def _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, arms=None, delay_s=0.0):
-    """The fit's rows, read once: ``(record, window, [H_i], [y_i])`` per bias window of every record
-    (a contiguous run of rows in time order, :func:`_design`'s columns of channel i)."""
+def _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, arms=None, delay_s=0.0, left_out=None):
+    """The fit's rows, read once: ``(record, window, [H_i], [y_i])`` per contiguous run of rows in a
+    bias window of a record (in time order, :func:`_design`'s columns of channel i).
+
+    ``left_out`` [per record: samples bool] (with the delay: :func:`steps_in_angular_acceleration`):
+    a row with any of its samples left out is dropped, and the window's rows split there, so the
+    noise model never whitens across the gap."""
     segments = []
     for k, rec in enumerate(records):
         block = interval_samples(rec, interval_s)
         pieces: dict = {}
         for window, sl in _spans(bias_index[k], chunk, block):
-            pieces.setdefault(window, []).append(_design(rec, sl, with_tilt, with_delay, block, arms, delay_s))
+            keep = (np.ones((sl.stop - sl.start) // block, dtype=bool) if left_out is None else
+                    ~left_out[k][sl].reshape(-1, block).any(axis=1))
+            pieces.setdefault(window, []).append((_design(rec, sl, with_tilt, with_delay, block, arms, delay_s), keep))
         for window, parts in pieces.items():
-            segments.append((k, window, [np.concatenate([part[i][0] for part in parts]) for i in range(3)],
-                             [np.concatenate([part[i][1] for part in parts]) for i in range(3)]))
+            Hs = [np.concatenate([design[i][0] for design, _ in parts]) for i in range(3)]
+            ys = [np.concatenate([design[i][1] for design, _ in parts]) for i in range(3)]
+            for a, b in _runs(np.concatenate([keep for _, keep in parts])):
+                segments.append((k, window, [H[a:b] for H in Hs], [y[a:b] for y in ys]))
     return segments
 
 
@@ -314,15 +370,19 @@ def _solve(N, b):
     return scale * np.linalg.solve(N * np.outer(scale, scale), scale * b)
 
 
-def _residual_rms(records, bias_index, x, n_bias, with_tilt, with_delay, chunk):
+def _residual_rms(records, bias_index, x, n_bias, with_tilt, with_delay, chunk, steps):
     """RMS of every sample's residual per channel [3] (the rates domain's design at ``x``): the
-    accelerometers' noise as the report states it, whatever the fit's domain."""
+    accelerometers' noise as the report states it, whatever the fit's domain. The samples near a
+    step in angular acceleration (``steps``, :func:`steps_in_angular_acceleration`) are left out:
+    there the gyros' filtered derivative, not the accelerometers, makes the residual (7-40 ug on
+    a noiseless record of the paper's plan)."""
     ss, count = np.zeros(3), np.zeros(3)
     arms, delay_s = (x[:9].reshape(3, 3), float(x[-1])) if with_delay else (None, 0.0)
     for k, rec in enumerate(records):
         for window, sl in _spans(bias_index[k], chunk):
+            keep = ~steps[k][sl]
             for i, (H, y) in enumerate(_design(rec, sl, with_tilt, with_delay, 1, arms, delay_s)):
-                r = y - H @ x[_columns(i, window, n_bias, with_tilt, with_delay)]
+                r = (y - H @ x[_columns(i, window, n_bias, with_tilt, with_delay)])[keep]
                 ss[i] += r @ r
                 count[i] += r.size
     return np.sqrt(ss / count)
@@ -385,6 +445,8 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
       the gyros' filtered derivative (the rates domain: kept to compare; it holds every sample's
       rows in memory, about 200 bytes a sample).
     - Biases are piecewise constant over ``bias_window_s`` windows of each record (None: one per record).
+    - With the delay, the rows near a step in angular acceleration are left out
+      (:func:`steps_in_angular_acceleration`; counted in the result).
     - Three solves: ordinary least squares; then twice the noise model fitted to the residuals
       (order by BIC up to :data:`AR_MAX_ORDER`) and the prewhitened least squares, whose inverse
       normal matrix is the covariance (:mod:`sizefx.noise_model`).
@@ -401,7 +463,9 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         listed = ", ".join(rec.name for rec in records)
         raise CalibrationError(f"{listed}: the record never rotates (|omega| stays under 1 deg/s); "
                                "no lever arm is observable: record rotations about at least two body axes")
-    segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s)
+    steps = [steps_in_angular_acceleration(rec) for rec in records]
+    left_out = steps if with_delay else None
+    segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, left_out=left_out)
     noise = [[WHITE] * 3 for _ in records]
     for step in range(3):
         N, b = _normal_equations(segments, noise, p, n_bias, with_tilt, with_delay)
@@ -411,7 +475,7 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
             break
         if step == 0 and with_delay:  # the delay's column with the lever terms, at the first arms and delay
             segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, x[:9].reshape(3, 3),
-                             float(x[-1]))
+                             float(x[-1]), left_out)
         acov = _residual_autocovariance(segments, x, AR_MAX_ORDER, n_rec, n_bias, with_tilt, with_delay)
         noise = [[_floored(fit_ar(a)) for a in per_record] for per_record in acov]
     cov = np.linalg.inv(N)  # weights are the whitened rows' 1 / s2: the inverse is the covariance
@@ -431,7 +495,7 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
                                "about at least two body axes (the paper rotates about Y, X and Z in turn)"
                                + (", and about horizontal axes for the delay" if with_delay else ""))
     bound = np.sqrt(np.diag(np.linalg.inv(cramer_rao_fisher(segments, x, p, n_bias, with_tilt, with_delay, n_rec))))
-    residual_rms = _residual_rms(records, bias_index, x, n_bias, with_tilt, with_delay, chunk)
+    residual_rms = _residual_rms(records, bias_index, x, n_bias, with_tilt, with_delay, chunk, steps)
     c = 9 + 3 * n_bias
     windows = x[9:c].reshape(n_bias, 3)
     per_record = np.array([windows[np.unique(bias_index[k])].mean(axis=0) for k in range(n_rec)])
@@ -442,6 +506,9 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         condition=float(eigval.max() / eigval.min()), residual_rms=residual_rms,
         samples=int(sum(r.t.size for r in records)), names=names, covariance=cov, bound_sigma=bound,
         interval_s=interval_s or None,
+        left_out_steps=sum(sum(1 for _ in _runs(mask)) for mask in left_out) if left_out else 0,
+        left_out_s=float(sum(mask.sum() * np.median(np.diff(rec.t)) for mask, rec in zip(left_out, records)))
+        if left_out else 0.0,
         noise=[{"record": rec.name, "channels": [_noise_summary(noise[k][i]) for i in range(3)]}
                for k, rec in enumerate(records)])
 

@@ -66,6 +66,10 @@ def report_lines(res, nom: Levers, lev: Levers, records: list[Record], skipped: 
     if res.delay_s is not None:
         lines.append(f"  accelerometer delay: {res.delay_s * 1e6:.2f} +- {res.sigma_delay_s * 1e6:.2f} "
                      f"(bound {res.bound_sigma[-1] * 1e6:.2f}) us")
+        if res.left_out_steps:
+            lines.append(f"  left out of the fit: {res.left_out_s:.2f} s around {res.left_out_steps} step(s) in angular "
+                         "acceleration, where the delay's lever terms need the angular jerk, which the gyros' "
+                         "filtered derivative smears")
     for path, rows in per_rotation.items():
         if not rows:  # no block of rotation about one vertical axis (a tumble, a flight): nothing to show
             continue
