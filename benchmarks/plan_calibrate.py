@@ -1,6 +1,6 @@
 """Issue 17, item 4: plans designed by ``sizefx plan``, their predicted sigmas confirmed by simulation.
 
-    python benchmarks/plan_calibrate.py [--seeds 60] [--jobs 2] [--json out.json]
+    python benchmarks/plan_calibrate.py [--seeds 60] [--jobs 2] [--json out.json] [--only-delay]
 
 1. The paper's plan (YXZ, 5 cycles, 2 min per axis, 20 deg/s, 10 deg/s^2) and its predicted largest
    arm sigma at 2.96 ug/sqrt(Hz) of white noise.
@@ -10,6 +10,10 @@
    noise of that density, fitted by ``joint_fit``): per arm component, the scatter across seeds
    against the prediction, and the pooled ratio (target: within 15 %), and the fit's stated sigma
    against the prediction.
+4. The delay's sway: the shortest plan to the paper's arm sigma and a 1 us delay sigma on the
+   paper's table swinging about X and Y; Monte Carlo of its turntable and sway records with a
+   0.5 ms delay, fitted with the delay: the delay's scatter and stated sigma against the prediction,
+   its mean z, and the arms' pooled ratio.
 """
 
 from __future__ import annotations
@@ -69,6 +73,46 @@ def confirm(name, plan, seeds, jobs, seed0):
             "stated_over_predicted": (stated / p).tolist(), "seeds": seeds}
 
 
+DELAY_S = 0.5e-3
+
+
+def one_delay_seed(job):
+    plan_dict, sway_dict, seed = job
+    fx = load_effects(overrides={**EFFECTS, "accel_delay": {"enabled": True, "tau_s": DELAY_S}})
+    records = [prepare(simulate_in_memory(scenarios.turntable(scenarios.TurntablePlan(**plan_dict))[0], fx,
+                                          form="rates", seed=seed), "turntable"),
+               prepare(simulate_in_memory(scenarios.sway(scenarios.SwayPlan(**sway_dict))[0], fx, form="rates",
+                                          seed=seed + 1_000_000), "sway")]
+    res = joint_fit(records, with_delay=True)
+    return ((res.arms - fx.arms_total_m()).ravel().tolist(), res.sigma_arms.ravel().tolist(),
+            res.delay_s - DELAY_S, res.sigma_delay_s)
+
+
+def confirm_delay(design, seeds, jobs, seed0):
+    plan, sway, pred = design.plan, design.sway, design.prediction
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        rows = list(pool.map(one_delay_seed, [(asdict(plan), asdict(sway), seed0 + s) for s in range(seeds)]))
+    err_arms = np.array([r[0] for r in rows])
+    err = np.array([r[2] for r in rows])
+    stated = float(np.mean([r[3] for r in rows]))
+    scatter = float(err.std(ddof=1))
+    arms_ratio = err_arms.std(axis=0, ddof=1) / pred.sigma_arms_m.ravel()
+    pooled = float(np.sqrt(np.mean(arms_ratio**2)))
+    se = 1 / np.sqrt(2 * (seeds - 1))
+    mean_z = float(np.mean(err / np.array([r[3] for r in rows])))
+    print(f"\ndelay's sway ({sway.axis}, {sway.amplitudes_dps[0]:g} deg/s at {sway.frequency_hz:.4g} Hz for "
+          f"{sway.segment_s:g} s) with the plan above; {DELAY_S * 1e3:g} ms delay; {seeds} seeds")
+    print(f"  delay: predicted {pred.sigma_delay_s * 1e6:.3f} us, scatter {scatter * 1e6:.3f} us (ratio "
+          f"{scatter / pred.sigma_delay_s:.3f} +- {se:.2f}), stated / predicted {stated / pred.sigma_delay_s:.3f}, "
+          f"mean z {mean_z:+.2f} (+- {1 / np.sqrt(seeds):.2f})")
+    print(f"  arms: pooled scatter / predicted {pooled:.3f} (+- {se / 3:.3f}); per component "
+          f"{arms_ratio.min():.2f}..{arms_ratio.max():.2f}")
+    return {"plan": asdict(plan), "sway": asdict(sway), "duration_s": pred.duration_s,
+            "predicted_delay_us": pred.sigma_delay_s * 1e6, "scatter_delay_us": scatter * 1e6,
+            "ratio": scatter / pred.sigma_delay_s, "stated_over_predicted": stated / pred.sigma_delay_s,
+            "mean_z": mean_z, "arms_pooled_ratio": pooled, "seeds": seeds}
+
+
 def designed(label, req):
     t0 = time.perf_counter()
     d = design_plan(req)
@@ -85,28 +129,45 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, default=60)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--only-delay", action="store_true", help="confirm only the delay's sway (item 4)")
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
     paper = scenarios.TurntablePlan()
     paper_pred = predict(paper, NOISE_UG)
     target = paper_pred.max_sigma_mm
     print(f"paper's plan: {paper.duration_s:.0f} s, largest predicted sigma {target:.4f} mm at {NOISE_UG} ug/sqrt(Hz)")
-    same_table, t1 = designed("shortest plan to the paper's sigma, paper's table (20 deg/s, 10 deg/s^2)",
-                              PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target))
-    fast_table, t2 = designed("shortest plan to the paper's sigma, 100 deg/s, 50 deg/s^2 table",
-                              PlanRequest(NOISE_UG, TableLimits(100.0, 50.0), target_sigma_mm=target))
-    half, t3 = designed("best plan in half the paper's time, paper's table",
-                        PlanRequest(NOISE_UG, TableLimits(), budget_s=paper.duration_s / 2))
     out = {"noise_ug_per_sqrt_hz": NOISE_UG, "paper": {"duration_s": paper.duration_s, "max_sigma_mm": target},
-           "designs": {k: {"plan": asdict(d.plan), "duration_s": d.prediction.duration_s,
-                           "max_sigma_mm": d.prediction.max_sigma_mm, "design_s": w, "plans_evaluated": d.tried}
-                       for k, (d, w) in {"paper_table": (same_table, t1), "fast_table": (fast_table, t2),
-                                         "half_time": (half, t3)}.items()}}
-    for k, d in (("paper_table", same_table), ("fast_table", fast_table)):
-        print(f"  {k}: {d.prediction.duration_s:.0f} s against the paper's {paper.duration_s:.0f} s "
-              f"({1 - d.prediction.duration_s / paper.duration_s:.0%} shorter)")
-    out["confirm"] = {"paper": confirm("paper's plan", paper, args.seeds, args.jobs, 300_000),
-                      "designed": confirm("designed plan (fast table)", fast_table.plan, args.seeds, args.jobs, 400_000)}
+           "designs": {}, "confirm": {}}
+    if not args.only_delay:
+        same_table, t1 = designed("shortest plan to the paper's sigma, paper's table (20 deg/s, 10 deg/s^2)",
+                                  PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target))
+        fast_table, t2 = designed("shortest plan to the paper's sigma, 100 deg/s, 50 deg/s^2 table",
+                                  PlanRequest(NOISE_UG, TableLimits(100.0, 50.0), target_sigma_mm=target))
+        half, t3 = designed("best plan in half the paper's time, paper's table",
+                            PlanRequest(NOISE_UG, TableLimits(), budget_s=paper.duration_s / 2))
+        out["designs"] = {k: {"plan": asdict(d.plan), "duration_s": d.prediction.duration_s,
+                              "max_sigma_mm": d.prediction.max_sigma_mm, "design_s": w, "plans_evaluated": d.tried}
+                          for k, (d, w) in {"paper_table": (same_table, t1), "fast_table": (fast_table, t2),
+                                            "half_time": (half, t3)}.items()}
+        for k, d in (("paper_table", same_table), ("fast_table", fast_table)):
+            print(f"  {k}: {d.prediction.duration_s:.0f} s against the paper's {paper.duration_s:.0f} s "
+                  f"({1 - d.prediction.duration_s / paper.duration_s:.0%} shorter)")
+    with_delay, t4 = designed("shortest plan to the paper's sigma and a 1 us delay sigma, paper's table swinging "
+                              "about X and Y", PlanRequest(NOISE_UG, TableLimits(sway_axes="XY"), target_sigma_mm=target,
+                                                           target_delay_sigma_us=1.0))
+    w = with_delay.sway
+    print(f"  delay sway: {w.axis} at {w.amplitudes_dps[0]:g} deg/s, {w.frequency_hz:.4g} Hz for {w.segment_s:g} s "
+          f"after {w.static_s:g} s; predicted delay sigma {with_delay.prediction.sigma_delay_s * 1e6:.3f} us; "
+          f"{with_delay.prediction.duration_s:.0f} s in all")
+    out["designs"]["with_delay"] = {"plan": asdict(with_delay.plan), "sway": asdict(w),
+                                    "duration_s": with_delay.prediction.duration_s,
+                                    "sigma_delay_us": with_delay.prediction.sigma_delay_s * 1e6, "design_s": t4,
+                                    "plans_evaluated": with_delay.tried}
+    if not args.only_delay:
+        out["confirm"]["paper"] = confirm("paper's plan", paper, args.seeds, args.jobs, 300_000)
+        out["confirm"]["designed"] = confirm("designed plan (fast table)", fast_table.plan, args.seeds, args.jobs,
+                                             400_000)
+    out["confirm"]["delay"] = confirm_delay(with_delay, args.seeds, args.jobs, 500_000)
     print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
     if args.json:
         args.json.write_text(json.dumps(out, indent=2) + "\n")

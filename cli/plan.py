@@ -1,4 +1,4 @@
-"""``sizefx plan``: design a turntable calibration plan from the Fisher information."""
+"""``sizefx plan``: design a turntable calibration plan (and the delay's sway) from the Fisher information."""
 
 from __future__ import annotations
 
@@ -26,9 +26,14 @@ from .options import force_option, span
 @click.option("--target-sigma-mm", type=span(0.0, 1000.0, low_open=True),
               help="Wanted largest arm sigma [mm]: the shortest plan that reaches it.")
 @click.option("--static-s", type=span(1.0, 86400.0), help="Fix the static lead-in [s] (default: the search picks it).")
+@click.option("--delay-sigma-us", "delay_sigma_us", type=span(0.0, 1e6, low_open=True),
+              help="Add the shortest sway that determines the accelerometers' delay to this sigma [us] "
+                   "(needs --sway-axes).")
+@click.option("--sway-axes", default="", show_default=True,
+              help="Level body axes the table can swing about, for the delay's sway (X: roll, Y: pitch).")
 @force_option
 def plan(output, noise_ug, max_rate_dps, max_accel_dps2, axes, reposition_s, settle_s, budget_s, target_sigma_mm,
-         static_s, force):
+         static_s, delay_sigma_us, sway_axes, force):
     """Design a turntable calibration plan for the lever arms.
 
     From the accelerometers' noise and the table's limits, the plan (axes,
@@ -37,9 +42,12 @@ def plan(output, noise_ug, max_rate_dps, max_accel_dps2, axes, reposition_s, set
     from the Fisher information of the calibration model (what sizefx
     calibrate will state). Prints the predicted sigmas beside the paper's
     plan; -o writes the plan for sizefx simulate turntable --plan.
+    --delay-sigma-us adds a sway about a level axis for the accelerometers'
+    delay (a record of its own: sizefx simulate sway --plan).
     """
     from sizefx.plan import PlanConfig, PlanRequest, TableLimits, run
 
-    req = PlanRequest(noise_ug, TableLimits(max_rate_dps, max_accel_dps2, axes, reposition_s, settle_s),
-                      budget_s=budget_s, target_sigma_mm=target_sigma_mm, static_s=static_s)
+    req = PlanRequest(noise_ug, TableLimits(max_rate_dps, max_accel_dps2, axes, reposition_s, settle_s, sway_axes),
+                      budget_s=budget_s, target_sigma_mm=target_sigma_mm, static_s=static_s,
+                      target_delay_sigma_us=delay_sigma_us)
     click.echo(run(PlanConfig(req, output=output, force=force)).report())

@@ -86,6 +86,17 @@ def simulate(ctx, print_effects):
         click.echo(ctx.get_help())
 
 
+def _refuse_plan_options(ctx, plan_path, plan_options):
+    """--plan holds the plan: refuse the scenario's own plan options given beside it."""
+    from click.core import ParameterSource
+
+    given = [f"--{name.replace('_', '-')}" for name in plan_options
+             if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]
+    if given:
+        raise click.UsageError(f"--plan {plan_path} holds the plan; leave out {', '.join(given)} "
+                               "(or edit the plan file)")
+
+
 @simulate.command()
 @common_options
 @click.option("--axes", default="YXZ", show_default=True, help="Order of the vertical body axes, e.g. YXZ.")
@@ -108,17 +119,11 @@ def turntable(ctx, axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, st
     +-accel in --seconds-per-axis; smooth repositioning between axes. --plan runs
     a designed plan (sizefx plan) instead.
     """
-    from click.core import ParameterSource
-
     from sizefx import scenarios
 
-    plan_options = ("axes", "seconds_per_axis", "cycles", "peak_rate_dps", "accel_dps2", "static_s")
     if plan_path:
-        given = [f"--{name.replace('_', '-')}" for name in plan_options
-                 if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]
-        if given:
-            raise click.UsageError(f"--plan {plan_path} holds the plan; leave out {', '.join(given)} "
-                                   "(or edit the plan file)")
+        _refuse_plan_options(ctx, plan_path, ("axes", "seconds_per_axis", "cycles", "peak_rate_dps", "accel_dps2",
+                                              "static_s"))
         _run("turntable", None, plan_path=plan_path, **common)
         return
     plan = scenarios.TurntablePlan(axes=axes.upper(), static_s=static_s, seconds_per_axis=seconds_per_axis,
@@ -137,8 +142,19 @@ def turntable(ctx, axes, seconds_per_axis, cycles, peak_rate_dps, accel_dps2, st
 @click.option("--static-s", default=600.0, show_default=True, type=span(1.0, 86400.0), help="Static lead-in [s].")
 @click.option("--segment-s", default=600.0, show_default=True, type=span(1.0, 86400.0),
               help="Duration of each amplitude [s].")
-def sway(axis, amplitudes_dps, frequency_hz, static_s, segment_s, **common):
-    """The paper's sway test: static, then harmonic sway at each amplitude in turn."""
+@click.option("--plan", "plan_path", type=click.Path(dir_okay=False),
+              help="Run the delay's sway in this plan file (sizefx/plan/1, written by sizefx plan --delay-sigma-us) "
+                   "instead of the options above.")
+@click.pass_context
+def sway(ctx, axis, amplitudes_dps, frequency_hz, static_s, segment_s, plan_path, **common):
+    """The paper's sway test: static, then harmonic sway at each amplitude in turn.
+
+    --plan runs the accelerometer delay's sway of a designed plan (sizefx plan) instead.
+    """
+    if plan_path:
+        _refuse_plan_options(ctx, plan_path, ("axis", "amplitudes_dps", "frequency_hz", "static_s", "segment_s"))
+        _run("sway", None, plan_path=plan_path, **common)
+        return
     try:
         amps = tuple(float(a) for a in amplitudes_dps.split(","))
     except ValueError:

@@ -18,8 +18,13 @@ and jerk-limited changes of rate), and the search is over what the table's limit
 - the time per axis: the budget's share (``objective="min-sigma"``: the smallest largest arm
   sigma in the time), or the least that reaches the wanted sigma (``objective="least-time"``).
 
+With a wanted delay sigma (``target_delay_sigma_us``) the plan gains a sway for the
+accelerometers' delay, which rotations about vertical axes barely show (gravity stays put in the
+body): a level body axis swung harmonically, gravity turning in the body at the sway's rate, as
+long as the delay's sigma needs (:func:`_least_sway`).
+
 A plan is a TOML document (``data-schemas/plan-1.json``) that ``sizefx simulate turntable --plan``
-runs. Conventions: SI inside; the file and the options in the table's own units (deg/s, deg/s^2,
+runs (and ``sizefx simulate sway --plan``, its sway). Conventions: SI inside; the file and the options in the table's own units (deg/s, deg/s^2,
 s, ug/sqrt(Hz), mm).
 """
 
@@ -42,7 +47,7 @@ from .simulate import true_motion
 
 __all__ = ["TableLimits", "PlanRequest", "Prediction", "PlanDesign", "PlanConfig", "PlanResult", "run", "predict",
            "design_plan", "plan_document", "PlanError", "PLAN_SCHEMA", "PLAN_RATE_HZ",
-           "RATE_FRACTIONS", "ACCEL_FRACTIONS"]
+           "RATE_FRACTIONS", "ACCEL_FRACTIONS", "sway_shape", "SWAY_MAX_HZ", "SWAY_MAX_ANGLE_DEG", "SWAY_AXES"]
 
 #: Rows per second of the plan's motion in the information. The table's changes of rate take 0.5 s
 #: or more: on the paper's plan 25, 50 and 12.5 rows a second give the same sigmas to 0.1 %
@@ -65,6 +70,20 @@ DWELL_S = (0.5, 3.0, 8.0)
 CYCLE_CHOICES = (1, 2, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40)
 #: The most cycles per axis a plan may have (the simulator's own limit on --cycles).
 MAX_CYCLES = 10_000
+#: The delay's sway: rate ``A sin(2 pi t / P)`` about a level body axis. Its signal, gravity turning
+#: in the body, ``g A tau``, grows with the rate amplitude A alone, so the sway takes all the rate
+#: the table allows within its acceleration (``2 pi A / P``) and a swing of at most
+#: :data:`SWAY_MAX_ANGLE_DEG` (``A P / 2 pi``), at no more than the paper's :data:`SWAY_MAX_HZ`.
+SWAY_MAX_HZ = 1.0
+#: Largest swing of the delay's sway [deg] either side of level: a tilting table's usual range,
+#: and well inside the Euler angles' single cover.
+SWAY_MAX_ANGLE_DEG = 30.0
+#: Rest before the sway [s]: the sway record's biases, which its own static part pins down.
+SWAY_LEAD_IN_S = 10.0
+#: The delay's sway axes: body X swung is a roll, body Y a pitch.
+SWAY_AXES = {"X": "roll", "Y": "pitch"}
+#: The most sway periods a plan may have.
+MAX_SWAY_PERIODS = 100_000
 
 
 class PlanError(ConfigError):
@@ -81,30 +100,38 @@ class TableLimits:
     axes: str = "XYZ"
     reposition_s: float = 10.0
     settle_s: float = 10.0
+    #: body axes the table can swing about while they lie level (X: roll, Y: pitch; "": none), for the delay
+    sway_axes: str = ""
 
     def check(self):
-        axes = self.axes.upper()
+        axes, sway_axes = self.axes.upper(), self.sway_axes.upper()
         if not axes or any(a not in "XYZ" for a in axes) or len(set(axes)) != len(axes):
             raise PlanError(f"table axes '{self.axes}': give the body axes the table can make vertical, each once "
                             "(letters X, Y, Z, e.g. XYZ)")
+        if any(a not in SWAY_AXES for a in sway_axes) or len(set(sway_axes)) != len(sway_axes):
+            raise PlanError(f"table sway axes '{self.sway_axes}': give the level body axes the table can swing "
+                            "about, each once (X for roll, Y for pitch, e.g. XY)")
         for name in ("max_rate_dps", "max_accel_dps2", "reposition_s", "settle_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise PlanError(f"table {name} = {value!r}: give a positive, finite number")
-        return replace(self, axes=axes)
+        return replace(self, axes=axes, sway_axes=sway_axes)
 
 
 @dataclass(frozen=True)
 class PlanRequest:
     """``sizefx plan``'s question: the accelerometers' white noise, the table, and either a time
     budget (the best plan in it) or a wanted largest arm sigma (the shortest plan that reaches it).
-    ``static_s``: a fixed lead-in at rest (None: the search picks one of :data:`LEAD_IN_S`)."""
+    ``static_s``: a fixed lead-in at rest (None: the search picks one of :data:`LEAD_IN_S`).
+    ``target_delay_sigma_us``: add the shortest sway (within the budget) that determines the
+    accelerometers' delay to this sigma; the table must have ``sway_axes``."""
 
     noise_ug_per_sqrt_hz: float
     table: TableLimits = field(default_factory=TableLimits)
     budget_s: float | None = None
     target_sigma_mm: float | None = None
     static_s: float | None = None
+    target_delay_sigma_us: float | None = None
 
     def check(self):
         if not (math.isfinite(self.noise_ug_per_sqrt_hz) and self.noise_ug_per_sqrt_hz > 0):
@@ -113,11 +140,15 @@ class PlanRequest:
         if (self.budget_s is None) == (self.target_sigma_mm is None):
             raise PlanError("give either a time budget (--budget-s) or a wanted largest sigma (--target-sigma-mm), "
                             "one of the two")
-        for name in ("budget_s", "target_sigma_mm", "static_s"):
+        for name in ("budget_s", "target_sigma_mm", "static_s", "target_delay_sigma_us"):
             value = getattr(self, name)
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise PlanError(f"{name} = {value!r}: give a positive, finite number")
-        return replace(self, table=self.table.check())
+        table = self.table.check()
+        if self.target_delay_sigma_us is not None and not table.sway_axes:
+            raise PlanError(f"--delay-sigma-us {self.target_delay_sigma_us:g}: the delay needs a sway about a level "
+                            "axis, and the table has none; give the axes it can swing about (--sway-axes X, Y or XY)")
+        return replace(self, table=table)
 
 
 @dataclass
@@ -126,7 +157,8 @@ class Prediction:
 
     sigma_arms_m: np.ndarray  #: [3, 3]
     sigma_tilt_rad: np.ndarray  #: [2]
-    duration_s: float
+    duration_s: float  #: the turntable's and the sway's records together
+    sigma_delay_s: float | None = None  #: with a sway: the accelerometers' delay
 
     @property
     def max_sigma_mm(self) -> float:
@@ -143,24 +175,35 @@ class PlanDesign:
     paper: Prediction | None = None
     paper_plan: scenarios.TurntablePlan | None = None
     tried: int = 0
+    sway: scenarios.SwayPlan | None = None  #: the delay's sway (a record of its own), if asked for
 
 
-def _plan_record(plan: scenarios.TurntablePlan) -> Record:
-    """The plan's noise-free motion as the fit sees it, at :data:`PLAN_RATE_HZ` (true angular acceleration)."""
-    traj, _ = scenarios.turntable(plan)
+def _motion_record(traj, name: str) -> Record:
+    """A trajectory's noise-free motion as the fit sees it, at :data:`PLAN_RATE_HZ` (true angular acceleration)."""
     t = np.arange(0.0, traj.duration_s, 1.0 / PLAN_RATE_HZ)
     site = traj.evaluate(t[:1])
     motion = true_motion(traj, t, load_effects(base=IDEAL).sensor_params())
     g_n = np.asarray(earth.gravity_n(site.lat_rad[0], site.height_m[0]), dtype=float)
-    return Record("plan", t, np.zeros((t.size, 3)), motion.omega_ib_b, motion.omegadot_ib_b, motion.mat_nb, g_n)
+    return Record(name, t, np.zeros((t.size, 3)), motion.omega_ib_b, motion.omegadot_ib_b, motion.mat_nb, g_n)
 
 
-def _fisher(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit"):
-    """``(names, Fisher information)`` of the joint fit's parameters on the plan's motion; the bias
-    windows the fit's (``"fit"``) or one bias per channel (None: the information is then a sum
-    over the cycles, which :func:`_least_cycles` uses)."""
+def _plan_record(plan: scenarios.TurntablePlan) -> Record:
+    return _motion_record(scenarios.turntable(plan)[0], "plan")
+
+
+def _sway_record(sway: scenarios.SwayPlan) -> Record:
+    return _motion_record(scenarios.sway(sway)[0], "sway")
+
+
+def _fisher(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit", sway=None,
+            turntable_record=None):
+    """``(names, Fisher information)`` of the joint fit's parameters on the plan's motion (with the
+    delay's sway, a record of its own, and then the delay); the bias windows the fit's (``"fit"``)
+    or one bias per channel and record (None: the information is then a sum over the cycles, which
+    :func:`_least_cycles` and :func:`_least_sway` use)."""
     windows = {} if bias_window_s == "fit" else {"bias_window_s": bias_window_s}
-    return information([_plan_record(plan)], noise_ug_per_sqrt_hz * MICRO_G, **windows)
+    records = [_plan_record(plan) if turntable_record is None else turntable_record] + ([_sway_record(sway)] if sway is not None else [])
+    return information(records, noise_ug_per_sqrt_hz * MICRO_G, with_delay=sway is not None, **windows)
 
 
 def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
@@ -174,15 +217,89 @@ def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
     return np.sqrt(np.diag(np.linalg.inv(fisher * np.outer(scale, scale)))) * scale
 
 
-def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float) -> Prediction:
-    """The arms' and the tilt's standard errors a calibration on ``plan`` will state, the
-    accelerometers' noise white with this density. Raises :class:`PlanError` naming what the
-    plan leaves unobservable."""
+def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float,
+            sway: scenarios.SwayPlan | None = None) -> Prediction:
+    """The arms' and the tilt's (and with ``sway``, the delay's) standard errors a calibration on
+    ``plan`` (and the sway's record) will state, the accelerometers' noise white with this density.
+    Raises :class:`PlanError` naming what the plan leaves unobservable."""
     plan.check()
-    names, fisher = _fisher(plan, noise_ug_per_sqrt_hz)
+    duration = plan.duration_s
+    if sway is not None:
+        sway.check()
+        duration += sway.duration_s
+    names, fisher = _fisher(plan, noise_ug_per_sqrt_hz, sway=sway)
     sigma = _sigmas(names, fisher, plan.axes)
     tilt = [names.index("tilt_north"), names.index("tilt_east")]
-    return Prediction(sigma[:9].reshape(3, 3), sigma[tilt], plan.duration_s)
+    return Prediction(sigma[:9].reshape(3, 3), sigma[tilt], duration,
+                      float(sigma[names.index("accel_delay")]) if sway is not None else None)
+
+
+def sway_shape(table: TableLimits) -> tuple[float, float]:
+    """``(rate amplitude [deg/s], period [s])`` of the delay's sway on this table (:data:`SWAY_MAX_HZ`):
+    the period where the acceleration's and the swing's limits meet (at least ``1 / SWAY_MAX_HZ``,
+    rounded up to 0.1 s), and the largest amplitude both, and the table's rate, allow there."""
+    meet = 2 * math.pi * math.sqrt(SWAY_MAX_ANGLE_DEG / table.max_accel_dps2)
+    period = math.ceil(max(1.0 / SWAY_MAX_HZ, meet) * 10.0 - 1e-9) / 10.0
+    amplitude = min(table.max_rate_dps, table.max_accel_dps2 * period / (2 * math.pi),
+                    SWAY_MAX_ANGLE_DEG * 2 * math.pi / period)
+    return math.floor(amplitude * 100.0) / 100.0, period
+
+
+def _sway(axis: str, amplitude_dps: float, period_s: float, periods: int) -> scenarios.SwayPlan:
+    return scenarios.SwayPlan(axis=SWAY_AXES[axis], amplitudes_dps=(amplitude_dps,), frequency_hz=1.0 / period_s,
+                              static_s=SWAY_LEAD_IN_S, segment_s=periods * period_s)
+
+
+def _least_count(sigma_of, target: float, most: int) -> int | None:
+    """The least count k in 1 .. ``most`` with ``sigma_of(k) <= target`` (``sigma_of`` falling in k),
+    by doubling then bisection; None when even ``most`` misses it."""
+    lo, hi = 0, 1
+    while sigma_of(hi) > target:
+        if hi >= most:
+            return None
+        lo, hi = hi, min(most, 2 * hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if sigma_of(mid) <= target else (mid, hi)
+    return hi
+
+
+def _least_sway(req: PlanRequest, plan: scenarios.TurntablePlan):
+    """The shortest sway (the best of the table's sway axes, :func:`sway_shape`) whose delay sigma,
+    with ``plan``'s turntable record, reaches ``req.target_delay_sigma_us``: ``(sway, evaluations)``,
+    or ``(None, evaluations)``.
+
+    As :func:`_least_cycles`: with one bias per record the information is ``A + k B`` in the
+    periods k, so two evaluations and a bisection find the least k; the fit's bias windows are
+    then checked and the sway lengthened until it reaches the sigma."""
+    target = req.target_delay_sigma_us * 1e-6
+    amplitude, period = sway_shape(req.table)
+    turntable = _plan_record(plan)
+    best, evals = None, 0
+    for axis in req.table.sway_axes:
+        (names, one), (_, two) = (_fisher(plan, req.noise_ug_per_sqrt_hz, None, _sway(axis, amplitude, period, k),
+                                          turntable) for k in (1, 2))
+        evals += 2
+        step, start, j = two - one, 2 * one - two, names.index("accel_delay")
+
+        def delay_sigma(k):
+            try:
+                return float(_sigmas(names, start + k * step, plan.axes)[j])
+            except np.linalg.LinAlgError:
+                return math.inf
+
+        hi = _least_count(delay_sigma, target, MAX_SWAY_PERIODS)
+        while hi is not None and hi <= MAX_SWAY_PERIODS:
+            names_w, fisher = _fisher(plan, req.noise_ug_per_sqrt_hz, "fit", _sway(axis, amplitude, period, hi),
+                                      turntable)
+            evals += 1
+            sigma = float(_sigmas(names_w, fisher, plan.axes)[names_w.index("accel_delay")])
+            if sigma <= target:
+                if best is None or hi < best[1]:
+                    best = (_sway(axis, amplitude, period, hi), hi)
+                break
+            hi += max(1, math.ceil(hi * ((sigma / target) ** 2 - 1)))
+    return (best[0] if best else None), evals
 
 
 def _spin_s(rate_dps: float, accel_dps2: float, ramp_s: float) -> float:
@@ -211,52 +328,103 @@ def _overhead_s(req: PlanRequest, static_s: float) -> float:
                                    settle_s=t.settle_s).overhead_s
 
 
-def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:
-    """The plan that answers ``req`` (see the module), with the paper's plan beside it."""
-    req = req.check()
+def _shapes(req: PlanRequest) -> list:
     t = req.table
     leads = LEAD_IN_S if req.static_s is None else (req.static_s,)
-    shapes = [(f_r * t.max_rate_dps, f_a * t.max_accel_dps2, lead, dwell) for f_r in RATE_FRACTIONS
-              for f_a in ACCEL_FRACTIONS for lead in leads for dwell in DWELL_S]
+    return [(f_r * t.max_rate_dps, f_a * t.max_accel_dps2, lead, dwell) for f_r in RATE_FRACTIONS
+            for f_a in ACCEL_FRACTIONS for lead in leads for dwell in DWELL_S]
+
+
+def _best_in(req: PlanRequest, budget_s: float, progress, tried: int = 0, sway_s: float = 0.0):
+    """The turntable plan with the smallest largest arm sigma in ``budget_s``: ``(plan, prediction, tried)``."""
+    t = req.table
+    best = None
+    for shape in _shapes(req):
+        per_axis = (budget_s - _overhead_s(req, shape[2])) / len(t.axes)
+        for cycles in CYCLE_CHOICES if per_axis > 0 else ():
+            plan = _shape(req, shape, per_axis, cycles)
+            if plan is None:
+                continue
+            pred = predict(plan, req.noise_ug_per_sqrt_hz)
+            tried += 1
+            if best is None or pred.max_sigma_mm < best[1].max_sigma_mm:
+                best = (plan, pred)
+            if progress is not None:
+                progress(tried)
+    if best is None:
+        leads = LEAD_IN_S if req.static_s is None else (req.static_s,)
+        after = f" after the delay's sway ({sway_s:.0f} s)" if sway_s else ""
+        raise PlanError(f"--budget-s {req.budget_s:g}: too short{after} for one rotation each way about each of "
+                        f"{len(t.axes)} axes at up to {t.max_rate_dps:g} deg/s and {t.max_accel_dps2:g} deg/s^2, "
+                        f"with the turns between them ({_overhead_s(req, min(leads)):g} s with the lead-in); "
+                        "allow more time")
+    return best[0], best[1], tried
+
+
+def _shortest(req: PlanRequest, progress):
+    """The shortest turntable plan whose every arm sigma reaches the wanted one: ``(plan, prediction, tried)``."""
     best, tried = None, 0
+    for shape in _shapes(req):
+        # half a cycle: the changes of rate and the dwells, and cruising CRUISE_FACTORS times as long
+        base = 2 * _spin_s(shape[0], shape[1], scenarios.TurntablePlan.ramp_s) + 2 * shape[3]
+        for cruise_factor in CRUISE_FACTORS:
+            plan, pred, evals = _least_cycles(req, shape, base * (1.0 + cruise_factor))
+            tried += evals
+            if plan is not None and (best is None or pred.duration_s < best[1].duration_s):
+                best = (plan, pred)
+            if progress is not None:
+                progress(tried)
+    if best is None:
+        raise PlanError(f"--target-sigma-mm {req.target_sigma_mm:g}: no plan of up to {MAX_CYCLES} cycles per axis "
+                        f"reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) of noise; allow a larger sigma")
+    return best[0], best[1], tried
+
+
+def _sway_for(req: PlanRequest, plan: scenarios.TurntablePlan):
+    """:func:`_least_sway`, or :class:`PlanError` when no sway reaches the wanted delay sigma."""
+    sway, evals = _least_sway(req, plan)
+    if sway is None:
+        amplitude, period = sway_shape(req.table)
+        raise PlanError(f"--delay-sigma-us {req.target_delay_sigma_us:g}: no sway of up to {MAX_SWAY_PERIODS} periods "
+                        f"({amplitude:g} deg/s, {period:g} s) reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) "
+                        "of noise; allow a larger sigma")
+    return sway, evals
+
+
+def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:
+    """The plan that answers ``req`` (see the module), with the paper's plan beside it.
+
+    With a wanted delay sigma the sway is designed against the turntable plan (the delay hardly
+    depends on which): with a budget, first against the best plan in the whole budget, then the
+    turntable plan is designed again in what the sway leaves, and the sway checked on it."""
+    req = req.check()
+    t = req.table
+    sway = None
     if req.budget_s is not None:
-        for shape in shapes:
-            per_axis = (req.budget_s - _overhead_s(req, shape[2])) / len(t.axes)
-            for cycles in CYCLE_CHOICES if per_axis > 0 else ():
-                plan = _shape(req, shape, per_axis, cycles)
-                if plan is None:
-                    continue
-                pred = predict(plan, req.noise_ug_per_sqrt_hz)
-                tried += 1
-                if best is None or pred.max_sigma_mm < best[1].max_sigma_mm:
-                    best = (plan, pred)
-                if progress is not None:
-                    progress(tried)
-        if best is None:
-            raise PlanError(f"--budget-s {req.budget_s:g}: too short for one rotation each way about each of "
-                            f"{len(t.axes)} axes at up to {t.max_rate_dps:g} deg/s and {t.max_accel_dps2:g} deg/s^2, "
-                            f"with the turns between them ({_overhead_s(req, min(leads)):g} s with the lead-in); "
-                            "allow more time")
+        plan, pred, tried = _best_in(req, req.budget_s, progress)
+        if req.target_delay_sigma_us is not None:
+            sway, evals = _sway_for(req, plan)
+            sway_s = sway.duration_s
+            plan, pred, tried = _best_in(req, req.budget_s - sway_s, progress, tried + evals, sway_s)
+            sway, evals = _sway_for(req, plan)
+            tried += evals
+            if plan.duration_s + sway.duration_s > req.budget_s + 1e-6:
+                raise PlanError(f"--budget-s {req.budget_s:g}: too short for the turntable plan and the delay's sway "
+                                f"({sway.duration_s:.0f} s for --delay-sigma-us {req.target_delay_sigma_us:g}); "
+                                "allow more time or a larger delay sigma")
     else:
-        for shape in shapes:
-            # half a cycle: the changes of rate and the dwells, and cruising CRUISE_FACTORS times as long
-            base = 2 * _spin_s(shape[0], shape[1], scenarios.TurntablePlan.ramp_s) + 2 * shape[3]
-            for cruise_factor in CRUISE_FACTORS:
-                plan, pred, evals = _least_cycles(req, shape, base * (1.0 + cruise_factor))
-                tried += evals
-                if plan is not None and (best is None or pred.duration_s < best[1].duration_s):
-                    best = (plan, pred)
-                if progress is not None:
-                    progress(tried)
-        if best is None:
-            raise PlanError(f"--target-sigma-mm {req.target_sigma_mm:g}: no plan of up to {MAX_CYCLES} cycles per axis "
-                            f"reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) of noise; allow a larger sigma")
+        plan, pred, tried = _shortest(req, progress)
+        if req.target_delay_sigma_us is not None:
+            sway, evals = _sway_for(req, plan)
+            tried += evals
+    if sway is not None:
+        pred = predict(plan, req.noise_ug_per_sqrt_hz, sway)
     paper_plan = replace(scenarios.TurntablePlan(), reposition_s=t.reposition_s, settle_s=t.settle_s)
     paper = None
     if set(paper_plan.axes) <= set(t.axes) and paper_plan.peak_rate_dps <= t.max_rate_dps \
             and paper_plan.accel_dps2 <= t.max_accel_dps2:
         paper = predict(paper_plan, req.noise_ug_per_sqrt_hz)
-    return PlanDesign(best[0], best[1], req, paper, paper_plan if paper else None, tried)
+    return PlanDesign(plan, pred, req, paper, paper_plan if paper else None, tried, sway)
 
 
 def _least_cycles(req: PlanRequest, shape: tuple, half_s: float):
@@ -281,14 +449,9 @@ def _least_cycles(req: PlanRequest, shape: tuple, half_s: float):
         except np.linalg.LinAlgError:
             return math.inf
 
-    lo, hi = 0, 1
-    while largest_mm(hi) > target:
-        if hi >= MAX_CYCLES:
-            return None, None, 2
-        lo, hi = hi, min(MAX_CYCLES, 2 * hi)
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if largest_mm(mid) <= target else (mid, hi)
+    hi = _least_count(largest_mm, target, MAX_CYCLES)
+    if hi is None:
+        return None, None, 2
     evals = 2
     while True:
         plan = _shape(req, shape, 2 * half_s * hi, hi)
@@ -302,8 +465,8 @@ def _least_cycles(req: PlanRequest, shape: tuple, half_s: float):
 
 
 def plan_document(design: PlanDesign) -> dict:
-    """The ``sizefx/plan/1`` document: what ``sizefx simulate turntable --plan`` runs, with the
-    request and the prediction it was designed with."""
+    """The ``sizefx/plan/1`` document: what ``sizefx simulate turntable --plan`` (and ``sizefx simulate
+    sway --plan``, the delay's sway) runs, with the request and the prediction it was designed with."""
     p, pred, req = design.plan, design.prediction, design.request
     doc = {
         "schema": PLAN_SCHEMA,
@@ -312,6 +475,7 @@ def plan_document(design: PlanDesign) -> dict:
             "noise_ug_per_sqrt_hz": req.noise_ug_per_sqrt_hz,
             "objective": "min-sigma" if req.budget_s is not None else "least-time",
             **({"budget_s": req.budget_s} if req.budget_s is not None else {"target_sigma_mm": req.target_sigma_mm}),
+            **({"target_delay_sigma_us": req.target_delay_sigma_us} if req.target_delay_sigma_us is not None else {}),
             "table": asdict(req.table),
         },
         "prediction": {
@@ -320,8 +484,13 @@ def plan_document(design: PlanDesign) -> dict:
             "sigma_mm": (pred.sigma_arms_m * 1e3).tolist(),
             "sigma_tilt_arcsec": (pred.sigma_tilt_rad / ARCSEC).tolist(),
             "arms": PARAMS_R,
+            **({"sigma_delay_us": pred.sigma_delay_s * 1e6} if pred.sigma_delay_s is not None else {}),
         },
     }
+    if design.sway is not None:
+        w = design.sway
+        doc["sway"] = {"axis": w.axis, "amplitude_dps": w.amplitudes_dps[0], "frequency_hz": w.frequency_hz,
+                       "static_s": w.static_s, "segment_s": w.segment_s}
     if design.paper is not None:
         doc["paper_plan"] = {"duration_s": design.paper.duration_s, "max_sigma_mm": design.paper.max_sigma_mm}
     check_document(doc, PLAN_SCHEMA)
@@ -333,17 +502,25 @@ def report_lines(design: PlanDesign) -> list[str]:
     p, pred, req = design.plan, design.prediction, design.request
     goal = (f"the smallest largest arm sigma in {req.budget_s:g} s" if req.budget_s is not None
             else f"the shortest plan with every arm sigma <= {req.target_sigma_mm:g} mm")
+    if req.target_delay_sigma_us is not None:
+        goal += f" and the delay's <= {req.target_delay_sigma_us:g} us"
     lines = [f"plan for {goal}; noise {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz); table up to "
              f"{req.table.max_rate_dps:g} deg/s, {req.table.max_accel_dps2:g} deg/s^2, axes {req.table.axes} "
              f"({design.tried} plans evaluated)",
              f"  axes {p.axes}: {p.cycles} cycles in {p.seconds_per_axis:.1f} s per axis at {p.peak_rate_dps:g} deg/s, "
              f"{p.accel_dps2:g} deg/s^2, resting {p.dwell_s:g} s between rotations; lead-in {p.static_s:g} s; "
-             f"{pred.duration_s:.0f} s in all",
+             f"{p.duration_s:.0f} s" + (" in all" if design.sway is None else ""),
              "  predicted sigma [mm] (rows r_x, r_y, r_z; columns x, y, z):"]
     for i, a in enumerate("xyz"):
         lines.append(f"    r_{a}  " + " ".join(f"{v * 1e3:8.4f}" for v in pred.sigma_arms_m[i]))
     lines.append(f"  largest {pred.max_sigma_mm:.4f} mm; tilt sigma {pred.sigma_tilt_rad[0] / ARCSEC:.3f}, "
                  f"{pred.sigma_tilt_rad[1] / ARCSEC:.3f} arcsec")
+    if design.sway is not None:
+        w = design.sway
+        lines.append(f"  delay sway, a record of its own: {w.axis} at {w.amplitudes_dps[0]:g} deg/s, {w.frequency_hz:.4g} Hz "
+                     f"(+-{w.amplitudes_dps[0] / (2 * math.pi * w.frequency_hz):.1f} deg) for {w.segment_s:g} s after "
+                     f"{w.static_s:g} s at rest; delay sigma {pred.sigma_delay_s * 1e6:.3f} us "
+                     f"(wanted {req.target_delay_sigma_us:g}); {w.duration_s:.0f} s of the {pred.duration_s:.0f} s")
     if design.paper is not None:
         lines.append(f"  the paper's plan ({design.paper_plan.axes}, {design.paper_plan.cycles} cycles, "
                      f"{design.paper_plan.seconds_per_axis:g} s per axis): {design.paper.duration_s:.0f} s, largest "
@@ -394,6 +571,8 @@ def run(config: PlanConfig, *, progress=None) -> PlanResult:
     if config.output:
         write_toml(config.output, plan_document(out.design), force=config.force,
                    header="sizefx plan: a turntable calibration plan\n"
-                          "run it with: sizefx simulate turntable --plan THIS_FILE -o turntable.h5")
+                          "run it with: sizefx simulate turntable --plan THIS_FILE -o turntable.h5"
+                          + ("\nand its delay sway with: sizefx simulate sway --plan THIS_FILE -o sway.h5"
+                             if out.design.sway is not None else ""))
         out.written["-o"] = str(config.output)
     return out

@@ -174,13 +174,18 @@ class SwayPlan:
     segment_s: float = 600.0
     heading_deg: float = 0.0
 
+    @property
+    def duration_s(self) -> float:
+        """Seconds the plan takes (:func:`sway`'s trajectory is this long)."""
+        return self.static_s + len(self.amplitudes_dps) * self.segment_s
+
     def check(self):
         if not (self.frequency_hz > 0 and self.static_s > 0 and self.segment_s > 0):
             raise ConfigError("sway: --frequency-hz, --static-s and --segment-s must be positive")
         if self.axis not in ("heading", "roll", "pitch"):
             raise ConfigError(f"sway axis '{self.axis}': use heading, roll or pitch")
         cycles = self.segment_s * self.frequency_hz
-        if abs(cycles - round(cycles)) > 1e-9 or cycles < 1:
+        if abs(cycles - round(cycles)) > 1e-9 or round(cycles) < 1:
             raise ConfigError(f"sway: {self.segment_s} s (--segment-s) at {self.frequency_hz} Hz (--frequency-hz) "
                               "is not a whole number of periods; choose a segment that is")
 
@@ -200,7 +205,7 @@ def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, d
     else:
         roll = prof
     chain = RotationChain([E_DOWN, E_EAST, E_NORTH], [heading, pitch, roll])  # z-y-x Euler angles
-    duration = plan.static_s + n * plan.segment_s
+    duration = plan.duration_s
     segments = [("static", 0.0, plan.static_s)] + [
         (f"sway {a:g} deg/s", s, s + plan.segment_s) for a, s in zip(plan.amplitudes_dps, starts)]
     lat, lon, h = site.radians()

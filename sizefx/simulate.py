@@ -363,7 +363,9 @@ class SimulateConfig:
     reference_rate_hz: float | None = None
     force: bool = False
     chunk_samples: int = CHUNK_SAMPLES  #: IMU rows per chunk (memory; the output does not depend on it)
-    plan_path: str | None = None  #: a sizefx/plan/1 file (``sizefx plan``): the turntable plan, instead of ``plan``
+    #: a sizefx/plan/1 file (``sizefx plan``): its turntable plan (or, for the sway scenario, its
+    #: delay sway), instead of ``plan``
+    plan_path: str | None = None
 
     def inputs(self) -> dict:
         return {"--effects": self.effects_path, "--plan": self.plan_path}
@@ -386,16 +388,25 @@ def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
     if reference_rate_hz is None and config.scenario in ("sway", "flight"):
         reference_rate_hz = NAVIGATION_REFERENCE_RATE_HZ
     _reference_rate(config.rate_hz, reference_rate_hz)
-    if config.plan_path and config.scenario != "turntable":
-        raise ConfigError(f"--plan {config.plan_path}: a plan file holds a turntable plan; the {config.scenario} "
-                          "scenario takes its own options")
+    if config.plan_path and config.scenario not in ("turntable", "sway"):
+        raise ConfigError(f"--plan {config.plan_path}: a plan file holds a turntable plan and a sway; the "
+                          f"{config.scenario} scenario takes its own options")
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     build, plan_cls = SCENARIOS[config.scenario]
     plan = config.plan
     if config.plan_path:
         from .io.plan_file import read_plan_document
 
-        plan = scenarios.TurntablePlan(**read_plan_document(config.plan_path)["turntable"])
+        doc = read_plan_document(config.plan_path)
+        if config.scenario == "turntable":
+            plan = scenarios.TurntablePlan(**doc["turntable"])
+        elif "sway" not in doc:
+            raise ConfigError(f"{config.plan_path}: the plan has no [sway] (the accelerometers' delay's); design one "
+                              "with sizefx plan --delay-sigma-us and --sway-axes")
+        else:
+            w = doc["sway"]
+            plan = scenarios.SwayPlan(axis=w["axis"], amplitudes_dps=(w["amplitude_dps"],),
+                                      frequency_hz=w["frequency_hz"], static_s=w["static_s"], segment_s=w["segment_s"])
         try:
             plan.check()
         except ConfigError as exc:

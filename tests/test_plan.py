@@ -4,6 +4,8 @@
 - The budget search beats the paper's plan in the paper's time; the least-time search is minimal.
 - The plan file runs in ``sizefx simulate turntable --plan``; plans the table cannot run, and bad
   requests, are one line and exit code 2.
+- With a wanted delay sigma the plan gains a sway, which ``sizefx simulate sway --plan`` runs; the
+  delay's prediction is what the fit states, and the sway is the shortest that reaches it.
 
 That the predicted sigmas are the seeds' scatter (within 15 %) is benchmarks/plan_calibrate.py's.
 """
@@ -20,7 +22,7 @@ from sizefx import scenarios
 from sizefx.calibrate import joint_fit, prepare
 from sizefx.effects import load_effects
 from sizefx.io.telemetry import read_telemetry
-from sizefx.plan import PlanError, PlanRequest, TableLimits, design_plan, predict
+from sizefx.plan import PlanError, PlanRequest, TableLimits, design_plan, predict, sway_shape
 from sizefx.simulate import simulate_in_memory
 from sizefx_cli.main import main
 
@@ -155,3 +157,111 @@ def test_malformed_plan_files_are_one_line(tmp_path, text, needle):
     path.write_text(text)
     _one_line_refusal(["simulate", "turntable", "--plan", str(path), "-o", str(tmp_path / "t.h5")], needle=needle)
     assert not (tmp_path / "t.h5").exists()
+
+
+#: A request with the delay's sway: the turntable's budget and the delay sigma small enough to
+#: run in a test (the sway 43 s, the whole plan 400 s).
+DELAY_REQUEST = PlanRequest(NOISE_UG, TableLimits(sway_axes="XY"), budget_s=400.0, static_s=10.0,
+                            target_delay_sigma_us=2.0)
+
+
+@pytest.fixture(scope="module")
+def delay_design():
+    return design_plan(DELAY_REQUEST)
+
+
+def test_sway_stays_within_the_table(delay_design):
+    """The sway's rate amplitude, its acceleration amplitude and its swing within the table's limits
+    and SWAY_MAX_ANGLE_DEG; the whole plan within the budget."""
+    w, table = delay_design.sway, DELAY_REQUEST.table
+    amplitude, period = sway_shape(table)
+    assert w is not None and w.amplitudes_dps == (amplitude,) and w.frequency_hz == pytest.approx(1 / period)
+    assert amplitude <= table.max_rate_dps and 2 * np.pi * amplitude / period <= table.max_accel_dps2
+    assert amplitude * period / (2 * np.pi) <= 30.0 + 1e-9
+    assert delay_design.prediction.duration_s == pytest.approx(delay_design.plan.duration_s + w.duration_s)
+    assert delay_design.prediction.duration_s <= DELAY_REQUEST.budget_s + 1e-6
+
+
+def test_delay_prediction_is_what_the_fit_states(delay_design):
+    """The designed turntable plan and sway simulated with white noise of the request's density:
+    the fit's delay sigma (and arms) within 5 % of the prediction, and the delay found within 4 sigma."""
+    fx = load_effects(overrides={"accel_noise": {"density_ug_per_sqrt_hz": NOISE_UG, "bias_rw_ug_per_sqrt_h": 0.0},
+                                 "accel_delay": {"enabled": True, "tau_s": 0.3e-3}})
+    records = [prepare(simulate_in_memory(scenarios.turntable(delay_design.plan)[0], fx, form="rates", seed=4),
+                       "turntable"),
+               prepare(simulate_in_memory(scenarios.sway(delay_design.sway)[0], fx, form="rates", seed=5), "sway")]
+    res = joint_fit(records, with_delay=True)
+    pred = delay_design.prediction
+    assert res.sigma_delay_s == pytest.approx(pred.sigma_delay_s, rel=0.05)
+    assert pred.sigma_delay_s <= DELAY_REQUEST.target_delay_sigma_us * 1e-6
+    np.testing.assert_allclose(res.sigma_arms, pred.sigma_arms_m, rtol=0.05)
+    assert abs(res.delay_s - 0.3e-3) < 4 * res.sigma_delay_s
+
+
+def test_least_sway_is_minimal(delay_design):
+    """One period fewer misses the wanted delay sigma."""
+    w = delay_design.sway
+    periods = round(w.segment_s * w.frequency_hz)
+    assert periods > 1
+    fewer = scenarios.SwayPlan(**{**w.__dict__, "segment_s": (periods - 1) / w.frequency_hz})
+    assert predict(delay_design.plan, NOISE_UG, fewer).sigma_delay_s > DELAY_REQUEST.target_delay_sigma_us * 1e-6
+
+
+@pytest.fixture
+def delay_plan_file(tmp_path):
+    path = tmp_path / "plan.toml"
+    result = CliRunner().invoke(main, ["plan", "--noise-ug", "2.96", "--budget-s", "400", "--static-s", "10",
+                                       "--delay-sigma-us", "2", "--sway-axes", "XY", "-o", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "delay sway" in result.output and "simulate sway --plan" in path.read_text()
+    return path
+
+
+def test_plan_sway_runs_in_simulate(delay_plan_file, tmp_path):
+    doc = tomllib.loads(delay_plan_file.read_text())
+    record = tmp_path / "sway.h5"
+    result = CliRunner().invoke(main, ["simulate", "sway", "--plan", str(delay_plan_file), "-o", str(record),
+                                       "--rate-hz", "400", "-q"])
+    assert result.exit_code == 0, result.output
+    sway = doc["sway"]
+    assert read_telemetry(record).time_s[-1] == pytest.approx(sway["static_s"] + sway["segment_s"], abs=0.01)
+    assert doc["prediction"]["sigma_delay_us"] <= 2.0
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--delay-sigma-us", "1"], "--sway-axes"),
+    (["--delay-sigma-us", "1", "--sway-axes", "Z"], "sway axes"),
+    (["--delay-sigma-us", "1e-6", "--sway-axes", "X"], "--delay-sigma-us"),
+    # 100 s holds a turntable plan alone, not with the 43 s sway
+    (["--delay-sigma-us", "2", "--sway-axes", "XY", "--budget-s", "100"], "after the delay's sway"),
+], ids=["no-sway-axes", "bad-sway-axis", "unreachable-delay", "budget-too-short-for-the-sway"])
+def test_delay_requests_no_plan_can_meet_are_one_line(args, needle):
+    extra = [] if "--budget-s" in args else ["--budget-s", "400"]
+    _one_line_refusal(["plan", "--noise-ug", "2.96", "--static-s", "10", *extra, *args], needle=needle)
+
+
+@pytest.mark.parametrize("key, value, needle", [
+    ("amplitude_dps", "25.0", "above the table's max_rate_dps"),
+    ("frequency_hz", "1.0", "above the table's max_accel_dps2"),
+    ("axis", '"pitch"', "cannot swing about"),
+], ids=["rate", "acceleration", "axis"])
+def test_a_sway_the_table_cannot_run_is_refused(delay_plan_file, tmp_path, key, value, needle):
+    lines = delay_plan_file.read_text().splitlines()
+    start = lines.index("[sway]")
+    lines = [f"{key} = {value}" if k > start and line.startswith(f"{key} =") else line for k, line in enumerate(lines)]
+    if key == "axis":  # a table that swings about body x only cannot pitch
+        lines = ['sway_axes = "X"' if line.startswith("sway_axes =") else line for line in lines]
+    delay_plan_file.write_text("\n".join(lines) + "\n")
+    _one_line_refusal(["simulate", "sway", "--plan", str(delay_plan_file), "-o", str(tmp_path / "s.h5")],
+                      needle=needle)
+    assert not (tmp_path / "s.h5").exists()
+
+
+def test_sway_from_a_plan_without_one_is_refused(plan_file, tmp_path):
+    _one_line_refusal(["simulate", "sway", "--plan", str(plan_file), "-o", str(tmp_path / "s.h5")],
+                      needle="no [sway]")
+
+
+def test_sway_plan_with_sway_options_is_refused(delay_plan_file, tmp_path):
+    _one_line_refusal(["simulate", "sway", "--plan", str(delay_plan_file), "--axis", "roll", "-o",
+                       str(tmp_path / "s.h5")], needle="--axis")
