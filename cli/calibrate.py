@@ -32,8 +32,14 @@ def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow
     errors [mm], the difference from the nominal, the paper's per-rotation fit,
     tilt [arcsec] and delay [us].
     """
-    from sizefx.calibrate import CalibrateConfig, run
+    from sizefx.calibrate import run
 
-    config = CalibrateConfig(records=tuple(records), nominal=nominal, with_tilt=tilt, with_delay=delay,
-                             triad=triad_point, allow_gaps=allow_gaps, json_path=json_path, plot=plot, force=force)
-    click.echo(run(config).report())
+    click.echo(run(config_of(records, nominal, json_path, tilt, delay, triad_point, plot, allow_gaps, force)).report())
+
+
+def config_of(records, nominal, json_path, tilt, delay, triad_point, plot, allow_gaps, force):
+    """The stage's config from the command's options (also ``sizefx batch calibrate``'s, a record at a time)."""
+    from sizefx.calibrate import CalibrateConfig
+
+    return CalibrateConfig(records=tuple(records), nominal=nominal, with_tilt=tilt, with_delay=delay,
+                           triad=triad_point, allow_gaps=allow_gaps, json_path=json_path, plot=plot, force=force)

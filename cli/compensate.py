@@ -40,10 +40,18 @@ def compensate(file, levers_path, model_path, output, mode, estimator, centripet
     one continuous segment at a time (--segment K), or across its gaps with
     --allow-gaps (the estimates next to each gap are then wrong).
     """
-    from sizefx.compensate import CompensateConfig, run
+    from sizefx.compensate import run
 
-    config = CompensateConfig(input=file, output=output, levers=levers_path, model=model_path, mode=mode,
-                              estimator=estimator, tangential=not centripetal_only,
-                              accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
-                              allow_gaps=allow_gaps, segment=segment, force=force)
-    click.echo(run(config).report())
+    click.echo(run(config_of(file, levers_path, model_path, output, mode, estimator, centripetal_only, accel_delay_us,
+                             segment, allow_gaps, force)).report())
+
+
+def config_of(file, levers_path, model_path, output, mode, estimator, centripetal_only, accel_delay_us, segment,
+              allow_gaps, force):
+    """The stage's config from the command's options (also ``sizefx batch compensate``'s, per record)."""
+    from sizefx.compensate import CompensateConfig
+
+    return CompensateConfig(input=file, output=output, levers=levers_path, model=model_path, mode=mode,
+                            estimator=estimator, tangential=not centripetal_only,
+                            accel_delay_s=None if accel_delay_us is None else accel_delay_us * 1e-6,
+                            allow_gaps=allow_gaps, segment=segment, force=force)

@@ -53,9 +53,17 @@ def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz
     names what the model still cannot explain, writes the extended model and
     reports the residual RMS per channel before and after.
     """
-    from sizefx.diagnose import DiagnoseConfig, run
+    from sizefx.diagnose import run
 
-    config = DiagnoseConfig(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
-                            model_out=model_out, bandwidth_hz=bandwidth_hz, grade=grade, from_s=from_s, to_s=to_s,
-                            segment=segment, allow_gaps=allow_gaps, navigation=navigation, force=force)
-    click.echo(run(config).report())
+    click.echo(run(config_of(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, grade, from_s, to_s,
+                             navigation, segment, allow_gaps, force)).report())
+
+
+def config_of(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, grade, from_s, to_s, navigation,
+              segment, allow_gaps, force):
+    """The stage's config from the command's options (also ``sizefx batch diagnose``'s, per record)."""
+    from sizefx.diagnose import DiagnoseConfig
+
+    return DiagnoseConfig(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
+                          model_out=model_out, bandwidth_hz=bandwidth_hz, grade=grade, from_s=from_s, to_s=to_s,
+                          segment=segment, allow_gaps=allow_gaps, navigation=navigation, force=force)

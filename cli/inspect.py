@@ -23,7 +23,14 @@ def inspect(file, allow_gaps, no_units_check, as_json):
     (with a one-line reason) otherwise: a file whose data look like another
     unit than they declare is not valid.
     """
-    from sizefx.inspect import InspectConfig, run
+    from sizefx.inspect import run
 
-    result = run(InspectConfig(file, allow_gaps=allow_gaps, check_units=not no_units_check))
+    result = run(config_of(file, allow_gaps, no_units_check))
     click.echo(json.dumps(result.to_json(), indent=2) if as_json else result.report())
+
+
+def config_of(file, allow_gaps, no_units_check):
+    """The stage's config from the command's options (also ``sizefx batch inspect``'s, per record)."""
+    from sizefx.inspect import InspectConfig
+
+    return InspectConfig(file, allow_gaps=allow_gaps, check_units=not no_units_check)

@@ -59,11 +59,20 @@ def navigate(file, output, json_path, plot, subsamples, init, align_s, vertical,
     attitude error [deg]. A record with IMU gaps is navigated one continuous
     segment at a time (--segment K): the integration cannot bridge a gap.
     """
-    from sizefx.navigate import NavConfig, NavigateConfig, run
+    from sizefx.navigate import run
+
+    config = config_of(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers,
+                       model, mode, chunk_samples, segment, allow_gaps, force)
+    click.echo(run(config, progress=Progress("navigate", quiet)).report())
+
+
+def config_of(file, output, json_path, plot, subsamples, init, align_s, vertical, output_rate_hz, levers, model, mode,
+              chunk_samples, segment, allow_gaps, force):
+    """The stage's config from the command's options (also ``sizefx batch navigate``'s, per record)."""
+    from sizefx.navigate import NavConfig, NavigateConfig
 
     options = NavConfig(subsamples=subsamples, vertical=vertical, init=init, align_s=align_s,
                         output_rate_hz=output_rate_hz or None, allow_gaps=allow_gaps, segment=segment, levers=levers,
                         mode=mode)
-    config = NavigateConfig(input=file, options=options, model=model, output=output, json_path=json_path, plot=plot,
-                            force=force, chunk_samples=chunk_samples)
-    click.echo(run(config, progress=Progress("navigate", quiet)).report())
+    return NavigateConfig(input=file, options=options, model=model, output=output, json_path=json_path, plot=plot,
+                          force=force, chunk_samples=chunk_samples)
