@@ -107,7 +107,8 @@ def main():
     """
 
 
-from . import calibrate as _calibrate  # noqa: E402  (imported after `main` exists)
+from . import batch as _batch  # noqa: E402  (imported after `main` exists)
+from . import calibrate as _calibrate  # noqa: E402
 from . import compare as _compare  # noqa: E402
 from . import compensate as _compensate  # noqa: E402
 from . import demo as _demo  # noqa: E402
@@ -119,6 +120,7 @@ from . import paper as _paper  # noqa: E402
 from . import plan as _plan  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
+main.add_command(_batch.batch)
 main.add_command(_calibrate.calibrate)
 main.add_command(_compare.compare)
 main.add_command(_compensate.compensate)

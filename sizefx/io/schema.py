@@ -21,7 +21,7 @@ from importlib import resources
 from ..errors import ConfigError
 
 __all__ = ["load_schema", "TELEMETRY_SCHEMA", "unit_factor", "allowed_units", "normalise_units",
-           "check_document", "validate_input", "schema_errors"]
+           "check_document", "validate_input", "schema_errors", "as_json"]
 
 TELEMETRY_SCHEMA = "sizefx/telemetry/1"
 
@@ -80,15 +80,15 @@ def _validator(name: str):
     return cls(schema)
 
 
-def _as_json(value):
+def as_json(value):
     """``value`` as the JSON file will hold it: NumPy scalars and arrays as Python numbers and lists,
     tuples as lists (JSON Schema's ``integer`` and ``array`` know only those)."""
     if isinstance(value, dict):
-        return {k: _as_json(v) for k, v in value.items()}
+        return {k: as_json(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_as_json(v) for v in value]
+        return [as_json(v) for v in value]
     if hasattr(value, "tolist") and hasattr(value, "dtype"):  # NumPy scalar or array, without importing NumPy
-        return _as_json(value.tolist())
+        return as_json(value.tolist())
     return value
 
 
@@ -145,7 +145,7 @@ def _problems(error, root: dict) -> list[str]:
 
 def schema_errors(doc, name: str) -> list[str]:
     """Every way ``doc`` breaks the JSON Schema ``name``, one clause each (:func:`_problems`), in document order."""
-    errors = sorted(_validator(name).iter_errors(_as_json(doc)), key=lambda e: [str(p) for p in e.absolute_path])
+    errors = sorted(_validator(name).iter_errors(as_json(doc)), key=lambda e: [str(p) for p in e.absolute_path])
     root = load_schema(name)
     out: list[str] = []
     for error in errors:
@@ -171,7 +171,7 @@ def validate_input(doc, name: str, path) -> None:
     """
     from jsonschema.exceptions import best_match
 
-    best = best_match(_validator(name).iter_errors(_as_json(doc)))
+    best = best_match(_validator(name).iter_errors(as_json(doc)))
     if best is None:
         return
     _, kind, version = name.split("/")

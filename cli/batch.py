@@ -1,0 +1,145 @@
+"""``sizefx batch STAGE [STAGE OPTIONS] INPUTS... --out DIR``: one stage over many records.
+
+Each batch command is made from the single-file command itself: the same click options (less the
+record argument and the output paths, which the batch names in DIR), turned into the stage's
+config by the same ``config_of`` the single-file command calls, so an option can never mean
+something else in a batch. The work and the manifest are :mod:`sizefx.batch`'s.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import json
+import sys
+from dataclasses import dataclass, field
+
+import click
+
+from .options import quiet_option
+
+
+@dataclass(frozen=True)
+class _Stage:
+    """How a stage's command becomes a batch command."""
+
+    input_param: str  #: the record argument of the single-file command
+    outputs: dict = field(default_factory=dict)  #: output option -> file suffix, written for every record
+    plots: dict = field(default_factory=dict)  #: output option -> suffix, written with --plots
+    summary: bool = False  #: the batch writes the result's JSON (the stage has no JSON output of its own)
+    dropped: tuple = ()  #: other options a batch does not offer
+    many: bool = False  #: the record argument takes several records (calibrate: one per batch record)
+
+
+STAGES = {
+    "navigate": _Stage("file", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"},
+                       dropped=("quiet",)),
+    "compensate": _Stage("file", {"output": ".compensated.h5"}, summary=True),
+    "calibrate": _Stage("records", {"json_path": ".levers.json"}, {"plot": ".calibrate.png"}, many=True),
+    "diagnose": _Stage("measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"},
+                       {"plots": ".diagnose-plots"}),
+    "inspect": _Stage("file", summary=True, dropped=("as_json",)),
+}
+
+
+class BatchProgress:
+    """The batch's progress on stderr: a bar (records done, rate, time left) on a terminal, a plain line
+    per record otherwise, a JSON object per record with ``--json-progress`` (for schedulers)."""
+
+    def __init__(self, stage: str, total: int, json_lines: bool, quiet: bool):
+        self.stage, self.total, self.json_lines, self.quiet = stage, total, json_lines, quiet
+        self.bar = None
+
+    def __call__(self, event: dict):
+        if self.json_lines:
+            click.echo(json.dumps({"stage": self.stage, **event}), err=True)
+            return
+        if self.quiet:
+            return
+        if sys.stderr.isatty():
+            if self.bar is None:
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=self.total, desc=f"batch {self.stage}", unit=" records", file=sys.stderr,
+                                dynamic_ncols=True)
+            self.bar.set_postfix(ok=event["ok"], refused=event["refused"], failed=event["failed"],
+                                 unchanged=event["skipped"], refresh=False)
+            self.bar.update(1)
+            if event["done"] >= self.total:
+                self.bar.close()
+            return
+        left = "" if event["eta_s"] is None else f", {event['eta_s']:.0f} s left"
+        click.echo(f"batch {self.stage}: {event['done']}/{event['total']} {event['record']} {event['status']}; "
+                   f"{event['ok']} ok, {event['skipped']} unchanged, {event['refused']} refused, {event['failed']} "
+                   f"failed; {event['records_per_s']:.3g} records/s{left}", err=True)
+
+
+def _make(name: str, spec: _Stage) -> click.Command:
+    module = importlib.import_module(f"sizefx_cli.{name}")
+    single = getattr(module, name)
+    skip = {spec.input_param, "force", *spec.outputs, *spec.plots, *spec.dropped}
+    stage_params = [p for p in single.params if p.name not in skip]
+    params = [click.Argument(["inputs"], nargs=-1, required=True, type=click.Path()),
+              *stage_params,
+              click.Option(["--out", "out_dir"], required=True, type=click.Path(file_okay=False),
+                           help="Folder for every record's outputs and manifest.json (made if new; not inside an "
+                                "input folder)."),
+              click.Option(["--workers"], type=click.IntRange(1, 1024),
+                           help="Worker processes [default: the cores]; each loads the kernels once."),
+              click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
+                                                          "and outputs match the manifest."),
+              click.Option(["--json-progress"], is_flag=True,
+                           help="Progress as one JSON object per record on stderr (for schedulers)."),
+              *([click.Option(["--plots"], is_flag=True, help="Also write each record's plots.")] if spec.plots
+                else [])]
+
+    def callback(inputs, out_dir, workers, redo, json_progress, quiet, plots=False, **options):
+        from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
+        from sizefx.batch.inputs import check_out_dir
+        from sizefx.batch.manifest import canonical_options
+        from sizefx.stage import preflight
+
+        accepted = inspect.signature(module.config_of).parameters
+        records = expand_inputs(inputs)
+        out = check_out_dir(out_dir, inputs, records)
+        previous = read_manifest(out, name) if out.exists() else None
+        entries = {e["input"]: e for e in (previous or {}).get("records", [])}
+        names = output_names(records)
+        stage_options = canonical_options({**options, **({"plots": True} if plots else {})})
+        jobs = []
+        for record in records:
+            outputs = {p: str(out / (names[record] + suffix)) for p, suffix in spec.outputs.items()}
+            if plots:
+                outputs.update({p: str(out / (names[record] + suffix)) for p, suffix in spec.plots.items()})
+            given = {**options, **{p: None for p in spec.plots}, **outputs, "force": True,
+                     spec.input_param: (str(record),) if spec.many else str(record)}
+            config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
+            if not jobs:  # the options' own files (--levers, --model, --nominal): refused once, before any work
+                preflight(inputs={k: v for k, v in config.inputs().items() if str(k).startswith("-")}, outputs={})
+            jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
+                                 str(out / f"{names[record]}.{name}.json") if spec.summary else None,
+                                 entries.get(str(record)), redo))
+        progress = BatchProgress(name, len(jobs), json_progress, quiet)
+        result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress)
+        click.echo(result.report())
+        if not result.all_ok:
+            sys.exit(1)
+
+    help_text = (f"sizefx {name} over many records, in parallel, into one folder.\n\n"
+                 f"INPUTS: record files, folders of them (*.h5) or globs. Each record goes through the "
+                 f"same stage code as 'sizefx {name}' with the options below (see sizefx {name} --help); its "
+                 f"outputs are named after it in --out, with manifest.json (sizefx/batch/1): per record the input's "
+                 f"SHA-256, the options, the outputs, the status (ok, refused with its reason, failed), duration, "
+                 f"peak memory and headline figures. A re-run skips records whose input, options and outputs "
+                 f"match (--redo to force). Exit code 0 when every record succeeded, 1 otherwise, 2 for bad input.")
+    return quiet_option(click.Command(name, params=params, callback=callback, help=help_text,
+                                      short_help=f"sizefx {name} over many records."))
+
+
+@click.group()
+def batch():
+    """One stage over many records: all cores, one folder, a manifest, resumable."""
+
+
+for _name, _spec in STAGES.items():
+    batch.add_command(_make(_name, _spec))

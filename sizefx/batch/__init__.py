@@ -1,0 +1,29 @@
+"""One stage over many records: ``sizefx batch STAGE ... INPUTS --out DIR`` (issue 18).
+
+A test campaign is dozens of records; each goes through the very stage code the single-file
+command runs (its config, built by the command line from the same options, and the stage's
+``run``), in warm worker processes, into one folder with a manifest:
+
+- :mod:`.inputs`: files, folders and globs expanded to records, checked (unreadable folders,
+  duplicates, an output folder inside an input folder: one line, nothing written), and the
+  name each record's outputs get in the folder.
+- :mod:`.manifest`: ``DIR/manifest.json`` (``sizefx/batch/1``): per record the input and its
+  SHA-256, the options, the outputs and theirs, the status (ok / refused with its one-line
+  reason / failed), duration, peak memory and headline figures; written atomically after each
+  record, so an interrupted campaign continues where it stopped (a record whose input hash,
+  options and outputs match is skipped).
+- :mod:`.runner`: the work in ``workers`` processes (the Numba kernels load from the on-disk
+  cache once per process); one bad record never stops the others.
+
+The outputs of a record do not depend on the number of workers or the order: each record is
+the stage run on it alone, and the manifest lists the records in input order.
+"""
+
+from __future__ import annotations
+
+from .inputs import expand_inputs, output_names
+from .manifest import BATCH_SCHEMA, read_manifest
+from .runner import BatchJob, BatchResult, RecordOutcome, run_batch
+
+__all__ = ["BATCH_SCHEMA", "BatchJob", "BatchResult", "RecordOutcome", "expand_inputs", "output_names",
+           "read_manifest", "run_batch"]

@@ -1,0 +1,101 @@
+"""A batch's records: files, folders and globs expanded and checked, and their output names."""
+
+from __future__ import annotations
+
+import glob
+import os
+from pathlib import Path
+
+from ..errors import ConfigError
+
+__all__ = ["expand_inputs", "output_names", "check_out_dir", "RECORD_SUFFIXES"]
+
+#: What a folder given as an input contributes: its telemetry files (not recursively: a campaign's
+#: folder of records; give a glob such as ``runs/**/*.h5`` for a tree).
+RECORD_SUFFIXES = (".h5", ".hdf5")
+#: Glob characters: an input with one of them is a pattern, not a path.
+_GLOB = set("*?[")
+
+
+def expand_inputs(inputs) -> list[Path]:
+    """The records the inputs name, resolved, in a stable order (sorted by path): each file as
+    given; each folder's ``*.h5``/``*.hdf5`` files; each glob's matches (``**`` recursive).
+
+    Refused in one line (:class:`~sizefx.errors.ConfigError`): no inputs; a path that does not
+    exist; a folder that cannot be read or holds no record; a glob that matches nothing; the same
+    record twice (also through another spelling or a link)."""
+    if not inputs:
+        raise ConfigError("no inputs: give record files, folders of them, or globs (e.g. 'runs/*.h5')")
+    records: dict[Path, str] = {}
+    for given in inputs:
+        text = str(given)
+        if _GLOB & set(text):
+            matches = sorted(Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file())
+            if not matches:
+                raise ConfigError(f"{text}: the pattern matches no file; check it (quote it so the shell does not "
+                                  "expand it first)")
+        else:
+            path = Path(text)
+            if not path.exists():
+                raise ConfigError(f"{path}: no such file or folder; check the path")
+            if path.is_dir():
+                if not os.access(path, os.R_OK | os.X_OK):
+                    raise ConfigError(f"{path}: the folder cannot be read (permissions); fix them or leave it out")
+                matches = sorted(p for p in path.iterdir() if p.suffix.lower() in RECORD_SUFFIXES and p.is_file())
+                if not matches:
+                    raise ConfigError(f"{path}: the folder holds no record ({', '.join(RECORD_SUFFIXES)}); give the "
+                                      "files or a glob")
+            else:
+                matches = [path]
+        for match in matches:
+            resolved = match.resolve()
+            if resolved in records:
+                raise ConfigError(f"{match}: given twice (also as {records[resolved]}); each record once")
+            if not os.access(resolved, os.R_OK):
+                raise ConfigError(f"{match}: cannot be read (permissions); fix them or leave it out")
+            records[resolved] = str(match)
+    return sorted(records)
+
+
+def check_out_dir(out_dir, inputs, records) -> Path:
+    """The output folder, refused when it is an input folder or inside one (a re-run would take its
+    outputs for records), or an input file, or in a folder that does not exist."""
+    out = Path(out_dir).resolve()
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{out_dir}: --out exists and is not a folder; give a folder (it is made if new)")
+    if not out.parent.is_dir():
+        raise ConfigError(f"{out_dir}: --out's parent folder does not exist; make it first")
+    for given in inputs:
+        text = str(given)
+        folder = Path(text.split("*")[0].split("?")[0].split("[")[0] or ".") if _GLOB & set(text) else Path(text)
+        if folder.is_dir():
+            folder = folder.resolve()
+            if out == folder or folder in out.parents:
+                raise ConfigError(f"{out_dir}: --out is inside the input folder {given}; a re-run would read the "
+                                  "outputs as records: put it elsewhere")
+    if out in records:
+        raise ConfigError(f"{out_dir}: --out is one of the inputs; give a new folder")
+    return out
+
+
+def output_names(records: list[Path]) -> dict[Path, str]:
+    """A name for each record's outputs in the batch folder: its stem, or, where stems repeat
+    (``run1/imu.h5``, ``run2/imu.h5``), as many parent folders as make it unique, joined by ``__``
+    (``run1__imu``; ``imu_hdf5`` beside ``imu_h5`` in one folder). Depends only on the set of
+    records, not their order."""
+    parts = {r: r.with_suffix("").parts[1:] for r in records}
+    depth = {r: 1 for r in records}
+    while True:
+        names = {r: "__".join(parts[r][-depth[r]:]) for r in records}
+        seen: dict[str, list[Path]] = {}
+        for r, name in names.items():
+            seen.setdefault(name, []).append(r)
+        clashes = [group for group in seen.values() if len(group) > 1]
+        if not clashes:
+            return names
+        for group in clashes:
+            if all(depth[r] == len(parts[r]) for r in group):  # the same path but the suffix (imu.h5, imu.hdf5)
+                for r in group:
+                    parts[r] = (*parts[r][:-1], f"{parts[r][-1]}_{r.suffix.lstrip('.')}")
+            for r in group:
+                depth[r] = min(depth[r] + 1, len(parts[r]))

@@ -1,0 +1,288 @@
+"""The batch's work: each record's stage run in warm worker processes, the manifest kept as they finish.
+
+Workers are spawned processes (not forked: an h5py file or a Numba compilation in the parent must
+not be shared half way), ``workers`` of them for the whole batch, so each loads the Numba kernels
+from the on-disk cache once and keeps them for every record it gets. A record whose stage refuses
+it (a :class:`~sizefx.errors.SizefxError`, one line) is ``refused``; any other exception is
+``failed`` with its one-line summary; neither stops the others. A worker that dies (killed, out of
+memory) takes the records it held with it: those are run again, each alone in a fresh process, so
+that only the record that kills its process is marked failed.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import multiprocessing
+import os
+import resource
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import SizefxError
+from ..io.files import atomic_output
+from ..io.schema import as_json
+from .fleet import KEY_FIGURES, combine_arms
+from .manifest import BATCH_SCHEMA, reusable, sha256_of, write_manifest
+
+__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "headline"]
+
+#: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
+#: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
+STAGES = {"navigate": "sizefx.navigate", "compensate": "sizefx.compensate", "calibrate": "sizefx.calibrate",
+          "diagnose": "sizefx.diagnose", "inspect": "sizefx.inspect", "compare": "sizefx.compare"}
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """One record's work: the stage's config (built by the caller from the stage's own options, with
+    this record's input and outputs), and what the manifest needs to judge a previous run of it."""
+
+    stage: str
+    input: str  #: the record, resolved
+    name: str  #: its outputs' name in the batch folder
+    config: object  #: the stage's config (``sizefx.navigate.NavigateConfig``, ...)
+    options: dict  #: the stage options (canonical, :func:`~.manifest.canonical_options`)
+    outputs: dict  #: option -> path of every file or folder the stage writes
+    summary_path: str | None = None  #: where the batch writes ``result.to_json()`` (stages with no JSON of their own)
+    previous: dict | None = None  #: this record's entry in the folder's manifest, if any
+    redo: bool = False
+
+
+@dataclass
+class RecordOutcome:
+    """What became of one record: its manifest entry."""
+
+    entry: dict
+    reused: bool = False
+
+    @property
+    def status(self) -> str:
+        return self.entry["status"]
+
+
+@dataclass
+class BatchResult:
+    """Every record's outcome (in input order) and the manifest's path."""
+
+    stage: str
+    outcomes: list = field(default_factory=list)
+    manifest: str = ""
+    wall_s: float = 0.0
+    workers: int = 1
+
+    def counts(self) -> dict:
+        out = {"ok": 0, "refused": 0, "failed": 0, "skipped": 0}
+        for o in self.outcomes:
+            out["skipped" if o.reused else o.status] += 1
+        return out
+
+    @property
+    def all_ok(self) -> bool:
+        return all(o.status == "ok" for o in self.outcomes)
+
+    def report(self) -> str:
+        c = self.counts()
+        lines = [f"batch {self.stage}: {len(self.outcomes)} records in {self.wall_s:.1f} s with {self.workers} "
+                 f"worker(s): {c['ok']} ok, {c['skipped']} unchanged (skipped), {c['refused']} refused, "
+                 f"{c['failed']} failed; manifest -> {self.manifest}"]
+        keys = KEY_FIGURES.get(self.stage, ())
+        for o in self.outcomes:
+            e = o.entry
+            figures = ", ".join(f"{k} {_short(e['headline'][k])}" for k in keys if e["headline"].get(k) is not None)
+            state = "unchanged" if o.reused else e["status"]
+            lines.append(f"  {e['name']}: {state}, {e['duration_s']:.1f} s, {e['peak_memory_mib']:.0f} MiB"
+                         + (f"; {figures}" if figures and e["status"] == "ok" else "")
+                         + (f"; {e['reason']}" if e.get("reason") else ""))
+        for k in keys:  # the campaign's spread of each numeric figure
+            values = [o.entry["headline"][k] for o in self.outcomes if o.status == "ok"
+                      and isinstance(o.entry["headline"].get(k), (int, float))]
+            if len(values) > 1:
+                lines.append(f"  {k} across {len(values)} records: mean {np.mean(values):.4g}, "
+                             f"std {np.std(values, ddof=1):.3g}, min {min(values):.4g}, max {max(values):.4g}")
+        combined = self.combined()
+        if combined:
+            mm = np.array(combined["arms_m"]) * 1e3
+            lines.append(f"  arms of {combined['runs']} runs combined (inverse-variance) [mm], +- sigma, "
+                         "chi2/dof across runs:")
+            for i, a in enumerate("xyz"):
+                lines.append(f"    r_{a}  " + "  ".join(
+                    f"{mm[i][j]:8.4f} +- {combined['sigma_m'][i][j] * 1e3:.4f} ({combined['chi2_dof'][i][j]:.2f})"
+                    for j in range(3)))
+            lines.append("  runs that disagree with the others (|z| > 3.3): " + (", ".join(
+                f"{name} ({z:.1f} sigma)" for name, z in combined["disagree"]) or "none"))
+        return "\n".join(lines)
+
+    def combined(self) -> dict | None:
+        """Calibrations across the runs combined, with the consistency test (:func:`.fleet.combine_arms`)."""
+        return combine_arms([o.entry for o in self.outcomes]) if self.stage == "calibrate" else None
+
+    def to_json(self) -> dict:
+        return {"stage": self.stage, "manifest": self.manifest, "wall_s": self.wall_s, "workers": self.workers,
+                "counts": self.counts(), "records": [o.entry for o in self.outcomes],
+                **({"combined_arms": self.combined()} if self.stage == "calibrate" else {})}
+
+
+def _short(v) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
+# --------------------------------------------------------------------------- in the worker
+
+def _reset_peak_memory() -> bool:
+    """Reset the process's peak resident memory (Linux: ``/proc/self/clear_refs``), so that the peak
+    read after a record is that record's, not an earlier one's in the same warm worker."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def _peak_memory_mib(reset: bool) -> float:
+    """Peak resident memory [MiB] since the reset (or, where it cannot be reset, of the process so far)."""
+    if reset:
+        try:
+            for line in Path("/proc/self/status").read_text().splitlines():
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+        except OSError:
+            pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def headline(stage: str, doc: dict) -> dict:
+    """A few figures of a record's result for the manifest and the fleet table: the scalars at the top
+    of its JSON, and per stage the ones that matter (navigation error, arms, findings)."""
+    out = {k: v for k, v in doc.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    if stage == "navigate":
+        errors = doc.get("errors") or {}
+        out.update({k: v for k, v in errors.items() if isinstance(v, (int, float))})
+    elif stage == "calibrate":
+        levers = doc.get("levers") or {}
+        for axis in "xyz":
+            if f"r_{axis}" in levers:
+                out[f"r_{axis}_m"] = levers[f"r_{axis}"]
+                out[f"sigma_{axis}_m"] = levers.get(f"sigma_{axis}")
+        if levers.get("accel_delay_s") is not None:
+            out["accel_delay_s"] = levers["accel_delay_s"]
+    elif stage == "diagnose":
+        out["effects"] = sorted(e.get("effect", e.get("name", "?")) for e in doc.get("effects", []))
+        out["warnings"] = len(doc.get("warnings", []))
+        out["unexplained"] = len(doc.get("unexplained", []))
+    return as_json(out)
+
+
+def _collect(outputs: dict) -> dict:
+    """``{option: {path, bytes, sha256}}`` of the files the stage wrote (a folder's files each as
+    ``option/name``)."""
+    found = {}
+    for option, path in sorted(outputs.items()):
+        p = Path(path)
+        files = sorted(q for q in p.iterdir() if q.is_file()) if p.is_dir() else ([p] if p.is_file() else [])
+        for q in files:
+            key = f"{option}/{q.name}" if p.is_dir() else option
+            found[key] = {"path": str(q), "bytes": q.stat().st_size, "sha256": sha256_of(q)}
+    return found
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _work(job: BatchJob) -> RecordOutcome:
+    """Run one record (in a worker process); never raises for the record's own faults."""
+    t0 = time.perf_counter()
+    reset = _reset_peak_memory()
+    sha = sha256_of(job.input)
+    entry = {"input": job.input, "name": job.name, "sha256": sha, "options": job.options, "outputs": {},
+             "status": "ok", "reason": None, "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}}
+    if not job.redo and reusable(job.previous, sha, job.options):
+        return RecordOutcome(job.previous, reused=True)
+    try:
+        result = importlib.import_module(STAGES.get(job.stage, job.stage)).run(job.config)
+        doc = as_json(result.to_json())
+        if job.summary_path:
+            with atomic_output(job.summary_path, inputs=[job.input], force=True) as tmp:
+                Path(tmp).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+        entry["headline"] = headline(job.stage, doc)
+        entry["outputs"] = _collect({**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})})
+    except SizefxError as exc:
+        entry["status"], entry["reason"] = "refused", _one_line(exc)
+    except Exception as exc:  # a bug or a library's failure on this record: the others go on
+        entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
+    entry["duration_s"] = time.perf_counter() - t0
+    entry["peak_memory_mib"] = _peak_memory_mib(reset)
+    return RecordOutcome(entry)
+
+
+# --------------------------------------------------------------------------- in the parent
+
+def _pool(workers: int) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+
+
+def _died(job: BatchJob, why: str) -> RecordOutcome:
+    return RecordOutcome({"input": job.input, "name": job.name, "sha256": (job.previous or {}).get("sha256", ""),
+                          "options": job.options, "outputs": {}, "status": "failed",
+                          "reason": f"the worker process died ({why}); run it alone to see why",
+                          "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}})
+
+
+def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
+              previous: dict | None = None, progress=None) -> BatchResult:
+    """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores) and
+    keep ``out_dir``'s manifest as they finish. ``previous``: the folder's manifest, whose entries for
+    other records are kept. ``progress(event)`` after each record: done, total, counts, rate, time left."""
+    workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(jobs))))
+    out_dir = Path(out_dir)
+    out_dir.mkdir(exist_ok=True)
+    kept = {e["input"]: e for e in (previous or {}).get("records", [])}
+    outcomes: dict[str, RecordOutcome] = {}
+    t0 = time.perf_counter()
+
+    def finished(job: BatchJob, outcome: RecordOutcome):
+        outcomes[job.input] = outcome
+        kept[job.input] = outcome.entry
+        write_manifest(out_dir, {"schema": BATCH_SCHEMA, "stage": stage, "sizefx_version": __version__,
+                                 "options": options, "records": [kept[k] for k in sorted(kept)]})
+        if progress is not None:
+            done = len(outcomes)
+            elapsed = time.perf_counter() - t0
+            rate = done / elapsed if elapsed > 0 else 0.0
+            counts = BatchResult(stage, list(outcomes.values())).counts()
+            progress({"done": done, "total": len(jobs), **counts, "record": job.name,
+                      "status": "unchanged" if outcome.reused else outcome.status,
+                      "elapsed_s": round(elapsed, 3), "records_per_s": round(rate, 4),
+                      "eta_s": round((len(jobs) - done) / rate, 1) if rate > 0 else None})
+
+    pending, suspects = list(jobs), []
+    while pending:
+        running: dict = {}
+        with _pool(workers) as pool:
+            try:
+                while pending or running:
+                    while pending and len(running) < 2 * workers:  # a short queue: the input's order
+                        job = pending.pop(0)
+                        running[pool.submit(_work, job)] = job
+                    done, _ = wait(running, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        outcome = fut.result()  # BrokenProcessPool: the job stays among the running
+                        finished(running.pop(fut), outcome)
+            except BrokenProcessPool:
+                suspects += running.values()  # the rest go on in a fresh pool
+    for job in suspects:  # each alone in a fresh process: only the record that kills it fails
+        with _pool(1) as pool:
+            try:
+                finished(job, pool.submit(_work, job).result())
+            except BrokenProcessPool as exc:
+                finished(job, _died(job, _one_line(exc)))
+    ordered = [outcomes[j.input] for j in jobs]
+    return BatchResult(stage, ordered, str(out_dir / "manifest.json"), time.perf_counter() - t0, workers)

@@ -1,0 +1,230 @@
+"""``sizefx batch STAGE ... INPUTS --out DIR`` (issue 18, items 1-3 and 6).
+
+- Every record goes through the single-file stage; outputs named after it; a manifest valid
+  against ``sizefx/batch/1``; a bad record is refused alone; the exit code says whether all passed.
+- Resumable: an unchanged record is skipped; a changed input, a missing output or ``--redo`` runs it
+  again.
+- The outputs do not depend on the number of workers (but the measured run times in them).
+- A worker that dies takes only its own record with it.
+- Bad batch input (no such file, a glob matching nothing, a record twice, --out inside an input
+  folder, a manifest of another stage, a missing --levers file): one line, exit code 2, nothing written.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from sizefx.batch import BatchJob, output_names, run_batch
+from sizefx.batch.manifest import canonical_options, sha256_of
+from sizefx.io.schema import check_document
+from sizefx.simulate import SimulateConfig
+from sizefx.simulate import run as simulate
+from sizefx.scenarios import TurntablePlan
+from sizefx_cli.main import main
+
+#: A short turntable record (100 s at 200 Hz): each stage runs on it in about a second.
+PLAN = TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1)
+
+
+def _record(path, seed):
+    simulate(SimulateConfig("turntable", str(path), plan=PLAN, rate_hz=200.0, seed=seed, force=True))
+    return path
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """Three records in a folder."""
+    folder = tmp_path_factory.mktemp("campaign") / "runs"
+    folder.mkdir()
+    for k in range(3):
+        _record(folder / f"run{k}.h5", seed=k)
+    return folder
+
+
+def _batch(*args):
+    return CliRunner().invoke(main, ["batch", *map(str, args)])
+
+
+def _manifest(out):
+    doc = json.loads((out / "manifest.json").read_text())
+    check_document(doc, "sizefx/batch/1")
+    return doc
+
+
+def test_inspect_batch_writes_one_output_per_record_and_a_manifest(campaign, tmp_path):
+    out = tmp_path / "out"
+    result = _batch("inspect", campaign, "--out", out, "--workers", "2")
+    assert result.exit_code == 0, result.output
+    doc = _manifest(out)
+    assert [e["name"] for e in doc["records"]] == ["run0", "run1", "run2"]
+    for entry in doc["records"]:
+        assert entry["status"] == "ok" and entry["reason"] is None and len(entry["sha256"]) == 64
+        summary = json.loads((out / f"{entry['name']}.inspect.json").read_text())
+        assert summary["samples"] == entry["headline"]["samples"] == 24001
+        assert entry["outputs"]["summary"]["bytes"] == (out / f"{entry['name']}.inspect.json").stat().st_size
+        assert entry["peak_memory_mib"] > 0 and entry["duration_s"] > 0
+
+
+def test_rerun_skips_what_is_unchanged(campaign, tmp_path):
+    runs = tmp_path / "runs"
+    shutil.copytree(campaign, runs)
+    out = tmp_path / "out"
+    assert _batch("inspect", runs, "--out", out).exit_code == 0
+    result = _batch("inspect", runs, "--out", out)
+    assert "0 ok, 3 unchanged" in result.output, result.output
+    _record(runs / "run1.h5", seed=11)  # a changed input
+    (out / "run2.inspect.json").unlink()  # a lost output
+    result = _batch("inspect", runs, "--out", out)
+    assert "2 ok, 1 unchanged" in result.output, result.output
+    assert {e["name"]: e["sha256"] for e in _manifest(out)["records"]}["run1"] == sha256_of(runs / "run1.h5")
+    assert "3 ok, 0 unchanged" in _batch("inspect", runs, "--out", out, "--redo").output
+    result = _batch("inspect", runs, "--out", out, "--no-units-check")  # other options: run again
+    assert "3 ok, 0 unchanged" in result.output, result.output
+
+
+def test_one_bad_record_is_refused_alone(campaign, tmp_path):
+    runs = tmp_path / "runs"
+    shutil.copytree(campaign, runs)
+    (runs / "broken.h5").write_text("not HDF5")
+    out = tmp_path / "out"
+    result = _batch("navigate", runs, "--out", out, "--workers", "2")
+    assert result.exit_code == 1, result.output
+    entries = {e["name"]: e for e in _manifest(out)["records"]}
+    assert entries["broken"]["status"] == "refused" and "broken.h5" in entries["broken"]["reason"]
+    assert entries["broken"]["outputs"] == {}
+    for name in ("run0", "run1", "run2"):
+        assert entries[name]["status"] == "ok"
+        assert (out / f"{name}.nav.h5").exists() and (out / f"{name}.navigate.json").exists()
+        assert entries[name]["headline"]["final_horizontal_error_m"] > 0
+
+
+def _content(path):
+    """An HDF5 file's datasets and attributes, the run times taken out of its summary."""
+    found = {}
+    with h5py.File(path) as f:
+        def visit(name, obj):
+            for key, value in obj.attrs.items():
+                if key == "summary_json":
+                    value = {k: v for k, v in json.loads(value).items() if k not in ("wall_s", "kernel_s")}
+                found[f"{name}@{key}"] = value
+            if isinstance(obj, h5py.Dataset):
+                found[name] = obj[()]
+        f.visititems(visit)
+        visit("/", f)
+    return found
+
+
+def test_outputs_do_not_depend_on_the_workers(campaign, tmp_path):
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert _batch("navigate", campaign, "--out", one, "--workers", "1").exit_code == 0
+    assert _batch("navigate", campaign, "--out", two, "--workers", "2").exit_code == 0
+    for k in range(3):
+        a, b = _content(one / f"run{k}.nav.h5"), _content(two / f"run{k}.nav.h5")
+        assert a.keys() == b.keys()
+        for key in a:
+            assert np.array_equal(a[key], b[key]) if isinstance(a[key], np.ndarray) else a[key] == b[key], key
+
+
+def test_a_worker_that_dies_takes_only_its_record(tmp_path):
+    """A stage that kills its process on one record (tests/batch_crash_stage.py): that record is
+    failed, the others (in flight with it, or after it) are done."""
+    out = tmp_path / "out"
+    names = ["a", "crash", "b", "c"]
+    for name in names:
+        (tmp_path / f"{name}.h5").write_text(name)
+    jobs = [BatchJob("batch_crash_stage", str(tmp_path / f"{n}.h5"), n, str(tmp_path / f"{n}.h5"),
+                     canonical_options({}), {}) for n in names]
+    result = run_batch("inspect", jobs, out, {}, workers=2)
+    status = {o.entry["name"]: o.status for o in result.outcomes}
+    assert status == {"a": "ok", "crash": "failed", "b": "ok", "c": "ok"}, status
+    assert "worker process died" in result.outcomes[1].entry["reason"]
+    assert [e["status"] for e in _manifest(out)["records"]] == ["ok", "ok", "ok", "failed"]  # by input path
+
+
+def test_records_with_one_stem_get_names_of_their_folders(tmp_path):
+    paths = [tmp_path / "day1" / "imu.h5", tmp_path / "day2" / "imu.h5", tmp_path / "day2" / "imu.hdf5",
+             tmp_path / "other.h5"]
+    names = output_names(paths)
+    assert names[paths[0]] == "day1__imu" and names[paths[3]] == "other"
+    assert len(set(names.values())) == 4
+    assert output_names(list(reversed(paths))) == names
+
+
+def _one_line_refusal(result, needle):
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert needle in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("case, needle", [
+    ("missing", "no such file or folder"),
+    ("glob", "matches no file"),
+    ("twice", "given twice"),
+    ("inside", "inside the input folder"),
+    ("out-is-file", "is a file"),
+    ("empty-folder", "holds no record"),
+    ("levers", "--levers"),
+])
+def test_bad_batch_input_is_one_line_and_writes_nothing(campaign, tmp_path, case, needle):
+    out = tmp_path / "out"
+    args = {"missing": ["navigate", tmp_path / "nope.h5"],
+            "glob": ["navigate", str(tmp_path / "*.h5")],
+            "twice": ["navigate", campaign / "run0.h5", campaign / ".." / "runs" / "run0.h5"],
+            "inside": ["navigate", campaign],
+            "out-is-file": ["navigate", campaign / "run0.h5"],
+            "empty-folder": ["navigate", tmp_path / "empty"],
+            "levers": ["navigate", campaign / "run0.h5", "--levers", tmp_path / "levers.json"]}[case]
+    if case == "inside":
+        out = campaign / "batch-out"
+    if case == "out-is-file":
+        out.write_text("x")
+    if case == "empty-folder":
+        (tmp_path / "empty").mkdir()
+    _one_line_refusal(_batch(*args, "--out", out), needle)
+    assert case == "out-is-file" or not out.exists()
+
+
+def test_a_folder_of_another_stage_is_refused(campaign, tmp_path):
+    out = tmp_path / "out"
+    assert _batch("inspect", campaign / "run0.h5", "--out", out).exit_code == 0
+    _one_line_refusal(_batch("navigate", campaign / "run0.h5", "--out", out), "a batch of 'inspect'")
+
+
+def test_json_progress_is_one_object_per_record(campaign, tmp_path):
+    result = CliRunner().invoke(main, ["batch", "inspect", str(campaign), "--out", str(tmp_path / "out"),
+                                       "--json-progress"])
+    assert result.exit_code == 0, result.output
+    events = [json.loads(line) for line in result.stderr.splitlines()]
+    assert [e["done"] for e in events] == [1, 2, 3] and all(e["total"] == 3 for e in events)
+    assert events[-1]["ok"] == 3 and events[-1]["eta_s"] == 0
+
+
+def _calibration(name, arms, sigma):
+    return {"name": name, "status": "ok", "headline": {
+        **{f"r_{a}_m": arms[i].tolist() for i, a in enumerate("xyz")},
+        **{f"sigma_{a}_m": sigma[i].tolist() for i, a in enumerate("xyz")}}}
+
+
+def test_calibrations_of_one_unit_combine_and_the_odd_run_is_named():
+    """Twenty runs scattered by their sigma: the combination's sigma is sigma / sqrt(20) and chi2/dof
+    near 1; one run 10 sigma off on one component is named, and raises that component's chi2/dof."""
+    from sizefx.batch.fleet import combine_arms
+
+    rng = np.random.default_rng(1)
+    truth, sigma = np.diag([0.025, 0.025, 0.025]), np.full((3, 3), 3e-5)
+    runs = [_calibration(f"run{k}", truth + sigma * rng.standard_normal((3, 3)), sigma) for k in range(20)]
+    good = combine_arms(runs)
+    np.testing.assert_allclose(good["sigma_m"], sigma / np.sqrt(20))
+    assert 0.4 < np.mean(good["chi2_dof"]) < 1.6 and good["disagree"] == []
+    odd = truth + sigma * rng.standard_normal((3, 3))
+    odd[0, 2] += 10 * sigma[0, 2]
+    bad = combine_arms(runs + [_calibration("odd", odd, sigma)])
+    assert [name for name, _ in bad["disagree"]] == ["odd"] and bad["chi2_dof"][0][2] > 3
+    assert combine_arms(runs[:1]) is None
