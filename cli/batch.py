@@ -88,12 +88,15 @@ def _make(name: str, spec: _Stage) -> click.Command:
                            help="Worker processes [default: the cores]; each loads the kernels once."),
               click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
                                                           "and outputs match the manifest."),
+              click.Option(["--scheduler"], metavar="tcp://HOST:PORT",
+                           help="Run on this Dask scheduler's cluster instead of local workers (the 'distributed' "
+                                "package: pip install 'sizefx[dask]'); the workers must see the records' paths."),
               click.Option(["--json-progress"], is_flag=True,
                            help="Progress as one JSON object per record on stderr (for schedulers)."),
               *([click.Option(["--plots"], is_flag=True, help="Also write each record's plots.")] if spec.plots
                 else [])]
 
-    def callback(inputs, out_dir, workers, redo, json_progress, quiet, plots=False, **options):
+    def callback(inputs, out_dir, workers, redo, scheduler, json_progress, quiet, plots=False, **options):
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
         from sizefx.batch.inputs import check_out_dir
         from sizefx.batch.manifest import canonical_options
@@ -120,7 +123,8 @@ def _make(name: str, spec: _Stage) -> click.Command:
                                  str(out / f"{names[record]}.{name}.json") if spec.summary else None,
                                  entries.get(str(record)), redo))
         progress = BatchProgress(name, len(jobs), json_progress, quiet)
-        result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress)
+        result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress,
+                           scheduler=scheduler)
         click.echo(result.report())
         if not result.all_ok:
             sys.exit(1)

@@ -1,5 +1,6 @@
 """A stage for tests/test_batch.py whose worker process dies on the record named "crash" (as one killed
-by the kernel for memory would), and succeeds on the others."""
+by the kernel for memory would), dies once on "killonce" (a worker lost mid-record), and succeeds on
+the others."""
 
 import os
 
@@ -13,6 +14,11 @@ class _Result:
 
 
 def run(config):
-    if config.endswith("crash.h5"):
+    if config.endswith("/crash.h5"):
         os._exit(9)
+    if config.endswith("/killonce.h5"):
+        marker = config + ".killed"
+        if not os.path.exists(marker):
+            open(marker, "w").close()
+            os._exit(9)
     return _Result(config)

@@ -228,3 +228,44 @@ def test_calibrations_of_one_unit_combine_and_the_odd_run_is_named():
     bad = combine_arms(runs + [_calibration("odd", odd, sigma)])
     assert [name for name, _ in bad["disagree"]] == ["odd"] and bad["chi2_dof"][0][2] > 3
     assert combine_arms(runs[:1]) is None
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A Dask cluster on this machine: two worker processes, one thread each."""
+    distributed = pytest.importorskip("distributed")  # a test extra; skipped only outside CI's install
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+        yield c
+
+
+def test_dask_batch_gives_the_local_outputs(campaign, tmp_path, cluster):
+    local, remote = tmp_path / "local", tmp_path / "dask"
+    assert _batch("inspect", campaign, "--out", local).exit_code == 0
+    result = _batch("inspect", campaign, "--out", remote, "--scheduler", cluster.scheduler_address)
+    assert result.exit_code == 0, result.output
+    for k in range(3):
+        assert (local / f"run{k}.inspect.json").read_bytes() == (remote / f"run{k}.inspect.json").read_bytes()
+    assert [e["sha256"] for e in _manifest(local)["records"]] == [e["sha256"] for e in _manifest(remote)["records"]]
+
+
+def test_dask_worker_killed_mid_record_is_retried(tmp_path, cluster):
+    """A worker dies in the middle of a record (tests/batch_crash_stage.py kills it once): the scheduler
+    runs the record again on a fresh worker; nothing is lost and the manifest lists every record."""
+    out = tmp_path / "out"
+    names = ["a", "killonce", "b"]
+    for name in names:
+        (tmp_path / f"{name}.h5").write_text(name)
+    jobs = [BatchJob("batch_crash_stage", str(tmp_path / f"{n}.h5"), n, str(tmp_path / f"{n}.h5"),
+                     canonical_options({}), {}) for n in names]
+    result = run_batch("inspect", jobs, out, {}, scheduler=cluster.scheduler_address)
+    assert [o.status for o in result.outcomes] == ["ok", "ok", "ok"]
+    assert (tmp_path / "killonce.h5.killed").exists()  # it did die once
+    assert [e["name"] for e in _manifest(out)["records"]] == ["a", "b", "killonce"]
+
+
+def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(campaign, tmp_path):
+    pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    _one_line_refusal(_batch("inspect", campaign, "--out", out, "--scheduler", "tcp://127.0.0.1:9"),
+                      "cannot reach it")
+    assert not out.exists()

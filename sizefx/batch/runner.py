@@ -7,6 +7,10 @@ it (a :class:`~sizefx.errors.SizefxError`, one line) is ``refused``; any other e
 ``failed`` with its one-line summary; neither stops the others. A worker that dies (killed, out of
 memory) takes the records it held with it: those are run again, each alone in a fresh process, so
 that only the record that kills its process is marked failed.
+
+With a Dask scheduler (``--scheduler tcp://host:8786``, the optional ``distributed`` package) the same
+:func:`_work` runs as a task per record on the cluster's workers, which read the records where
+they see them; a worker lost with a record is replaced and the record run again.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import multiprocessing
 import os
 import resource
 import time
+import uuid
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -25,13 +30,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..errors import SizefxError
+from ..errors import ConfigError, SizefxError
 from ..io.files import atomic_output
 from ..io.schema import as_json
 from .fleet import KEY_FIGURES, combine_arms
 from .manifest import BATCH_SCHEMA, reusable, sha256_of, write_manifest
 
-__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "headline"]
+__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "headline", "dask_client"]
 
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
 #: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
@@ -236,12 +241,54 @@ def _died(job: BatchJob, why: str) -> RecordOutcome:
                           "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}})
 
 
+#: Seconds to reach a Dask scheduler before the batch is refused.
+DASK_CONNECT_S = 5.0
+
+
+def dask_client(address: str):
+    """A client of the Dask scheduler at ``address`` (``tcp://host:8786``), or a one-line
+    :class:`~sizefx.errors.ConfigError` when the ``distributed`` package is missing or the scheduler
+    cannot be reached in :data:`DASK_CONNECT_S`."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ConfigError(f"--scheduler {address}: needs the 'distributed' package: pip install 'sizefx[dask]'") \
+            from None
+    try:
+        return Client(address, timeout=DASK_CONNECT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ConfigError(f"--scheduler {address}: cannot reach it ({_one_line(exc)}); start a scheduler there "
+                          "(dask scheduler) or check the address") from None
+
+
+def _run_dask(client, jobs: list[BatchJob], finished) -> None:
+    """Every job as a Dask task on ``client``'s cluster (the same :func:`_work`), finished as they come.
+    A worker that dies with a record is replaced by its nanny and the record run again; a record that
+    kills its worker more often than the scheduler allows (``distributed.scheduler.allowed-failures``,
+    3 by default) fails alone (``KilledWorker``)."""
+    from distributed import as_completed
+
+    futures = {client.submit(_work, job, pure=False, key=f"sizefx-batch-{job.name}-{uuid.uuid4().hex}"): job
+               for job in jobs}
+    for fut in as_completed(futures, loop=client.loop):  # not the default client's loop: there may be none
+        job = futures[fut]
+        try:
+            outcome = fut.result()
+        except Exception as exc:  # KilledWorker: the record took its worker down every time
+            outcome = _died(job, f"{type(exc).__name__}: {_one_line(exc)}")
+        finished(job, outcome)
+
+
 def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
-              previous: dict | None = None, progress=None) -> BatchResult:
-    """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores) and
-    keep ``out_dir``'s manifest as they finish. ``previous``: the folder's manifest, whose entries for
-    other records are kept. ``progress(event)`` after each record: done, total, counts, rate, time left."""
+              previous: dict | None = None, progress=None, scheduler: str | None = None) -> BatchResult:
+    """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
+    on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
+    finish. ``previous``: the folder's manifest, whose entries for other records are kept.
+    ``progress(event)`` after each record: done, total, counts, rate, time left."""
+    client = dask_client(scheduler) if scheduler else None  # refused before anything is written
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(jobs))))
+    if client is not None:
+        workers = len(client.scheduler_info().get("workers", {})) or workers
     out_dir = Path(out_dir)
     out_dir.mkdir(exist_ok=True)
     kept = {e["input"]: e for e in (previous or {}).get("records", [])}
@@ -263,7 +310,12 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
                       "elapsed_s": round(elapsed, 3), "records_per_s": round(rate, 4),
                       "eta_s": round((len(jobs) - done) / rate, 1) if rate > 0 else None})
 
-    pending, suspects = list(jobs), []
+    if client is not None:
+        try:
+            _run_dask(client, jobs, finished)
+        finally:
+            client.close()
+    pending, suspects = ([] if client is not None else list(jobs)), []
     while pending:
         running: dict = {}
         with _pool(workers) as pool:
