@@ -29,7 +29,13 @@ def compare(a, b, reference, json_path, plots_dir, force):
     parts [m] (ahead and right of B's track positive), the drift [nmi/h],
     height [m], velocity [m/s] and attitude [deg] differences.
     """
-    from sizefx.compare import CompareConfig, run
+    from sizefx.compare import run
 
-    result = run(CompareConfig(a, b, reference=reference, json_path=json_path, plots_dir=plots_dir, force=force))
-    click.echo(result.report())
+    click.echo(run(config_of(a, b, reference, json_path, plots_dir, force)).report())
+
+
+def config_of(a, b, reference, json_path, plots_dir, force):
+    """The stage's config from the command's options (also ``sizefx run ... compare``'s)."""
+    from sizefx.compare import CompareConfig
+
+    return CompareConfig(a, b, reference=reference, json_path=json_path, plots_dir=plots_dir, force=force)

@@ -118,6 +118,7 @@ from . import inspect as _inspect  # noqa: E402
 from . import navigate as _navigate  # noqa: E402
 from . import paper as _paper  # noqa: E402
 from . import plan as _plan  # noqa: E402
+from . import run as _run  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
 main.add_command(_batch.batch)
@@ -131,4 +132,5 @@ main.add_command(_inspect.inspect)
 main.add_command(_navigate.navigate)
 main.add_command(_paper.paper)
 main.add_command(_plan.plan)
+main.add_command(_run.run)
 main.add_command(_simulate.simulate)
