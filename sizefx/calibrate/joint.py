@@ -64,9 +64,10 @@ BIAS_WINDOW_S = 120.0
 #: Steps in angular acceleration (a sway or a table's acceleration switched on at once) are left
 #: out of a fit with the delay: the delay's lever terms need the angular jerk, a spike at a step,
 #: which the gyros' filtered derivative smears over its 25 ms window (a 2 rad/s^2 sway start left
-#: in costs 0.24 % of the delay, issue 17). A step under this size [rad/s^2] stays in: its error
-#: is 1 % of that, and a 1 Hz, 20 deg/s sway's own smooth change of angular acceleration has a
-#: third difference of 0.004 rad/s^2 per 20 ms interval, five times below it.
+#: in costs 0.24 % of the delay, issue 17). A step shows as a third difference of the intervals'
+#: mean angular acceleration of at least half its size; one under this [rad/s^2] stays in (a step
+#: under 0.04 rad/s^2 costs under 2 % of that 0.24 %), and a 1 Hz, 20 deg/s sway's own smooth
+#: change of angular acceleration has a third difference of 0.004 rad/s^2, five times below it.
 STEP_FLOOR_RAD_S2 = 0.02
 #: ... and one within this many robust standard deviations of the record's third differences
 #: (the gyros' noise, or a fast motion's own smooth change) is not told from them.
@@ -386,7 +387,8 @@ def _residual_rms(records, bias_index, x, n_bias, with_tilt, with_delay, chunk, 
                 r = (y - H @ x[_columns(i, window, n_bias, with_tilt, with_delay)])[keep]
                 ss[i] += r @ r
                 count[i] += r.size
-    return np.sqrt(ss / count)
+    with np.errstate(invalid="ignore"):  # NaN where every sample was near a step: nothing to state
+        return np.sqrt(ss / count)
 
 
 #: The bound's noise model: an AR process of up to this order (64 intervals, 1.3 s at 20 ms),
