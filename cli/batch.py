@@ -93,8 +93,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
                                 "package: pip install 'sizefx[dask]'); the workers must see the records' paths."),
               click.Option(["--json-progress"], is_flag=True,
                            help="Progress as one JSON object per record on stderr (for schedulers)."),
-              *([click.Option(["--plots"], is_flag=True, help="Also write each record's plots.")] if spec.plots
-                else [])]
+              click.Option(["--plots"], is_flag=True,
+                           help="Also write a figure of the headline figures across the records (fleet.png)"
+                                + (", and each record's plots." if spec.plots else "."))]
 
     def callback(inputs, out_dir, workers, redo, scheduler, json_progress, quiet, plots=False, **options):
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
@@ -108,7 +109,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
         previous = read_manifest(out, name) if out.exists() else None
         entries = {e["input"]: e for e in (previous or {}).get("records", [])}
         names = output_names(records)
-        stage_options = canonical_options({**options, **({"plots": True} if plots else {})})
+        stage_options = canonical_options({**options, **({"plots": True} if plots and spec.plots else {})})
         jobs = []
         for record in records:
             outputs = {p: str(out / (names[record] + suffix)) for p, suffix in spec.outputs.items()}
@@ -124,7 +125,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                                  entries.get(str(record)), redo))
         progress = BatchProgress(name, len(jobs), json_progress, quiet)
         result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress,
-                           scheduler=scheduler)
+                           scheduler=scheduler, plots=plots)
         click.echo(result.report())
         if not result.all_ok:
             sys.exit(1)

@@ -269,3 +269,17 @@ def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(campaign, tmp_p
     _one_line_refusal(_batch("inspect", campaign, "--out", out, "--scheduler", "tcp://127.0.0.1:9"),
                       "cannot reach it")
     assert not out.exists()
+
+
+def test_plots_draw_the_figures_across_the_records(campaign, tmp_path):
+    """--plots: fleet.png with calibrate's nine arm components (and each run's own figure); for a stage
+    without figures of its own, --plots does not make the records run again."""
+    out = tmp_path / "cal"
+    result = _batch("calibrate", campaign, "--out", out, "--plots")
+    assert result.exit_code == 0, result.output
+    assert (out / "fleet.png").stat().st_size > 10_000 and (out / "run0.calibrate.png").exists()
+    assert "figures across the records" in result.output and "chi2/dof" in result.output
+    checked = tmp_path / "inspect"
+    assert _batch("inspect", campaign, "--out", checked).exit_code == 0
+    result = _batch("inspect", campaign, "--out", checked, "--plots")
+    assert "0 ok, 3 unchanged" in result.output and (checked / "fleet.png").exists(), result.output

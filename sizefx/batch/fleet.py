@@ -8,9 +8,16 @@ consistency test (chi^2 per degree of freedom, per component), and names the run
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
-__all__ = ["combine_arms", "DISAGREE_Z", "KEY_FIGURES"]
+from ..io.files import atomic_output
+
+__all__ = ["combine_arms", "plot_fleet", "DISAGREE_Z", "KEY_FIGURES", "FLEET_PLOT"]
+
+#: The figure of the headline figures across the records (``sizefx batch ... --plots``).
+FLEET_PLOT = "fleet.png"
 
 #: A run disagrees with the rest when one of its arm components is this many standard errors
 #: (its own and the rest's combined) from the rest's combination: 3.3 sigma is a 0.1 % two-sided
@@ -51,3 +58,57 @@ def combine_arms(entries: list[dict]) -> dict | None:
             disagree.append((e["name"], float(z.max())))
     return {"arms_m": mean.tolist(), "sigma_m": sigma.tolist(), "chi2_dof": chi2_dof.tolist(),
             "runs": len(runs), "disagree": disagree}
+
+
+def plot_fleet(stage: str, entries: list[dict], path) -> Path | None:
+    """One panel per numeric headline figure of :data:`KEY_FIGURES` (for calibrate: the nine arm
+    components with their sigma, the runs' combination as a band), records along x in input order;
+    the records that failed or were refused are marked. None when there is nothing to draw."""
+    from ..compare.plots import pyplot
+
+    ok = [e for e in entries if e["status"] == "ok"]
+    names = [e["name"] for e in entries]
+    x = {e["name"]: k for k, e in enumerate(entries)}
+    panels = []
+    if stage == "calibrate" and any("r_x_m" in e["headline"] for e in ok):
+        combined = combine_arms(entries)
+        for i, a in enumerate("xyz"):
+            for j, c in enumerate("xyz"):
+                pts = [(x[e["name"]], e["headline"][f"r_{a}_m"][j] * 1e3, e["headline"][f"sigma_{a}_m"][j] * 1e3)
+                       for e in ok if "r_x_m" in e["headline"]]
+                band = None if combined is None else (combined["arms_m"][i][j] * 1e3, combined["sigma_m"][i][j] * 1e3)
+                panels.append((f"r_{a}[{c}] [mm]", pts, band))
+    else:
+        for key in KEY_FIGURES.get(stage, ()):
+            pts = [(x[e["name"]], float(e["headline"][key]), 0.0) for e in ok
+                   if isinstance(e["headline"].get(key), (int, float)) and not isinstance(e["headline"][key], bool)]
+            if pts:
+                panels.append((key, pts, None))
+    if not panels:
+        return None
+    plt = pyplot()
+    cols = 3 if len(panels) > 3 else 1
+    rows = -(-len(panels) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols + 2, 2.2 * rows + 1), squeeze=False, sharex=True,
+                             constrained_layout=True)
+    fig.suptitle(f"sizefx batch {stage}: {len(ok)} of {len(entries)} records ok")
+    for ax, (label, pts, band) in zip(axes.ravel(), panels):
+        k, v, s = (np.array(col, dtype=float) for col in zip(*pts))
+        ax.errorbar(k, v, yerr=s if s.any() else None, fmt="o", ms=4, capsize=2)
+        if band is not None:
+            ax.axhspan(band[0] - band[1], band[0] + band[1], alpha=0.25, label="combined +- sigma")
+            ax.axhline(band[0], lw=0.8)
+        for e in entries:
+            if e["status"] != "ok":
+                ax.axvline(x[e["name"]], color="tab:red", lw=0.8, ls=":")
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+    for ax in axes.ravel()[len(panels):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xticks(range(len(names)), names, rotation=60, ha="right", fontsize=7)
+    out = Path(path)
+    with atomic_output(out, force=True) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return out

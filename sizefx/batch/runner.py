@@ -33,7 +33,7 @@ from .. import __version__
 from ..errors import ConfigError, SizefxError
 from ..io.files import atomic_output
 from ..io.schema import as_json
-from .fleet import KEY_FIGURES, combine_arms
+from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, plot_fleet
 from .manifest import BATCH_SCHEMA, reusable, sha256_of, write_manifest
 
 __all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "headline", "dask_client"]
@@ -81,6 +81,7 @@ class BatchResult:
     manifest: str = ""
     wall_s: float = 0.0
     workers: int = 1
+    fleet_plot: str | None = None  #: with plots: the headline figures across the records
 
     def counts(self) -> dict:
         out = {"ok": 0, "refused": 0, "failed": 0, "skipped": 0}
@@ -122,6 +123,8 @@ class BatchResult:
                     for j in range(3)))
             lines.append("  runs that disagree with the others (|z| > 3.3): " + (", ".join(
                 f"{name} ({z:.1f} sigma)" for name, z in combined["disagree"]) or "none"))
+        if self.fleet_plot:
+            lines.append(f"  figures across the records -> {self.fleet_plot}")
         return "\n".join(lines)
 
     def combined(self) -> dict | None:
@@ -280,11 +283,13 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
 
 
 def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
-              previous: dict | None = None, progress=None, scheduler: str | None = None) -> BatchResult:
+              previous: dict | None = None, progress=None, scheduler: str | None = None,
+              plots: bool = False) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
     finish. ``previous``: the folder's manifest, whose entries for other records are kept.
-    ``progress(event)`` after each record: done, total, counts, rate, time left."""
+    ``progress(event)`` after each record: done, total, counts, rate, time left. ``plots``: also
+    the headline figures across the records (:func:`.fleet.plot_fleet`)."""
     client = dask_client(scheduler) if scheduler else None  # refused before anything is written
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(jobs))))
     if client is not None:
@@ -337,4 +342,8 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
             except BrokenProcessPool as exc:
                 finished(job, _died(job, _one_line(exc)))
     ordered = [outcomes[j.input] for j in jobs]
-    return BatchResult(stage, ordered, str(out_dir / "manifest.json"), time.perf_counter() - t0, workers)
+    result = BatchResult(stage, ordered, str(out_dir / "manifest.json"), time.perf_counter() - t0, workers)
+    if plots:
+        drawn = plot_fleet(stage, [o.entry for o in ordered], out_dir / FLEET_PLOT)
+        result.fleet_plot = str(drawn) if drawn else None
+    return result
