@@ -283,3 +283,17 @@ def test_plots_draw_the_figures_across_the_records(campaign, tmp_path):
     assert _batch("inspect", campaign, "--out", checked).exit_code == 0
     result = _batch("inspect", campaign, "--out", checked, "--plots")
     assert "0 ok, 3 unchanged" in result.output and (checked / "fleet.png").exists(), result.output
+
+
+def test_headline_figures_of_each_stage():
+    """The manifest's headline figures from each stage's JSON (the keys its schema gives)."""
+    from sizefx.batch.runner import headline
+
+    assert headline("diagnose", {"effects": [{"id": "lever_arm", "channel": "accel_y"}, {"id": "accel_delay"}],
+                                 "warnings": [{}], "unexplained": []}) == \
+        {"effects": ["accel_delay", "lever_arm accel_y"], "warnings": 1, "unexplained": 0}
+    arms = {f"r_{a}": [0.0, 0.0, 0.0] for a in "xyz"} | {f"sigma_{a}": [1e-5] * 3 for a in "xyz"}
+    figures = headline("calibrate", {"levers": {**arms, "accel_delay_s": 5e-4}})
+    assert figures["r_y_m"] == [0.0, 0.0, 0.0] and figures["sigma_z_m"] == [1e-5] * 3
+    assert figures["accel_delay_s"] == 5e-4
+    assert headline("inspect", {"samples": 10, "units_ok": True, "path": "x.h5"}) == {"samples": 10}

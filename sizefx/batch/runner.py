@@ -182,7 +182,8 @@ def headline(stage: str, doc: dict) -> dict:
         if levers.get("accel_delay_s") is not None:
             out["accel_delay_s"] = levers["accel_delay_s"]
     elif stage == "diagnose":
-        out["effects"] = sorted(e.get("effect", e.get("name", "?")) for e in doc.get("effects", []))
+        out["effects"] = sorted(f"{e.get('id', '?')}" + (f" {e['channel']}" if e.get("channel") else "")
+                                for e in doc.get("effects", []))  # sizefx/diagnosis/2: id and channel
         out["warnings"] = len(doc.get("warnings", []))
         out["unexplained"] = len(doc.get("unexplained", []))
     return as_json(out)
