@@ -15,11 +15,13 @@ they see them; a worker lost with a record is replaced and the record run again.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import multiprocessing
 import os
 import resource
+import threading
 import time
 import uuid
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -206,15 +208,37 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+class _Hashing(threading.Thread):
+    """The SHA-256 of a file, computed in a thread of its own while the stage runs."""
+
+    def __init__(self, path):
+        super().__init__(daemon=True)
+        self.path, self.digest = path, ""
+        self.start()
+
+    def run(self):
+        with contextlib.suppress(OSError):
+            self.digest = sha256_of(self.path)
+
+    def result(self) -> str:
+        self.join()
+        return self.digest
+
+
 def _work(job: BatchJob) -> RecordOutcome:
     """Run one record (in a worker process); never raises for the record's own faults."""
     t0 = time.perf_counter()
     reset = _reset_peak_memory()
-    sha = sha256_of(job.input)
-    entry = {"input": job.input, "name": job.name, "sha256": sha, "options": job.options, "outputs": {},
+    entry = {"input": job.input, "name": job.name, "sha256": "", "options": job.options, "outputs": {},
              "status": "ok", "reason": None, "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}}
-    if not job.redo and reusable(job.previous, sha, job.options):
-        return RecordOutcome(job.previous, reused=True)
+    may_reuse = not job.redo and job.previous is not None and job.previous.get("status") == "ok"
+    if may_reuse:  # the hash decides whether the record runs at all
+        entry["sha256"] = sha256_of(job.input)
+        if reusable(job.previous, entry["sha256"], job.options):
+            return RecordOutcome(job.previous, reused=True)
+        hashing = None
+    else:  # it runs anyway: hash beside the stage (hashlib releases the GIL; the stage waits on its reads)
+        hashing = _Hashing(job.input)
     try:
         result = importlib.import_module(STAGES.get(job.stage, job.stage)).run(job.config)
         doc = as_json(result.to_json())
@@ -227,6 +251,8 @@ def _work(job: BatchJob) -> RecordOutcome:
         entry["status"], entry["reason"] = "refused", _one_line(exc)
     except Exception as exc:  # a bug or a library's failure on this record: the others go on
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
+    if hashing is not None:
+        entry["sha256"] = hashing.result()  # "" if the file could not be read (the stage said why)
     entry["duration_s"] = time.perf_counter() - t0
     entry["peak_memory_mib"] = _peak_memory_mib(reset)
     return RecordOutcome(entry)
