@@ -82,7 +82,7 @@ def _has_reference(path) -> bool:
 @run.result_callback()
 def _execute(steps, out_dir, plots):
     from sizefx.batch.inputs import check_out_dir
-    from sizefx.batch.runner import headline
+    from sizefx.batch.fleet import headline
     from sizefx.chain import check_chain, write_run_manifest
     from sizefx.errors import ConfigError
     from sizefx.io.schema import as_json

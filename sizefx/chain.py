@@ -10,11 +10,10 @@ module holds what does not depend on the command line: which chains can work
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from .errors import ConfigError
-from .io.files import atomic_output
+from .io.documents import write_json
 from .io.schema import as_json, check_document
 
 __all__ = ["CHAIN_STAGES", "RUN_SCHEMA", "RUN_MANIFEST", "check_chain", "write_run_manifest"]
@@ -53,5 +52,4 @@ def write_run_manifest(out_dir, steps: list[dict]) -> None:
     """Write ``DIR/run.json`` atomically: the chain's steps so far."""
     doc = as_json({"schema": RUN_SCHEMA, "steps": steps})
     check_document(doc, RUN_SCHEMA)
-    with atomic_output(Path(out_dir) / RUN_MANIFEST, force=True) as tmp:
-        Path(tmp).write_text(json.dumps(doc, indent=2) + "\n")
+    write_json(Path(out_dir) / RUN_MANIFEST, doc, force=True)

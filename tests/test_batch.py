@@ -287,7 +287,7 @@ def test_plots_draw_the_figures_across_the_records(campaign, tmp_path):
 
 def test_headline_figures_of_each_stage():
     """The manifest's headline figures from each stage's JSON (the keys its schema gives)."""
-    from sizefx.batch.runner import headline
+    from sizefx.batch.fleet import headline
 
     assert headline("diagnose", {"effects": [{"id": "lever_arm", "channel": "accel_y"}, {"id": "accel_delay"}],
                                  "warnings": [{}], "unexplained": []}) == \

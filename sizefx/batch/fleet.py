@@ -1,4 +1,5 @@
-"""Across the records of a batch: the figures side by side, and calibrations of one unit combined.
+"""Across the records of a batch: each record's headline figures (:func:`headline`, also the
+chain's), side by side, and calibrations of one unit combined.
 
 A campaign calibrates one unit many times; the runs should agree within their standard errors.
 :func:`combine_arms` gives the inverse-variance weighted arms with their standard error and the
@@ -13,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from ..io.files import atomic_output
+from ..io.schema import as_json
 
-__all__ = ["combine_arms", "plot_fleet", "DISAGREE_Z", "KEY_FIGURES", "FLEET_PLOT"]
+__all__ = ["headline", "combine_arms", "plot_fleet", "DISAGREE_Z", "KEY_FIGURES", "FLEET_PLOT"]
 
 #: The figure of the headline figures across the records (``sizefx batch ... --plots``).
 FLEET_PLOT = "fleet.png"
@@ -30,6 +32,29 @@ KEY_FIGURES = {"navigate": ("final_horizontal_error_m", "max_horizontal_error_m"
                "compensate": ("samples",),
                "calibrate": ("accel_delay_s",),
                "diagnose": ("effects", "warnings", "unexplained")}
+
+
+def headline(stage: str, doc: dict) -> dict:
+    """A few figures of a record's result for the manifest and the fleet table: the scalars at the top
+    of its JSON, and per stage the ones that matter (navigation error, arms, findings)."""
+    out = {k: v for k, v in doc.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    if stage == "navigate":
+        errors = doc.get("errors") or {}
+        out.update({k: v for k, v in errors.items() if isinstance(v, (int, float))})
+    elif stage == "calibrate":
+        levers = doc.get("levers") or {}
+        for axis in "xyz":
+            if f"r_{axis}" in levers:
+                out[f"r_{axis}_m"] = levers[f"r_{axis}"]
+                out[f"sigma_{axis}_m"] = levers.get(f"sigma_{axis}")
+        if levers.get("accel_delay_s") is not None:
+            out["accel_delay_s"] = levers["accel_delay_s"]
+    elif stage == "diagnose":
+        out["effects"] = sorted(f"{e.get('id', '?')}" + (f" {e['channel']}" if e.get("channel") else "")
+                                for e in doc.get("effects", []))  # sizefx/diagnosis/2: id and channel
+        out["warnings"] = len(doc.get("warnings", []))
+        out["unexplained"] = len(doc.get("unexplained", []))
+    return as_json(out)
 
 
 def _weighted(values, sigmas):

@@ -8,13 +8,11 @@ records done, and the next run skips each record whose entry still matches (:fun
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..io.documents import read_json
-from ..io.files import atomic_output
+from ..io.documents import read_json, write_json
 from ..io.schema import check_document, validate_input
 
 __all__ = ["BATCH_SCHEMA", "MANIFEST_NAME", "read_manifest", "write_manifest", "sha256_of", "reusable",
@@ -63,8 +61,7 @@ def read_manifest(out_dir, stage: str) -> dict | None:
 def write_manifest(out_dir, doc: dict) -> None:
     """Write the manifest atomically (a reader sees the old one or the new one, never half)."""
     check_document(doc, BATCH_SCHEMA)
-    with atomic_output(Path(out_dir) / MANIFEST_NAME, force=True) as tmp:
-        Path(tmp).write_text(json.dumps(doc, indent=2) + "\n")
+    write_json(Path(out_dir) / MANIFEST_NAME, doc, force=True)
 
 
 def reusable(entry: dict | None, sha256: str, options: dict) -> bool:

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import json
 import multiprocessing
 import os
 import resource
@@ -33,12 +32,12 @@ import numpy as np
 
 from .. import __version__
 from ..errors import ConfigError, SizefxError
-from ..io.files import atomic_output
+from ..io.documents import write_json
 from ..io.schema import as_json
-from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, plot_fleet
+from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, headline, plot_fleet
 from .manifest import BATCH_SCHEMA, reusable, sha256_of, write_manifest
 
-__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "headline", "dask_client"]
+__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "dask_client"]
 
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
 #: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
@@ -168,29 +167,6 @@ def _peak_memory_mib(reset: bool) -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def headline(stage: str, doc: dict) -> dict:
-    """A few figures of a record's result for the manifest and the fleet table: the scalars at the top
-    of its JSON, and per stage the ones that matter (navigation error, arms, findings)."""
-    out = {k: v for k, v in doc.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
-    if stage == "navigate":
-        errors = doc.get("errors") or {}
-        out.update({k: v for k, v in errors.items() if isinstance(v, (int, float))})
-    elif stage == "calibrate":
-        levers = doc.get("levers") or {}
-        for axis in "xyz":
-            if f"r_{axis}" in levers:
-                out[f"r_{axis}_m"] = levers[f"r_{axis}"]
-                out[f"sigma_{axis}_m"] = levers.get(f"sigma_{axis}")
-        if levers.get("accel_delay_s") is not None:
-            out["accel_delay_s"] = levers["accel_delay_s"]
-    elif stage == "diagnose":
-        out["effects"] = sorted(f"{e.get('id', '?')}" + (f" {e['channel']}" if e.get("channel") else "")
-                                for e in doc.get("effects", []))  # sizefx/diagnosis/2: id and channel
-        out["warnings"] = len(doc.get("warnings", []))
-        out["unexplained"] = len(doc.get("unexplained", []))
-    return as_json(out)
-
-
 def _collect(outputs: dict) -> dict:
     """``{option: {path, bytes, sha256}}`` of the files the stage wrote (a folder's files each as
     ``option/name``)."""
@@ -243,8 +219,7 @@ def _work(job: BatchJob) -> RecordOutcome:
         result = importlib.import_module(STAGES.get(job.stage, job.stage)).run(job.config)
         doc = as_json(result.to_json())
         if job.summary_path:
-            with atomic_output(job.summary_path, inputs=[job.input], force=True) as tmp:
-                Path(tmp).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+            write_json(job.summary_path, doc, inputs=[job.input], force=True)
         entry["headline"] = headline(job.stage, doc)
         entry["outputs"] = _collect({**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})})
     except SizefxError as exc:

@@ -1,5 +1,5 @@
 """Small text documents a user gives sizefx (effect models in TOML, lever arms and reports in JSON),
-read with bounds: a size limit checked before reading, UTF-8 checked, nesting that would exhaust
+read with bounds (and JSON documents written: :func:`write_json`): a size limit checked before reading, UTF-8 checked, nesting that would exhaust
 the parser's recursion refused, each as a one-line :class:`~sizefx.errors.ConfigError` naming the
 file. What the document must contain is checked by its reader against its schema afterwards.
 """
@@ -13,8 +13,9 @@ import tomllib
 from pathlib import Path
 
 from ..errors import ConfigError
+from .files import atomic_output
 
-__all__ = ["MAX_DOCUMENT_BYTES", "MAX_TOML_BYTES", "parse_toml", "read_json", "read_toml"]
+__all__ = ["MAX_DOCUMENT_BYTES", "MAX_TOML_BYTES", "parse_toml", "read_json", "read_toml", "write_json"]
 
 #: Largest JSON document read: a levers file is a few kB, a diagnosis report with its selection log
 #: some 100 kB; anything near this is not one of ours.
@@ -93,3 +94,11 @@ def read_json(path, what: str = "JSON file", **loads_options):
             raise
         # an integer of more digits than Python converts (4300)
         raise ConfigError(f"{path}: {what} holds a value Python cannot convert ({exc})") from None
+
+
+def write_json(path, doc, *, inputs=(), force: bool = False) -> Path:
+    """Write ``doc`` as indented JSON to ``path`` atomically (never over an input; an existing file only
+    with ``force``); NumPy scalars as floats."""
+    with atomic_output(path, inputs=inputs, force=force) as tmp:
+        Path(tmp).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+    return Path(path)
