@@ -19,6 +19,7 @@ import numpy as np
 
 from ..constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
 from ..errors import TelemetryError
+from ..kernels.checks import scale_and_check
 from .gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
 from .records import Reference, Site
 from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
@@ -133,6 +134,7 @@ class ContractReader:
         self.units: dict[str, str] = {}
         self.dtypes: dict[str, str] = {}
         self.gaps: list[Gap] = []
+        self._limits: dict = {}  #: (dataset, columns) -> per-column (low, high) of its sample_limits
 
     def fail(self, dataset: str, problem: str):
         raise TelemetryError(self.path, dataset, problem)
@@ -237,19 +239,32 @@ class ContractReader:
         """
         dset, factor = handle
         try:
-            data = np.asarray(dset[rows], dtype=np.float64)
+            data = np.require(dset[rows], dtype=np.float64, requirements=["C", "W"])  # h5py's own array: no copy
         except OSError as exc:
             self.fail(name, f"cannot be read ({exc}); the file is truncated or corrupt")
         if data.shape[0] == 0:
             self.fail(name, "holds no samples")
-        bad = ~np.isfinite(data)
-        if bad.any():
-            first = int(np.argwhere(bad)[0][0]) + first_row
-            self.fail(name, f"holds NaN/Inf values, the first at row {first}; "
+        values = data.reshape(data.shape[0], -1)  # a view: scaled in place
+        columns = values.shape[1]
+        limited = self.limits and _bounds(self.schema, name, columns) is not None
+        low, high = self._limit_columns(name, columns) if limited else (np.full(columns, -np.inf),
+                                                                        np.full(columns, np.inf))
+        factors = np.broadcast_to(np.asarray(factor, dtype=np.float64), (columns,)).copy()
+        first_not_finite, first_beyond = scale_and_check(values, factors, low, high)
+        if first_not_finite >= 0:
+            self.fail(name, f"holds NaN/Inf values, the first at row {first_not_finite // columns + first_row}; "
                             "remove or interpolate them (or cut the record) before processing")
-        data = data * np.asarray(factor, dtype=float)
-        self.check_limits(name, data, first_row)
+        if limited and first_beyond >= 0:  # the message (and its count of rows) from the NumPy twin
+            self.check_limits(name, data, first_row)
         return data
+
+    def _limit_columns(self, name: str, columns: int):
+        """Per column (low, high) of ``name``'s ``sample_limits`` as arrays, kept for the next read."""
+        key = (name, columns)
+        if key not in self._limits:
+            self._limits[key] = tuple(np.ascontiguousarray(b, dtype=np.float64)
+                                      for b in _bounds(self.schema, name, columns))
+        return self._limits[key]
 
     def check_limits(self, name: str, data: np.ndarray, first_row: int):
         """Refuse, with its first row, a sample beyond what is physically possible (the schema's
