@@ -86,6 +86,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
                                 "input folder)."),
               click.Option(["--workers"], type=click.IntRange(1, 1024),
                            help="Worker processes [default: the cores]; each loads the kernels once."),
+              click.Option(["--memory-per-worker-mib", "memory_mib"], type=click.FloatRange(64, min_open=False),
+                           help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
+                                "(MemoryError) [default: 80 % of the machine's memory over the workers]."),
               click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
                                                           "and outputs match the manifest."),
               click.Option(["--scheduler"], metavar="tcp://HOST:PORT",
@@ -97,7 +100,8 @@ def _make(name: str, spec: _Stage) -> click.Command:
                            help="Also write a figure of the headline figures across the records (fleet.png)"
                                 + (", and each record's plots." if spec.plots else "."))]
 
-    def callback(inputs, out_dir, workers, redo, scheduler, json_progress, quiet, plots=False, **options):
+    def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False,
+                 **options):
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
         from sizefx.batch.inputs import check_out_dir
         from sizefx.batch.manifest import canonical_options
@@ -125,7 +129,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                                  entries.get(str(record)), redo))
         progress = BatchProgress(name, len(jobs), json_progress, quiet)
         result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress,
-                           scheduler=scheduler, plots=plots)
+                           scheduler=scheduler, plots=plots, memory_mib=memory_mib)
         click.echo(result.report())
         if not result.all_ok:
             sys.exit(1)

@@ -1,8 +1,10 @@
 """A stage for tests/test_batch.py whose worker process dies on the record named "crash" (as one killed
-by the kernel for memory would), dies once on "killonce" (a worker lost mid-record), and succeeds on
-the others."""
+by the kernel for memory would), dies once on "killonce" (a worker lost mid-record), asks for 4 GiB on "hog" (a record beyond the
+worker's memory bound), and succeeds on the others."""
 
 import os
+
+import numpy as np
 
 
 class _Result:
@@ -21,4 +23,6 @@ def run(config):
         if not os.path.exists(marker):
             open(marker, "w").close()
             os._exit(9)
+    if config.endswith("/hog.h5"):
+        np.ones(1 << 29)  # 4 GiB, written (not merely reserved)
     return _Result(config)

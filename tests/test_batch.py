@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 
 import h5py
@@ -22,6 +23,7 @@ from click.testing import CliRunner
 
 from sizefx.batch import BatchJob, output_names, run_batch
 from sizefx.batch.manifest import canonical_options, sha256_of
+from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
 from sizefx.io.schema import check_document
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
@@ -145,6 +147,40 @@ def test_a_worker_that_dies_takes_only_its_record(tmp_path):
     assert status == {"a": "ok", "crash": "failed", "b": "ok", "c": "ok"}, status
     assert "worker process died" in result.outcomes[1].entry["reason"]
     assert [e["status"] for e in _manifest(out)["records"]] == ["ok", "ok", "ok", "failed"]  # by input path
+
+
+def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
+    """--memory-per-worker-mib: the record that needs more (4 GiB against 1 GiB) is failed with a
+    MemoryError that names the bound; the others, in the same warm workers, are done."""
+    out = tmp_path / "out"
+    names = ["a", "hog", "b", "c"]
+    for name in names:
+        (tmp_path / f"{name}.h5").write_text(name)
+    jobs = [BatchJob("batch_crash_stage", str(tmp_path / f"{n}.h5"), n, str(tmp_path / f"{n}.h5"),
+                     canonical_options({}), {}) for n in names]
+    result = run_batch("inspect", jobs, out, {}, workers=2, memory_mib=1024)
+    status = {o.entry["name"]: o.status for o in result.outcomes}
+    assert status == {"a": "ok", "hog": "failed", "b": "ok", "c": "ok"}, status
+    reason = result.outcomes[1].entry["reason"]
+    assert reason.startswith("MemoryError") and "bound of 1024 MiB" in reason, reason
+
+
+def test_default_memory_bound_shares_the_machine():
+    one, two = default_memory_mib(1), default_memory_mib(2)
+    assert one is not None and 0 < two < one < os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**20
+    assert two == pytest.approx(one / 2)
+
+
+def test_a_folder_in_use_by_another_batch_is_refused(campaign, tmp_path):
+    """Two batches into one folder at once: the second is refused in one line, exit 2, and writes
+    nothing; once the first is done the folder is free again."""
+    out = tmp_path / "out"
+    out.mkdir()
+    with folder_lock(out):  # the first batch, still writing
+        result = _batch("inspect", campaign, "--out", out)
+        _one_line_refusal(result, "another sizefx batch or run is writing into this folder (pid ")
+        assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
+    assert _batch("inspect", campaign, "--out", out).exit_code == 0
 
 
 def test_records_with_one_stem_get_names_of_their_folders(tmp_path):

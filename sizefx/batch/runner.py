@@ -16,6 +16,7 @@ they see them; a worker lost with a record is replaced and the record run again.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import importlib
 import multiprocessing
 import os
@@ -37,7 +38,8 @@ from ..io.schema import as_json
 from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, headline, plot_fleet
 from .manifest import BATCH_SCHEMA, reusable, sha256_of, write_manifest
 
-__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "dask_client"]
+__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "dask_client", "folder_lock",
+           "default_memory_mib", "LOCK_NAME", "MEMORY_SHARE"]
 
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
 #: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
@@ -144,6 +146,40 @@ def _short(v) -> str:
 
 # --------------------------------------------------------------------------- in the worker
 
+#: A worker's memory bound by default: this share of the machine's memory, split among the workers.
+#: A record that needs more fails alone (``MemoryError``, reported as such) instead of the kernel's
+#: out-of-memory killer taking another worker, the batch itself or the user's session; the rest is
+#: left to the parent, the page cache (the records are read through it) and the rest of the machine.
+MEMORY_SHARE = 0.8
+#: The bound the worker process runs under (MiB; None: unbounded), set by :func:`_bound_memory`.
+_memory_limit_mib: float | None = None
+
+
+def default_memory_mib(workers: int) -> float | None:
+    """:data:`MEMORY_SHARE` of the machine's physical memory over ``workers`` [MiB] (None where the
+    size cannot be read)."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+    return MEMORY_SHARE * total / 2**20 / max(1, workers)
+
+
+def _bound_memory(mib: float | None) -> None:
+    """Limit this (worker) process's data (heap and anonymous mappings: what NumPy, h5py and Numba
+    allocate; Linux ``RLIMIT_DATA``) to ``mib``: an allocation beyond it raises ``MemoryError``."""
+    global _memory_limit_mib
+    if mib is None:
+        return
+    limit = int(mib * 2**20)
+    _, hard = resource.getrlimit(resource.RLIMIT_DATA)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    with contextlib.suppress(ValueError, OSError):  # a platform without it: the stages' own bounds only
+        resource.setrlimit(resource.RLIMIT_DATA, (limit, hard))
+        _memory_limit_mib = limit / 2**20
+
+
 def _reset_peak_memory() -> bool:
     """Reset the process's peak resident memory (Linux: ``/proc/self/clear_refs``), so that the peak
     read after a record is that record's, not an earlier one's in the same warm worker."""
@@ -224,6 +260,11 @@ def _work(job: BatchJob) -> RecordOutcome:
         entry["outputs"] = _collect({**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})})
     except SizefxError as exc:
         entry["status"], entry["reason"] = "refused", _one_line(exc)
+    except MemoryError as exc:  # beyond the worker's bound (or the machine's): this record only
+        bound = f"the worker's bound of {_memory_limit_mib:.0f} MiB" if _memory_limit_mib else "the memory there is"
+        entry["status"], entry["reason"] = "failed", (f"MemoryError: the record needs more than {bound} "
+                                                      f"({_one_line(exc)}); give it fewer --workers or a larger "
+                                                      "--memory-per-worker-mib, or cut it")
     except Exception as exc:  # a bug or a library's failure on this record: the others go on
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
     if hashing is not None:
@@ -235,8 +276,38 @@ def _work(job: BatchJob) -> RecordOutcome:
 
 # --------------------------------------------------------------------------- in the parent
 
-def _pool(workers: int) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+def _pool(workers: int, memory_mib: float | None) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_bound_memory, initargs=(memory_mib,))
+
+
+#: The lock file in a batch's or a chain's folder, held while it writes there.
+LOCK_NAME = ".sizefx.lock"
+
+
+@contextlib.contextmanager
+def folder_lock(out_dir):
+    """Hold ``out_dir``'s lock (an advisory ``flock`` on :data:`LOCK_NAME`) while a batch or a chain
+    writes there: a second one given the same folder is refused in one line instead of interleaving
+    its outputs and manifest with the first's. Released when the process ends, however it ends.
+    (``flock`` binds processes on one machine and on most local file systems; not across NFS clients.)"""
+    path = Path(out_dir) / LOCK_NAME
+    handle = open(path, "a+")
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            raise ConfigError(f"{out_dir}: another sizefx batch or run is writing into this folder ({holder}); "
+                              "wait for it to finish or give another --out") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"pid {os.getpid()}")
+        handle.flush()
+        yield
+    finally:
+        handle.close()
 
 
 def _died(job: BatchJob, why: str) -> RecordOutcome:
@@ -286,18 +357,32 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
 
 def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
               previous: dict | None = None, progress=None, scheduler: str | None = None,
-              plots: bool = False) -> BatchResult:
+              plots: bool = False, memory_mib: float | None = None) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
     finish. ``previous``: the folder's manifest, whose entries for other records are kept.
     ``progress(event)`` after each record: done, total, counts, rate, time left. ``plots``: also
-    the headline figures across the records (:func:`.fleet.plot_fleet`)."""
+    the headline figures across the records (:func:`.fleet.plot_fleet`). ``memory_mib``: each local
+    worker's memory bound (default :func:`default_memory_mib`; a Dask cluster's workers have their
+    own, ``dask worker --memory-limit``). The folder is locked (:func:`folder_lock`) for the run."""
     client = dask_client(scheduler) if scheduler else None  # refused before anything is written
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(jobs))))
     if client is not None:
         workers = len(client.scheduler_info().get("workers", {})) or workers
     out_dir = Path(out_dir)
     out_dir.mkdir(exist_ok=True)
+    try:
+        with folder_lock(out_dir):
+            return _run_locked(stage, jobs, out_dir, options, workers=workers, previous=previous,
+                               progress=progress, client=client, plots=plots,
+                               memory_mib=memory_mib or default_memory_mib(workers))
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, client, plots,
+                memory_mib) -> BatchResult:
     kept = {e["input"]: e for e in (previous or {}).get("records", [])}
     outcomes: dict[str, RecordOutcome] = {}
     t0 = time.perf_counter()
@@ -318,14 +403,11 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
                       "eta_s": round((len(jobs) - done) / rate, 1) if rate > 0 else None})
 
     if client is not None:
-        try:
-            _run_dask(client, jobs, finished)
-        finally:
-            client.close()
+        _run_dask(client, jobs, finished)
     pending, suspects = ([] if client is not None else list(jobs)), []
     while pending:
         running: dict = {}
-        with _pool(workers) as pool:
+        with _pool(workers, memory_mib) as pool:
             try:
                 while pending or running:
                     while pending and len(running) < 2 * workers:  # a short queue: the input's order
@@ -338,7 +420,7 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
             except BrokenProcessPool:
                 suspects += running.values()  # the rest go on in a fresh pool
     for job in suspects:  # each alone in a fresh process: only the record that kills it fails
-        with _pool(1) as pool:
+        with _pool(1, memory_mib) as pool:
             try:
                 finished(job, pool.submit(_work, job).result())
             except BrokenProcessPool as exc:
