@@ -29,6 +29,9 @@ class _Stage:
     summary: bool = False  #: the batch writes the result's JSON (the stage has no JSON output of its own)
     dropped: tuple = ()  #: other options a batch does not offer
     many: bool = False  #: the record argument takes several records (calibrate: one per batch record)
+    #: arguments or options of the single-file command that a batch pairs with each record instead:
+    #: parameter -> (the batch's option, its help); given files, folders or globs (:func:`pair_inputs`)
+    paired: dict = field(default_factory=dict)
 
 
 STAGES = {
@@ -39,6 +42,11 @@ STAGES = {
     "diagnose": _Stage("measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"},
                        {"plots": ".diagnose-plots"}),
     "inspect": _Stage("file", summary=True, dropped=("as_json",)),
+    "compare": _Stage("a", {"json_path": ".comparison.json"}, {"plots_dir": ".compare-plots"}, paired={
+        "b": ("--against", "B for each record A: the solutions to compare with (a file for every record, or "
+                           "folders or globs, paired by name: flight07.nav.h5 with flight07.nav.h5 or flight07.h5)."),
+        "reference": ("--reference", "The truth for each record (a file for every record, or folders or globs of "
+                                     "records or solutions, paired by name as --against).")}),
 }
 
 
@@ -77,10 +85,13 @@ class BatchProgress:
 def _make(name: str, spec: _Stage) -> click.Command:
     module = importlib.import_module(f"sizefx_cli.{name}")
     single = getattr(module, name)
-    skip = {spec.input_param, "force", *spec.outputs, *spec.plots, *spec.dropped}
+    skip = {spec.input_param, "force", *spec.outputs, *spec.plots, *spec.dropped, *spec.paired}
     stage_params = [p for p in single.params if p.name not in skip]
+    paired_params = [click.Option([flag, f"paired_{param}"], multiple=True, type=click.Path(), help=text,
+                                  required=param == "b", metavar="PATH")
+                     for param, (flag, text) in spec.paired.items()]
     params = [click.Argument(["inputs"], nargs=-1, required=True, type=click.Path()),
-              *stage_params,
+              *stage_params, *paired_params,
               click.Option(["--out", "out_dir"], required=True, type=click.Path(file_okay=False),
                            help="Folder for every record's outputs and manifest.json (made if new; not inside an "
                                 "input folder)."),
@@ -103,13 +114,17 @@ def _make(name: str, spec: _Stage) -> click.Command:
     def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False,
                  **options):
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
-        from sizefx.batch.inputs import check_out_dir
+        from sizefx.batch.inputs import check_out_dir, pair_inputs
         from sizefx.batch.manifest import canonical_options
         from sizefx.stage import preflight
 
         accepted = inspect.signature(module.config_of).parameters
         records = expand_inputs(inputs)
-        out = check_out_dir(out_dir, inputs, records)
+        given_pairs = {param: options.pop(f"paired_{param}") for param in spec.paired}
+        partners = {param: pair_inputs(records, given, spec.paired[param][0])
+                    for param, given in given_pairs.items() if given}
+        out = check_out_dir(out_dir, [*inputs, *(g for given in given_pairs.values() for g in given)],
+                            [*records, *(p for pairs in partners.values() for p in pairs.values())])
         previous = read_manifest(out, name) if out.exists() else None
         entries = {e["input"]: e for e in (previous or {}).get("records", [])}
         names = output_names(records)
@@ -119,14 +134,17 @@ def _make(name: str, spec: _Stage) -> click.Command:
             outputs = {p: str(out / (names[record] + suffix)) for p, suffix in spec.outputs.items()}
             if plots:
                 outputs.update({p: str(out / (names[record] + suffix)) for p, suffix in spec.plots.items()})
+            paired = {param: str(pairs[record]) for param, pairs in partners.items()}
             given = {**options, **{p: None for p in spec.plots}, **outputs, "force": True,
+                     **{param: None for param in spec.paired}, **paired,
                      spec.input_param: (str(record),) if spec.many else str(record)}
             config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
             if not jobs:  # the options' own files (--levers, --model, --nominal): refused once, before any work
                 preflight(inputs={k: v for k, v in config.inputs().items() if str(k).startswith("-")}, outputs={})
             jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
                                  str(out / f"{names[record]}.{name}.json") if spec.summary else None,
-                                 entries.get(str(record)), redo))
+                                 entries.get(str(record)), redo,
+                                 {spec.paired[param][0]: path for param, path in paired.items()}))
         progress = BatchProgress(name, len(jobs), json_progress, quiet)
         result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress,
                            scheduler=scheduler, plots=plots, memory_mib=memory_mib)

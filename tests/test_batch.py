@@ -227,6 +227,51 @@ def test_bad_batch_input_is_one_line_and_writes_nothing(campaign, tmp_path, case
     assert case == "out-is-file" or not out.exists()
 
 
+def test_compare_pairs_each_solution_with_its_partner_and_reference(campaign, tmp_path):
+    """batch compare: each record's solution A with its B (--against, paired by name) and the record's
+    own telemetry as truth (--reference, a folder); the paired files hashed into the manifest, so that
+    a changed B runs that record again and only it."""
+    plain, coarse, out = tmp_path / "plain", tmp_path / "coarse", tmp_path / "cmp"
+    assert _batch("navigate", campaign, "--out", plain, "-q").exit_code == 0
+    assert _batch("navigate", campaign, "--subsamples", "1", "--out", coarse, "-q").exit_code == 0
+    result = _batch("compare", coarse, "--against", plain, "--reference", campaign, "--out", out, "-q")
+    assert result.exit_code == 0, result.output
+    doc = _manifest(out)
+    assert doc["stage"] == "compare"
+    for k, entry in enumerate(doc["records"]):
+        assert entry["status"] == "ok" and entry["input"] == str(coarse / f"run{k}.nav.h5")
+        assert {o: p["path"] for o, p in entry["paired"].items()} == {
+            "--against": str(plain / f"run{k}.nav.h5"), "--reference": str(campaign.resolve() / f"run{k}.h5")}
+        assert entry["paired"]["--against"]["sha256"] == sha256_of(plain / f"run{k}.nav.h5")
+        comparison = json.loads((out / f"run{k}.nav.comparison.json").read_text())
+        assert [c["label"] for c in comparison["comparisons"]] == ["A vs REF", "B vs REF", "A vs B"]
+        assert comparison["inputs"]["b"] == str(plain / f"run{k}.nav.h5")
+        assert entry["headline"]["a_vs_b_max_horizontal_m"] == comparison["comparisons"][2]["horizontal_m"]["max"]
+    # a changed B: that record again, the others unchanged
+    shutil.copyfile(coarse / "run1.nav.h5", plain / "run1.nav.h5")
+    result = _batch("compare", coarse, "--against", plain, "--reference", campaign, "--out", out, "-q")
+    assert result.exit_code == 0 and "1 ok, 2 unchanged" in result.output, result.output
+    assert _manifest(out)["records"][1]["headline"]["a_vs_b_max_horizontal_m"] == 0.0
+
+
+@pytest.mark.parametrize("case, needle", [("no-partner", "nothing for run2.nav.h5"),
+                                          ("self", "compared with itself")])
+def test_compare_without_a_partner_is_one_line(campaign, tmp_path, case, needle):
+    plain = tmp_path / "plain"
+    assert _batch("navigate", campaign, "--out", plain, "-q").exit_code == 0
+    if case == "no-partner":
+        other = tmp_path / "other"
+        other.mkdir()
+        for k in range(2):
+            shutil.copyfile(plain / f"run{k}.nav.h5", other / f"run{k}.nav.h5")
+        args = [plain, "--against", other]
+    else:
+        args = [plain / "run0.nav.h5", "--against", plain / "run0.nav.h5"]
+    out = tmp_path / "cmp"
+    _one_line_refusal(_batch("compare", *args, "--out", out), needle)
+    assert not out.exists()
+
+
 def test_a_folder_of_another_stage_is_refused(campaign, tmp_path):
     out = tmp_path / "out"
     assert _batch("inspect", campaign / "run0.h5", "--out", out).exit_code == 0

@@ -31,7 +31,10 @@ KEY_FIGURES = {"navigate": ("final_horizontal_error_m", "max_horizontal_error_m"
                "inspect": ("samples", "duration_s", "sample_rate_hz"),
                "compensate": ("samples",),
                "calibrate": ("accel_delay_s",),
-               "diagnose": ("effects", "warnings", "unexplained")}
+               "diagnose": ("effects", "warnings", "unexplained"),
+               "compare": ("a_vs_ref_final_horizontal_m", "b_vs_ref_final_horizontal_m", "a_vs_b_max_horizontal_m"),
+               "run": ("plain_final_horizontal_error_m", "compensated_final_horizontal_error_m",
+                       "a_vs_b_max_horizontal_m")}
 
 
 def headline(stage: str, doc: dict) -> dict:
@@ -49,6 +52,16 @@ def headline(stage: str, doc: dict) -> dict:
                 out[f"sigma_{axis}_m"] = levers.get(f"sigma_{axis}")
         if levers.get("accel_delay_s") is not None:
             out["accel_delay_s"] = levers["accel_delay_s"]
+    elif stage == "compare":  # per comparison (A vs REF, B vs REF, A vs B): final and largest distance
+        for c in doc.get("comparisons", []):
+            key = c["label"].lower().replace(" ", "_")
+            for stat in ("final", "max"):
+                out[f"{key}_{stat}_horizontal_m"] = (c.get("horizontal_m") or {}).get(stat)
+    elif stage == "run":  # a chain: each stage's figures, named after its run (plain, compensated)
+        for step in doc.get("steps", []):
+            prefix = f"{step['run']}_" if step.get("run") else ""
+            out.update({f"{prefix}{k}": v for k, v in step.get("headline", {}).items()
+                        if isinstance(v, (int, float)) and not isinstance(v, bool)})
     elif stage == "diagnose":
         out["effects"] = sorted(f"{e.get('id', '?')}" + (f" {e['channel']}" if e.get("channel") else "")
                                 for e in doc.get("effects", []))  # sizefx/diagnosis/2: id and channel

@@ -8,7 +8,8 @@ from pathlib import Path
 
 from ..errors import ConfigError
 
-__all__ = ["expand_inputs", "output_names", "check_out_dir", "RECORD_SUFFIXES"]
+__all__ = ["expand_inputs", "output_names", "check_out_dir", "record_key", "pair_inputs", "RECORD_SUFFIXES",
+           "KEY_SUFFIXES"]
 
 #: What a folder given as an input contributes: its telemetry files (not recursively: a campaign's
 #: folder of records; give a glob such as ``runs/**/*.h5`` for a tree).
@@ -99,3 +100,50 @@ def output_names(records: list[Path]) -> dict[Path, str]:
                     parts[r] = (*parts[r][:-1], f"{parts[r][-1]}_{r.suffix.lstrip('.')}")
             for r in group:
                 depth[r] = min(depth[r] + 1, len(parts[r]))
+
+
+#: What a file's name ends with after its record's name, longest first: the solutions of
+#: ``sizefx navigate``/``sizefx batch navigate`` (``NAME.nav.h5``), compensated records
+#: (``NAME.compensated.h5``), and the records themselves.
+KEY_SUFFIXES = (".compensated.h5", ".nav.h5", ".hdf5", ".h5")
+
+
+def record_key(path) -> str:
+    """The record a file belongs to, from its name: ``flight07.nav.h5``, ``flight07.compensated.h5``
+    and ``flight07.h5`` all give ``flight07``."""
+    name = Path(path).name
+    for suffix in KEY_SUFFIXES:
+        if name.lower().endswith(suffix):
+            return name[:-len(suffix)]
+    return Path(name).stem
+
+
+def pair_inputs(records: list[Path], given, option: str) -> dict[Path, Path]:
+    """Each record's partner among the files ``given`` to ``option`` (files, folders, globs, as
+    :func:`expand_inputs` takes them): one file given is every record's partner; otherwise each
+    record is paired with the file of the same :func:`record_key` (``runs/flight07.nav.h5`` with
+    ``plain/flight07.nav.h5`` or ``flights/flight07.h5``).
+
+    Refused in one line: a record without a partner, two files with one key, a record paired with
+    itself."""
+    partners = expand_inputs(given)
+    if len(partners) == 1:
+        pairs = {r: partners[0] for r in records}
+    else:
+        by_key: dict[str, Path] = {}
+        for p in partners:
+            key = record_key(p)
+            if key in by_key:
+                raise ConfigError(f"{option}: {by_key[key]} and {p} both belong to '{key}'; give one file per record")
+            by_key[key] = p
+        pairs = {}
+        for r in records:
+            key = record_key(r)
+            if key not in by_key:
+                raise ConfigError(f"{option}: nothing for {r.name} among {len(partners)} files (looked for '{key}' "
+                                  f"with {', '.join(KEY_SUFFIXES)}); give its file or leave the record out")
+            pairs[r] = by_key[key]
+    for r, p in pairs.items():
+        if p == r:
+            raise ConfigError(f"{option}: {r} would be compared with itself; give the other solutions")
+    return pairs

@@ -64,10 +64,13 @@ def write_manifest(out_dir, doc: dict) -> None:
     write_json(Path(out_dir) / MANIFEST_NAME, doc, force=True)
 
 
-def reusable(entry: dict | None, sha256: str, options: dict) -> bool:
-    """Whether a previous run's ``entry`` for a record stands: it succeeded, on the same input bytes and
-    options, and its outputs are still there with the sizes and hashes it wrote."""
+def reusable(entry: dict | None, sha256: str, options: dict, paired: dict | None = None) -> bool:
+    """Whether a previous run's ``entry`` for a record stands: it succeeded, on the same input bytes,
+    options and paired files (``{option: {"path", "sha256"}}``), and its outputs are still there with
+    the sizes and hashes it wrote."""
     if not entry or entry.get("status") != "ok" or entry.get("sha256") != sha256 or entry.get("options") != options:
+        return False
+    if entry.get("paired", {}) != (paired or {}):
         return False
     for out in entry.get("outputs", {}).values():
         path = Path(out["path"])

@@ -61,6 +61,9 @@ class BatchJob:
     summary_path: str | None = None  #: where the batch writes ``result.to_json()`` (stages with no JSON of their own)
     previous: dict | None = None  #: this record's entry in the folder's manifest, if any
     redo: bool = False
+    #: other files this record's run reads, option -> path (compare's B and reference, a chain's lever
+    #: arms): hashed into the manifest like the input, so that a change to one runs the record again
+    paired: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -220,21 +223,35 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-class _Hashing(threading.Thread):
-    """The SHA-256 of a file, computed in a thread of its own while the stage runs."""
+def _paired_hashes(paired: dict) -> dict:
+    """``{option: {"path", "sha256"}}`` of a job's paired files ("" for one that cannot be read: the
+    stage says why)."""
+    out = {}
+    for option, path in sorted(paired.items()):
+        digest = ""
+        with contextlib.suppress(OSError):
+            digest = sha256_of(path)
+        out[option] = {"path": str(path), "sha256": digest}
+    return out
 
-    def __init__(self, path):
+
+class _Hashing(threading.Thread):
+    """The SHA-256 of a record and of its paired files, computed in a thread of its own while the
+    stage runs."""
+
+    def __init__(self, path, paired: dict):
         super().__init__(daemon=True)
-        self.path, self.digest = path, ""
+        self.path, self.paired, self.digest, self.paired_digests = path, paired, "", {}
         self.start()
 
     def run(self):
         with contextlib.suppress(OSError):
             self.digest = sha256_of(self.path)
+        self.paired_digests = _paired_hashes(self.paired)
 
-    def result(self) -> str:
+    def result(self) -> tuple[str, dict]:
         self.join()
-        return self.digest
+        return self.digest, self.paired_digests
 
 
 def _work(job: BatchJob) -> RecordOutcome:
@@ -244,13 +261,16 @@ def _work(job: BatchJob) -> RecordOutcome:
     entry = {"input": job.input, "name": job.name, "sha256": "", "options": job.options, "outputs": {},
              "status": "ok", "reason": None, "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}}
     may_reuse = not job.redo and job.previous is not None and job.previous.get("status") == "ok"
-    if may_reuse:  # the hash decides whether the record runs at all
+    if may_reuse:  # the hashes decide whether the record runs at all
         entry["sha256"] = sha256_of(job.input)
-        if reusable(job.previous, entry["sha256"], job.options):
+        paired = _paired_hashes(job.paired)
+        if reusable(job.previous, entry["sha256"], job.options, paired):
             return RecordOutcome(job.previous, reused=True)
+        if paired:
+            entry["paired"] = paired
         hashing = None
     else:  # it runs anyway: hash beside the stage (hashlib releases the GIL; the stage waits on its reads)
-        hashing = _Hashing(job.input)
+        hashing = _Hashing(job.input, job.paired)
     try:
         result = importlib.import_module(STAGES.get(job.stage, job.stage)).run(job.config)
         doc = as_json(result.to_json())
@@ -268,7 +288,9 @@ def _work(job: BatchJob) -> RecordOutcome:
     except Exception as exc:  # a bug or a library's failure on this record: the others go on
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
     if hashing is not None:
-        entry["sha256"] = hashing.result()  # "" if the file could not be read (the stage said why)
+        entry["sha256"], paired = hashing.result()  # "" if a file could not be read (the stage said why)
+        if paired:
+            entry["paired"] = paired
     entry["duration_s"] = time.perf_counter() - t0
     entry["peak_memory_mib"] = _peak_memory_mib(reset)
     return RecordOutcome(entry)
