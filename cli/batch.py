@@ -82,6 +82,30 @@ class BatchProgress:
                    f"failed; {event['records_per_s']:.3g} records/s{left}", err=True)
 
 
+def batch_params(record_plots: bool, chain: bool = False) -> list:
+    """The options every batch command has (``sizefx batch STAGE`` and ``sizefx batch run``). A chain
+    checks --out itself (click would ask for it before a chained stage's --help)."""
+    return [
+        click.Option(["--out", "out_dir"], required=not chain, type=click.Path(file_okay=False),
+                     help="Folder for every record's outputs and manifest.json (made if new; not inside an "
+                          "input folder)." + (" Required." if chain else "")),
+        click.Option(["--workers"], type=click.IntRange(1, 1024),
+                     help="Worker processes [default: the cores]; each loads the kernels once."),
+        click.Option(["--memory-per-worker-mib", "memory_mib"], type=click.FloatRange(64, min_open=False),
+                     help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
+                          "(MemoryError) [default: 80 % of the machine's memory over the workers]."),
+        click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
+                                                    "and outputs match the manifest."),
+        click.Option(["--scheduler"], metavar="tcp://HOST:PORT",
+                     help="Run on this Dask scheduler's cluster instead of local workers (the 'distributed' "
+                          "package: pip install 'sizefx[dask]'); the workers must see the records' paths."),
+        click.Option(["--json-progress"], is_flag=True,
+                     help="Progress as one JSON object per record on stderr (for schedulers)."),
+        click.Option(["--plots"], is_flag=True,
+                     help="Also write a figure of the headline figures across the records (fleet.png)"
+                          + (", and each record's plots." if record_plots else "."))]
+
+
 def _make(name: str, spec: _Stage) -> click.Command:
     module = importlib.import_module(f"sizefx_cli.{name}")
     single = getattr(module, name)
@@ -91,25 +115,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                                   required=param == "b", metavar="PATH")
                      for param, (flag, text) in spec.paired.items()]
     params = [click.Argument(["inputs"], nargs=-1, required=True, type=click.Path()),
-              *stage_params, *paired_params,
-              click.Option(["--out", "out_dir"], required=True, type=click.Path(file_okay=False),
-                           help="Folder for every record's outputs and manifest.json (made if new; not inside an "
-                                "input folder)."),
-              click.Option(["--workers"], type=click.IntRange(1, 1024),
-                           help="Worker processes [default: the cores]; each loads the kernels once."),
-              click.Option(["--memory-per-worker-mib", "memory_mib"], type=click.FloatRange(64, min_open=False),
-                           help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
-                                "(MemoryError) [default: 80 % of the machine's memory over the workers]."),
-              click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
-                                                          "and outputs match the manifest."),
-              click.Option(["--scheduler"], metavar="tcp://HOST:PORT",
-                           help="Run on this Dask scheduler's cluster instead of local workers (the 'distributed' "
-                                "package: pip install 'sizefx[dask]'); the workers must see the records' paths."),
-              click.Option(["--json-progress"], is_flag=True,
-                           help="Progress as one JSON object per record on stderr (for schedulers)."),
-              click.Option(["--plots"], is_flag=True,
-                           help="Also write a figure of the headline figures across the records (fleet.png)"
-                                + (", and each record's plots." if spec.plots else "."))]
+              *stage_params, *paired_params, *batch_params(bool(spec.plots))]
 
     def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False,
                  **options):

@@ -122,6 +122,7 @@ from . import run as _run  # noqa: E402
 from . import simulate as _simulate  # noqa: E402
 
 main.add_command(_batch.batch)
+_batch.batch.add_command(_run.batch_run)  # the chain per flight (cli/run.py builds both chains)
 main.add_command(_calibrate.calibrate)
 main.add_command(_compare.compare)
 main.add_command(_compensate.compensate)

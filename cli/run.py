@@ -1,19 +1,25 @@
-"""``sizefx run --out DIR calibrate T.h5 navigate F.h5 compare``: stages chained in one command.
+"""``sizefx run --out DIR calibrate T.h5 navigate F.h5 compare``: stages chained in one command, and
+``sizefx batch run --out DIR calibrate T.h5 navigate FLIGHTS compare``: the chain per flight.
 
 Each stage of the chain is the single-file command's own (its click options and its ``config_of``),
 less the output paths, which the chain names in DIR: calibrate's lever arms go to navigate, which
 navigates the flight plain and compensated with them, and compare sets the two solutions against
 the flight's reference. Which chains can work is :func:`sizefx.chain.check_chain`'s, decided with
-every input checked before any stage runs.
+every input checked before any stage runs; the steps run in :func:`sizefx.chain.run`. In a batch,
+calibrate runs once and each flight's navigate and compare steps are a batch record
+(:func:`sizefx.batch.run_batch`), into ``DIR/NAME/``.
 """
 
 from __future__ import annotations
 
 import importlib
-import time
+import sys
 from pathlib import Path
 
 import click
+
+from .batch import BatchProgress, batch_params
+from .options import quiet_option
 
 #: Per chained stage: the single-file command's options a chain does not offer (its outputs, which
 #: the chain names in DIR, and the inputs the chain passes from the stage before).
@@ -28,8 +34,9 @@ def _records(record, also, **options):
     return {"records": (record, *also), **options}
 
 
-def _link(name: str) -> click.Command:
-    """The chain's ``name`` command: the single-file command's parameters; returns them for the chain."""
+def _link(name: str, batch: bool) -> click.Command:
+    """The chain's ``name`` command: the single-file command's parameters; returns them for the chain.
+    In a batch, navigate's FILE may also be a folder of flights or a (quoted) glob."""
     single = getattr(importlib.import_module(f"sizefx_cli.{name}"), name)
     params = [p for p in single.params if p.name not in _DROPPED[name]]
     callback = lambda **options: (name, options)  # noqa: E731
@@ -39,9 +46,86 @@ def _link(name: str) -> click.Command:
                                help="Another record fitted jointly (a sway for the delay); repeat for more."),
                   *[p for p in params if p.name != "records"]]
         callback = lambda **options: (name, _records(**options))  # noqa: E731
+    if name == "navigate" and batch:
+        params = [click.Argument(["file"], type=click.Path()) if p.name == "file" else p for p in params]
+    where = "see sizefx batch run --help" if batch else "see sizefx run --help"
     return click.Command(name, params=params, callback=callback,
-                         help=f"{single.help}\n\nIn a chain: outputs go to --out; see sizefx run --help.",
+                         help=f"{single.help}\n\nIn a chain: outputs go to --out; {where}.",
                          short_help=single.get_short_help_str())
+
+
+def _checked(steps, out_dir, *, batch: bool):
+    """The chain's stages and options, refused in one line before anything runs or is written when it
+    cannot work; with the navigate FILE expanded to its flights in a batch."""
+    from sizefx.batch.inputs import check_out_dir, expand_inputs
+    from sizefx.chain import check_chain, check_truth
+    from sizefx.errors import ConfigError
+    from sizefx.stage import preflight
+
+    command = "sizefx batch run" if batch else "sizefx run"
+    if not out_dir:
+        raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
+    chain = dict(steps)
+    names = [name for name, _ in steps]
+    nav = chain.get("navigate", {})
+    check_chain(names, navigate_has_levers=bool(nav.get("levers")), command=command)
+    if "calibrate" in chain and nav.get("levers"):
+        raise ConfigError(f"{command}: navigate --levers and calibrate in one chain: the chain passes calibrate's "
+                          "lever arms to navigate; leave out one of the two")
+    if nav.get("model") and ("calibrate" in chain or nav.get("levers")):
+        raise ConfigError(f"{command}: navigate --model cannot be combined with lever arms (from calibrate or "
+                          "--levers); navigate the model on its own")
+    if batch and "navigate" not in chain:
+        raise ConfigError("sizefx batch run: the chain runs per flight: put navigate FLIGHTS in it")
+    flights = expand_inputs([nav["file"]]) if batch else ([Path(nav["file"])] if nav.get("file") else [])
+    # every file the chain reads, before any stage runs
+    given = {**{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
+             **({} if batch else {"navigate FILE": nav.get("file")}), "navigate --levers": nav.get("levers"),
+             "navigate --model": nav.get("model"), "compare --reference": chain.get("compare", {}).get("reference")}
+    preflight(inputs=given, outputs={})
+    if "compare" in chain and not chain["compare"].get("reference") and not batch:
+        check_truth(nav["file"])  # in a batch each flight is checked in its own record
+    out = check_out_dir(out_dir, [nav["file"]] if batch else [],
+                        [*(Path(p).resolve() for p in given.values() if p), *flights])
+    return names, chain, nav, flights, out
+
+
+def _calibrate_step(chain, out: Path, plots: bool):
+    from sizefx.chain import ChainStep
+    from sizefx_cli.calibrate import config_of
+
+    options = chain["calibrate"]
+    levers = str(out / "levers.json")
+    return ChainStep("calibrate", None, config_of(**{**options, "json_path": levers, "force": True,
+                                                     "plot": str(out / "calibrate.png") if plots else None}),
+                     options), levers
+
+
+def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
+    """navigate the flight plain (and compensated, with lever arms), then compare, into ``out``."""
+    from sizefx.chain import ChainStep
+
+    steps, solutions = [], {}
+    if nav:
+        from sizefx_cli.navigate import config_of
+
+        for label, with_levers in (("plain", None), ("compensated", levers)):
+            if label == "compensated" and not with_levers:
+                continue
+            solutions[label] = str(out / f"{label}.nav.h5")
+            steps.append(ChainStep("navigate", label, config_of(**{
+                **nav, "file": str(flight), "levers": with_levers, "output": solutions[label],
+                "json_path": str(out / f"{label}.navigate.json"), "force": True,
+                "plot": str(out / f"{label}.navigate.png") if plots else None}), {**nav, "levers": with_levers}))
+    if "compare" in chain:
+        from sizefx_cli.compare import config_of
+
+        options = chain["compare"]
+        steps.append(ChainStep("compare", None, config_of(
+            a=solutions["compensated"], b=solutions["plain"], reference=options.get("reference") or str(flight),
+            json_path=str(out / "comparison.json"), plots_dir=str(out / "compare-plots") if plots else None,
+            force=True), options))
+    return steps
 
 
 @click.group(chain=True)
@@ -64,93 +148,87 @@ def run(out_dir, plots):
     both against the flight's /reference (or compare --reference). Every stage
     option keeps its meaning (see each stage's --help). A chain that cannot
     work is refused before any stage runs; run.json (sizefx/run/1) lists what
-    each stage read, wrote and found.
+    each stage read, wrote and found. For many flights: sizefx batch run.
     """
-
-
-for _name in _DROPPED:
-    run.add_command(_link(_name))
-
-
-def _has_reference(path) -> bool:
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        return "reference/position" in f
 
 
 @run.result_callback()
 def _execute(steps, out_dir, plots):
-    from sizefx.batch.inputs import check_out_dir
-    from sizefx.batch.fleet import headline
-    from sizefx.chain import check_chain, write_run_manifest
-    from sizefx.errors import ConfigError
-    from sizefx.io.schema import as_json
-    from sizefx.stage import preflight
+    from sizefx import chain as chain_stage
+    from sizefx.batch.runner import folder_lock
 
-    if not out_dir:
-        raise ConfigError("sizefx run: give --out DIR, the folder for every stage's outputs")
-    chain = dict(steps)
-    names = [name for name, _ in steps]
-    nav = chain.get("navigate", {})
-    check_chain(names, navigate_has_levers=bool(nav.get("levers")))
-    if "calibrate" in chain and nav.get("levers"):
-        raise ConfigError("sizefx run: navigate --levers and calibrate in one chain: the chain passes calibrate's "
-                          "lever arms to navigate; leave out one of the two")
-    if nav.get("model") and ("calibrate" in chain or nav.get("levers")):
-        raise ConfigError("sizefx run: navigate --model cannot be combined with lever arms (from calibrate or "
-                          "--levers); navigate the model on its own")
-    # every file the chain reads, before any stage runs
-    given = {**{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
-             "navigate FILE": nav.get("file"), "navigate --levers": nav.get("levers"),
-             "navigate --model": nav.get("model"), "compare --reference": chain.get("compare", {}).get("reference")}
-    preflight(inputs=given, outputs={})
-    if "compare" in chain and not chain["compare"].get("reference") and not _has_reference(nav["file"]):
-        raise ConfigError(f"{nav['file']}: compare needs the truth, and the flight has no /reference/position; "
-                          "give compare --reference")
-    out = check_out_dir(out_dir, [], [Path(p).resolve() for p in given.values() if p])
+    names, chain, nav, flights, out = _checked(steps, out_dir, batch=False)
     out.mkdir(exist_ok=True)
-    record: list[dict] = []
-
-    def stage(name, run_label, config, options):
-        module = importlib.import_module(f"sizefx.{name}")
-        t0 = time.perf_counter()
-        result = module.run(config)
-        record.append({"stage": name, **({"run": run_label} if run_label else {}),
-                       "inputs": {k: str(v) for k, v in config.inputs().items() if v},
-                       "options": as_json({k: v for k, v in options.items() if not isinstance(v, Path)}),
-                       "outputs": {k: str(v) for k, v in config.outputs().items() if v},
-                       "duration_s": time.perf_counter() - t0, "headline": headline(name, as_json(result.to_json()))})
-        write_run_manifest(out, record)
-        title = f"== {name}" + (f" ({run_label})" if run_label else "")
-        click.echo(f"{title}\n{result.report()}")
-
-    levers = nav.get("levers")
-    if "calibrate" in chain:
-        from sizefx_cli.calibrate import config_of
-
-        levers = str(out / "levers.json")
-        options = chain["calibrate"]
-        stage("calibrate", None, config_of(**{**options, "json_path": levers, "force": True,
-                                              "plot": str(out / "calibrate.png") if plots else None}), options)
-    solutions = {}
-    if nav:
-        from sizefx_cli.navigate import config_of
-
-        for label, with_levers in (("plain", None), ("compensated", levers)):
-            if label == "compensated" and not with_levers:
-                continue
-            solutions[label] = str(out / f"{label}.nav.h5")
-            stage("navigate", label, config_of(**{**nav, "levers": with_levers, "output": solutions[label],
-                                                  "json_path": str(out / f"{label}.navigate.json"), "force": True,
-                                                  "plot": str(out / f"{label}.navigate.png") if plots else None}),
-                  {**nav, "levers": with_levers})
-    if "compare" in chain:
-        from sizefx_cli.compare import config_of
-
-        options = chain["compare"]
-        stage("compare", None, config_of(a=solutions["compensated"], b=solutions["plain"],
-                                         reference=options.get("reference") or nav["file"],
-                                         json_path=str(out / "comparison.json"),
-                                         plots_dir=str(out / "compare-plots") if plots else None, force=True), options)
+    with folder_lock(out):
+        chain_steps, levers = [], nav.get("levers")
+        if "calibrate" in chain:
+            step, levers = _calibrate_step(chain, out, plots)
+            chain_steps.append(step)
+        chain_steps += _flight_steps(chain, nav, nav.get("file"), levers, out, plots)
+        chain_stage.run(chain_stage.ChainConfig(tuple(chain_steps), str(out)),
+                        echo=lambda title, text: click.echo(f"{title}\n{text}"))
     click.echo(f"run: {' -> '.join(names)}; every output and run.json in {out}")
+
+
+@click.group("run", chain=True, params=batch_params(record_plots=True, chain=True))
+def batch_run(**_):
+    """A chain per flight: calibrate once, then navigate and compare every flight, in parallel.
+
+    \b
+    sizefx batch run --out campaign calibrate turntable.h5 navigate flights/ compare
+    sizefx batch run --out c navigate --levers levers.json 'flights/*.h5' compare
+
+    navigate's FILE is a flight, a folder of flights (*.h5) or a quoted glob.
+    calibrate (if given) runs first, into DIR (levers.json, run.json); each
+    flight is then a batch record: navigated plain and compensated with those
+    arms and compared against its own /reference (or compare --reference), into
+    DIR/NAME/ with its run.json; DIR/manifest.json (sizefx/batch/1, stage
+    'run') lists the flights as sizefx batch does, with the lever arms' hash,
+    so that a re-run skips the flights whose inputs, options and arms are
+    unchanged. Stage options as in sizefx run (before the stage's file).
+    Exit code 0 when every flight succeeded, 1 otherwise, 2 for bad input.
+    """
+
+
+@batch_run.result_callback()
+def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_progress, plots, quiet):
+    from sizefx import chain as chain_stage
+    from sizefx.batch import BatchJob, output_names, read_manifest, run_batch
+    from sizefx.batch.manifest import canonical_options
+    from sizefx.batch.runner import folder_lock
+
+    names, chain, nav, flights, out = _checked(steps, out_dir, batch=True)
+    previous = read_manifest(out, "run") if out.exists() else None
+    entries = {e["input"]: e for e in (previous or {}).get("records", [])}
+    out.mkdir(exist_ok=True)
+    with folder_lock(out):
+        levers = nav.get("levers")
+        if "calibrate" in chain:
+            step, levers = _calibrate_step(chain, out, plots)
+            chain_stage.run(chain_stage.ChainConfig((step,), str(out)),
+                            echo=None if quiet else (lambda title, text: click.echo(f"{title}\n{text}")))
+        # the flights' options (each stage's, flattened: the manifest compares them as JSON)
+        options = canonical_options({f"{stage}.{k}": v for stage, opts in chain.items() if stage != "calibrate"
+                                     for k, v in opts.items() if not (stage == "navigate" and k == "file")})
+        flight_names = output_names(flights)
+        jobs = []
+        for flight in flights:
+            folder = out / flight_names[flight]
+            config = chain_stage.ChainConfig(
+                tuple(_flight_steps(chain, nav, flight, levers, folder, plots)), str(folder),
+                truth=str(flight) if "compare" in chain and not chain["compare"].get("reference") else None)
+            jobs.append(BatchJob("run", str(flight), flight_names[flight], config, options, {"folder": str(folder)},
+                                 previous=entries.get(str(flight)), redo=redo,
+                                 paired={"--levers": levers} if levers else {}))
+        result = run_batch("run", jobs, out, options, workers=workers, previous=previous,
+                           progress=BatchProgress("run", len(jobs), json_progress, quiet), scheduler=scheduler,
+                           plots=plots, memory_mib=memory_mib, locked=True)
+    click.echo(result.report())
+    if not result.all_ok:
+        sys.exit(1)
+
+
+for _name in _DROPPED:
+    run.add_command(_link(_name, batch=False))
+    batch_run.add_command(_link(_name, batch=True))
+batch_run = quiet_option(batch_run)

@@ -91,3 +91,100 @@ def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path,
     assert len(lines) == 1 and "Traceback" not in result.output, result.output
     assert needle in lines[0], lines[0]
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------- a chain per flight (sizefx batch run)
+
+@pytest.fixture(scope="module")
+def flights(records, tmp_path_factory):
+    """A folder of two flights: the fixture's and one with other noise."""
+    _, flight = records
+    folder = tmp_path_factory.mktemp("flights") / "flights"
+    folder.mkdir()
+    (folder / "day1.h5").write_bytes(flight.read_bytes())
+    simulate(SimulateConfig("flight", str(folder / "day2.h5"), rate_hz=400.0, seed=3,
+                            plan=FlightPlan(duration_s=1620.0, align_s=162.0)))
+    return folder
+
+
+def _batch_run(*args):
+    return CliRunner().invoke(main, ["batch", "run", *map(str, args)])
+
+
+def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp_path):
+    """calibrate once into DIR; each flight navigated plain and compensated and compared, in DIR/NAME/,
+    the same as a single chain on it; the manifest lists the flights with the lever arms' hash; a
+    re-run skips them all, and new lever arms run them all again."""
+    turntable, _ = records
+    out = tmp_path / "campaign"
+    args = ["--out", out, "-q", "--workers", "2", "calibrate", turntable, "navigate", "--output-rate-hz", "1",
+            flights, "compare"]
+    result = _batch_run(*args)
+    assert result.exit_code == 0, result.output
+    doc = json.loads((out / "manifest.json").read_text())
+    check_document(doc, "sizefx/batch/1")
+    assert doc["stage"] == "run" and doc["options"]["navigate.output_rate_hz"] == 1.0
+    levers = out / "levers.json"
+    assert [s["stage"] for s in json.loads((out / "run.json").read_text())["steps"]] == ["calibrate"]
+    for entry, name in zip(doc["records"], ("day1", "day2")):
+        assert entry["status"] == "ok" and entry["name"] == name
+        assert entry["paired"]["--levers"]["path"] == str(levers)
+        steps = json.loads((out / name / "run.json").read_text())["steps"]
+        assert [(s["stage"], s.get("run")) for s in steps] == [("navigate", "plain"), ("navigate", "compensated"),
+                                                               ("compare", None)]
+        assert steps[1]["inputs"] == {"FILE": str(flights.resolve() / f"{name}.h5"), "--levers": str(levers)}
+        assert set(entry["outputs"]) == {f"folder/{f}" for f in ("plain.nav.h5", "compensated.nav.h5",
+                                                                 "plain.navigate.json", "compensated.navigate.json",
+                                                                 "comparison.json", "run.json")}
+        assert entry["headline"]["compensated_final_horizontal_error_m"] == \
+            steps[1]["headline"]["final_horizontal_error_m"]
+    # the same numbers as sizefx run on the flight alone
+    single = tmp_path / "single"
+    assert _run("--out", single, "calibrate", turntable, "navigate", "--output-rate-hz", "1", flights / "day1.h5",
+                "compare").exit_code == 0
+    with h5py.File(out / "day1" / "compensated.nav.h5") as a, h5py.File(single / "compensated.nav.h5") as b:
+        assert np.array_equal(a["/position"][()], b["/position"][()])
+    again = _batch_run(*args)
+    assert again.exit_code == 0 and "0 ok, 2 unchanged" in again.output, again.output
+    turntable2 = tmp_path / "turntable2.h5"  # another calibration run: other noise, other arms
+    simulate(SimulateConfig("turntable", str(turntable2), rate_hz=400.0, seed=7,
+                            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1)))
+    other = _batch_run(*[turntable2 if a == turntable else a for a in args])
+    assert other.exit_code == 0 and "2 ok, 0 unchanged" in other.output, other.output
+
+
+def test_batch_run_a_flight_without_truth_is_refused_alone(records, flights, tmp_path):
+    """A flight without /reference/position cannot be compared: that record is refused, the other done."""
+    turntable, _ = records
+    folder = tmp_path / "mixed"
+    folder.mkdir()
+    (folder / "good.h5").write_bytes((flights / "day1.h5").read_bytes())
+    (folder / "blind.h5").write_bytes((flights / "day2.h5").read_bytes())
+    with h5py.File(folder / "blind.h5", "a") as f:
+        del f["reference/position"]
+    out = tmp_path / "out"
+    result = _batch_run("--out", out, "-q", "calibrate", turntable, "navigate", folder, "compare")
+    assert result.exit_code == 1, result.output
+    status = {e["name"]: (e["status"], e["reason"]) for e in json.loads((out / "manifest.json").read_text())["records"]}
+    assert status["good"] == ("ok", None)
+    assert status["blind"][0] == "refused" and "no /reference/position" in status["blind"][1]
+    assert not (out / "blind" / "plain.nav.h5").exists()  # refused before navigating
+
+
+@pytest.mark.parametrize("chain, needle", [
+    (["calibrate", "{turntable}"], "put navigate FLIGHTS in it"),
+    (["navigate", "{flights}", "compare"], "needs two solutions"),
+    (["calibrate", "{turntable}", "navigate", "{nothing}", "compare"], "matches no file"),
+    (["calibrate", "{turntable}", "navigate", "{flights}", "compare", "--inside"], "inside the input folder"),
+], ids=["no-flights", "one-solution", "glob-matches-nothing", "out-inside"])
+def test_batch_chains_that_cannot_work_are_one_line(records, flights, tmp_path, chain, needle):
+    turntable, _ = records
+    out = flights / "out" if "--inside" in chain else tmp_path / "out"
+    given = [a.format(turntable=turntable, flights=flights, nothing=tmp_path / "*.h5") for a in chain
+             if a != "--inside"]
+    result = _batch_run("--out", out, *given)
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert needle in lines[0] and lines[0].startswith("sizefx: error: "), lines[0]
+    assert not out.exists()

@@ -44,7 +44,8 @@ __all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "d
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
 #: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
 STAGES = {"navigate": "sizefx.navigate", "compensate": "sizefx.compensate", "calibrate": "sizefx.calibrate",
-          "diagnose": "sizefx.diagnose", "inspect": "sizefx.inspect", "compare": "sizefx.compare"}
+          "diagnose": "sizefx.diagnose", "inspect": "sizefx.inspect", "compare": "sizefx.compare",
+          "run": "sizefx.chain"}
 
 
 @dataclass(frozen=True)
@@ -208,13 +209,13 @@ def _peak_memory_mib(reset: bool) -> float:
 
 def _collect(outputs: dict) -> dict:
     """``{option: {path, bytes, sha256}}`` of the files the stage wrote (a folder's files each as
-    ``option/name``)."""
+    ``option/relative/path``)."""
     found = {}
     for option, path in sorted(outputs.items()):
         p = Path(path)
-        files = sorted(q for q in p.iterdir() if q.is_file()) if p.is_dir() else ([p] if p.is_file() else [])
+        files = sorted(q for q in p.rglob("*") if q.is_file()) if p.is_dir() else ([p] if p.is_file() else [])
         for q in files:
-            key = f"{option}/{q.name}" if p.is_dir() else option
+            key = f"{option}/{q.relative_to(p).as_posix()}" if p.is_dir() else option
             found[key] = {"path": str(q), "bytes": q.stat().st_size, "sha256": sha256_of(q)}
     return found
 
@@ -379,14 +380,15 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
 
 def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
               previous: dict | None = None, progress=None, scheduler: str | None = None,
-              plots: bool = False, memory_mib: float | None = None) -> BatchResult:
+              plots: bool = False, memory_mib: float | None = None, locked: bool = False) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
     finish. ``previous``: the folder's manifest, whose entries for other records are kept.
     ``progress(event)`` after each record: done, total, counts, rate, time left. ``plots``: also
     the headline figures across the records (:func:`.fleet.plot_fleet`). ``memory_mib``: each local
     worker's memory bound (default :func:`default_memory_mib`; a Dask cluster's workers have their
-    own, ``dask worker --memory-limit``). The folder is locked (:func:`folder_lock`) for the run."""
+    own, ``dask worker --memory-limit``). The folder is locked (:func:`folder_lock`) for the run, unless
+    the caller holds its lock already (``locked``: ``sizefx batch run`` calibrates there first)."""
     client = dask_client(scheduler) if scheduler else None  # refused before anything is written
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(jobs))))
     if client is not None:
@@ -394,7 +396,7 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
     out_dir = Path(out_dir)
     out_dir.mkdir(exist_ok=True)
     try:
-        with folder_lock(out_dir):
+        with contextlib.nullcontext() if locked else folder_lock(out_dir):
             return _run_locked(stage, jobs, out_dir, options, workers=workers, previous=previous,
                                progress=progress, client=client, plots=plots,
                                memory_mib=memory_mib or default_memory_mib(workers))
