@@ -1,5 +1,6 @@
-"""The contract's one-pass sample check (sizefx.kernels.checks.scale_and_check) against its NumPy
-twin (sizefx.io.contract.invalid_rows), and the reader's messages it feeds."""
+"""The one-pass checks of sizefx.kernels.checks against their NumPy twins: the contract's sample check
+(scale_and_check, twin sizefx.io.contract.invalid_rows) with the reader's messages it feeds, and the
+navigation's grid check (worst_grid_offset, twin sizefx.navigate.steps.grid_offsets_periods)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from sizefx.errors import TelemetryError
 from sizefx.io.contract import invalid_rows
 from sizefx.io.schema import TELEMETRY_SCHEMA, load_schema
 from sizefx.io.telemetry import read_telemetry
-from sizefx.kernels.checks import scale_and_check
+from sizefx.kernels.checks import scale_and_check, worst_grid_offset
+from sizefx.navigate.steps import grid_offsets_periods
 
 SCHEMA = load_schema(TELEMETRY_SCHEMA)
 ACCEL_LIMIT = SCHEMA["sample_limits"]["/imu/accel"]  # m/s^2, symmetric or per column
@@ -88,3 +90,18 @@ def test_reader_returns_si_values(tmp_path):
     accel = np.tile([0.5, -0.25, -1.0], (100, 1))
     tel = read_telemetry(_record(tmp_path / "g.h5", accel, units="g"))
     np.testing.assert_array_equal(tel.accel_mps2, accel * 9.80665)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 300), st.integers(0, 10**7), st.floats(-0.4, 0.4), st.integers(0, 299), st.integers(0, 2**32))
+def test_worst_grid_offset_is_its_twins_largest(n, first_row, jump, at, seed):
+    """The worst stamp and its offset as the NumPy twin finds them (argmax of |offset|, its signed
+    value), bit for bit: the same formula, evaluated in the same order."""
+    dt = 1 / 1600
+    t_first = 1234.5
+    rng = np.random.default_rng(seed)
+    t = t_first + (first_row + np.arange(n)) * dt + rng.normal(0, 1e-3 * dt, n)
+    t[min(at, n - 1)] += jump * dt
+    offsets = grid_offsets_periods(t, t_first, dt, first_row)
+    row, offset = worst_grid_offset(t, t_first, dt, first_row)
+    assert row == int(np.argmax(np.abs(offsets))) and offset == offsets[row]

@@ -1,11 +1,13 @@
-"""Every sample of a read checked in one pass: scaled to SI in place, the first that is not finite
-and the first beyond the physical limits found.
+"""Checks of every sample in one pass: a read scaled to SI in place with the first sample that is
+not finite and the first beyond the physical limits (:func:`scale_and_check`); the time stamp
+farthest from the uniform grid (:func:`worst_grid_offset`).
 
 The telemetry contract (:meth:`sizefx.io.contract.ContractReader.rows`) checks each read this way.
 Done with NumPy it took eight passes and three temporaries over each chunk (``isfinite``, ``any``,
 the scaling, ``isfinite`` again, two comparisons, their ``or``, ``any``): 44 % of ``sizefx navigate``'s
 time on the 1.8 h flight, and memory traffic that two records in parallel share (issue 18). The
-NumPy twin is :func:`sizefx.io.contract.invalid_rows` (``tests/test_contract_kernel.py``).
+NumPy twin is :func:`sizefx.io.contract.invalid_rows` (``tests/test_contract_kernel.py``). The grid
+check took seven NumPy passes; its twin is :func:`sizefx.navigate.steps.grid_offsets_periods`.
 """
 
 from __future__ import annotations
@@ -39,3 +41,18 @@ def scale_and_check(values, factor, low, high):
             if first_beyond < 0 and (not np.isfinite(y) or y < low[j] or y > high[j]):
                 first_beyond = i * c + j
     return first_not_finite, first_beyond
+
+
+@kernel
+def worst_grid_offset(time_s, t_first, dt, first_row):
+    """``(row, offset)``: the stamp of ``time_s`` farthest from its point of the uniform grid
+    ``t_first + (first_row + k) dt`` and how far [periods, signed] (the first of equals), with the
+    formula of :func:`sizefx.navigate.steps.grid_offsets_periods`, so the same numbers."""
+    worst = 0
+    worst_offset = 0.0
+    for k in range(time_s.shape[0]):
+        offset = (time_s[k] - (t_first + float(first_row + k) * dt)) / dt
+        if abs(offset) > abs(worst_offset) or k == 0:
+            worst = k
+            worst_offset = offset
+    return worst, worst_offset

@@ -42,7 +42,7 @@ from ..levers import read_levers
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig
 from .result import NavResult
 from .initial import choose, initial_state
-from .reference import Errors, MemoryReference, reference_at
+from .reference import Errors, MemoryReference, reference_at, vertical_reference_at
 from .steps import increments_of, integrate, uniform_period_s
 
 __all__ = ["MemorySource", "navigate", "navigate_file", "navigate_source"]
@@ -167,9 +167,8 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
             window = ref.window(float(t_nav[0]), float(t_nav[-1])) if ref is not None else None
             h_ref = vd_ref = np.zeros(0)
             if vertical == "reference":
-                refs = reference_at(window, t_nav, attitude=False)
-                h_ref = refs["h"]
-                vd_ref = refs["v_n"][:, 2] if "v_n" in refs else -np.gradient(h_ref, t_nav)
+                h_ref, vd_ref = vertical_reference_at(window, t_nav)
+                vd_ref = -np.gradient(h_ref, t_nav) if vd_ref is None else vd_ref
             k_started = _time.perf_counter()
             q, v, lat, lon, h = integrate(dtheta, dvel, n_sub, dt, state, mode, h0, h_ref, vd_ref)
             kernel_s += _time.perf_counter() - k_started

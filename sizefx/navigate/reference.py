@@ -10,7 +10,7 @@ from ..io.telemetry import Reference
 from ..kernels.errors import navigation_errors
 from ..rotation import quat_interp
 
-__all__ = ["reference_at", "MemoryReference", "Errors"]
+__all__ = ["reference_at", "vertical_reference_at", "MemoryReference", "Errors"]
 
 
 def reference_at(ref: Reference, t, attitude: bool = True) -> dict:
@@ -23,6 +23,16 @@ def reference_at(ref: Reference, t, attitude: bool = True) -> dict:
     if ref.velocity_n_mps is not None:
         out["v_n"] = np.column_stack([np.interp(t, ref.time_s, ref.velocity_n_mps[:, i]) for i in range(3)])
     return out
+
+
+def vertical_reference_at(ref: Reference, t):
+    """The reference's height and down velocity at times ``t`` (linear, as :func:`reference_at`), for
+    the vertical channel held to it; the down velocity is None without ``/reference/velocity``.
+    Two interpolations instead of :func:`reference_at`'s six: at every navigation step of a flight
+    they were 5 % of ``sizefx navigate``'s time."""
+    h = np.interp(t, ref.time_s, ref.height_m)
+    vd = None if ref.velocity_n_mps is None else np.interp(t, ref.time_s, ref.velocity_n_mps[:, 2])
+    return h, vd
 
 
 class MemoryReference:

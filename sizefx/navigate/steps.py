@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import TelemetryError
 from ..io.telemetry import Telemetry
+from ..kernels.checks import worst_grid_offset
 from ..kernels.increments import rates_to_increments
 from ..kernels.strapdown import coning_coefficients, strapdown
 from .config import GRID_TOLERANCE
@@ -25,7 +26,8 @@ def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
 
 def grid_offsets_periods(time_s, t_first: float, dt: float, first_row: int = 0) -> np.ndarray:
     """How far each stamp lies from its point of the uniform grid ``t_first + k dt`` [periods];
-    ``first_row`` is the grid index of ``time_s[0]``."""
+    ``first_row`` is the grid index of ``time_s[0]``. The NumPy twin of
+    :func:`sizefx.kernels.checks.worst_grid_offset`, which the navigation loop uses."""
     return (np.asarray(time_s) - (t_first + (first_row + np.arange(len(time_s))) * dt)) / dt
 
 
@@ -43,12 +45,12 @@ def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *
         dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
     if t_first is None:
         t_first = float(tel.time_s[0]) - first_row * dt
-    off_grid = grid_offsets_periods(tel.time_s, t_first, dt, first_row)
-    worst = int(np.argmax(np.abs(off_grid)))
-    jitter = float(abs(off_grid[worst]))
-    if abs(off_grid[worst]) > GRID_TOLERANCE:
+    worst, offset = worst_grid_offset(np.ascontiguousarray(tel.time_s, dtype=np.float64), float(t_first), float(dt),
+                                      int(first_row))
+    jitter = float(abs(offset))
+    if jitter > GRID_TOLERANCE:
         raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
-                                                    f"is {off_grid[worst]:+.3g} periods off the uniform grid of "
+                                                    f"is {offset:+.3g} periods off the uniform grid of "
                                                     f"{dt:.6g} s; navigation integrates on that grid and accepts "
                                                     f"jitter up to {GRID_TOLERANCE} period (resample the record, "
                                                     "or cut it where the rate changes)")
