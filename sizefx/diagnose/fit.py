@@ -65,6 +65,10 @@ REFIT_PASSES = 3
 #: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
 #: more likely a side effect of something else than a finding.
 MIN_SHARE = 0.01
+#: The measured band is resolved to a third of an octave (:mod:`.bandwidth`'s bands, then rounded
+#: down to a readable value): the fit is redone at the neighbouring bands a third of an octave
+#: below and above, with the selection redone there (:func:`_band_systematic`).
+BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
 
 
 @dataclass
@@ -249,6 +253,62 @@ def _errors(pred: Predictor, state: _State, theta0):
     return cov, factors, sig, sig_white, (parts, entries)
 
 
+def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_free, grade):
+    """The errors' systematic part from the choice of band and of the model selected in it.
+
+    The band is measured to a third of an octave, and which marginal effects the selection takes
+    beside the arms (an accelerometer-z bias, scale factor or misalignment beside r_z[z]) can change
+    from one band to the next: the standard errors, conditional on the band and the selection, do
+    not carry that. At each neighbouring band (:data:`BAND_NEIGHBOURS`) the normal equations are
+    formed at the final estimate, the selection is redone there (:func:`select`, then the
+    plausibility judgement) and the selected model solved (one Gauss-Newton step: the arms and
+    delays are linear in the prediction to well below their errors). The shift ``D`` of each
+    parameter from the final estimate (to its start value where the neighbour does not select it)
+    is part noise, as the bands see different data: of ``D^2`` the part beyond the variance of the
+    difference of the two band's estimates of the final model, ``|s_band^2 - s^2|`` (Hausman's
+    variance of a difference of estimates of one parameter from nested data), is systematic. The
+    covariance added is the mean over the neighbours of ``(c D)(c D)'``, ``c`` scaling each
+    component so that the diagonal is that systematic part.
+
+    Returns (cov_sys [free, free], entries): None when the record was fitted in its full band."""
+    if rows_of.bandwidth_hz is None:
+        return None, None
+    free = _free(state.chosen)
+    offset = theta0 - state.theta
+    var0 = np.abs(np.diag(cov_free))
+    cols = columns_between(state.theta, pred.terms(state.theta), pred.t)
+    nyquist = 0.5 / pred.dt
+    sys_cov = np.zeros((free.size, free.size))
+    bands = []
+    for fac in BAND_NEIGHBOURS:
+        band = rows_of.bandwidth_hz * fac
+        if band >= 0.8 * nyquist:
+            continue
+        rows_b = Rows(pred.t, pred.mask, pred.dt, band)
+        sigma_c, kappa, row_w = _noise(rows_b, state.residual, robust=True)
+        nrm = normal_equations(rows_b, state.residual, cols, 1.0 / (sigma_c**2 * kappa), row_w)
+        _, white, robust = covariance(nrm, free, offset)
+        var_b = np.abs(np.diag(honest(white, robust)))
+        chosen, _, _ = select(nrm, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)))
+        while True:  # implausible values say the band's model is wrong: drop them as the judging does
+            f2 = _free(chosen)
+            x, _, _ = solve(*nrm.total(), f2, offset)
+            theta_b = theta0.copy()
+            theta_b[f2] = state.theta[f2] + x
+            bad = [c for c in chosen if judge(c.cand.id, theta_b[list(c.cand.idx)], grade)]
+            if not bad:
+                break
+            chosen = [c for c in chosen if c not in bad]
+        shift = theta_b[free] - state.theta[free]
+        excess = np.maximum(shift**2 - np.abs(var_b - var0), 0.0)
+        c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
+        sys_cov += np.outer(c * shift, c * shift)
+        bands.append({"bandwidth_hz": float(band), "selected": sorted(ch.cand.key for ch in chosen)})
+    if not bands:
+        return None, None
+    return sys_cov / len(bands), bands
+
+
 def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
     """The residual without effect ``c`` and the channels it acts on: where its contribution, in units
     of each channel's noise, is at least a tenth of its largest (the tilt acts on the gyros too,
@@ -380,6 +440,9 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     widen = np.array([factors.get(j, 1.0) for j in free.tolist()])
     cov = np.zeros((theta.size, theta.size))
     cov[np.ix_(free, free)] = cov_free * np.outer(widen, widen)
+    sys_cov, sys_bands = _band_systematic(pred, rows_of, state, theta0, cov_free, grade)
+    if sys_cov is not None:
+        cov[np.ix_(free, free)] += sys_cov
     geometry = (split_arms(theta[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)],
                            SensorParams.from_vector(theta).accel_axes())
                 if np.intersect1d(free, LEVER).size else None)
@@ -391,6 +454,15 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                                         f"{entry['split']}) disagree "
                                         f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
                                         f"error is multiplied by {entry['factor']:.2f}"})
+    systematic = None  # the band's and the selection's part (_band_systematic), in quadrature
+    if sys_cov is not None:
+        sys_sigma = np.sqrt(np.diag(sys_cov))
+        for pos, j in enumerate(free.tolist()):
+            sig[j] = float(np.hypot(sig[j], sys_sigma[pos]))
+        systematic = {"bands": sys_bands,
+                      "parameters": [{"parameter": PARAMS[j].label, "effect": PARAMS[j].effect,
+                                      "sigma_selection": float(sys_sigma[pos] / PARAMS[j].per_unit),
+                                      "unit": PARAMS[j].unit} for pos, j in enumerate(free.tolist())]}
     # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed
     alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
     outside = [(chosen[i], cand, rho) for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
@@ -431,7 +503,8 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
         t=pred.t if keep_series else None, mask=pred.mask if keep_series else None,
         warnings=warnings, rejected=rejected, unexplained=structure,
         consistency={"parts": parts, "block_s": nrm.block_s,
-                     "parameters": [cons[j] for j in sorted(cons)]},
+                     "parameters": [cons[j] for j in sorted(cons)],
+                     **({"systematic": systematic} if systematic else {})},
         grade=grade, grade_reason=grade_reason, bandwidth_reason=band_reason,
         sigma_white=sig_white, covariance=cov, geometry=geometry,
     )

@@ -262,6 +262,15 @@ def format_report(d: Diagnosis, start: str) -> str:
                      f"parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
                      f"{worst['parameter']})" + (f"; {len(flagged)} disagree beyond chance, their errors widened "
                                                  "to the parts' scatter (see the warnings)" if flagged else ""))
+    systematic = cons.get("systematic")
+    if systematic:  # the parameter whose error the band's and the selection's part takes most of
+        index = {(p.effect, p.label): j for j, p in enumerate(PARAMS)}
+        share = {(q["effect"], q["parameter"]): q["sigma_selection"] * PARAMS[index[q["effect"], q["parameter"]]].per_unit
+                 / d.sigma_theta[index[q["effect"], q["parameter"]]] for q in systematic["parameters"]}
+        (effect, label), most = max(share.items(), key=lambda kv: kv[1])
+        lines.append("standard errors include the band's and the selection's part, refitted at "
+                     + " and ".join(f"{b['bandwidth_hz']:.3g} Hz" for b in systematic["bands"])
+                     + f" (most: {effect} {label}, {100 * most:.0f} % of its error)")
     band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
     lines.append(f"residual RMS per channel{band}, start model -> extended model:")
     for name in CHANNELS:
