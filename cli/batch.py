@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import click
 
-from .options import quiet_option
+from .options import quiet_option, span
 
 
 @dataclass(frozen=True)
@@ -91,7 +91,7 @@ def batch_params(record_plots: bool, chain: bool = False) -> list:
                           "input folder)." + (" Required." if chain else "")),
         click.Option(["--workers"], type=click.IntRange(1, 1024),
                      help="Worker processes [default: the cores]; each loads the kernels once."),
-        click.Option(["--memory-per-worker-mib", "memory_mib"], type=click.FloatRange(64, min_open=False),
+        click.Option(["--memory-per-worker-mib", "memory_mib"], type=span(256.0, 2.0**40),
                      help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
                           "(MemoryError) [default: 80 % of the machine's memory over the workers]."),
         click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
