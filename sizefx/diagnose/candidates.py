@@ -103,21 +103,28 @@ def jacobian_columns(theta: np.ndarray, terms: dict, t: np.ndarray) -> dict:
     return cols
 
 
-def columns_between(theta: np.ndarray, terms: dict, t: np.ndarray):
+def columns_between(theta: np.ndarray, terms, t: np.ndarray):
     """``(lo, hi) -> jacobian_columns`` for the samples ``lo:hi`` only, as
-    :func:`sizefx.diagnose.normal.normal_equations` asks for them chunk by chunk. One sample more on
-    each side feeds the time derivatives, so the columns equal the whole record's exactly."""
+    :func:`sizefx.diagnose.normal.normal_equations` asks for them chunk by chunk. ``terms``: the
+    whole record's (:meth:`sizefx.diagnose.predictor.Predictor.terms`), or a function ``(a, b) ->``
+    the terms of the samples ``a:b`` (:meth:`~sizefx.diagnose.predictor.Predictor.terms_span`: then
+    nothing is held for the whole record). One sample more on each side feeds the time
+    derivatives, so the columns equal the whole record's exactly."""
     n = t.size
 
     def piece(x, a, b):
         return x[a:b] if isinstance(x, np.ndarray) and x.ndim and x.shape[0] == n else x
 
-    def cols(lo, hi):
-        a, b = max(0, lo - 1), min(n, hi + 1)
-        part = {k: (replace(v, **{f.name: piece(getattr(v, f.name), a, b) for f in fields(v)})
+    def sliced(a, b):
+        return {k: (replace(v, **{f.name: piece(getattr(v, f.name), a, b) for f in fields(v)})
                     if is_dataclass(v) and not isinstance(v, type) and k != "params" else v)
                 for k, v in terms.items()}
-        full = jacobian_columns(theta, part, t[a:b])
+
+    terms_of = terms if callable(terms) else sliced
+
+    def cols(lo, hi):
+        a, b = max(0, lo - 1), min(n, hi + 1)
+        full = jacobian_columns(theta, terms_of(a, b), t[a:b])
         return {j: (ch, x[lo - a:lo - a + hi - lo]) for j, (ch, x) in full.items()}
 
     return cols

@@ -20,12 +20,14 @@ to ``dt^4``).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .. import sensor_model as sm
 from ..io.telemetry import Telemetry
-from ..omegadot import savgol
+from ..omegadot import savgol_rows
 from .reference import EDGE_S, MIN_SAMPLES, DiagnoseError, ReferenceMotion, check_record, usable_mask
 from .theta import TAU_A, TAU_R
 
@@ -34,11 +36,17 @@ __all__ = ["Predictor", "predict_readings", "GYRO_DOT_WINDOW_S"]
 #: Span of the Savitzky-Golay gyro derivative [s]: 41 samples at 1600 Hz, 7 at 286 Hz.
 GYRO_DOT_WINDOW_S = 0.025
 #: Memory for the cached reference motion at the time shifts the delays ask for (each pass moves
-#: them a little, and judging an effect evaluates the model without it): as many shifts as fit, at
-#: about 150 bytes per sample each, and at least three (a 51 000-sample BROAD trial keeps 35; a
-#: two-minute 1600 Hz record 9; three million samples 3).
+#: them a little, and judging an effect evaluates the model without it): as many whole-record
+#: shifts as fit, at 144 bytes per sample each, when at least three do (a 51 000-sample BROAD trial
+#: keeps 36; a two-minute 1600 Hz record 9); a record over 620 000 samples caches none and
+#: evaluates the splines span by span instead.
 _CACHE_BYTES = 256 * 2**20
 _MIN_CACHED_SHIFTS = 3
+#: What the reference motion at one shift takes per sample: C_bn (9), w_nb, w_in, f_n (3 each) [bytes].
+_KIN_BYTES_PER_SAMPLE = 18 * 8
+#: Samples beyond the delay's reach on each side of a span for the measured gyros' cubic spline: a
+#: not-a-knot spline's response to a change decays by 2 - sqrt(3) = 0.27 per knot, 1e-36 after 64.
+_SPLINE_MARGIN = 64
 
 
 def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b: np.ndarray,
@@ -92,11 +100,18 @@ def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b:
 class Predictor:
     """Measured record on the IMU samples, and the prediction of it under a model vector.
 
-    ``t`` [n] (s; interval midpoints for increments), ``measured`` [n, 6] (rad/s, m/s^2: gyro
-    x, y, z, accelerometer x, y, z; mean rates for increments), ``mask`` [n] the samples the
-    fit may use (:func:`sizefx.diagnose.reference.usable_mask`). ``breaks_s``: times where the
-    reference is discontinuous (:func:`sizefx.diagnose.integrity.check_reference`); the motion
-    is splined per segment and the samples near each break are left out.
+    ``t`` [n] (s; interval midpoints for increments), ``gyro`` and ``accel`` [n, 3] (rad/s,
+    m/s^2; mean rates for increments), ``mask`` [n] the samples the fit may use
+    (:func:`sizefx.diagnose.reference.usable_mask`). ``breaks_s``: times where the reference is
+    discontinuous (:func:`sizefx.diagnose.integrity.check_reference`); the motion is splined per
+    segment and the samples near each break are left out.
+
+    Bounded memory: besides the record itself the predictor holds nothing per sample but the mask.
+    Everything else is evaluated on a span of samples at a time (:meth:`predict_span`,
+    :meth:`terms_span`, :meth:`measured_span`), and each span gives exactly what the whole record
+    would give there (the derivatives and the gyro's spline get enough samples either side; see
+    ``tests/test_diagnose.py::test_spans_equal_the_whole_record``). :meth:`predict`, :meth:`terms`
+    and :attr:`measured` give the whole record at once (tests, short records).
     """
 
     def __init__(self, tel: Telemetry, breaks_s=()):
@@ -113,57 +128,107 @@ class Predictor:
         self.path = tel.path
         self.dt = dt
         self.t = np.asarray(t, dtype=float)
+        self.n = self.t.size
         self.gyro = np.asarray(gyro, dtype=float)
         self.accel = np.asarray(accel, dtype=float)
-        self.measured = np.hstack([self.gyro, self.accel])
         window = max(5, round(GYRO_DOT_WINDOW_S / dt) // 2 * 2 + 1)
         self.window = window
-        self.gyro_dot = savgol(self.gyro, dt, window=window)
         self.motion = ReferenceMotion(tel, breaks_s=breaks_s)
         self.mask = usable_mask(self.t, tel, window=window, dt=dt, breaks_s=breaks_s)
         if self.mask.sum() < MIN_SAMPLES:
             raise DiagnoseError(f"{tel.path}: only {int(self.mask.sum())} IMU samples lie inside the reference's "
                                 f"span (minus {EDGE_S * 1e3:.0f} ms at ends and gaps); diagnose needs {MIN_SAMPLES}")
-        self._cached_shifts = max(_MIN_CACHED_SHIFTS, _CACHE_BYTES // (150 * max(1, self.t.size)))
+        # the whole record's motion is cached per shift only while three shifts fit in _CACHE_BYTES;
+        # a longer record evaluates the splines span by span (nothing cached, nothing per sample)
+        fits = _CACHE_BYTES // (_KIN_BYTES_PER_SAMPLE * max(1, self.n))
+        self._cached_shifts = fits if fits >= _MIN_CACHED_SHIFTS else 0
         self._kin = {}
-        self._gyro_at = {}
-        self._spline = None
+
+    # ------------------------------------------------------------------ the whole record
+
+    @property
+    def measured(self) -> np.ndarray:
+        """``[n, 6]`` gyro x, y, z (rad/s), accelerometer x, y, z (m/s^2): a new array each time."""
+        return self.measured_span(0, self.n)
+
+    @property
+    def gyro_dot(self) -> np.ndarray:
+        """``[n, 3]`` the gyros' Savitzky-Golay derivative (rad/s^2): a new array each time."""
+        return self._gyro_dot(0, self.n)
 
     def kin(self, shift: float) -> dict:
-        """The reference motion at ``t + shift`` (clipped to the reference's span)."""
-        key = round(shift, 12)
-        if key not in self._kin:
-            if len(self._kin) > self._cached_shifts:
-                self._kin.pop(next(iter(self._kin)))
-            tt = np.clip(self.t + shift, self.motion.t[0], self.motion.t[-1])
-            self._kin[key] = self.motion.evaluate(tt)
-        return self._kin[key]
-
-    def gyro_at(self, shift: float):
-        """Measured rate and its derivative at ``t + shift`` (cubic spline between samples)."""
-        key = round(shift, 12)
-        if key == 0.0:
-            return self.gyro, self.gyro_dot
-        if key not in self._gyro_at:
-            if self._spline is None:
-                self._spline = CubicSpline(self.t, np.hstack([self.gyro, self.gyro_dot]), axis=0)
-            if len(self._gyro_at) > self._cached_shifts:
-                self._gyro_at.pop(next(iter(self._gyro_at)))
-            v = self._spline(np.clip(self.t + shift, self.t[0], self.t[-1]))
-            self._gyro_at[key] = (v[:, :3], v[:, 3:])
-        return self._gyro_at[key]
-
-    def _evaluate(self, th: np.ndarray):
-        w_meas, wd_meas = self.gyro_at(-th[TAU_A])
-        return predict_readings(th, self.kin(th[TAU_R]), self.kin(th[TAU_R] - th[TAU_A]), w_meas, wd_meas)
+        """The reference motion at ``t + shift`` (clipped to the reference's span), whole record."""
+        return self._kin_span(shift, 0, self.n)
 
     def terms(self, th: np.ndarray) -> dict:
-        """The sensor model's intermediate terms at ``th`` (for the Jacobian columns)."""
-        return self._evaluate(th)[1]
+        """The sensor model's intermediate terms at ``th`` (for the Jacobian columns), whole record."""
+        return self.terms_span(th, 0, self.n)
 
     def predict(self, th: np.ndarray) -> np.ndarray:
-        """Predicted ``[n, 6]`` (gyro x, y, z, accel x, y, z) under the model vector ``th``."""
-        out = self._evaluate(th)[0]
-        if self.increments:  # the interval mean: midpoint value + dt^2/24 x'' (exact to dt^4)
-            out += self.dt**2 / 24.0 * np.gradient(np.gradient(out, self.t, axis=0), self.t, axis=0)
-        return out
+        """Predicted ``[n, 6]`` (gyro x, y, z, accel x, y, z) under the model vector ``th``, whole record."""
+        return self.predict_span(th, 0, self.n)
+
+    # ------------------------------------------------------------------ a span of samples
+
+    def measured_span(self, lo: int, hi: int) -> np.ndarray:
+        """Measured ``[hi - lo, 6]`` of the samples ``lo:hi``."""
+        return np.hstack([self.gyro[lo:hi], self.accel[lo:hi]])
+
+    def terms_span(self, th: np.ndarray, lo: int, hi: int) -> dict:
+        """:meth:`terms` of the samples ``lo:hi``."""
+        return self._evaluate(th, lo, hi)[1]
+
+    def predict_span(self, th: np.ndarray, lo: int, hi: int) -> np.ndarray:
+        """:meth:`predict` of the samples ``lo:hi``, equal to the whole record's there."""
+        if not self.increments:
+            return self._evaluate(th, lo, hi)[0]
+        # the interval mean: midpoint value + dt^2/24 x'' (exact to dt^4); two gradients need two
+        # samples more on each side for the span's values to be the whole record's
+        a, b = max(0, lo - 2), min(self.n, hi + 2)
+        out = self._evaluate(th, a, b)[0]
+        t = self.t[a:b]
+        out += self.dt**2 / 24.0 * np.gradient(np.gradient(out, t, axis=0), t, axis=0)
+        return out[lo - a:hi - a]
+
+    def _kin_span(self, shift: float, lo: int, hi: int) -> dict:
+        key = round(shift, 12)
+        if self._cached_shifts:
+            if key not in self._kin:
+                if len(self._kin) >= self._cached_shifts:
+                    self._kin.pop(next(iter(self._kin)))
+                tt = np.clip(self.t + shift, self.motion.t[0], self.motion.t[-1])
+                self._kin[key] = self.motion.evaluate(tt)
+            whole = self._kin[key]
+            return whole if (lo, hi) == (0, self.n) else {k: v[lo:hi] for k, v in whole.items()}
+        return self.motion.evaluate(np.clip(self.t[lo:hi] + shift, self.motion.t[0], self.motion.t[-1]))
+
+    def _gyro_dot(self, lo: int, hi: int) -> np.ndarray:
+        """The Savitzky-Golay derivative of the gyros on ``lo:hi``, from the samples its windows need."""
+        w = self.window
+        a = 0 if lo < w else lo - w
+        b = self.n if hi > self.n - w else hi + w
+        if hi > self.n - w:
+            a = max(0, min(a, self.n - w))
+        if lo < w:
+            b = min(self.n, max(b, w))
+        return savgol_rows(self.gyro[a:b], a, self.n, lo, hi, self.dt, window=w)
+
+    def gyro_at(self, shift: float, lo: int = 0, hi: int | None = None):
+        """Measured rate and its derivative at ``t + shift`` on the samples ``lo:hi`` (cubic spline
+        between samples, through :data:`_SPLINE_MARGIN` samples beyond the shift on either side: the
+        not-a-knot spline of the whole record and of that stretch differ by 0.27 to the power of the
+        margin, nothing in float64)."""
+        hi = self.n if hi is None else hi
+        key = round(shift, 12)
+        if key == 0.0:
+            return self.gyro[lo:hi], self._gyro_dot(lo, hi)
+        reach = math.ceil(abs(key) / self.dt) + _SPLINE_MARGIN
+        a, b = max(0, lo - reach), min(self.n, hi + reach)
+        spline = CubicSpline(self.t[a:b], np.hstack([self.gyro[a:b], self._gyro_dot(a, b)]), axis=0)
+        v = spline(np.clip(self.t[lo:hi] + shift, self.t[0], self.t[-1]))
+        return v[:, :3], v[:, 3:]
+
+    def _evaluate(self, th: np.ndarray, lo: int, hi: int):
+        w_meas, wd_meas = self.gyro_at(-th[TAU_A], lo, hi)
+        return predict_readings(th, self._kin_span(th[TAU_R], lo, hi), self._kin_span(th[TAU_R] - th[TAU_A], lo, hi),
+                                w_meas, wd_meas)
