@@ -16,6 +16,7 @@ with the cross-spectrum of the measured and the predicted readings (see its docs
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -114,7 +115,8 @@ def _segments(mask: np.ndarray, nperseg: int) -> np.ndarray:
 
 
 def _spectra(measured, predicted, mask, fs_hz):
-    """Welch auto- and cross-spectra of measured and predicted [n, 6] over usable segments.
+    """Welch auto- and cross-spectra of measured and predicted over usable segments: each a function
+    ``(lo, hi) ->`` the samples ``lo:hi`` [hi - lo, 6], asked for one batch of segments at a time.
 
     Returns ``f`` [nf] (Hz), ``p_mm``, ``p_pp`` [nf, 6] ((unit)^2/Hz) and ``p_mp`` [nf, 6]
     (complex), or None when the record has fewer than :data:`MIN_SEGMENTS` segments of
@@ -137,10 +139,12 @@ def _spectra(measured, predicted, mask, fs_hz):
     p_mp = np.zeros((nf, 6), dtype=complex)
     chunk = max(1, (1 << 22) // (nperseg * 6))  # segments per batch: ~32 MB of float64 at a time
     for i in range(0, starts.size, chunk):
-        idx = starts[i:i + chunk, None] + np.arange(nperseg)
+        first = int(starts[i])
+        idx = starts[i:i + chunk, None] - first + np.arange(nperseg)
+        stop = first + int(idx[-1, -1]) + 1
         spec = []
         for x in (measured, predicted):
-            seg = x[idx]  # [s, nperseg, 6]
+            seg = x(first, stop)[idx]  # [s, nperseg, 6]
             seg = seg - seg.mean(axis=1, keepdims=True)
             seg = seg - np.einsum("snc,n->sc", seg, k)[:, None, :] / float(k @ k) * k[None, :, None]
             spec.append(np.fft.rfft(seg * window[None, :, None], axis=1))
@@ -151,6 +155,10 @@ def _spectra(measured, predicted, mask, fs_hz):
     norm = scale / starts.size
     f = np.fft.rfftfreq(nperseg, 1.0 / fs_hz)
     return f, p_mm * norm, p_pp * norm, p_mp * norm
+
+
+def _between(x, lo, hi):
+    return x[lo:hi]
 
 
 def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
@@ -180,17 +188,26 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
     ----------
     t_s : [n] sample times (s), used only for the record's span in the reason.
     measured, predicted : [n, 6] gyro x, y, z (rad/s), accelerometer x, y, z (m/s^2), body axes
-        (:data:`sizefx.diagnose.theta.CHANNELS`); ``predicted`` from the start model.
-    mask : [n] bool, the usable samples (:class:`sizefx.diagnose.Predictor` ``.mask``).
+        (:data:`sizefx.diagnose.theta.CHANNELS`); ``predicted`` from the start model. Or each a
+        function ``(lo, hi) ->`` the samples ``lo:hi``, asked for a batch of segments at a time
+        (bounded memory); then ``mask`` must already leave out samples that are not finite.
+    mask : [n] bool, the usable samples (:class:`sizefx.diagnose.Predictor` ``.mask``); samples where
+        ``measured`` or ``predicted`` (arrays) are not finite are left out too.
     dt_s : the sample period (s).
 
     Assumptions: uniform sampling at ``dt_s`` (diagnose's records are); the reference's noise is
     independent of the IMU's; the start model is close (a prediction that is wrong by a fraction
     ``a`` of the motion looks like reference noise of ``a^2`` of it, far below the threshold).
     """
-    measured = np.asarray(measured, dtype=float)
-    predicted = np.asarray(predicted, dtype=float)
-    mask = np.asarray(mask, dtype=bool) & np.isfinite(measured).all(axis=1) & np.isfinite(predicted).all(axis=1)
+    mask = np.asarray(mask, dtype=bool)
+    if not callable(measured):
+        measured = np.asarray(measured, dtype=float)
+        mask = mask & np.isfinite(measured).all(axis=1)
+        measured = functools.partial(_between, measured)
+    if not callable(predicted):
+        predicted = np.asarray(predicted, dtype=float)
+        mask = mask & np.isfinite(predicted).all(axis=1)
+        predicted = functools.partial(_between, predicted)
     fs_hz = 1.0 / float(dt_s)
     nyquist_hz = 0.5 * fs_hz
     names = list(CHANNELS)

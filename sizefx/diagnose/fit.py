@@ -28,6 +28,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -43,7 +44,7 @@ from .candidates import CANDIDATES, PRIORITY, columns_between
 from .consistency import block_consistency, motion_groups
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
-from .normal import Rows, block_means, covariance, huber_weights, normal_equations, solve
+from .normal import CHUNK_SAMPLES, Rows, block_means, covariance, huber_weights, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
 from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, robust_p, select
@@ -91,7 +92,8 @@ class Diagnosis:
     passes: int
     log: list
     wall_s: float
-    residual_before: np.ndarray | None = None  #: [n, 6]
+    #: [n, 6] float32 (SI): measured minus predicted per sample, kept for the plots (``keep_series``)
+    residual_before: np.ndarray | None = None
     residual_after: np.ndarray | None = None
     t: np.ndarray | None = None
     mask: np.ndarray | None = None
@@ -119,7 +121,7 @@ class Diagnosis:
 # --------------------------------------------------------------------------- noise and weights
 
 
-def _noise(rows_of: Rows, res, robust: bool):
+def _noise(rows_of: Rows, rows, robust: bool):
     """Per channel: sigma (1.4826 MAD) and kappa (variance inflation of block means); per row: Huber
     weights (all 1 unless ``robust``).
 
@@ -127,7 +129,6 @@ def _noise(rows_of: Rows, res, robust: bool):
     the weights ``1 / (sigma^2 kappa)`` then count a coloured channel as fewer samples. Rows beyond
     Huber's constant are clipped before kappa is measured, so that a glitch does not pass for colour.
     """
-    rows = rows_of(res)
     r = rows[rows_of.keep]
     med = np.median(r, axis=0)
     sigma = np.maximum(1.4826 * np.median(np.abs(r - med), axis=0), 1e-300)
@@ -143,13 +144,51 @@ def _noise(rows_of: Rows, res, robust: bool):
     return sigma, kappa, weights
 
 
-def _rms(rows_of: Rows, res):
-    return np.sqrt(np.mean(rows_of(res)[rows_of.keep] ** 2, axis=0))
+def _rms(rows_of: Rows, rows):
+    return np.sqrt(np.mean(rows[rows_of.keep] ** 2, axis=0))
 
 
-def _white(rows_of: Rows, res):
+def _white(rows_of: Rows, rows):
     """Per channel: the rows' sample-to-sample noise, sqrt(mean(diff^2) / 2)."""
-    return np.sqrt(np.mean(np.diff(rows_of(res)[rows_of.keep], axis=0) ** 2, axis=0) / 2.0)
+    return np.sqrt(np.mean(np.diff(rows[rows_of.keep], axis=0) ** 2, axis=0) / 2.0)
+
+
+# --------------------------------------------------------------------------- the residual, span by span
+
+
+@dataclass
+class _Residual:
+    """Measured minus predicted under one model vector, as the fit holds it: its rows, and what the
+    report needs of the samples themselves (nothing else per sample is kept)."""
+
+    rows: np.ndarray | None  #: [m, 6] the rows of :class:`Rows` (SI), or None before the rows are known
+    ms_full: np.ndarray  #: [6] mean square over the usable samples, full band (SI^2)
+    series: np.ndarray | None = None  #: [n, 6] float32, for the plots only
+
+
+def _residual(pred: Predictor, rows_of: Rows | None, theta, *, series: bool = False) -> _Residual:
+    """The residual under ``theta``, span by span (:meth:`Rows.spans`): each span's prediction is
+    formed, reduced to its rows and its sums of squares, and dropped. ``rows_of`` None: the full-band
+    sums only. ``series``: keep the residual per sample in float32 (for the plots: 7 significant
+    digits of a residual drawn at 0.1 s means and as a spectrum, against 48 bytes per sample)."""
+    n = pred.n
+    rows = None if rows_of is None else np.zeros((rows_of.t.size, 6))
+    out = np.empty((n, 6), dtype=np.float32) if series else None
+    sumsq = np.zeros(6)
+    spans = rows_of.spans() if rows_of is not None else [(lo, min(n, lo + CHUNK_SAMPLES))
+                                                          for lo in range(0, n, CHUNK_SAMPLES)]
+    L = 1 if rows_of is None else rows_of.L
+    for lo, hi in spans:
+        a, b = (lo, hi) if rows_of is None else rows_of.extended(lo, hi)
+        res = pred.measured_span(a, b) - pred.predict_span(theta, a, b)
+        inner = res[lo - a:hi - a]
+        sumsq += np.sum(inner[pred.mask[lo:hi]] ** 2, axis=0)
+        if out is not None:
+            out[lo:hi] = inner
+        if rows is not None:
+            r = rows_of.span_rows(res, a, lo, hi)
+            rows[lo // L:lo // L + r.shape[0]] = r
+    return _Residual(rows, sumsq / max(1, int(pred.mask.sum())), out)
 
 
 # --------------------------------------------------------------------------- the Gauss-Newton loop
@@ -160,23 +199,27 @@ class _State:
     theta: np.ndarray
     chosen: list
     unrevealed: dict
-    residual: np.ndarray
+    residual: np.ndarray  #: [m, 6] the rows of the residual at theta
     nrm: object
     sigma_c: np.ndarray
     kappa: np.ndarray
     passes: int
+    ms_full: np.ndarray  #: [6] the residual's full-band mean square over the usable samples
 
 
 def _free(chosen):
     return np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
 
 
-def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None) -> _State:
+def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None,
+             start=None) -> _State:
     """Gauss-Newton from ``theta`` with the selection redone each pass (or ``fixed``), until the
     selection and the estimates settle. Returns the final state with the normal equations at the
-    final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since)."""
-    residual = pred.measured - pred.predict(theta)
-    first = rows_of(residual)[rows_of.keep]  # white-noise sigma from first differences to start
+    final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since).
+    ``start``: the residual's rows at ``theta``, when already known. The residual is held as rows
+    (``_State.residual``), the regressors are formed span by span."""
+    residual = _residual(pred, rows_of, theta).rows if start is None else start
+    first = residual[rows_of.keep]  # white-noise sigma from first differences to start
     sigma_c = np.maximum(np.sqrt(np.mean(np.diff(first, axis=0) ** 2, axis=0) / 2.0), 1e-300)
     kappa, row_w = np.ones(6), None
     history = []
@@ -185,7 +228,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
     # a refit with the selection fixed starts where the last one ended, with a few parameters reset:
     # it settles in two passes, three at most
     for passes in range(1, (MAX_PASSES if fixed is None else REFIT_PASSES) + 1):
-        cols = columns_between(theta, pred.terms(theta), pred.t)  # formed chunk by chunk
+        cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)  # span by span
         weights = 1.0 / (sigma_c**2 * kappa)
         nrm = normal_equations(rows_of, residual, cols, weights, row_w)
         offset = theta0 - theta  # a parameter not selected stays at its nominal value
@@ -200,7 +243,8 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
         sig = np.sqrt(np.abs(np.diag(cov))) if free.size else np.zeros(0)
         step = float(np.max(np.abs(x) / np.maximum(sig, 1e-300))) if free.size else 0.0
         theta = new
-        residual = pred.measured - pred.predict(theta)
+        final = _residual(pred, rows_of, theta)
+        residual = final.rows
         sigma_c, kappa, row_w = _noise(rows_of, residual, robust=True)
         history.append(tuple(sorted(c.cand.key for c in chosen)))
         if progress is not None:
@@ -209,7 +253,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
             break
     weights = 1.0 / (sigma_c**2 * kappa)
     nrm = normal_equations(rows_of, residual, cols, weights, row_w)
-    return _State(theta, chosen, unrevealed, residual, nrm, sigma_c, kappa, passes)
+    return _State(theta, chosen, unrevealed, residual, nrm, sigma_c, kappa, passes, final.ms_full)
 
 
 # --------------------------------------------------------------------------- judging the selection
@@ -236,8 +280,9 @@ def _errors(pred: Predictor, state: _State, theta0):
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
     parts, by_time = block_consistency(nrm, free, offset, sig, sig_white)
     cuts = [by_time]
-    for split, stat in (("rate", np.sum(pred.gyro**2, axis=1)),
-                        ("translation", np.abs(np.linalg.norm(pred.accel, axis=1) - STANDARD_GRAVITY_MPS2))):
+    for split, stat in (("rate", _per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
+                        ("translation", _per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1)
+                                                                                - STANDARD_GRAVITY_MPS2)))):
         cuts.append(block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat),
                                       split=split)[1])
     factors, entries = {}, {}
@@ -276,7 +321,7 @@ def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_
     free = _free(state.chosen)
     offset = theta0 - state.theta
     var0 = np.abs(np.diag(cov_free))
-    cols = columns_between(state.theta, pred.terms(state.theta), pred.t)
+    cols = columns_between(state.theta, functools.partial(pred.terms_span, state.theta), pred.t)  # span by span
     nyquist = 0.5 / pred.dt
     sys_cov = np.zeros((free.size, free.size))
     bands = []
@@ -285,8 +330,9 @@ def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_
         if band >= 0.8 * nyquist:
             continue
         rows_b = Rows(pred.t, pred.mask, pred.dt, band)
-        sigma_c, kappa, row_w = _noise(rows_b, state.residual, robust=True)
-        nrm = normal_equations(rows_b, state.residual, cols, 1.0 / (sigma_c**2 * kappa), row_w)
+        residual_b = _residual(pred, rows_b, state.theta).rows  # the final residual's rows in this band
+        sigma_c, kappa, row_w = _noise(rows_b, residual_b, robust=True)
+        nrm = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w)
         _, white, robust = covariance(nrm, free, offset)
         var_b = np.abs(np.diag(honest(white, robust)))
         chosen, _, _ = select(nrm, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)))
@@ -309,13 +355,23 @@ def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_
     return sys_cov / len(bands), bands
 
 
+def _per_sample(pred: Predictor, stat) -> np.ndarray:
+    """``stat(lo, hi) -> [hi - lo]`` for every sample, span by span (8 bytes per sample, no temporaries
+    of the record's length)."""
+    out = np.empty(pred.n)
+    for lo in range(0, pred.n, CHUNK_SAMPLES):
+        hi = min(pred.n, lo + CHUNK_SAMPLES)
+        out[lo:hi] = stat(lo, hi)
+    return out
+
+
 def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
-    """The residual without effect ``c`` and the channels it acts on: where its contribution, in units
+    """The residual's rows without effect ``c`` and the channels it acts on: where its contribution, in units
     of each channel's noise, is at least a tenth of its largest (the tilt acts on the gyros too,
     through Earth rate, but 1e5 times less)."""
     without = theta.copy()
     without[list(c.active)] = theta0[list(c.active)]
-    r_wo = pred.measured - pred.predict(without)
+    r_wo = _residual(pred, rows_of, without).rows
     size = _rms(rows_of, r_wo - residual) / sigma_c
     chans = np.flatnonzero(size >= 0.1 * size.max()) if size.max() > 0 else np.arange(6)
     return r_wo, chans
@@ -363,23 +419,27 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                                     "segment alone with --from-s/--to-s"})
     pred = Predictor(without_bad_rows(tel, check), breaks_s=check.breaks_s)
     theta0 = np.asarray(theta_nominal, dtype=float).copy()
-    residual_before = pred.measured - pred.predict(theta0)
     if bandwidth_hz is not None:
         band_reason = f"given: {bandwidth_hz:g} Hz"
     elif auto_bandwidth:
-        band = choose_bandwidth(pred.t, pred.measured, pred.measured - residual_before, pred.mask, pred.dt)
+        finite = _per_sample(pred, lambda lo, hi: np.isfinite(pred.measured_span(lo, hi)).all(axis=1)
+                             & np.isfinite(pred.predict_span(theta0, lo, hi)).all(axis=1)) > 0.0
+        band = choose_bandwidth(pred.t, pred.measured_span, functools.partial(_predicted, pred, theta0),
+                                pred.mask & finite, pred.dt)
         bandwidth_hz, band_reason = band.bandwidth_hz, band.reason
+        del finite
     else:
         band_reason = "full band (not measured)"
     rows_of = Rows(pred.t, pred.mask, pred.dt, bandwidth_hz)
+    before = _residual(pred, rows_of, theta0, series=keep_series)
     log: list = []
-    state = _iterate(pred, rows_of, theta0, theta0.copy(), log, progress=progress)
+    state = _iterate(pred, rows_of, theta0, theta0.copy(), log, progress=progress, start=before.rows)
     if progress is not None and state.passes < MAX_PASSES:
         progress(MAX_PASSES, MAX_PASSES)
     unrevealed = state.unrevealed
     white_rows = _white(rows_of, state.residual)
     if grade is None:
-        grade, grade_reason = infer_grade(noise_density(pred.measured, pred.mask, pred.dt))
+        grade, grade_reason = infer_grade(noise_density(pred.measured_span, pred.mask, pred.dt))
     else:
         grade_reason = f"grade {grade}, as given"
     rejected, aliased = [], []
@@ -489,17 +549,18 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                           "reason": f"indistinguishable from {other} on this motion (canonical correlation "
                                     f"{rho:.4f}); the extended model carries it as {c.cand.key}"})
     structure = _structure(pred, rows_of, residual, white_rows, theta)
-    rms_b, rms_a = _rms(rows_of, residual_before), _rms(rows_of, residual)
+    series_after = _residual(pred, None, theta, series=True).series if keep_series else None  # for the plots
+    rms_b, rms_a = _rms(rows_of, before.rows), _rms(rows_of, residual)
     return Diagnosis(
         path=str(tel.path), effects=effects, unrevealed=unrev,
         rms_before=dict(zip(CHANNELS, rms_b.tolist())), rms_after=dict(zip(CHANNELS, rms_a.tolist())),
         theta_nominal=theta0, theta=theta, sigma_theta=sig, samples=int(pred.mask.sum()), block=rows_of.L,
         bandwidth_hz=bandwidth_hz, white_sigma=dict(zip(CHANNELS, white_rows.tolist())),
-        rms_full_before=dict(zip(CHANNELS, np.sqrt(np.mean(residual_before[pred.mask] ** 2, axis=0)).tolist())),
-        rms_full_after=dict(zip(CHANNELS, np.sqrt(np.mean(residual[pred.mask] ** 2, axis=0)).tolist())),
+        rms_full_before=dict(zip(CHANNELS, np.sqrt(before.ms_full).tolist())),
+        rms_full_after=dict(zip(CHANNELS, np.sqrt(state.ms_full).tolist())),
         weights_sigma=state.sigma_c, kappa=state.kappa, passes=state.passes, log=log,
         wall_s=time.perf_counter() - started,
-        residual_before=residual_before if keep_series else None, residual_after=residual if keep_series else None,
+        residual_before=before.series, residual_after=series_after,
         t=pred.t if keep_series else None, mask=pred.mask if keep_series else None,
         warnings=warnings, rejected=rejected, unexplained=structure,
         consistency={"parts": parts, "block_s": nrm.block_s,
@@ -518,18 +579,35 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     the reference point under the extended model, :func:`sizefx.diagnose.predictor.predict_readings`'
     ``at_gyro``), never the measured readings nor the predicted accelerometers (whose lever terms use
     the measured gyros): the residual carries the IMU's noise, and regressed on anything that carries
-    it too, it would "follow" it by construction."""
-    at = pred.terms(theta)["at_gyro"]
-    w, f = at.omega_ib_b, at.f_b
-    wd = np.gradient(w, pred.t, axis=0)
-    series = {**{f"omega_{a}": w[:, i] for i, a in enumerate("xyz")},
-              "omega_sq": np.sum(w**2, axis=1),
-              **{f"omegadot_{a}": wd[:, i] for i, a in enumerate("xyz")},
-              **{f"f_{a}": f[:, i] for i, a in enumerate("xyz")}}
-    regressors = {k: rows_of(v) for k, v in series.items()}
+    it too, it would "follow" it by construction. They are formed span by span, as rows
+    (``residual``: the rows of the final residual)."""
+    names = ([f"omega_{a}" for a in "xyz"] + ["omega_sq"] + [f"omegadot_{a}" for a in "xyz"]
+             + [f"f_{a}" for a in "xyz"])
+    rows = np.zeros((rows_of.t.size, len(names)))
+    n, L = pred.n, rows_of.L
+    for lo, hi in rows_of.spans():
+        a, b = rows_of.extended(lo, hi)
+        ga, gb = max(0, a - 1), min(n, b + 1)  # one sample more each side for the rate's gradient
+        at = pred.terms_span(theta, ga, gb)["at_gyro"]
+        w, f = at.omega_ib_b, at.f_b
+        wd = np.gradient(w, pred.t[ga:gb], axis=0)
+        x = np.column_stack([w, np.sum(w**2, axis=1), wd, f])[a - ga:b - ga]
+        r = rows_of.span_rows(x, a, lo, hi)
+        rows[lo // L:lo // L + r.shape[0]] = r
+    regressors = {k: rows[:, i] for i, k in enumerate(names)}
     # with a low-pass, the reference's rising noise times the filter's falling response makes a bump
     # near the cut-off that is no line: lines are looked for only where the filter passes
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
-    return unexplained_structure(rows_of.t, rows_of(residual), rows_of.keep, regressors, white_rows,
+    return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows,
                                  max_line_hz=max_line_hz)
+
+
+def _predicted(pred: Predictor, theta, lo: int, hi: int) -> np.ndarray:
+    """The prediction ``[hi - lo, 6]`` under ``theta`` of the samples ``lo:hi``, formed
+    :data:`CHUNK_SAMPLES` at a time (its terms take about 1 kB per sample; the result 48 bytes)."""
+    out = np.empty((hi - lo, 6))
+    for a in range(lo, hi, CHUNK_SAMPLES):
+        b = min(hi, a + CHUNK_SAMPLES)
+        out[a - lo:b - lo] = pred.predict_span(theta, a, b)
+    return out

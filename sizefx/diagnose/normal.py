@@ -32,7 +32,7 @@ from .theta import NP, PARAMS
 
 __all__ = ["Normal", "Rows", "block_length_s", "block_means", "canonical_correlation", "covariance", "cv_error",
            "excitation", "huber_weights", "normal_equations", "solve", "wald",
-           "CHUNK_SAMPLES", "FOLDS", "MAX_ROWS", "TARGET_BLOCKS", "MIN_BLOCK_S", "HUBER_K"]
+           "CHUNK_SAMPLES", "FILTER_SETTLE", "FOLDS", "MAX_ROWS", "TARGET_BLOCKS", "MIN_BLOCK_S", "HUBER_K"]
 
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
 #: by sample; longer records are averaged in blocks (y and regressors alike, so the model stays exact).
@@ -44,10 +44,14 @@ FOLDS = 5
 #: diagnosis frees. Never shorter than :data:`MIN_BLOCK_S`: scores must decorrelate within a block.
 TARGET_BLOCKS = 100
 MIN_BLOCK_S = 0.25
-#: Samples whose regressors are formed at once: the Jacobian columns take about 650 bytes per
-#: sample, so a chunk holds about 20 MiB of them whatever the record's length (with a bandwidth, the
-#: low-pass needs the whole series and there is one chunk).
+#: Samples whose regressors and prediction are formed at once: the Jacobian columns take about
+#: 650 bytes per sample and the sensor model's terms 400, so a chunk holds about 35 MiB whatever the
+#: record's length (with a bandwidth, plus the low-pass's margins: :meth:`Rows.spans`).
 CHUNK_SAMPLES = 32_768
+#: What the low-pass's start-up transient may leave at a span's edge, relative to the signal: the
+#: spans' rows then equal the whole series' to rounding (its slowest pole to the power of
+#: :attr:`Rows.margin`; 2800 samples at 10 Hz in a 1600 Hz record).
+FILTER_SETTLE = 1e-18
 #: Huber's constant in units of the channel's robust sigma: 3 leaves Gaussian rows untouched
 #: (0.3 % of them are down-weighted, by at most a few percent) and caps a glitch's pull.
 HUBER_K = 3.0
@@ -75,13 +79,21 @@ class Rows:
     model exact (``F y = (F H) theta + F e``); it is what a reference differentiated from
     noisy motion capture needs, whose noise grows with frequency. Unusable samples are set
     to zero before filtering and their neighbourhood (three periods of the cut-off) is left out.
+
+    Span by span (:meth:`spans`, :meth:`extended`, :meth:`span_rows`): the rows of the samples
+    ``lo:hi`` from the samples :meth:`extended` gives, equal to the whole series' rows there. Block
+    means need nothing beyond the span; the low-pass needs :attr:`margin` samples on either side,
+    where its start-up transient (the filter's slowest pole, to the power of the margin) has fallen
+    below :data:`FILTER_SETTLE`. Only the rows, at most :data:`MAX_ROWS` of them, are ever held.
     """
 
     def __init__(self, t, mask, dt, bandwidth_hz=None):
         n = t.size
+        self.n = n
         self.bandwidth_hz = bandwidth_hz
+        self.margin = 0
         if bandwidth_hz is not None:
-            from scipy.signal import butter
+            from scipy.signal import butter, sos2zpk
 
             nyquist = 0.5 / dt
             if not 0.0 < bandwidth_hz < 0.8 * nyquist:
@@ -90,10 +102,15 @@ class Rows:
             self.sos = butter(4, bandwidth_hz / nyquist, output="sos")
             self.L = max(1, math.floor(1.0 / (2.5 * bandwidth_hz * dt)), math.ceil(n / MAX_ROWS))
             pad = max(1, round(3.0 / (bandwidth_hz * dt)))
-            bad = np.convolve((~mask).astype(float), np.ones(2 * pad + 1), mode="same") > 0
+            # bad[i]: an unusable sample within pad of i (a running window over the mask, at the rows only)
+            unusable = np.concatenate([[0], np.cumsum(~np.asarray(mask, dtype=bool))])
+            at = np.arange(0, n, self.L)
+            bad = unusable[np.minimum(n, at + pad + 1)] - unusable[np.maximum(0, at - pad)] > 0
             self.mask = mask
-            keep = ~bad[::self.L]
+            keep = ~bad
             self.t = t[::self.L]
+            radius = float(np.max(np.abs(sos2zpk(self.sos)[1])))
+            self.margin = min(n, math.ceil(math.log(FILTER_SETTLE) / math.log(radius)))
         else:
             self.L = max(1, math.ceil(n / MAX_ROWS))
             self.mask = mask
@@ -102,10 +119,28 @@ class Rows:
         self.keep = keep
         self.dt = dt * self.L
 
-    def chunk(self, x):
-        """Rows of the samples ``x`` of one chunk starting at a multiple of ``L`` (block means; with a
-        bandwidth, only the whole series is a chunk)."""
-        return self(x) if self.bandwidth_hz is not None or self.L == 1 else block_means(x, self.L)
+    def spans(self, step: int = None) -> list:
+        """``[(lo, hi)]``: consecutive spans of about ``step`` samples (:data:`CHUNK_SAMPLES`; with a
+        low-pass at least four margins, so that the margins cost at most half again) covering the
+        record, each starting at a multiple of ``L``."""
+        step = max(CHUNK_SAMPLES if step is None else step, 4 * self.margin)
+        step = max(1, step // self.L) * self.L
+        return [(lo, min(self.n, lo + step)) for lo in range(0, self.n, step)]
+
+    def extended(self, lo: int, hi: int) -> tuple:
+        """The samples ``[a, b)`` :meth:`span_rows` needs for the rows of ``lo:hi``."""
+        return max(0, lo - self.margin), min(self.n, hi + self.margin)
+
+    def span_rows(self, x, a: int, lo: int, hi: int):
+        """Rows of the samples ``lo:hi`` (starting at a multiple of ``L``) from ``x`` [b - a, ...], the
+        samples :meth:`extended` gives; they are the rows ``lo // L`` on of the whole series."""
+        if self.bandwidth_hz is None:
+            return block_means(x[lo - a:hi - a], self.L) if self.L > 1 else x[lo - a:hi - a]
+        from scipy.signal import sosfiltfilt
+
+        b = a + x.shape[0]
+        x = np.where(self.mask[a:b].reshape(-1, *([1] * (x.ndim - 1))), x, 0.0)
+        return sosfiltfilt(self.sos, x, axis=0)[lo - a:hi - a:self.L]
 
     def __call__(self, x):
         """Rows ``[m, ...]`` of a per-sample series ``x [n, ...]`` (all rows; index with ``keep``)."""
@@ -152,13 +187,14 @@ def huber_weights(u: np.ndarray, k: float = HUBER_K) -> np.ndarray:
 
 
 def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Normal:
-    """The weighted normal equations of the residual ``y`` [n, 6] on the Jacobian columns ``cols``
+    """The weighted normal equations of the residual on the Jacobian columns ``cols``
     (:func:`sizefx.diagnose.candidates.jacobian_columns`), one set per block; ``weights`` [6] per
     channel, ``row_weights`` [m, 6] per row of :class:`Rows` (robust weights; None: all 1).
 
-    ``cols`` is the columns' dict for all samples, or a function ``(lo, hi) -> dict`` for the samples
-    ``lo:hi``, called chunk by chunk (:data:`CHUNK_SAMPLES`) so that only one chunk of regressors
-    is held at a time."""
+    ``y``: the residual's rows ``[m, 6]`` (``rows_of``'s, all of them: ``rows_of(residual)`` of a
+    per-sample residual, or built span by span). ``cols`` is the columns' dict for all samples, or a function
+    ``(lo, hi) -> dict`` for the samples ``lo:hi``, called span by span (:meth:`Rows.spans`) so that
+    only one span of regressors is held at a time."""
     keep = rows_of.keep
     rows = np.flatnonzero(keep)
     t = rows_of.t[rows]
@@ -170,7 +206,7 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
     full = np.flatnonzero(np.diff(edges) > 0)  # blocks inside a gap hold no rows: not blocks at all
     edges = np.append(edges[full], edges[full[-1] + 1]) if full.size else edges[:2]
     B = max(1, edges.size - 1)
-    yb = rows_of(y)[rows]
+    yb = np.asarray(y)[rows]
     rw = np.ones_like(yb) if row_weights is None else np.asarray(row_weights)[rows]
     block_of = np.repeat(np.arange(B), np.diff(edges))  # block of each kept row
     sumsq = np.zeros(NP)
@@ -178,17 +214,14 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
     N = np.zeros((B, NP, NP))
     b = np.zeros((B, NP))
     yy = np.zeros(B)
-    n, L = rows_of.mask.size, rows_of.L
-    if callable(cols) and rows_of.bandwidth_hz is None:  # a filter needs the whole series; block means do not
-        step = max(1, CHUNK_SAMPLES // L) * L
-        spans = [(lo, min(n, lo + step)) for lo in range(0, n, step)]
-    else:
-        spans = [(0, n)]
-    for lo, hi in spans:
-        cc = cols(lo, hi) if callable(cols) else cols
+    L = rows_of.L
+    cols_of = cols if callable(cols) else (lambda lo, hi: {j: (ch, x[lo:hi]) for j, (ch, x) in cols.items()})
+    for lo, hi in rows_of.spans():
         a, z = np.searchsorted(rows, [lo // L, -(-hi // L)])  # the kept rows inside [lo, hi)
         if z <= a:
             continue
+        ea, eb = rows_of.extended(lo, hi)
+        cc = cols_of(ea, eb)
         local = rows[a:z] - lo // L
         bl = block_of[a:z]
         ks = np.arange(bl[0], bl[-1] + 1)  # every block between holds rows here: blocks are contiguous
@@ -197,7 +230,8 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
             js = [j for j in range(NP) if c in cc[j][0]]
             if not js:
                 continue
-            H = rows_of.chunk(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]))[local]
+            H = rows_of.span_rows(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]),
+                                  ea, lo, hi)[local]
             for k, j in enumerate(js):
                 if not PARAMS[j].primary or c in PARAMS[j].primary:
                     sumsq[j] += H[:, k] @ H[:, k]
