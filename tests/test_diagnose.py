@@ -576,3 +576,34 @@ def test_cli_grade_option_sets_the_ranges_and_is_reported(tumble_file, tmp_path)
     assert "grade tactical, as given" in result.output
     bad = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--grade", "consumer"])
     assert bad.exit_code == 2 and "--grade" in bad.output
+
+
+def test_long_rotation_spline_equals_one_spline(monkeypatch):
+    """A reference splined in overlapping stretches (bounded memory) gives the one spline's attitude and
+    rates. Tolerances: 1e-9 rad/s on rates up to ~1 rad/s, RotationSpline's own iterative-solve tolerance
+    (TOL 1e-9, relative); 1e-12 rad in attitude (the end conditions' pull is 0.27^64 at a stretch's edge)."""
+    from scipy.spatial.transform import Rotation, RotationSpline
+
+    from sizefx.diagnose import reference
+
+    t = np.sort(np.random.default_rng(4).uniform(0.0, 60.0, 3000))
+    rot = Rotation.from_euler("zyx", np.column_stack([np.sin(0.7 * t), 0.5 * np.sin(1.1 * t + 1), 0.3 * np.cos(2.3 * t)]))
+    monkeypatch.setattr(reference, "SPLINE_ROWS", 1000)
+    monkeypatch.setattr(reference, "SPLINE_PIECE_ROWS", 700)
+    long = reference._LongRotationSpline(t, rot)
+    assert len(long._parts) == 5
+    one = RotationSpline(t, rot)
+    s = np.linspace(t[0], t[-1], 20_001)
+    assert np.abs(long(s, 1) - one(s, 1)).max() < 1e-9
+    assert (long(s) * one(s).inv()).magnitude().max() < 1e-12
+
+
+def test_running_median_in_pieces_is_the_median_of_every_window(monkeypatch):
+    from sizefx.diagnose import integrity
+
+    x = np.random.default_rng(6).standard_normal((5_000, 3))
+    whole = np.median(np.lib.stride_tricks.sliding_window_view(x, 31, axis=0), axis=-1)
+    monkeypatch.setattr(integrity, "_MEDIAN_WINDOWS", 777)
+    assert np.array_equal(integrity._running_median(x, 31), whole)
+    assert np.array_equal(integrity._running_median(x[:, 0], 25),
+                          np.median(np.lib.stride_tricks.sliding_window_view(x[:, 0], 25), axis=-1))

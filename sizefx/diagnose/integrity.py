@@ -190,7 +190,7 @@ def _timing(rt: np.ndarray) -> list[dict]:
                             "it are masked"))
     if steps.size < 2 * RATE_WINDOW_ROWS:
         return out
-    level = np.median(np.lib.stride_tricks.sliding_window_view(steps, RATE_WINDOW_ROWS), axis=1)
+    level = _running_median(steps, RATE_WINDOW_ROWS)
     # a change: the running median moves by more than the tolerance from one window to the next, and
     # stays (compare the windows before and after, which do not overlap)
     before, after = level[:-RATE_WINDOW_ROWS], level[RATE_WINDOW_ROWS:]
@@ -361,6 +361,23 @@ def _velocity_mismatch(tel, rt, mat_nb, imu):
 # --------------------------------------------------------------------------- glitch or discontinuity
 
 
+#: Windows whose median is taken at once by :func:`_running_median`: np.median copies its windows
+#: (the window's length times the series' size), so a million steps take 64 MiB at most, not 1.5 GB.
+_MEDIAN_WINDOWS = 2**16
+
+
+def _running_median(x: np.ndarray, window: int) -> np.ndarray:
+    """Medians of every ``window`` consecutive rows of ``x`` [n, ...] along axis 0 ([n - window + 1, ...]),
+    :data:`_MEDIAN_WINDOWS` windows at a time (each window's median is its own: the same numbers)."""
+    count = x.shape[0] - window + 1
+    out = np.empty((max(0, count), *x.shape[1:]))
+    for lo in range(0, count, _MEDIAN_WINDOWS):
+        hi = min(count, lo + _MEDIAN_WINDOWS)
+        out[lo:hi] = np.median(np.lib.stride_tricks.sliding_window_view(x[lo:hi + window - 1], window, axis=0),
+                               axis=-1)
+    return out
+
+
 def _high_pass(e: np.ndarray) -> np.ndarray:
     """The mismatch minus its running median over :data:`RUNNING_MEDIAN_STEPS` steps (per axis).
 
@@ -372,7 +389,7 @@ def _high_pass(e: np.ndarray) -> np.ndarray:
         return e
     half = RUNNING_MEDIAN_STEPS // 2
     padded = np.concatenate([np.repeat(e[:1], half, axis=0), e, np.repeat(e[-1:], half, axis=0)])
-    med = np.median(np.lib.stride_tricks.sliding_window_view(padded, RUNNING_MEDIAN_STEPS, axis=0), axis=-1)
+    med = _running_median(padded, RUNNING_MEDIAN_STEPS)
     return e - med
 
 
@@ -388,7 +405,7 @@ def _threshold(norm: np.ndarray, ok: np.ndarray, floor: float) -> np.ndarray:
         half = LOCAL_STEPS // 2
         padded = np.concatenate([np.full(half, np.median(valid) if valid.size else 0.0), norm,
                                  np.full(half, np.median(valid) if valid.size else 0.0)])
-        local = np.median(np.lib.stride_tricks.sliding_window_view(padded, LOCAL_STEPS), axis=-1) / CHI3_MEDIAN
+        local = _running_median(padded, LOCAL_STEPS) / CHI3_MEDIAN
         thr = np.maximum(thr, LOCAL_SIGMAS * local)
     return thr
 

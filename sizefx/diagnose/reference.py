@@ -35,8 +35,20 @@ EDGE_S = 0.05
 EDGE_REFERENCE_PERIODS = 10
 #: Fewest reference rows: a spline through fewer cannot stand for the motion.
 MIN_REFERENCE_ROWS = 20
-#: Most IMU samples diagnosed at once: the prediction and regressors take about 3 kB per sample.
-MAX_SAMPLES = 3_000_000
+#: Most IMU samples diagnosed at once. The fit is formed span by span and keeps at most MAX_ROWS
+#: rows; what still grows with the record is the record itself as read (about 60 bytes per IMU
+#: sample, 90 per reference row with position and velocity) and the reference's splines (about
+#: 380 bytes per row): 0.8 kB per sample for a reference at the IMU's rate, 0.2 kB for a 100 Hz
+#: one on a 1600 Hz IMU (benchmarks/bench_diagnose_memory.py; docs/diagnose.md). The guard keeps
+#: the worst case near 10 GiB: about 2 h at 1600 Hz.
+MAX_SAMPLES = 12_000_000
+#: Most reference rows splined at once (:class:`_LongRotationSpline`): up to a 2.7-minute 1600 Hz
+#: reference in one spline, as before; longer ones in stretches of SPLINE_PIECE_ROWS rows, each built
+#: through SPLINE_OVERLAP_ROWS rows more on either side (the end conditions' pull, 0.27 per row, is
+#: 1e-36 there). About 1.5 kB per row while a spline is built: at most 400 MiB, then 100 MiB.
+SPLINE_ROWS = 2**18
+SPLINE_PIECE_ROWS = 2**16
+SPLINE_OVERLAP_ROWS = 64
 #: A reference step longer than this many median periods is a gap (motion-capture dropout).
 REFERENCE_GAP_FACTOR = 3.0
 
@@ -62,9 +74,10 @@ def check_record(tel: Telemetry) -> None:
         raise DiagnoseError(f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
                             f"least {MIN_REFERENCE_ROWS} to interpolate the motion from")
     if tel.n_samples > MAX_SAMPLES:
-        raise DiagnoseError(f"{tel.path}: {tel.n_samples} IMU samples; diagnose holds about 3 kB per sample and "
-                            f"takes at most {MAX_SAMPLES}: give a part of the record with --from-s/--to-s "
-                            "(e.g. 20 minutes)")
+        raise DiagnoseError(f"{tel.path}: {tel.n_samples} IMU samples; diagnose holds the record and the "
+                            "reference's splines in memory (up to 0.8 kB per sample) and takes at most "
+                            f"{MAX_SAMPLES}: give a part of the record with --from-s/--to-s (e.g. 2 hours at "
+                            "1600 Hz)")
 
 
 class ReferenceMotion:
@@ -131,7 +144,7 @@ class _Piece:
         ref = tel.reference
         t = ref.time_s[lo:hi]
         self.t0, self.t1 = float(t[0]), float(t[-1])
-        self.rot = RotationSpline(t, Rotation.from_quat(ref.quat_nb[lo:hi][:, [1, 2, 3, 0]]))
+        self.rot = _LongRotationSpline(t, Rotation.from_quat(ref.quat_nb[lo:hi][:, [1, 2, 3, 0]]))
         if ref.has_position:
             lat, lon, h = ref.lat_rad[lo:hi], ref.lon_rad[lo:hi], ref.height_m[lo:hi]
             self.lat = CubicSpline(t, lat)
@@ -163,6 +176,46 @@ class _Piece:
         w_en = earth.omega_en_n(lat, h, v)
         f_n = vdot + np.cross(2.0 * w_ie + w_en, v) - earth.gravity_n(lat, h)
         return {"C_bn": np.swapaxes(mat_nb, 1, 2), "w_nb": w_nb, "w_in": w_ie + w_en, "f_n": f_n}
+
+
+class _LongRotationSpline:
+    """scipy's ``RotationSpline`` through any number of rows in bounded memory: one spline through up
+    to :data:`SPLINE_ROWS` rows (what it always was); beyond, one per stretch of :data:`SPLINE_PIECE_ROWS`
+    rows, each built through :data:`SPLINE_OVERLAP_ROWS` more rows on either side and used only on its
+    stretch. Building one spline takes about 1.5 kB per row at its peak (its angular rates are solved
+    for as one banded system), 1.5 GB for a million rows of a 1600 Hz reference.
+
+    A stretch's spline differs from the whole one by the end conditions' pull, which decays by
+    2 - sqrt(3) = 0.27 per row (1e-36 after the overlap), and by the iterative solve's tolerance
+    (1e-9 rad/s relative, ``RotationSpline.TOL``): 1e-4 of a navigation-grade gyro's noise per
+    sample at 1600 Hz. ``tests/test_diagnose.py::test_long_rotation_spline_equals_one_spline``.
+    ``self(t)`` is a ``Rotation``, ``self(t, 1)`` the rates [n, 3] (rad/s, body axes), as for
+    ``RotationSpline``."""
+
+    def __init__(self, t, rot: Rotation):
+        n = t.size
+        if n <= SPLINE_ROWS:
+            self._starts, self._parts = np.array([-np.inf]), [RotationSpline(t, rot)]
+            return
+        starts, parts = [], []
+        for lo in range(0, n, SPLINE_PIECE_ROWS):
+            hi = min(n, lo + SPLINE_PIECE_ROWS)
+            a, b = max(0, lo - SPLINE_OVERLAP_ROWS), min(n, hi + SPLINE_OVERLAP_ROWS)
+            starts.append(-np.inf if lo == 0 else t[lo])
+            parts.append(RotationSpline(t[a:b], rot[a:b]))
+        self._starts, self._parts = np.array(starts), parts
+
+    def __call__(self, t, order: int = 0):
+        t = np.asarray(t, dtype=float)
+        if len(self._parts) == 1:
+            return self._parts[0](t, order)
+        which = np.searchsorted(self._starts, t, side="right") - 1
+        out = np.empty((t.size, 3 if order else 4))
+        for j in np.unique(which):
+            sel = which == j
+            value = self._parts[j](t[sel], order)
+            out[sel] = value if order else value.as_quat()
+        return out if order else Rotation.from_quat(out)
 
 
 def reference_segments(time_s: np.ndarray, breaks_s=()) -> list[tuple[int, int]]:
