@@ -133,15 +133,19 @@ def test_outputs_do_not_depend_on_the_workers(campaign, tmp_path):
             assert np.array_equal(a[key], b[key]) if isinstance(a[key], np.ndarray) else a[key] == b[key], key
 
 
+def _crash_stage_jobs(folder, names):
+    """A job of tests/batch_crash_stage.py per name, on a record file of that name."""
+    for name in names:
+        (folder / f"{name}.h5").write_text(name)
+    return [BatchJob("batch_crash_stage", str(folder / f"{n}.h5"), n, str(folder / f"{n}.h5"), canonical_options({}),
+                     {}) for n in names]
+
+
 def test_a_worker_that_dies_takes_only_its_record(tmp_path):
     """A stage that kills its process on one record (tests/batch_crash_stage.py): that record is
     failed, the others (in flight with it, or after it) are done."""
     out = tmp_path / "out"
-    names = ["a", "crash", "b", "c"]
-    for name in names:
-        (tmp_path / f"{name}.h5").write_text(name)
-    jobs = [BatchJob("batch_crash_stage", str(tmp_path / f"{n}.h5"), n, str(tmp_path / f"{n}.h5"),
-                     canonical_options({}), {}) for n in names]
+    jobs = _crash_stage_jobs(tmp_path, ["a", "crash", "b", "c"])
     result = run_batch("inspect", jobs, out, {}, workers=2)
     status = {o.entry["name"]: o.status for o in result.outcomes}
     assert status == {"a": "ok", "crash": "failed", "b": "ok", "c": "ok"}, status
@@ -153,11 +157,7 @@ def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
     """--memory-per-worker-mib: the record that needs more (4 GiB against 1 GiB) is failed with a
     MemoryError that names the bound; the others, in the same warm workers, are done."""
     out = tmp_path / "out"
-    names = ["a", "hog", "b", "c"]
-    for name in names:
-        (tmp_path / f"{name}.h5").write_text(name)
-    jobs = [BatchJob("batch_crash_stage", str(tmp_path / f"{n}.h5"), n, str(tmp_path / f"{n}.h5"),
-                     canonical_options({}), {}) for n in names]
+    jobs = _crash_stage_jobs(tmp_path, ["a", "hog", "b", "c"])
     result = run_batch("inspect", jobs, out, {}, workers=2, memory_mib=1024)
     status = {o.entry["name"]: o.status for o in result.outcomes}
     assert status == {"a": "ok", "hog": "failed", "b": "ok", "c": "ok"}, status
@@ -333,11 +333,7 @@ def test_dask_worker_killed_mid_record_is_retried(tmp_path, cluster):
     """A worker dies in the middle of a record (tests/batch_crash_stage.py kills it once): the scheduler
     runs the record again on a fresh worker; nothing is lost and the manifest lists every record."""
     out = tmp_path / "out"
-    names = ["a", "killonce", "b"]
-    for name in names:
-        (tmp_path / f"{name}.h5").write_text(name)
-    jobs = [BatchJob("batch_crash_stage", str(tmp_path / f"{n}.h5"), n, str(tmp_path / f"{n}.h5"),
-                     canonical_options({}), {}) for n in names]
+    jobs = _crash_stage_jobs(tmp_path, ["a", "killonce", "b"])
     result = run_batch("inspect", jobs, out, {}, scheduler=cluster.scheduler_address)
     assert [o.status for o in result.outcomes] == ["ok", "ok", "ok"]
     assert (tmp_path / "killonce.h5.killed").exists()  # it did die once
