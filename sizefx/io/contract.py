@@ -246,9 +246,9 @@ class ContractReader:
             self.fail(name, "holds no samples")
         values = data.reshape(data.shape[0], -1)  # a view: scaled in place
         columns = values.shape[1]
-        limited = self.limits and _bounds(self.schema, name, columns) is not None
-        low, high = self._limit_columns(name, columns) if limited else (np.full(columns, -np.inf),
-                                                                        np.full(columns, np.inf))
+        bounds = self._limit_columns(name, columns) if self.limits else None
+        limited = bounds is not None
+        low, high = bounds if limited else (np.full(columns, -np.inf), np.full(columns, np.inf))
         factors = np.broadcast_to(np.asarray(factor, dtype=np.float64), (columns,)).copy()
         first_not_finite, first_beyond = scale_and_check(values, factors, low, high)
         if first_not_finite >= 0:
@@ -259,11 +259,13 @@ class ContractReader:
         return data
 
     def _limit_columns(self, name: str, columns: int):
-        """Per column (low, high) of ``name``'s ``sample_limits`` as arrays, kept for the next read."""
+        """Per column (low, high) of ``name``'s ``sample_limits`` as arrays (None without a limit),
+        kept for the next read."""
         key = (name, columns)
         if key not in self._limits:
-            self._limits[key] = tuple(np.ascontiguousarray(b, dtype=np.float64)
-                                      for b in _bounds(self.schema, name, columns))
+            bounds = _bounds(self.schema, name, columns)
+            self._limits[key] = None if bounds is None else tuple(np.ascontiguousarray(b, dtype=np.float64)
+                                                                  for b in bounds)
         return self._limits[key]
 
     def check_limits(self, name: str, data: np.ndarray, first_row: int):
