@@ -15,7 +15,7 @@ from sizefx.errors import TelemetryError
 from sizefx.io.contract import invalid_rows
 from sizefx.io.schema import TELEMETRY_SCHEMA, load_schema
 from sizefx.io.telemetry import read_telemetry
-from sizefx.kernels.checks import scale_and_check, worst_grid_offset
+from sizefx.kernels.checks import CHECK_BLOCK_ROWS, scale_and_check, worst_grid_offset
 from sizefx.navigate.steps import grid_offsets_periods
 
 SCHEMA = load_schema(TELEMETRY_SCHEMA)
@@ -46,6 +46,28 @@ def test_kernel_finds_what_the_numpy_twin_finds(raw, factor):
     finite = np.isfinite(raw)
     assert first_beyond == _first(invalid_rows(SCHEMA, "/imu/accel", scaled) & finite)
     np.testing.assert_array_equal(values[finite], scaled[finite])  # bit for bit: the same multiplication
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 3 * CHECK_BLOCK_ROWS + 7), st.lists(st.tuples(st.floats(0, 1), st.integers(0, 2),
+                                                                     st.sampled_from([np.nan, np.inf, -np.inf, 1e6,
+                                                                                      -1e6, 1e308])), max_size=3),
+       st.sampled_from([1.0, 9.80665]), st.integers(0, 2**32))
+def test_kernel_blocks_find_what_the_numpy_twin_finds(n, bad, factor, seed):
+    """Records longer than a block, in SI (judged block by block, a bad block scanned again) and not
+    (scanned sample by sample): the same first indices and SI values as the twin wherever the bad
+    samples fall, before, inside or after a block boundary."""
+    raw = np.random.default_rng(seed).normal(0.0, 5.0, (n, 3))
+    for where, column, value in bad:
+        raw[min(n - 1, int(where * n)), column] = value
+    values = raw.copy()
+    first_not_finite, first_beyond = scale_and_check(values, np.full(3, factor), *_limits(3))
+    with np.errstate(over="ignore"):
+        scaled = raw * factor
+    finite = np.isfinite(raw)
+    assert first_not_finite == _first(~finite)
+    assert first_beyond == _first(invalid_rows(SCHEMA, "/imu/accel", scaled) & finite)
+    np.testing.assert_array_equal(values[finite], scaled[finite])
 
 
 def _limits(columns):
