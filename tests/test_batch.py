@@ -22,8 +22,9 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx.batch import BatchJob, output_names, run_batch
-from sizefx.batch.manifest import canonical_options, sha256_of
+from sizefx.batch.manifest import canonical_options
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
+from sizefx.io.files import sha256_of
 from sizefx.io.schema import check_document
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate

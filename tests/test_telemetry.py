@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import hashlib
+import os
+import threading
+
 import h5py
 import numpy as np
 import pytest
 
 from sizefx.errors import OutputError, TelemetryError
+from sizefx.io.files import HASH_CHUNK_BYTES, sha256_of
 from sizefx.io.schema import load_schema
 from sizefx.io.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
 from support import N, RATE_HZ, write_raw
@@ -303,8 +308,6 @@ def test_reference_gaps_are_reported_not_refused(tmp_path):
 
 def test_outputs_get_ordinary_file_permissions(tmp_path):
     """mkstemp makes 0600 files; a finished output must be readable like any new file (umask applied)."""
-    import os
-
     from sizefx.io.files import atomic_output
 
     out = tmp_path / "o.txt"
@@ -313,3 +316,24 @@ def test_outputs_get_ordinary_file_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (out.stat().st_mode & 0o777) == 0o666 & ~mask
+
+
+@pytest.mark.parametrize("size", [0, 1, HASH_CHUNK_BYTES - 1, HASH_CHUNK_BYTES, 2 * HASH_CHUNK_BYTES + 5])
+def test_sha256_of_a_mapped_file_is_hashlibs(tmp_path, size):
+    """Mapped and handed over in views (an empty file is read): the digest of the bytes, at and
+    around the view's size."""
+    path = tmp_path / "f.bin"
+    data = np.random.default_rng(size).integers(0, 256, size, dtype=np.uint8).tobytes()
+    path.write_bytes(data)
+    assert sha256_of(path) == hashlib.sha256(data).hexdigest()
+
+
+def test_sha256_of_a_pipe_reads_it(tmp_path):
+    """What cannot be mapped (a named pipe) is read to its end."""
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    data = b"sizefx" * 100_000
+    writer = threading.Thread(target=lambda: fifo.write_bytes(data))
+    writer.start()
+    assert sha256_of(fifo) == hashlib.sha256(data).hexdigest()
+    writer.join()

@@ -7,32 +7,18 @@ records done, and the next run skips each record whose entry still matches (:fun
 
 from __future__ import annotations
 
-import hashlib
 import math
 from pathlib import Path
 
 from ..errors import ConfigError
 from ..io.documents import read_json, write_json
+from ..io.files import sha256_of
 from ..io.schema import check_document, validate_input
 
-__all__ = ["BATCH_SCHEMA", "MANIFEST_NAME", "read_manifest", "write_manifest", "sha256_of", "reusable",
-           "canonical_options"]
+__all__ = ["BATCH_SCHEMA", "MANIFEST_NAME", "read_manifest", "write_manifest", "reusable", "canonical_options"]
 
 BATCH_SCHEMA = "sizefx/batch/1"
 MANIFEST_NAME = "manifest.json"
-#: Bytes hashed at a time: bounded memory whatever the record's size.
-HASH_CHUNK_BYTES = 1 << 20
-
-
-def sha256_of(path) -> str:
-    """SHA-256 of a file's bytes (hex), read in :data:`HASH_CHUNK_BYTES` pieces."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        while chunk := f.read(HASH_CHUNK_BYTES):
-            digest.update(chunk)
-    return digest.hexdigest()
-
-
 def canonical_options(options: dict) -> dict:
     """The stage options as the manifest holds and compares them: JSON values (tuples as lists,
     NaN refused earlier by the options' own checks), keys sorted."""

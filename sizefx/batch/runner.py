@@ -34,9 +34,10 @@ import numpy as np
 from .. import __version__
 from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
+from ..io.files import sha256_of
 from ..io.schema import as_json
 from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, headline, plot_fleet
-from .manifest import BATCH_SCHEMA, reusable, sha256_of, write_manifest
+from .manifest import BATCH_SCHEMA, reusable, write_manifest
 
 __all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "dask_client", "folder_lock",
            "default_memory_mib", "LOCK_NAME", "MEMORY_SHARE"]

@@ -13,7 +13,6 @@ refuses, nor one whose rates are 57 times wrong.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -24,7 +23,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import OutputError, SourceError, TelemetryError
-from ..io.files import atomic_output
+from ..io.files import atomic_output, sha256_of
 from ..io.contract import invalid_rows, limit_problem
 from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
@@ -43,7 +42,7 @@ FORMATS = {
 
 def provenance(path: Path, fmt: str, credits: str = "", **extra) -> dict:
     """``/source`` attributes: the original file, its checksum, the importer and credits."""
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    digest = sha256_of(path)
     out = {"format": fmt, "file": Path(path).name, "sha256": digest, "importer": f"sizefx {__version__}"}
     if credits:
         out["credits"] = credits
