@@ -1,10 +1,13 @@
 """A stage for tests/test_batch.py whose worker process dies on the record named "crash" (as one killed
 by the kernel for memory would), dies once on "killonce" (a worker lost mid-record), asks for 4 GiB on "hog" (a record beyond the
-worker's memory bound), and succeeds on the others."""
+worker's memory bound), and succeeds on the others, writing beside each record whether its worker
+allows helper threads (RECORD.helpers)."""
 
 import os
 
 import numpy as np
+
+from sizefx.stage import helper_threads
 
 
 class _Result:
@@ -25,4 +28,6 @@ def run(config):
             os._exit(9)
     if config.endswith("/hog.h5"):
         np.ones(1 << 29)  # 4 GiB, written (not merely reserved)
+    with open(config + ".helpers", "w") as f:
+        f.write(str(helper_threads()))
     return _Result(config)

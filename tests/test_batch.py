@@ -26,6 +26,7 @@ from sizefx.batch.manifest import canonical_options
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
 from sizefx.io.files import sha256_of
 from sizefx.io.schema import check_document
+from sizefx.stage import helper_threads
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
 from sizefx.scenarios import TurntablePlan
@@ -164,6 +165,17 @@ def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
     assert status == {"a": "ok", "hog": "failed", "b": "ok", "c": "ok"}, status
     reason = result.outcomes[1].entry["reason"]
     assert reason.startswith("MemoryError") and "bound of 1024 MiB" in reason, reason
+
+
+@pytest.mark.parametrize("cores, workers, helpers", [(2, 2, "False"), (4, 2, "True"), (2, 1, "True")])
+def test_workers_that_fill_the_cores_run_no_helper_threads(tmp_path, monkeypatch, cores, workers, helpers):
+    """A stage's helper thread (navigate's read-ahead) only where a worker's share of the cores is
+    two or more; the single command keeps it."""
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    jobs = _crash_stage_jobs(tmp_path, ["a", "b"])
+    run_batch("inspect", jobs, tmp_path / "out", {}, workers=workers)
+    assert {(tmp_path / f"{n}.h5.helpers").read_text() for n in "ab"} == {helpers}
+    assert helper_threads()
 
 
 def test_default_memory_bound_shares_the_machine():

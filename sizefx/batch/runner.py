@@ -36,6 +36,7 @@ from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
 from ..io.files import sha256_of
 from ..io.schema import as_json
+from ..stage import use_helper_threads
 from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, headline, plot_fleet
 from .manifest import BATCH_SCHEMA, reusable, write_manifest
 
@@ -300,9 +301,19 @@ def _work(job: BatchJob) -> RecordOutcome:
 
 # --------------------------------------------------------------------------- in the parent
 
+def _start_worker(memory_mib: float | None, helpers: bool) -> None:
+    """A worker's start: its memory bound, and whether its stages may run helper threads."""
+    _bound_memory(memory_mib)
+    use_helper_threads(helpers)
+
+
 def _pool(workers: int, memory_mib: float | None) -> ProcessPoolExecutor:
+    """``workers`` spawned worker processes. Where they are as many as the cores, a stage's helper
+    thread would only compete with the other workers (:func:`sizefx.stage.helper_threads`): each
+    worker is given its share of the cores, and a helper only when that share is two or more."""
+    helpers = (os.cpu_count() or 1) // workers >= 2
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_bound_memory, initargs=(memory_mib,))
+                               initializer=_start_worker, initargs=(memory_mib, helpers))
 
 
 #: The lock file in a batch's or a chain's folder, held while it writes there.

@@ -39,6 +39,7 @@ from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
+from ..stage import helper_threads
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig
 from .result import NavResult
 from .initial import choose, initial_state
@@ -226,12 +227,14 @@ def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
 
 
 def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
-                  threads: bool = True, writer=None) -> NavResult:
+                  threads: bool | None = None, writer=None) -> NavResult:
     """Navigate a telemetry file chunk by chunk; the result holds the output rows only.
 
-    ``threads``: prepare the next chunk in a worker thread while the kernel runs.
+    ``threads``: prepare the next chunk in a helper thread while the kernel runs (default: unless
+    this process is a batch worker beside others that fill the cores, :func:`sizefx.stage.helper_threads`).
     """
     cfg = cfg or NavConfig()
+    threads = helper_threads() if threads is None else threads
     if chunk_samples < 1000:
         raise ConfigError(f"--chunk-samples {chunk_samples}: use at least 1000")
     with TelemetryStream(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment) as st:
