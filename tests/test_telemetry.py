@@ -320,8 +320,7 @@ def test_outputs_get_ordinary_file_permissions(tmp_path):
 
 @pytest.mark.parametrize("size", [0, 1, HASH_CHUNK_BYTES - 1, HASH_CHUNK_BYTES, 2 * HASH_CHUNK_BYTES + 5])
 def test_sha256_of_a_mapped_file_is_hashlibs(tmp_path, size):
-    """Mapped and handed over in views (an empty file is read): the digest of the bytes, at and
-    around the view's size."""
+    """Mapped a window at a time: the digest of the bytes, at and around the window's size."""
     path = tmp_path / "f.bin"
     data = np.random.default_rng(size).integers(0, 256, size, dtype=np.uint8).tobytes()
     path.write_bytes(data)
@@ -329,7 +328,7 @@ def test_sha256_of_a_mapped_file_is_hashlibs(tmp_path, size):
 
 
 def test_sha256_of_a_pipe_reads_it(tmp_path):
-    """What cannot be mapped (a named pipe) is read to its end."""
+    """What is not a regular file (a named pipe) is read to its end."""
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
     data = b"sizefx" * 100_000

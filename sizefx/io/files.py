@@ -18,6 +18,7 @@ import hashlib
 import mmap
 import os
 import resource
+import stat
 import tempfile
 from pathlib import Path
 
@@ -26,31 +27,33 @@ from ..errors import Interrupted, OutputError
 __all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder", "check_room", "interrupt",
            "INTERRUPTED", "sha256_of"]
 
-#: Bytes handed to the hash at a time (a view of the mapped file, or a read where it cannot be mapped).
+#: Bytes of a file mapped (or read) and hashed at a time: a multiple of the page size.
 HASH_CHUNK_BYTES = 1 << 24
 
 
 def sha256_of(path) -> str:
     """SHA-256 of a file's bytes (hex), in bounded memory whatever its size.
 
-    The file is mapped and hashed from the page cache in place: a read would first copy each byte
-    into a buffer, and in a batch that copy competed with the stage's own reads of the same
-    record (``benchmarks/bench_batch.py``: 8 records of the 1.8 h flight on 2 workers, about 0.5 s
-    of 14). Where a file cannot be mapped (empty, a pipe) it is read. A file truncated by another
-    process while it is hashed ends the process with SIGBUS; a batch worker that dies so fails that
-    record alone and the record is run again in a fresh worker.
+    A regular file is mapped a window of :data:`HASH_CHUNK_BYTES` at a time and hashed from the
+    page cache in place: a read would first copy each byte into a buffer, and in a batch that copy
+    competed with the stage's own reads of the same record (``benchmarks/bench_batch.py``: 8
+    records of the 1.8 h flight on 2 workers, about 0.5 s of 14). One window at a time, so that the
+    process's resident memory (the peak a batch reports per record) grows by one window, not by the
+    file. Anything else (a pipe) is read. A file truncated by another process while it is hashed
+    ends the process with SIGBUS; a batch worker that dies so fails that record alone and the record
+    is run again in a fresh worker.
     """
     digest = hashlib.sha256()
     with open(path, "rb") as f:
-        try:
-            mapped = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-        except (ValueError, OSError):  # an empty file, or one that cannot be mapped
+        info = os.fstat(f.fileno())
+        if not stat.S_ISREG(info.st_mode):
             while chunk := f.read(HASH_CHUNK_BYTES):
                 digest.update(chunk)
             return digest.hexdigest()
-        with mapped, memoryview(mapped) as view:
-            for start in range(0, len(view), HASH_CHUNK_BYTES):
-                digest.update(view[start:start + HASH_CHUNK_BYTES])
+        for offset in range(0, info.st_size, HASH_CHUNK_BYTES):
+            length = min(HASH_CHUNK_BYTES, info.st_size - offset)
+            with mmap.mmap(f.fileno(), length, access=mmap.ACCESS_READ, offset=offset) as window:
+                digest.update(window)
     return digest.hexdigest()
 
 
