@@ -122,6 +122,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
         from sizefx.batch.inputs import check_out_dir, pair_inputs
         from sizefx.batch.manifest import canonical_options
+        from sizefx.batch.runner import local_workers, start_workers
         from sizefx.stage import preflight
 
         accepted = inspect.signature(module.config_of).parameters
@@ -131,29 +132,36 @@ def _make(name: str, spec: _Stage) -> click.Command:
                     for param, given in given_pairs.items() if given}
         out = check_out_dir(out_dir, [*inputs, *(g for given in given_pairs.values() for g in given)],
                             [*records, *(p for pairs in partners.values() for p in pairs.values())])
-        previous = read_manifest(out, name) if out.exists() else None
-        entries = {e["input"]: e for e in (previous or {}).get("records", [])}
-        names = output_names(records)
-        stage_options = canonical_options({**options, **({"plots": True} if plots and spec.plots else {})})
-        jobs = []
-        for record in records:
-            outputs = {p: str(out / (names[record] + suffix)) for p, suffix in spec.outputs.items()}
-            if plots:
-                outputs.update({p: str(out / (names[record] + suffix)) for p, suffix in spec.plots.items()})
-            paired = {param: str(pairs[record]) for param, pairs in partners.items()}
-            given = {**options, **{p: None for p in spec.plots}, **outputs, "force": True,
-                     **{param: None for param in spec.paired}, **paired,
-                     spec.input_param: (str(record),) if spec.many else str(record)}
-            config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
-            if not jobs:  # the options' own files (--levers, --model, --nominal): refused once, before any work
-                preflight(inputs={k: v for k, v in config.inputs().items() if str(k).startswith("-")}, outputs={})
-            jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
-                                 str(out / f"{names[record]}.{name}.json") if spec.summary else None,
-                                 entries.get(str(record)), redo,
-                                 {spec.paired[param][0]: path for param, path in paired.items()}))
-        progress = BatchProgress(name, len(jobs), json_progress, quiet)
-        result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous, progress=progress,
-                           scheduler=scheduler, plots=plots, memory_mib=memory_mib)
+        # the workers start while the configs are built: the stage's code loads in both
+        pool = None if scheduler else start_workers(name, local_workers(workers, len(records)), memory_mib)
+        try:
+            previous = read_manifest(out, name) if out.exists() else None
+            entries = {e["input"]: e for e in (previous or {}).get("records", [])}
+            names = output_names(records)
+            stage_options = canonical_options({**options, **({"plots": True} if plots and spec.plots else {})})
+            jobs = []
+            for record in records:
+                outputs = {p: str(out / (names[record] + suffix)) for p, suffix in spec.outputs.items()}
+                if plots:
+                    outputs.update({p: str(out / (names[record] + suffix)) for p, suffix in spec.plots.items()})
+                paired = {param: str(pairs[record]) for param, pairs in partners.items()}
+                given = {**options, **{p: None for p in spec.plots}, **outputs, "force": True,
+                         **{param: None for param in spec.paired}, **paired,
+                         spec.input_param: (str(record),) if spec.many else str(record)}
+                config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
+                if not jobs:  # the options' own files (--levers, --model, --nominal): refused once, before any work
+                    preflight(inputs={k: v for k, v in config.inputs().items() if str(k).startswith("-")},
+                              outputs={})
+                jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
+                                     str(out / f"{names[record]}.{name}.json") if spec.summary else None,
+                                     entries.get(str(record)), redo,
+                                     {spec.paired[param][0]: path for param, path in paired.items()}))
+            progress = BatchProgress(name, len(jobs), json_progress, quiet)
+            result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous,
+                               progress=progress, scheduler=scheduler, plots=plots, memory_mib=memory_mib, pool=pool)
+        finally:  # a refusal before the run: the workers, still starting, are let go
+            if pool is not None:
+                pool.shutdown(wait=False, cancel_futures=True)
         click.echo(result.report())
         if not result.all_ok:
             sys.exit(1)

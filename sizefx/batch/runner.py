@@ -301,19 +301,51 @@ def _work(job: BatchJob) -> RecordOutcome:
 
 # --------------------------------------------------------------------------- in the parent
 
-def _start_worker(memory_mib: float | None, helpers: bool) -> None:
-    """A worker's start: its memory bound, and whether its stages may run helper threads."""
+def _start_worker(memory_mib: float | None, helpers: bool, module: str | None) -> None:
+    """A worker's start: its memory bound, whether its stages may run helper threads, and the
+    stage's code imported (NumPy, Numba, h5py: most of a worker's start-up)."""
     _bound_memory(memory_mib)
     use_helper_threads(helpers)
+    if module is not None:
+        with contextlib.suppress(Exception):  # the record that needs it says why (in _work)
+            importlib.import_module(module)
 
 
-def _pool(workers: int, memory_mib: float | None) -> ProcessPoolExecutor:
-    """``workers`` spawned worker processes. Where they are as many as the cores, a stage's helper
-    thread would only compete with the other workers (:func:`sizefx.stage.helper_threads`): each
-    worker is given its share of the cores, and a helper only when that share is two or more."""
+def local_workers(workers: int | None, n_jobs: int) -> int:
+    """The local workers a batch of ``n_jobs`` records runs in: ``workers`` (default: the cores), no
+    more than there are records."""
+    return max(1, min(workers or os.cpu_count() or 1, max(1, n_jobs)))
+
+
+def _pool(workers: int, memory_mib: float | None, stage: str | None = None) -> ProcessPoolExecutor:
+    """``workers`` spawned worker processes, which import ``stage``'s module as they start. Where they
+    are as many as the cores, a stage's helper thread would only compete with the other workers
+    (:func:`sizefx.stage.helper_threads`): each worker is given its share of the cores, and a helper
+    only when that share is two or more."""
     helpers = (os.cpu_count() or 1) // workers >= 2
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_start_worker, initargs=(memory_mib, helpers))
+                               initializer=_start_worker,
+                               initargs=(memory_mib, helpers, STAGES.get(stage, stage) if stage else None))
+
+
+def _nothing() -> None:
+    """A task that makes the pool spawn a worker for it."""
+
+
+def start_workers(stage: str, workers: int, memory_mib: float | None = None) -> ProcessPoolExecutor:
+    """The local workers of a batch of ``stage``, spawned now (``workers`` from :func:`local_workers`,
+    ``memory_mib`` as :func:`run_batch` takes it), for :func:`run_batch`'s ``pool``.
+
+    A worker's start (Python, then the stage's code with NumPy, Numba and h5py) is about 0.9 s of CPU;
+    started before the caller lists the records and builds their configs, it runs on the cores the
+    caller leaves idle meanwhile, instead of after it. The caller shuts the pool down if it gives up
+    before :func:`run_batch` (``shutdown(wait=False, cancel_futures=True)``); a worker still
+    starting then exits when it has started.
+    """
+    pool = _pool(workers, memory_mib or default_memory_mib(workers), stage)
+    for _ in range(workers):  # the pool spawns a process per task submitted while none is idle
+        pool.submit(_nothing)
+    return pool
 
 
 #: The lock file in a batch's or a chain's folder, held while it writes there.
@@ -392,7 +424,8 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
 
 def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
               previous: dict | None = None, progress=None, scheduler: str | None = None,
-              plots: bool = False, memory_mib: float | None = None, locked: bool = False) -> BatchResult:
+              plots: bool = False, memory_mib: float | None = None, locked: bool = False,
+              pool: ProcessPoolExecutor | None = None) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
     finish. ``previous``: the folder's manifest, whose entries for other records are kept.
@@ -400,25 +433,31 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
     the headline figures across the records (:func:`.fleet.plot_fleet`). ``memory_mib``: each local
     worker's memory bound (default :func:`default_memory_mib`; a Dask cluster's workers have their
     own, ``dask worker --memory-limit``). The folder is locked (:func:`folder_lock`) for the run, unless
-    the caller holds its lock already (``locked``: ``sizefx batch run`` calibrates there first)."""
-    client = dask_client(scheduler) if scheduler else None  # refused before anything is written
-    workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(jobs))))
-    if client is not None:
-        workers = len(client.scheduler_info().get("workers", {})) or workers
-    out_dir = Path(out_dir)
-    out_dir.mkdir(exist_ok=True)
+    the caller holds its lock already (``locked``: ``sizefx batch run`` calibrates there first).
+    ``pool``: the local workers, already started (:func:`start_workers`, with the same ``workers``
+    and ``memory_mib``); shut down here in any case."""
+    client = None
     try:
+        client = dask_client(scheduler) if scheduler else None  # refused before anything is written
+        workers = local_workers(workers, len(jobs))
+        if client is not None:
+            workers = len(client.scheduler_info().get("workers", {})) or workers
+        out_dir = Path(out_dir)
+        out_dir.mkdir(exist_ok=True)
         with contextlib.nullcontext() if locked else folder_lock(out_dir):
             return _run_locked(stage, jobs, out_dir, options, workers=workers, previous=previous,
                                progress=progress, client=client, plots=plots,
-                               memory_mib=memory_mib or default_memory_mib(workers))
+                               memory_mib=memory_mib or default_memory_mib(workers),
+                               pool=None if client is not None else pool)
     finally:
+        if pool is not None:  # unused (a refusal, a Dask run), or done with
+            pool.shutdown(wait=False, cancel_futures=True)
         if client is not None:
             client.close()
 
 
 def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, client, plots,
-                memory_mib) -> BatchResult:
+                memory_mib, pool=None) -> BatchResult:
     kept = {e["input"]: e for e in (previous or {}).get("records", [])}
     outcomes: dict[str, RecordOutcome] = {}
     t0 = time.perf_counter()
@@ -441,9 +480,11 @@ def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, c
     if client is not None:
         _run_dask(client, jobs, finished)
     pending, suspects = ([] if client is not None else list(jobs)), []
+    started = pool  # the first round's workers, if the caller started them
     while pending:
         running: dict = {}
-        with _pool(workers, memory_mib) as pool:
+        with started or _pool(workers, memory_mib, stage) as pool:
+            started = None
             try:
                 while pending or running:
                     while pending and len(running) < 2 * workers:  # a short queue: the input's order
@@ -456,7 +497,7 @@ def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, c
             except BrokenProcessPool:
                 suspects += running.values()  # the rest go on in a fresh pool
     for job in suspects:  # each alone in a fresh process: only the record that kills it fails
-        with _pool(1, memory_mib) as pool:
+        with _pool(1, memory_mib, stage) as pool:
             try:
                 finished(job, pool.submit(_work, job).result())
             except BrokenProcessPool as exc:
