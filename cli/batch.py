@@ -152,10 +152,14 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 if not jobs:  # the options' own files (--levers, --model, --nominal): refused once, before any work
                     preflight(inputs={k: v for k, v in config.inputs().items() if str(k).startswith("-")},
                               outputs={})
+                # every file besides the record (--against, --reference, --levers, --model, --nominal) is
+                # hashed with it: a re-calibration into the same levers.json reruns the records
+                option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
                 jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
                                      str(out / f"{names[record]}.{name}.json") if spec.summary else None,
                                      entries.get(str(record)), redo,
-                                     {spec.paired[param][0]: path for param, path in paired.items()}))
+                                     {**option_files, **{spec.paired[param][0]: path
+                                                         for param, path in paired.items()}}))
             progress = BatchProgress(name, len(jobs), json_progress, quiet)
             result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous,
                                progress=progress, scheduler=scheduler, plots=plots, memory_mib=memory_mib, pool=pool)

@@ -217,9 +217,11 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
             config = chain_stage.ChainConfig(
                 tuple(_flight_steps(chain, nav, flight, levers, folder, plots)), str(folder),
                 truth=str(flight) if "compare" in chain and not chain["compare"].get("reference") else None)
+            # the files the chain reads besides the flight (the lever arms, a --model, compare's
+            # --reference) are hashed with it: a new calibration reruns the flights
             jobs.append(BatchJob("run", str(flight), flight_names[flight], config, options, {"folder": str(folder)},
                                  previous=entries.get(str(flight)), redo=redo,
-                                 paired={"--levers": levers} if levers else {}))
+                                 paired={k: str(v) for k, v in config.inputs().items() if str(v) != str(flight)}))
         result = run_batch("run", jobs, out, options, workers=workers, previous=previous,
                            progress=BatchProgress("run", len(jobs), json_progress, quiet), scheduler=scheduler,
                            plots=plots, memory_mib=memory_mib, locked=True)

@@ -128,7 +128,7 @@ def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp
     assert [s["stage"] for s in json.loads((out / "run.json").read_text())["steps"]] == ["calibrate"]
     for entry, name in zip(doc["records"], ("day1", "day2")):
         assert entry["status"] == "ok" and entry["name"] == name
-        assert entry["paired"]["--levers"]["path"] == str(levers)
+        assert entry["paired"]["navigate --levers"]["path"] == str(levers)
         steps = json.loads((out / name / "run.json").read_text())["steps"]
         assert [(s["stage"], s.get("run")) for s in steps] == [("navigate", "plain"), ("navigate", "compensated"),
                                                                ("compare", None)]
