@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import time
 
 import h5py
 import numpy as np
@@ -23,9 +24,11 @@ from click.testing import CliRunner
 
 from sizefx.batch import BatchJob, output_names, run_batch
 from sizefx.batch.manifest import canonical_options
+from sizefx.batch import runner
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
 from sizefx.io.files import sha256_of
 from sizefx.io.schema import check_document
+from sizefx.levers import levers_from_preset, write_levers
 from sizefx.stage import helper_threads
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
@@ -155,6 +158,67 @@ def test_a_worker_that_dies_takes_only_its_record(tmp_path):
     assert [e["status"] for e in _manifest(out)["records"]] == ["ok", "ok", "ok", "failed"]  # by input path
 
 
+def test_a_worker_that_dies_early_in_a_long_batch_loses_no_record(tmp_path):
+    """More records than the queue holds (2 per worker): the pool breaks while the rest wait to be
+    submitted, and every record still gets its entry (only the crash fails)."""
+    names = ["a", "b", "crash", *"defghi"]
+    result = run_batch("inspect", _crash_stage_jobs(tmp_path, names), tmp_path / "out", {}, workers=2)
+    status = {o.entry["name"]: o.status for o in result.outcomes}
+    assert status == {n: "failed" if n == "crash" else "ok" for n in names}, status
+    assert len(_manifest(tmp_path / "out")["records"]) == len(names)
+
+
+def test_a_stopped_batch_stops_its_workers(tmp_path):
+    """Ctrl-C (here: raised by the progress callback after the first record): the record still
+    running is stopped rather than run to its end, the queued ones never start, and no temporary
+    file is left in the folder."""
+    jobs = _crash_stage_jobs(tmp_path, ["a", "slow", "b", "c", "d", "e"])
+
+    def interrupt(event):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_batch("inspect", jobs, tmp_path / "out", {}, workers=2, progress=interrupt)
+    time.sleep(4.0)  # longer than "slow" takes: it would have finished by now
+    assert not (tmp_path / "slow.h5.finished").exists()
+    assert not (tmp_path / "e.h5.helpers").exists()  # queued behind the first four: never started
+    assert not list((tmp_path / "out").glob("*.tmp"))
+
+
+def test_a_reused_record_whose_input_is_gone_is_refused_alone(campaign, tmp_path):
+    """A record deleted after the batch listed it, on a re-run: its hash cannot be taken, so it is not
+    reused but run (a real stage then refuses the missing file in one line; this one reads nothing);
+    the others are unchanged, and the batch ends normally instead of raising."""
+    runs = tmp_path / "runs"
+    shutil.copytree(campaign, runs)
+    out = tmp_path / "out"
+    assert _batch("inspect", runs, "--out", out).exit_code == 0
+    names = output_names([runs / f"run{k}.h5" for k in range(3)])
+    jobs = [BatchJob("batch_crash_stage", str(runs / f"run{k}.h5"), names[runs / f"run{k}.h5"],
+                     str(runs / f"run{k}.h5"), e["options"], {}, None, e, False)
+            for k, e in enumerate(_manifest(out)["records"])]
+    (runs / "run1.h5").unlink()
+    result = run_batch("inspect", jobs, out, {}, workers=2)
+    assert [o.reused for o in result.outcomes] == [True, False, True]
+    assert result.outcomes[1].status == "ok"  # the crash stage reads nothing: it ran, unhashed
+    assert result.outcomes[1].entry["sha256"] == ""
+
+
+def test_a_changed_levers_file_reruns_the_records(campaign, tmp_path):
+    """--levers (like --model and --nominal) is hashed with each record: a new calibration written
+    into the same levers.json makes the next run navigate every record again."""
+    levers = tmp_path / "levers.json"
+    write_levers(levers, levers_from_preset("high-precision"))
+    out = tmp_path / "out"
+    assert _batch("navigate", campaign, "--levers", levers, "--out", out).exit_code == 0
+    entry = _manifest(out)["records"][0]
+    assert entry["paired"]["--levers"] == {"path": str(levers), "sha256": sha256_of(levers)}
+    assert "0 ok, 3 unchanged" in _batch("navigate", campaign, "--levers", levers, "--out", out).output
+    write_levers(levers, levers_from_preset("compact"), force=True)
+    result = _batch("navigate", campaign, "--levers", levers, "--out", out)
+    assert "3 ok, 0 unchanged" in result.output, result.output
+
+
 def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
     """--memory-per-worker-mib: the record that needs more (4 GiB against 1 GiB) is failed with a
     MemoryError that names the bound; the others, in the same warm workers, are done."""
@@ -171,11 +235,18 @@ def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
 def test_workers_that_fill_the_cores_run_no_helper_threads(tmp_path, monkeypatch, cores, workers, helpers):
     """A stage's helper thread (navigate's read-ahead) only where a worker's share of the cores is
     two or more; the single command keeps it."""
-    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    monkeypatch.setattr(runner, "available_cores", lambda: cores)
     jobs = _crash_stage_jobs(tmp_path, ["a", "b"])
     run_batch("inspect", jobs, tmp_path / "out", {}, workers=workers)
     assert {(tmp_path / f"{n}.h5.helpers").read_text() for n in "ab"} == {helpers}
     assert helper_threads()
+
+
+def test_available_cores_follow_the_affinity():
+    """The default --workers counts the cores this process may run on, not the machine's."""
+    assert runner.available_cores() == len(os.sched_getaffinity(0))
+    assert runner.local_workers(None, 100) == runner.available_cores()
+    assert runner.local_workers(8, 3) == 3 and runner.local_workers(None, 0) == 1
 
 
 def test_default_memory_bound_shares_the_machine():

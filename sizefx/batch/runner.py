@@ -34,7 +34,7 @@ import numpy as np
 from .. import __version__
 from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
-from ..io.files import sha256_of
+from ..io.files import remove_stale_temporaries, sha256_of
 from ..io.schema import as_json
 from ..stage import use_helper_threads
 from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, headline, plot_fleet
@@ -265,10 +265,13 @@ def _work(job: BatchJob) -> RecordOutcome:
              "status": "ok", "reason": None, "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}}
     may_reuse = not job.redo and job.previous is not None and job.previous.get("status") == "ok"
     if may_reuse:  # the hashes decide whether the record runs at all
-        entry["sha256"] = sha256_of(job.input)
         paired = _paired_hashes(job.paired)
-        if reusable(job.previous, entry["sha256"], job.options, paired):
-            return RecordOutcome(job.previous, reused=True)
+        try:
+            entry["sha256"] = sha256_of(job.input)
+            if reusable(job.previous, entry["sha256"], job.options, paired):
+                return RecordOutcome(job.previous, reused=True)
+        except OSError:  # the input (or an output) cannot be read now: the stage runs and says why
+            entry["sha256"] = ""
         if paired:
             entry["paired"] = paired
         hashing = None
@@ -314,7 +317,7 @@ def _start_worker(memory_mib: float | None, helpers: bool, module: str | None) -
 def local_workers(workers: int | None, n_jobs: int) -> int:
     """The local workers a batch of ``n_jobs`` records runs in: ``workers`` (default: the cores), no
     more than there are records."""
-    return max(1, min(workers or os.cpu_count() or 1, max(1, n_jobs)))
+    return max(1, min(workers or available_cores(), max(1, n_jobs)))
 
 
 def _pool(workers: int, memory_mib: float | None, stage: str | None = None) -> ProcessPoolExecutor:
@@ -322,10 +325,38 @@ def _pool(workers: int, memory_mib: float | None, stage: str | None = None) -> P
     are as many as the cores, a stage's helper thread would only compete with the other workers
     (:func:`sizefx.stage.helper_threads`): each worker is given its share of the cores, and a helper
     only when that share is two or more."""
-    helpers = (os.cpu_count() or 1) // workers >= 2
+    helpers = available_cores() // workers >= 2
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_start_worker,
                                initargs=(memory_mib, helpers, STAGES.get(stage, stage) if stage else None))
+
+
+#: Seconds to wait for a stopped worker to end (SIGTERM; a worker ends at once unless the system is stuck).
+STOP_WAIT_S = 5.0
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel ``pool``'s queued records and end its workers now, rather than let the records they
+    hold run to their end (``ProcessPoolExecutor.terminate_workers`` does this from Python 3.14;
+    before it, the executor's own table of processes). Their unfinished outputs are temporary files,
+    which the caller removes (:func:`sizefx.io.files.remove_stale_temporaries`)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.terminate()
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(STOP_WAIT_S)
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity, which a container or ``taskset`` narrows;
+    ``os.cpu_count()`` where the platform has none)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def _nothing() -> None:
@@ -488,14 +519,20 @@ def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, c
             try:
                 while pending or running:
                     while pending and len(running) < 2 * workers:  # a short queue: the input's order
-                        job = pending.pop(0)
-                        running[pool.submit(_work, job)] = job
+                        running[pool.submit(_work, pending[0])] = pending[0]
+                        pending.pop(0)  # once submitted: a pool broken meanwhile refuses it, and it waits
                     done, _ = wait(running, return_when=FIRST_COMPLETED)
                     for fut in done:
                         outcome = fut.result()  # BrokenProcessPool: the job stays among the running
                         finished(running.pop(fut), outcome)
             except BrokenProcessPool:
                 suspects += running.values()  # the rest go on in a fresh pool
+            except BaseException:  # Ctrl-C, SIGTERM, a bug here: no queued record starts, none runs on
+                _stop(pool)
+                for job in running.values():
+                    for path in [*job.outputs.values(), *([job.summary_path] if job.summary_path else [])]:
+                        remove_stale_temporaries(path)
+                raise
     for job in suspects:  # each alone in a fresh process: only the record that kills it fails
         with _pool(1, memory_mib, stage) as pool:
             try:

@@ -25,7 +25,7 @@ from pathlib import Path
 from ..errors import Interrupted, OutputError
 
 __all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder", "check_room", "interrupt",
-           "INTERRUPTED", "sha256_of"]
+           "INTERRUPTED", "sha256_of", "remove_stale_temporaries"]
 
 #: Bytes of a file mapped (or read) and hashed at a time: a multiple of the page size.
 HASH_CHUNK_BYTES = 1 << 24
@@ -170,9 +170,10 @@ def check_room(out: Path, n_bytes: int, *, already: int = 0) -> None:
 MAX_PID = 4_194_304
 
 
-def _remove_stale_temporaries(out: Path) -> None:
+def remove_stale_temporaries(out) -> None:
     """Remove temporary files of earlier runs towards ``out`` whose process is gone (killed with
     SIGKILL, or a machine that lost power): the names carry the writer's process id."""
+    out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
     for tmp in parent.glob(f".{out.name}.*.tmp"):
         parts = tmp.name[len(out.name) + 2:].split(".")
@@ -211,7 +212,7 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp",
     """
     out = check_output_path(path, inputs=inputs, force=force)
     check_room(out, expected_bytes)
-    _remove_stale_temporaries(out)
+    remove_stale_temporaries(out)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.{os.getpid()}.", suffix=suffix,
                                    dir=out.parent if str(out.parent) else ".")
