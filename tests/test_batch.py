@@ -22,7 +22,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sizefx.batch import BatchJob, output_names, run_batch
+from sizefx.batch import BatchJob, BatchResult, RecordOutcome, output_names, run_batch
+from sizefx.batch.fleet import recurring_findings
 from sizefx.batch.manifest import canonical_options
 from sizefx.batch import runner
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
@@ -393,6 +394,33 @@ def test_calibrations_of_one_unit_combine_and_the_odd_run_is_named():
     bad = combine_arms(runs + [_calibration("odd", odd, sigma)])
     assert [name for name, _ in bad["disagree"]] == ["odd"] and bad["chi2_dof"][0][2] > 3
     assert combine_arms(runs[:1]) is None
+
+
+def _outcome(entry):
+    return RecordOutcome({"input": entry["name"], "sha256": "", "options": {}, "outputs": {}, "reason": None,
+                          "duration_s": 1.0, "peak_memory_mib": 100.0, **entry})
+
+
+def test_fleet_table_lists_each_runs_arms_and_their_spread():
+    """batch calibrate's table: every run's nine arm components [mm] on its line, the spread of each
+    across the runs, then the combination."""
+    sigma = np.full((3, 3), 3e-5)
+    runs = [_calibration(f"run{k}", np.diag([0.025, 0.025, 0.025]) + k * 1e-4, sigma) for k in range(3)]
+    report = BatchResult("calibrate", [_outcome(r) for r in runs]).report()
+    assert "run2: ok, 1.0 s, 100 MiB; r_x[x]_mm 25.2, r_x[y]_mm 0.2, r_x[z]_mm 0.2, r_y[x]_mm 0.2" in report
+    assert "r_z[z]_mm across 3 records: mean 25.1, std 0.1, min 25, max 25.2" in report
+    assert "arms of 3 runs combined" in report
+
+
+def test_fleet_table_names_the_diagnose_findings_that_recur():
+    """batch diagnose's table: the findings (effect and channel) that more than one record reports, with
+    how many; a finding of one record alone is not among them."""
+    effects = [["accel_bias x", "delay"], ["accel_bias x", "delay", "scale y"], ["accel_bias x"]]
+    entries = [{"name": f"r{k}", "status": "ok", "headline": {"effects": e, "warnings": 0, "unexplained": 0}}
+               for k, e in enumerate(effects)]
+    report = BatchResult("diagnose", [_outcome(e) for e in entries]).report()
+    assert "findings in more than one of 3 records: accel_bias x (3), delay (2)" in report
+    assert recurring_findings(entries) == [("accel_bias x", 3), ("delay", 2)]
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,8 @@ import numpy as np
 from ..io.files import atomic_output
 from ..io.schema import as_json
 
-__all__ = ["headline", "combine_arms", "plot_fleet", "DISAGREE_Z", "KEY_FIGURES", "FLEET_PLOT"]
+__all__ = ["headline", "table_figures", "recurring_findings", "combine_arms", "plot_fleet", "DISAGREE_Z",
+           "KEY_FIGURES", "FLEET_PLOT"]
 
 #: The figure of the headline figures across the records (``sizefx batch ... --plots``).
 FLEET_PLOT = "fleet.png"
@@ -68,6 +69,29 @@ def headline(stage: str, doc: dict) -> dict:
         out["warnings"] = len(doc.get("warnings", []))
         out["unexplained"] = len(doc.get("unexplained", []))
     return as_json(out)
+
+
+def table_figures(stage: str, head: dict) -> dict:
+    """The figures the fleet table prints for one record and spreads across the records: the stage's
+    :data:`KEY_FIGURES`, and for calibrate the nine arm components [mm] (``r_x[y]_mm``: the y component
+    of the x accelerometer's arm)."""
+    out = {k: head[k] for k in KEY_FIGURES.get(stage, ()) if head.get(k) is not None}
+    if stage == "calibrate" and "r_x_m" in head:
+        for a in "xyz":
+            for j, b in enumerate("xyz"):
+                out[f"r_{a}[{b}]_mm"] = head[f"r_{a}_m"][j] * 1e3
+    return out
+
+
+def recurring_findings(entries: list[dict]) -> list[tuple[str, int]]:
+    """diagnose's findings (effect and channel) that more than one successful record reports, with
+    how many, the most frequent first."""
+    counts: dict[str, int] = {}
+    for e in entries:
+        if e["status"] == "ok":
+            for finding in set(e.get("headline", {}).get("effects", [])):
+                counts[finding] = counts.get(finding, 0) + 1
+    return sorted(((f, n) for f, n in counts.items() if n > 1), key=lambda fn: (-fn[1], fn[0]))
 
 
 def _weighted(values, sigmas):

@@ -37,7 +37,7 @@ from ..io.documents import write_json
 from ..io.files import remove_stale_temporaries, sha256_of
 from ..io.schema import as_json
 from ..stage import use_helper_threads
-from .fleet import FLEET_PLOT, KEY_FIGURES, combine_arms, headline, plot_fleet
+from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
 from .manifest import BATCH_SCHEMA, reusable, write_manifest
 
 __all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "dask_client", "folder_lock",
@@ -107,20 +107,26 @@ class BatchResult:
         lines = [f"batch {self.stage}: {len(self.outcomes)} records in {self.wall_s:.1f} s with {self.workers} "
                  f"worker(s): {c['ok']} ok, {c['skipped']} unchanged (skipped), {c['refused']} refused, "
                  f"{c['failed']} failed; manifest -> {self.manifest}"]
-        keys = KEY_FIGURES.get(self.stage, ())
+        table = {o.entry["name"]: table_figures(self.stage, o.entry["headline"]) for o in self.outcomes}
         for o in self.outcomes:
             e = o.entry
-            figures = ", ".join(f"{k} {_short(e['headline'][k])}" for k in keys if e["headline"].get(k) is not None)
+            figures = ", ".join(f"{k} {_short(v)}" for k, v in table[e["name"]].items())
             state = "unchanged" if o.reused else e["status"]
             lines.append(f"  {e['name']}: {state}, {e['duration_s']:.1f} s, {e['peak_memory_mib']:.0f} MiB"
                          + (f"; {figures}" if figures and e["status"] == "ok" else "")
                          + (f"; {e['reason']}" if e.get("reason") else ""))
+        keys = dict.fromkeys(k for o in self.outcomes for k in table[o.entry["name"]])
         for k in keys:  # the campaign's spread of each numeric figure
-            values = [o.entry["headline"][k] for o in self.outcomes if o.status == "ok"
-                      and isinstance(o.entry["headline"].get(k), (int, float))]
+            values = [table[o.entry["name"]][k] for o in self.outcomes if o.status == "ok"
+                      and isinstance(table[o.entry["name"]].get(k), (int, float))]
             if len(values) > 1:
                 lines.append(f"  {k} across {len(values)} records: mean {np.mean(values):.4g}, "
                              f"std {np.std(values, ddof=1):.3g}, min {min(values):.4g}, max {max(values):.4g}")
+        if self.stage == "diagnose":
+            ok = sum(o.status == "ok" for o in self.outcomes)
+            recurring = recurring_findings([o.entry for o in self.outcomes])
+            lines.append(f"  findings in more than one of {ok} records: "
+                         + (", ".join(f"{f} ({n})" for f, n in recurring) or "none"))
         combined = self.combined()
         if combined:
             mm = np.array(combined["arms_m"]) * 1e3
@@ -456,7 +462,7 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
 def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
               previous: dict | None = None, progress=None, scheduler: str | None = None,
               plots: bool = False, memory_mib: float | None = None, locked: bool = False,
-              pool: ProcessPoolExecutor | None = None) -> BatchResult:
+              pool: ProcessPoolExecutor | None = None, client=None) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
     finish. ``previous``: the folder's manifest, whose entries for other records are kept.
@@ -466,10 +472,11 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
     own, ``dask worker --memory-limit``). The folder is locked (:func:`folder_lock`) for the run, unless
     the caller holds its lock already (``locked``: ``sizefx batch run`` calibrates there first).
     ``pool``: the local workers, already started (:func:`start_workers`, with the same ``workers``
-    and ``memory_mib``); shut down here in any case."""
-    client = None
+    and ``memory_mib``); ``client``: the Dask client of ``scheduler``, already connected
+    (:func:`dask_client`, by a caller that writes before the batch). Both are closed here in any case."""
     try:
-        client = dask_client(scheduler) if scheduler else None  # refused before anything is written
+        if client is None and scheduler:
+            client = dask_client(scheduler)  # refused before anything is written
         workers = local_workers(workers, len(jobs))
         if client is not None:
             workers = len(client.scheduler_info().get("workers", {})) or workers
