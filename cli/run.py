@@ -63,12 +63,15 @@ def _checked(steps, out_dir, *, batch: bool):
     from sizefx.stage import preflight
 
     command = "sizefx batch run" if batch else "sizefx run"
-    if not out_dir:
-        raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
     chain = dict(steps)
     names = [name for name, _ in steps]
     nav = chain.get("navigate", {})
     check_chain(names, navigate_has_levers=bool(nav.get("levers")), command=command)
+    if not out_dir:
+        named = nav.get("file") or next(iter(chain.get("calibrate", {}).get("records", ())), None)
+        if batch or not named:
+            raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
+        out_dir = f"run-{Path(named).stem}"  # the issue's own example: sizefx run calibrate T.h5 navigate F.h5 compare
     if "calibrate" in chain and nav.get("levers"):
         raise ConfigError(f"{command}: navigate --levers and calibrate in one chain: the chain passes calibrate's "
                           "lever arms to navigate; leave out one of the two")
@@ -81,13 +84,21 @@ def _checked(steps, out_dir, *, batch: bool):
     # every file the chain reads, before any stage runs
     given = {**{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
              **({} if batch else {"navigate FILE": nav.get("file")}), "navigate --levers": nav.get("levers"),
-             "navigate --model": nav.get("model"), "compare --reference": chain.get("compare", {}).get("reference")}
+             "navigate --model": nav.get("model"), "compare --reference": chain.get("compare", {}).get("reference"),
+             "calibrate --nominal": _nominal_file(chain.get("calibrate", {}).get("nominal"))}
     preflight(inputs=given, outputs={})
     if "compare" in chain and not chain["compare"].get("reference") and not batch:
         check_truth(nav["file"])  # in a batch each flight is checked in its own record
     out = check_out_dir(out_dir, [nav["file"]] if batch else [],
                         [*(Path(p).resolve() for p in given.values() if p), *flights])
     return names, chain, nav, flights, out
+
+
+def _nominal_file(nominal):
+    """calibrate --nominal when it names a file (not one of the presets)."""
+    from sizefx.geometry import PRESETS
+
+    return nominal if nominal and nominal not in PRESETS else None
 
 
 def _calibrate_step(chain, out: Path, plots: bool):
@@ -130,7 +141,8 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
 
 @click.group(chain=True)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False),
-              help="Folder for every stage's outputs and run.json (made if new). Required.")
+              help="Folder for every stage's outputs and run.json (made if new) [default: run-NAME in the "
+                   "current folder, NAME the flight's file name, or calibrate's record's].")
 @click.option("--plots", is_flag=True, help="Also write each stage's plots into --out.")
 def run(out_dir, plots):
     """Chain calibrate, navigate and compare in one command.
@@ -165,9 +177,9 @@ def _execute(steps, out_dir, plots):
             step, levers = _calibrate_step(chain, out, plots)
             chain_steps.append(step)
         chain_steps += _flight_steps(chain, nav, nav.get("file"), levers, out, plots)
-        chain_stage.run(chain_stage.ChainConfig(tuple(chain_steps), str(out)),
-                        echo=lambda title, text: click.echo(f"{title}\n{text}"))
-    click.echo(f"run: {' -> '.join(names)}; every output and run.json in {out}")
+        result = chain_stage.run(chain_stage.ChainConfig(tuple(chain_steps), str(out)),
+                                 echo=lambda title, text: click.echo(f"{title}\n{text}"))
+    click.echo(f"run: {' -> '.join(names)}; every output and run.json in {out}\n{result.summary()}")
 
 
 @click.group("run", chain=True, params=batch_params(record_plots=True, chain=True))
@@ -192,14 +204,32 @@ def batch_run(**_):
 
 @batch_run.result_callback()
 def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_progress, plots, quiet):
-    from sizefx import chain as chain_stage
-    from sizefx.batch import BatchJob, output_names, read_manifest, run_batch
-    from sizefx.batch.manifest import canonical_options
-    from sizefx.batch.runner import folder_lock
+    from sizefx.batch import read_manifest
+    from sizefx.batch.runner import dask_client
 
     names, chain, nav, flights, out = _checked(steps, out_dir, batch=True)
     previous = read_manifest(out, "run") if out.exists() else None
     entries = {e["input"]: e for e in (previous or {}).get("records", [])}
+    client = dask_client(scheduler) if scheduler else None  # refused before calibrate runs or anything is written
+    try:
+        result = _batch_chain(chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo,
+                              json_progress, plots, quiet)
+    finally:
+        if client is not None:
+            client.close()
+    click.echo(result.report())
+    if not result.all_ok:
+        sys.exit(1)
+
+
+def _batch_chain(chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo, json_progress,
+                 plots, quiet):
+    """calibrate once into ``out`` (if in the chain), then the chain per flight as a batch."""
+    from sizefx import chain as chain_stage
+    from sizefx.batch import BatchJob, output_names, run_batch
+    from sizefx.batch.manifest import canonical_options
+    from sizefx.batch.runner import folder_lock
+
     out.mkdir(exist_ok=True)
     with folder_lock(out):
         levers = nav.get("levers")
@@ -222,12 +252,9 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
             jobs.append(BatchJob("run", str(flight), flight_names[flight], config, options, {"folder": str(folder)},
                                  previous=entries.get(str(flight)), redo=redo,
                                  paired={k: str(v) for k, v in config.inputs().items() if str(v) != str(flight)}))
-        result = run_batch("run", jobs, out, options, workers=workers, previous=previous,
-                           progress=BatchProgress("run", len(jobs), json_progress, quiet), scheduler=scheduler,
-                           plots=plots, memory_mib=memory_mib, locked=True)
-    click.echo(result.report())
-    if not result.all_ok:
-        sys.exit(1)
+        return run_batch("run", jobs, out, options, workers=workers, previous=previous,
+                         progress=BatchProgress("run", len(jobs), json_progress, quiet), client=client,
+                         plots=plots, memory_mib=memory_mib, locked=True)
 
 
 for _name in _DROPPED:

@@ -107,6 +107,19 @@ class ChainResult:
     def report(self) -> str:
         return "\n".join(f"{title}\n{text}" for title, text in self.reports)
 
+    def summary(self) -> str:
+        """The chain in one table: a line per step, its stage (and which run), its time and the figures
+        a batch's table prints for that stage (navigation errors, each arm component, distances)."""
+        from .batch.fleet import table_figures
+
+        lines = []
+        for step in self.steps:
+            figures = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                for k, v in table_figures(step["stage"], step["headline"]).items())
+            name = step["stage"] + (f" ({step['run']})" if step.get("run") else "")
+            lines.append(f"  {name}: {step['duration_s']:.1f} s" + (f"; {figures}" if figures else ""))
+        return "\n".join(lines)
+
 
 def run(config: ChainConfig, *, echo=None) -> ChainResult:
     """Run the chain's steps in order into ``config.out_dir`` (made if new), rewriting its run.json after
@@ -140,9 +153,9 @@ def run(config: ChainConfig, *, echo=None) -> ChainResult:
 def check_truth(path) -> None:
     """Refuse a flight that compare cannot judge: without ``/reference/position`` there is no truth
     (checked before any stage runs, so that the flight is not navigated twice for nothing)."""
-    import h5py
+    from .io.contract import open_hdf5
 
-    with h5py.File(path, "r") as f:
+    with open_hdf5(path, "convert it with sizefx import") as f:
         has = "reference/position" in f
     if not has:
         raise ConfigError(f"{path}: compare needs the truth, and the flight has no /reference/position; give "

@@ -78,11 +78,16 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
     (["calibrate", "{turntable}", "navigate", "--levers", "{turntable}", "{flight}"], "leave out one"),
     (["calibrate", "{turntable}", "navigate", "{missing}", "compare"], "no such file"),
     (["calibrate", "{turntable}", "navigate", "{flight}", "navigate", "{flight}"], "each stage once"),
-    (["--no-out", "navigate", "{flight}"], "give --out"),
-], ids=["compare-alone", "one-solution", "order", "levers-twice", "missing-flight", "repeated", "no-out"])
+    (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
+    (["navigate", "--levers", "{turntable}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
+    (["--no-out", "compare"], "nothing to compare"),
+], ids=["compare-alone", "one-solution", "order", "levers-twice", "missing-flight", "repeated", "missing-nominal",
+        "flight-not-hdf5", "no-out-no-file"])
 def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path, chain, needle):
     turntable, flight = records
-    names = {"flight": flight, "turntable": turntable, "missing": tmp_path / "nope.h5"}
+    (tmp_path / "notes.txt").write_text("not a record")
+    names = {"flight": flight, "turntable": turntable, "missing": tmp_path / "nope.h5",
+             "missing_levers": tmp_path / "nope.json", "not_hdf5": tmp_path / "notes.txt"}
     out = tmp_path / "out"
     given = [a.format(**names) for a in chain]
     result = _run(*given[1:]) if given[0] == "--no-out" else _run("--out", out, *given)
@@ -91,6 +96,19 @@ def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path,
     assert len(lines) == 1 and "Traceback" not in result.output, result.output
     assert needle in lines[0], lines[0]
     assert not out.exists()
+
+
+def test_without_out_the_chain_writes_into_a_folder_named_after_its_file(records, tmp_path, monkeypatch):
+    """The issue's own form, without --out: the outputs go to run-NAME in the current folder, and the
+    chain ends with one summary, a line per step with its figures."""
+    turntable, _ = records
+    monkeypatch.chdir(tmp_path)
+    result = _run("calibrate", turntable)
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "run-turntable" / "levers.json").exists()
+    head, summary = result.output.split("run: calibrate; every output and run.json in ")[1].split("\n", 1)
+    assert head.endswith("run-turntable"), head
+    assert summary.strip().startswith("calibrate: ") and "r_x[x]_mm 24." in summary, summary
 
 
 # --------------------------------------------------------------------------- a chain per flight (sizefx batch run)
@@ -187,4 +205,16 @@ def test_batch_chains_that_cannot_work_are_one_line(records, flights, tmp_path, 
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in result.output, result.output
     assert needle in lines[0] and lines[0].startswith("sizefx: error: "), lines[0]
+    assert not out.exists()
+
+
+def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, flights, tmp_path):
+    """The scheduler is reached before calibrate runs or the folder is made: one line, exit 2."""
+    pytest.importorskip("distributed")
+    turntable, _ = records
+    out = tmp_path / "out"
+    result = _batch_run("--out", out, "--scheduler", "tcp://127.0.0.1:9", "calibrate", turntable, "navigate",
+                        flights, "compare")
+    assert result.exit_code == 2, result.output
+    assert len(result.output.strip().splitlines()) == 1 and "cannot reach it" in result.output, result.output
     assert not out.exists()
