@@ -327,6 +327,35 @@ def test_sha256_of_a_mapped_file_is_hashlibs(tmp_path, size):
     assert sha256_of(path) == hashlib.sha256(data).hexdigest()
 
 
+@pytest.mark.parametrize("size", [0, HASH_CHUNK_BYTES + 5])
+def test_sha256_of_read_is_the_mapped_one(tmp_path, size):
+    """mapped=False (a command's own process) reads: the same digest."""
+    path = tmp_path / "f.bin"
+    path.write_bytes(np.random.default_rng(size).integers(0, 256, size, dtype=np.uint8).tobytes())
+    assert sha256_of(path, mapped=False) == sha256_of(path) == hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_sha256_of_a_file_that_cannot_be_mapped_is_read(tmp_path, monkeypatch):
+    """A file system that refuses mmap (OSError) part way: the rest is read, the digest unchanged."""
+    import mmap
+
+    from sizefx.io import files
+
+    path = tmp_path / "f.bin"
+    path.write_bytes(bytes(range(256)) * (HASH_CHUNK_BYTES // 128 + 3))
+    real, calls = mmap.mmap, []
+
+    def refuse_second(*args, **kwargs):
+        calls.append(kwargs.get("offset"))
+        if len(calls) == 2:
+            raise OSError(19, "No such device")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(files.mmap, "mmap", refuse_second)
+    assert sha256_of(path) == hashlib.sha256(path.read_bytes()).hexdigest()
+    assert calls == [0, HASH_CHUNK_BYTES]
+
+
 def test_sha256_of_a_pipe_reads_it(tmp_path):
     """What is not a regular file (a named pipe) is read to its end."""
     fifo = tmp_path / "pipe"

@@ -42,7 +42,7 @@ FORMATS = {
 
 def provenance(path: Path, fmt: str, credits: str = "", **extra) -> dict:
     """``/source`` attributes: the original file, its checksum, the importer and credits."""
-    digest = sha256_of(path)
+    digest = sha256_of(path, mapped=False)  # this command's own process: no SIGBUS risk
     out = {"format": fmt, "file": Path(path).name, "sha256": digest, "importer": f"sizefx {__version__}"}
     if credits:
         out["credits"] = credits

@@ -31,29 +31,36 @@ __all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_
 HASH_CHUNK_BYTES = 1 << 24
 
 
-def sha256_of(path) -> str:
+def sha256_of(path, *, mapped: bool = True) -> str:
     """SHA-256 of a file's bytes (hex), in bounded memory whatever its size.
 
-    A regular file is mapped a window of :data:`HASH_CHUNK_BYTES` at a time and hashed from the
-    page cache in place: a read would first copy each byte into a buffer, and in a batch that copy
-    competed with the stage's own reads of the same record (``benchmarks/bench_batch.py``: 8
-    records of the 1.8 h flight on 2 workers, about 0.5 s of 14). One window at a time, so that the
-    process's resident memory (the peak a batch reports per record) grows by one window, not by the
-    file. Anything else (a pipe) is read. A file truncated by another process while it is hashed
-    ends the process with SIGBUS; a batch worker that dies so fails that record alone and the record
-    is run again in a fresh worker.
+    ``mapped`` (a batch worker's hash): a regular file is mapped a window of :data:`HASH_CHUNK_BYTES`
+    at a time and hashed from the page cache in place. A read would first copy each byte into a
+    buffer, and in a batch that copy competed with the stage's own reads of the same record
+    (``benchmarks/bench_batch.py``: 8 records of the 1.8 h flight on 2 workers, about 0.5 s of 14).
+    One window at a time, so that the process's resident memory (the peak a batch reports per
+    record) grows by one window, not by the file. A file truncated by another process while it is
+    mapped ends the process with SIGBUS: a batch worker that dies so fails that record alone and
+    the record is run again in a fresh worker, but a command's own process should not take that
+    risk, so it reads (``mapped=False``). Anything but a regular file (a pipe), and a file system
+    that cannot map, is read too.
     """
     digest = hashlib.sha256()
     with open(path, "rb") as f:
         info = os.fstat(f.fileno())
-        if not stat.S_ISREG(info.st_mode):
-            while chunk := f.read(HASH_CHUNK_BYTES):
-                digest.update(chunk)
-            return digest.hexdigest()
-        for offset in range(0, info.st_size, HASH_CHUNK_BYTES):
-            length = min(HASH_CHUNK_BYTES, info.st_size - offset)
-            with mmap.mmap(f.fileno(), length, access=mmap.ACCESS_READ, offset=offset) as window:
-                digest.update(window)
+        offset = 0
+        if mapped and stat.S_ISREG(info.st_mode):
+            try:
+                while offset < info.st_size:
+                    length = min(HASH_CHUNK_BYTES, info.st_size - offset)
+                    with mmap.mmap(f.fileno(), length, access=mmap.ACCESS_READ, offset=offset) as window:
+                        digest.update(window)
+                    offset += length
+                return digest.hexdigest()
+            except OSError:  # cannot be mapped here: the rest is read
+                f.seek(offset)
+        while chunk := f.read(HASH_CHUNK_BYTES):
+            digest.update(chunk)
     return digest.hexdigest()
 
 
