@@ -220,6 +220,46 @@ def test_a_changed_levers_file_reruns_the_records(campaign, tmp_path):
     assert "3 ok, 0 unchanged" in result.output, result.output
 
 
+def test_compensate_batch_writes_each_record_compensated(campaign, tmp_path):
+    """batch compensate: one compensated file per record, the levers file hashed with each, and each
+    output equal to the single command's."""
+    levers = tmp_path / "levers.json"
+    write_levers(levers, levers_from_preset("high-precision"))
+    out = tmp_path / "out"
+    result = _batch("compensate", campaign, "--levers", levers, "--out", out, "-q")
+    assert result.exit_code == 0, result.output
+    single = tmp_path / "single.h5"
+    assert CliRunner().invoke(main, ["compensate", str(campaign / "run1.h5"), "--levers", str(levers),
+                                     "-o", str(single)]).exit_code == 0
+    for entry in _manifest(out)["records"]:
+        assert entry["status"] == "ok" and set(entry["paired"]) == {"--levers"}
+        assert (out / f"{entry['name']}.compensated.h5").exists()
+    a, b = _content(out / "run1.compensated.h5"), _content(single)
+    assert a.keys() == b.keys()
+    for key in a:
+        assert np.array_equal(a[key], b[key]) if isinstance(a[key], np.ndarray) else a[key] == b[key], key
+
+
+def test_outputs_do_not_depend_on_the_order_of_the_inputs(campaign, tmp_path):
+    """The records given in reverse: the same outputs, byte for byte, and the manifest in path order."""
+    ahead, behind = tmp_path / "ahead", tmp_path / "behind"
+    assert _batch("inspect", campaign, "--out", ahead, "-q").exit_code == 0
+    reverse = [campaign / f"run{k}.h5" for k in (2, 1, 0)]
+    assert _batch("inspect", *reverse, "--out", behind, "-q").exit_code == 0
+    for k in range(3):
+        assert (ahead / f"run{k}.inspect.json").read_bytes() == (behind / f"run{k}.inspect.json").read_bytes()
+    assert [e["name"] for e in _manifest(behind)["records"]] == ["run0", "run1", "run2"]
+
+
+def test_progress_off_a_terminal_is_a_plain_line_per_record(campaign, tmp_path):
+    """Not a terminal (as here): a line per record with the count, the record, the rate and the time left."""
+    result = _batch("inspect", campaign, "--out", tmp_path / "out", "--workers", "1")
+    assert result.exit_code == 0, result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("batch inspect: ") and "/3 " in line]
+    assert [line.split()[2] for line in lines] == ["1/3", "2/3", "3/3"], result.output
+    assert all("records/s" in line for line in lines) and "s left" in lines[0]
+
+
 def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
     """--memory-per-worker-mib: the record that needs more (4 GiB against 1 GiB) is failed with a
     MemoryError that names the bound; the others, in the same warm workers, are done."""

@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import h5py
 import numpy as np
@@ -17,6 +18,7 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx.io.schema import check_document
+from sizefx.levers import levers_from_preset, write_levers
 from sizefx.scenarios import FlightPlan, TurntablePlan
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
@@ -81,13 +83,18 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
     (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
     (["navigate", "--levers", "{turntable}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
     (["--no-out", "compare"], "nothing to compare"),
+    (["navigate", "--levers", "{levers}", "{no_truth}", "compare"], "has no /reference/position"),
 ], ids=["compare-alone", "one-solution", "order", "levers-twice", "missing-flight", "repeated", "missing-nominal",
-        "flight-not-hdf5", "no-out-no-file"])
+        "flight-not-hdf5", "no-out-no-file", "flight-without-truth"])
 def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path, chain, needle):
     turntable, flight = records
     (tmp_path / "notes.txt").write_text("not a record")
     names = {"flight": flight, "turntable": turntable, "missing": tmp_path / "nope.h5",
              "missing_levers": tmp_path / "nope.json", "not_hdf5": tmp_path / "notes.txt"}
+    if "{no_truth}" in chain:
+        names["no_truth"] = _without_truth(flight, tmp_path / "no-truth.h5")
+        names["levers"] = tmp_path / "levers.json"
+        write_levers(names["levers"], levers_from_preset("high-precision"))
     out = tmp_path / "out"
     given = [a.format(**names) for a in chain]
     result = _run(*given[1:]) if given[0] == "--no-out" else _run("--out", out, *given)
@@ -96,6 +103,14 @@ def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path,
     assert len(lines) == 1 and "Traceback" not in result.output, result.output
     assert needle in lines[0], lines[0]
     assert not out.exists()
+
+
+def _without_truth(flight, path):
+    """A copy of ``flight`` without /reference/position (compare would have no truth)."""
+    shutil.copyfile(flight, path)
+    with h5py.File(path, "a") as f:
+        del f["reference/position"]
+    return path
 
 
 def test_without_out_the_chain_writes_into_a_folder_named_after_its_file(records, tmp_path, monkeypatch):
