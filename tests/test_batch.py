@@ -23,7 +23,7 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx.batch import BatchJob, BatchResult, RecordOutcome, output_names, run_batch
-from sizefx.batch.fleet import recurring_findings
+from sizefx.batch.fleet import headline, recurring_findings
 from sizefx.batch.manifest import canonical_options
 from sizefx.batch import runner
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
@@ -238,6 +238,32 @@ def test_compensate_batch_writes_each_record_compensated(campaign, tmp_path):
     assert a.keys() == b.keys()
     for key in a:
         assert np.array_equal(a[key], b[key]) if isinstance(a[key], np.ndarray) else a[key] == b[key], key
+
+
+def test_diagnose_batch_finds_what_the_single_command_finds_and_what_recurs(tmp_path):
+    """batch diagnose over three records, an accelerometer bias hidden in two: a report and a model
+    per record, each record's findings those of 'sizefx diagnose' on it, and the bias on each axis
+    named as recurring in two of the three."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for k, hidden in enumerate([{"accel_bias": {"enabled": True}}, {"accel_bias": {"enabled": True}}, None]):
+        simulate(SimulateConfig("turntable", str(runs / f"r{k}.h5"), plan=PLAN, rate_hz=200.0, seed=k,
+                                overrides=hidden))
+    out = tmp_path / "out"
+    result = _batch("diagnose", runs, "--out", out, "--workers", "2")
+    assert result.exit_code == 0, result.output
+    single = tmp_path / "single.json"
+    assert CliRunner().invoke(main, ["diagnose", str(runs / "r0.h5"), "--json", str(single),
+                                     "--model-out", str(tmp_path / "single.toml")]).exit_code == 0
+    entries = {e["name"]: e for e in _manifest(out)["records"]}
+    for name in ("r0", "r1", "r2"):
+        assert entries[name]["status"] == "ok"
+        assert (out / f"{name}.diagnosis.json").exists() and (out / f"{name}.model.toml").exists()
+    timeless = lambda h: {k: v for k, v in h.items() if k != "wall_s"}  # noqa: E731 (the run's own time)
+    assert timeless(entries["r0"]["headline"]) == timeless(headline("diagnose", json.loads(single.read_text())))
+    assert entries["r2"]["headline"]["effects"] == []
+    assert ("findings in more than one of 3 records: accel_bias accel_x (2), accel_bias accel_y (2), "
+            "accel_bias accel_z (2)") in result.output, result.output
 
 
 def test_outputs_do_not_depend_on_the_order_of_the_inputs(campaign, tmp_path):
