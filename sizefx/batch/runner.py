@@ -40,8 +40,9 @@ from ..stage import use_helper_threads
 from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
 from .manifest import BATCH_SCHEMA, reusable, write_manifest
 
-__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "STAGES", "dask_client", "folder_lock",
-           "default_memory_mib", "LOCK_NAME", "MEMORY_SHARE"]
+__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "start_workers", "local_workers",
+           "available_cores", "STAGES", "dask_client", "folder_lock", "default_memory_mib", "LOCK_NAME",
+           "MEMORY_SHARE"]
 
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
 #: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
@@ -356,6 +357,14 @@ def _stop(pool: ProcessPoolExecutor) -> None:
             process.join(STOP_WAIT_S)
 
 
+def _abandon(pool: ProcessPoolExecutor, jobs) -> None:
+    """Stop ``pool`` now (:func:`_stop`) and remove the temporary files of the ``jobs`` it was running."""
+    _stop(pool)
+    for job in jobs:
+        for path in [*job.outputs.values(), *([job.summary_path] if job.summary_path else [])]:
+            remove_stale_temporaries(path)
+
+
 def available_cores() -> int:
     """The cores this process may run on (its CPU affinity, which a container or ``taskset`` narrows;
     ``os.cpu_count()`` where the platform has none)."""
@@ -535,10 +544,7 @@ def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, c
             except BrokenProcessPool:
                 suspects += running.values()  # the rest go on in a fresh pool
             except BaseException:  # Ctrl-C, SIGTERM, a bug here: no queued record starts, none runs on
-                _stop(pool)
-                for job in running.values():
-                    for path in [*job.outputs.values(), *([job.summary_path] if job.summary_path else [])]:
-                        remove_stale_temporaries(path)
+                _abandon(pool, running.values())
                 raise
     for job in suspects:  # each alone in a fresh process: only the record that kills it fails
         with _pool(1, memory_mib, stage) as pool:
@@ -546,6 +552,9 @@ def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, c
                 finished(job, pool.submit(_work, job).result())
             except BrokenProcessPool as exc:
                 finished(job, _died(job, _one_line(exc)))
+            except BaseException:
+                _abandon(pool, [job])
+                raise
     ordered = [outcomes[j.input] for j in jobs]
     result = BatchResult(stage, ordered, str(out_dir / "manifest.json"), time.perf_counter() - t0, workers)
     if plots:
