@@ -149,12 +149,12 @@ def _make(name: str, spec: _Stage) -> click.Command:
                          **{param: None for param in spec.paired}, **paired,
                          spec.input_param: (str(record),) if spec.many else str(record)}
                 config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
-                if not jobs:  # the options' own files (--levers, --model, --nominal): refused once, before any work
-                    preflight(inputs={k: v for k, v in config.inputs().items() if str(k).startswith("-")},
-                              outputs={})
-                # every file besides the record (--against, --reference, --levers, --model, --nominal) is
-                # hashed with it: a re-calibration into the same levers.json reruns the records
+                # the files the options name (--levers, --model, --nominal, --against, --reference): refused
+                # once, before any work, and hashed with each record, so that a re-calibration into the
+                # same levers.json reruns the records
                 option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
+                if not jobs:
+                    preflight(inputs=option_files, outputs={})
                 jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
                                      str(out / f"{names[record]}.{name}.json") if spec.summary else None,
                                      entries.get(str(record)), redo,
