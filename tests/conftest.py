@@ -1,42 +1,64 @@
-"""Shared fixtures, and the check that the tests run against what users install.
+"""Shared fixtures, and the check that the tests run against this checkout's code.
 
-README command 2 installs sizefx without ``-e`` (``pip install ".[test]"``), exactly as a
-user gets it, and the tests import that copy: a module left out of the wheel fails here,
-not on a user's machine. :func:`_installed_matches_source` refuses to run against the
-source tree (``python -m pytest`` puts it first on ``sys.path``) or against an installed
-copy older than the source, with the command that fixes it.
+Two installs are accepted. README command 2 installs sizefx without ``-e`` (``pip install
+".[test]"``), exactly as a user gets it: a module left out of the wheel fails here, not on a
+user's machine, and the installed copy must equal the source file by file. The developers'
+loop is an editable install (``pip install -e ".[test]"``): sizefx, ``sizefx_cli`` and
+``sizefx.schemas`` then resolve to ``sizefx/``, ``cli/`` and ``data-schemas/`` of this checkout.
+Anything else (the source tree on ``sys.path`` with no install, or another checkout's install)
+stops the run with the command that fixes it.
 """
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-REINSTALL = ".venv/bin/pip install --no-deps --force-reinstall . (or README command 2)"
+REINSTALL = '.venv/bin/pip install -e ".[test]" (the development loop) or README command 2'
+#: source folder -> the module it is installed as (pyproject.toml's [tool.setuptools] package-dir)
+HOMES = {"sizefx": "sizefx", "cli": "sizefx_cli", "data-schemas": "sizefx.schemas"}
+
+
+def _home_of(module: str) -> Path | None:
+    try:
+        return Path(importlib.import_module(module).__file__).resolve().parent
+    except ImportError:
+        return None
 
 
 def _installed_matches_source():
-    import sizefx
-
-    installed = Path(sizefx.__file__).resolve().parent
-    if installed == ROOT / "sizefx":
-        pytest.exit(f"the tests imported sizefx from the source tree ({installed}), not the installed package; "
-                    "run .venv/bin/pytest rather than python -m pytest (which puts the working folder first "
-                    "on sys.path)", returncode=2)
-    # source folder -> its installed home (pyproject.toml's [tool.hatch.build.targets.wheel.sources])
-    homes = {ROOT / "sizefx": installed, ROOT / "cli": installed.parent / "sizefx_cli",
-             ROOT / "data-schemas": installed / "schemas"}
+    homes = {ROOT / src: _home_of(module) for src, module in HOMES.items()}
+    if all(home == src for src, home in homes.items()):
+        return  # an editable install of this checkout: every edit is seen at once
+    missing = [module for (src, module) in zip(homes, HOMES.values()) if homes[src] is None]
+    if missing:
+        pytest.exit(
+            f"{', '.join(missing)} cannot be imported: sizefx is not installed in this environment; "
+            f"install it with {REINSTALL}",
+            returncode=2,
+        )
+    if any(home == src for src, home in homes.items()):
+        pytest.exit(
+            f"the tests imported sizefx partly from the source tree and partly from an install "
+            f"({', '.join(str(h) for h in homes.values())}); run .venv/bin/pytest rather than "
+            f"python -m pytest from another environment, or install with {REINSTALL}",
+            returncode=2,
+        )
     for src, home in homes.items():
         for f in sorted(src.rglob("*")):
             if f.suffix not in (".py", ".json") or "__pycache__" in f.parts:
                 continue
             copy = home / f.relative_to(src)
             if not copy.is_file() or copy.read_bytes() != f.read_bytes():
-                pytest.exit(f"the installed sizefx ({installed}) is not the source: {f.relative_to(ROOT)} "
-                            f"{'is missing' if not copy.is_file() else 'differs'}; reinstall with {REINSTALL}",
-                            returncode=2)
+                pytest.exit(
+                    f"the installed sizefx ({homes[ROOT / 'sizefx']}) is not the source: "
+                    f"{f.relative_to(ROOT)} {'is missing' if not copy.is_file() else 'differs'}; "
+                    f"reinstall with {REINSTALL}",
+                    returncode=2,
+                )
 
 
 def pytest_configure(config):
