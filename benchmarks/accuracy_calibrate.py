@@ -52,15 +52,23 @@ from sizefx.simulate import run as simulate_file
 OFFSET_M = [0.10, -0.05, 0.02]
 TILT_ARCSEC = (8.0, -6.0)
 DELAY_S = 0.5e-3
-BASE = {"lever_arm": {"preset": "compact", "r_vehicle_m": OFFSET_M},
-        "level_tilt": {"enabled": True, "north_arcsec": TILT_ARCSEC[0], "east_arcsec": TILT_ARCSEC[1]},
-        "accel_bias": {"enabled": True, "bias_ug": [50.0, -30.0, 20.0]},
-        "accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": 2.96}}
+BASE = {
+    "lever_arm": {"preset": "compact", "r_vehicle_m": OFFSET_M},
+    "level_tilt": {"enabled": True, "north_arcsec": TILT_ARCSEC[0], "east_arcsec": TILT_ARCSEC[1]},
+    "accel_bias": {"enabled": True, "bias_ug": [50.0, -30.0, 20.0]},
+    "accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": 2.96},
+}
 VARIANTS = {
     "paper": {},
     "sway": {"accel_delay": {"enabled": True, "tau_s": DELAY_S}},
-    "coloured": {"accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": 2.96,
-                                 "markov_density_ug_per_sqrt_hz": 10.0, "markov_correlation_s": 0.2}},
+    "coloured": {
+        "accel_noise": {
+            "enabled": True,
+            "density_ug_per_sqrt_hz": 2.96,
+            "markov_density_ug_per_sqrt_hz": 10.0,
+            "markov_correlation_s": 0.2,
+        }
+    },
 }
 #: Seeds of different set-ups never coincide.
 SEED_BASE = {"paper": 0, "sway": 100_000, "coloured": 200_000}
@@ -89,9 +97,12 @@ def one_seed(job):
     with_delay = variant == "sway"
     if with_delay:
         for k, axis in enumerate(("roll", "pitch")):
-            sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=10.0, segment_s=60.0))[0]
-            records.append(prepare(simulate_in_memory(sway, fx, form="rates", seed=seed + 50_000 * (k + 1)),
-                                   f"sway-{axis}"))
+            sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=10.0, segment_s=60.0))[
+                0
+            ]
+            records.append(
+                prepare(simulate_in_memory(sway, fx, form="rates", seed=seed + 50_000 * (k + 1)), f"sway-{axis}")
+            )
     names = list(truth_of(variant))
     out = {}
     domains = {"increments": {}, "rates": {"interval_s": None}} if compare_rates else {"increments": {}}
@@ -119,12 +130,18 @@ def summarise(names, truth, rows) -> dict:
     scatter = x.std(axis=0, ddof=1)
     out = {}
     for j, n in enumerate(names):
-        out[n] = {"mean_z": float(z[:, j].mean()), "z_rms": float(np.sqrt(np.mean(z[:, j] ** 2))),
-                  "max_abs_z": float(np.abs(z[:, j]).max()), "mean_error": float((x[:, j] - t[j]).mean()),
-                  "sigma": float(s[:, j].mean()), "scatter": float(scatter[j]), "bound": float(b[:, j].mean()),
-                  "scatter_over_sigma": float(scatter[j] / s[:, j].mean()),
-                  "efficiency_stated": float(b[:, j].mean() / s[:, j].mean()),
-                  "efficiency_scatter": float(b[:, j].mean() / scatter[j])}
+        out[n] = {
+            "mean_z": float(z[:, j].mean()),
+            "z_rms": float(np.sqrt(np.mean(z[:, j] ** 2))),
+            "max_abs_z": float(np.abs(z[:, j]).max()),
+            "mean_error": float((x[:, j] - t[j]).mean()),
+            "sigma": float(s[:, j].mean()),
+            "scatter": float(scatter[j]),
+            "bound": float(b[:, j].mean()),
+            "scatter_over_sigma": float(scatter[j] / s[:, j].mean()),
+            "efficiency_stated": float(b[:, j].mean() / s[:, j].mean()),
+            "efficiency_scatter": float(b[:, j].mean() / scatter[j]),
+        }
     return out
 
 
@@ -138,18 +155,24 @@ def unit(name):
 
 def print_table(title, table, seeds):
     print(f"\n{title} ({seeds} seeds)")
-    print(f"  {'parameter':12s} {'mean z':>7s} {'z RMS':>6s} {'max|z|':>6s} {'mean error':>11s} {'sigma':>8s} "
-          f"{'scatter':>8s} {'bound':>8s} {'bound/sigma':>11s} {'bound/scatter':>13s}")
+    print(
+        f"  {'parameter':12s} {'mean z':>7s} {'z RMS':>6s} {'max|z|':>6s} {'mean error':>11s} {'sigma':>8s} "
+        f"{'scatter':>8s} {'bound':>8s} {'bound/sigma':>11s} {'bound/scatter':>13s}"
+    )
     for n, r in table.items():
         k, u = unit(n)
-        print(f"  {n:12s} {r['mean_z']:+7.2f} {r['z_rms']:6.2f} {r['max_abs_z']:6.2f} {r['mean_error'] * k:+8.4f} "
-              f"{u:>2s} {r['sigma'] * k:8.4f} {r['scatter'] * k:8.4f} {r['bound'] * k:8.4f} {r['efficiency_stated']:11.3f} "
-              f"{r['efficiency_scatter']:13.3f}")
+        print(
+            f"  {n:12s} {r['mean_z']:+7.2f} {r['z_rms']:6.2f} {r['max_abs_z']:6.2f} {r['mean_error'] * k:+8.4f} "
+            f"{u:>2s} {r['sigma'] * k:8.4f} {r['scatter'] * k:8.4f} {r['bound'] * k:8.4f} {r['efficiency_stated']:11.3f} "
+            f"{r['efficiency_scatter']:13.3f}"
+        )
     worst_mean = max(abs(r["mean_z"]) for r in table.values())
     rms = [r["z_rms"] for r in table.values()]
     eff = min(r["efficiency_stated"] for r in table.values())
-    print(f"  worst |mean z| {worst_mean:.2f} (target <= 0.3); z RMS {min(rms):.2f}..{max(rms):.2f} (target 0.8..1.25); "
-          f"pooled z RMS {np.sqrt(np.mean(np.square(rms))):.2f}; least bound/sigma {eff:.3f}")
+    print(
+        f"  worst |mean z| {worst_mean:.2f} (target <= 0.3); z RMS {min(rms):.2f}..{max(rms):.2f} (target 0.8..1.25); "
+        f"pooled z RMS {np.sqrt(np.mean(np.square(rms))):.2f}; least bound/sigma {eff:.3f}"
+    )
 
 
 def main(argv=None):
@@ -184,14 +207,19 @@ def main(argv=None):
         print(f"  ({variant}: {wall:.0f} s for {args.seeds} seeds with {args.jobs} processes)")
     out["per_rotation"] = per_rotation()
     pr = out["per_rotation"]
-    print(f"\ntilt 8, -6 arcsec, one record of the paper set-up: joint fit {pr['joint_tilt_arcsec'][0]:.2f}, "
-          f"{pr['joint_tilt_arcsec'][1]:.2f} arcsec, arms max |z| {pr['joint_max_abs_z']:.2f}; the paper's per-rotation "
-          "fit (ignores the tilt), r_ii - truth [mm]: " + ", ".join(f"{k} {v:+.3f}" for k, v in pr["per_rotation_error_mm"].items()))
+    print(
+        f"\ntilt 8, -6 arcsec, one record of the paper set-up: joint fit {pr['joint_tilt_arcsec'][0]:.2f}, "
+        f"{pr['joint_tilt_arcsec'][1]:.2f} arcsec, arms max |z| {pr['joint_max_abs_z']:.2f}; the paper's per-rotation "
+        "fit (ignores the tilt), r_ii - truth [mm]: "
+        + ", ".join(f"{k} {v:+.3f}" for k, v in pr["per_rotation_error_mm"].items())
+    )
     if not args.skip_reference_rate:
         out["reference_rate"] = rr = reference_rate()
-        print(f"reference rate: turntable + 40-min roll sway at 1600 Hz, the sway's reference at 100 Hz against "
-              f"1600 Hz: arms differ by at most {rr['max_difference_mm']:.5f} mm (sigma {rr['sigma_min_mm']:.4f}"
-              f"..{rr['sigma_max_mm']:.4f} mm)")
+        print(
+            f"reference rate: turntable + 40-min roll sway at 1600 Hz, the sway's reference at 100 Hz against "
+            f"1600 Hz: arms differ by at most {rr['max_difference_mm']:.5f} mm (sigma {rr['sigma_min_mm']:.4f}"
+            f"..{rr['sigma_max_mm']:.4f} mm)"
+        )
     print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
     if args.json:
         args.json.write_text(json.dumps(out, indent=2) + "\n")
@@ -204,11 +232,15 @@ def per_rotation() -> dict:
     rec = prepare(simulate_in_memory(scenarios.turntable(scenarios.TurntablePlan())[0], fx, form="rates", seed=11))
     res = joint_fit([rec])
     truth = fx.arms_total_m()
-    return {"joint_tilt_arcsec": (res.tilt_rad / ARCSEC).tolist(),
-            "joint_max_abs_z": float(np.abs((res.arms - truth) / res.sigma_arms).max()),
-            "per_rotation_error_mm": {f"{r['axis']}/{r['channel']}": (r["r_own"] - truth["xyz".index(r["channel"])]
-                                                                       ["xyz".index(r["channel"])]) * 1e3
-                                      for r in per_rotation_fit(rec)}}
+    return {
+        "joint_tilt_arcsec": (res.tilt_rad / ARCSEC).tolist(),
+        "joint_max_abs_z": float(np.abs((res.arms - truth) / res.sigma_arms).max()),
+        "per_rotation_error_mm": {
+            f"{r['axis']}/{r['channel']}": (r["r_own"] - truth["xyz".index(r["channel"])]["xyz".index(r["channel"])])
+            * 1e3
+            for r in per_rotation_fit(rec)
+        },
+    }
 
 
 #: The reference-rate study's offset of the table centre (issue 13).
@@ -225,13 +257,18 @@ def reference_rate() -> dict:
         arms = {}
         for hz in (1600.0, 100.0):
             sway = tmp / f"sway_{int(hz)}.h5"
-            simulate_file(SimulateConfig("sway", sway, plan=sway_plan, overrides=overrides, seed=42, reference_rate_hz=hz))
+            simulate_file(
+                SimulateConfig("sway", sway, plan=sway_plan, overrides=overrides, seed=42, reference_rate_hz=hz)
+            )
             res = calibrate_files(CalibrateConfig((str(tmp / "turntable.h5"), str(sway)))).fit
             arms[hz] = res
     diff = np.abs(arms[100.0].arms - arms[1600.0].arms)
-    return {"max_difference_mm": float(diff.max() * 1e3), "difference_mm": (diff * 1e3).tolist(),
-            "sigma_min_mm": float(arms[1600.0].sigma_arms.min() * 1e3),
-            "sigma_max_mm": float(arms[1600.0].sigma_arms.max() * 1e3)}
+    return {
+        "max_difference_mm": float(diff.max() * 1e3),
+        "difference_mm": (diff * 1e3).tolist(),
+        "sigma_min_mm": float(arms[1600.0].sigma_arms.min() * 1e3),
+        "sigma_max_mm": float(arms[1600.0].sigma_arms.max() * 1e3),
+    }
 
 
 if __name__ == "__main__":

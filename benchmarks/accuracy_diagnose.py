@@ -39,7 +39,7 @@ from sizefx.effects import IDEAL, load_effects
 from sizefx.simulate import simulate_in_memory
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_diagnose import BASE, HIDDEN, NOMINAL  # noqa: E402  (the same sizes as the tests)
+from test_diagnose import BASE, HIDDEN, NOMINAL
 
 REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
 
@@ -63,13 +63,25 @@ def recovery(seeds):
             ids = {e.id for e in d.effects}
             found += effect in ids
             extra += bool(ids - {effect})
-            zs += [(d.theta[j] - truth[j]) / d.sigma_theta[j] for j, p in enumerate(D.PARAMS)
-                   if p.effect == effect and j in d.sigma_theta]
+            zs += [
+                (d.theta[j] - truth[j]) / d.sigma_theta[j]
+                for j, p in enumerate(D.PARAMS)
+                if p.effect == effect and j in d.sigma_theta
+            ]
         z = np.array(zs)
-        out[effect] = {"found": found, "records": seeds, "other_effects_reported": extra, "parameters": int(z.size),
-                       "rms_z": float(np.sqrt(np.mean(z**2))), "max_abs_z": float(np.abs(z).max())}
-        print(f"  {effect:20s} found {found}/{seeds}, others {extra}, z RMS {out[effect]['rms_z']:.2f}, "
-              f"max |z| {out[effect]['max_abs_z']:.2f} over {z.size}", flush=True)
+        out[effect] = {
+            "found": found,
+            "records": seeds,
+            "other_effects_reported": extra,
+            "parameters": int(z.size),
+            "rms_z": float(np.sqrt(np.mean(z**2))),
+            "max_abs_z": float(np.abs(z).max()),
+        }
+        print(
+            f"  {effect:20s} found {found}/{seeds}, others {extra}, z RMS {out[effect]['rms_z']:.2f}, "
+            f"max |z| {out[effect]['max_abs_z']:.2f} over {z.size}",
+            flush=True,
+        )
     return out
 
 
@@ -109,16 +121,29 @@ def coloured_noise(seeds):
         if extra:
             false.append({"seed": 7000 + seed, "extra": sorted(extra)})
         inflated += any(p["inflated"] for p in d.consistency.get("parameters", []))
-        zs += [(d.theta[j] - truth[j]) / d.sigma_theta[j] for j, p in enumerate(D.PARAMS)
-               if p.effect in ("lever_arm", "accel_delay") and j in d.sigma_theta]
+        zs += [
+            (d.theta[j] - truth[j]) / d.sigma_theta[j]
+            for j, p in enumerate(D.PARAMS)
+            if p.effect in ("lever_arm", "accel_delay") and j in d.sigma_theta
+        ]
     z = np.array(zs)
-    out = {"records": seeds, "detected_both": found, "detection_rate": found / seeds,
-           "false_positive_records": len(false), "false_positive_rate": len(false) / seeds, "cases": false,
-           "parameters": int(z.size), "rms_z": float(np.sqrt(np.mean(z**2))), "max_abs_z": float(np.abs(z).max()),
-           "records_with_inflated_errors": inflated}
-    print(f"  {seeds} records: both effects found in {found} ({100 * found / seeds:.0f} %), effects other than "
-          f"these and the walk's bias accepted in {len(false)} ({100 * len(false) / seeds:.0f} %); z RMS {out['rms_z']:.2f} over {z.size} parameters "
-          f"(target 0.7-1.4), max |z| {out['max_abs_z']:.2f}; errors inflated by the block check in {inflated}")
+    out = {
+        "records": seeds,
+        "detected_both": found,
+        "detection_rate": found / seeds,
+        "false_positive_records": len(false),
+        "false_positive_rate": len(false) / seeds,
+        "cases": false,
+        "parameters": int(z.size),
+        "rms_z": float(np.sqrt(np.mean(z**2))),
+        "max_abs_z": float(np.abs(z).max()),
+        "records_with_inflated_errors": inflated,
+    }
+    print(
+        f"  {seeds} records: both effects found in {found} ({100 * found / seeds:.0f} %), effects other than "
+        f"these and the walk's bias accepted in {len(false)} ({100 * len(false) / seeds:.0f} %); z RMS {out['rms_z']:.2f} over {z.size} parameters "
+        f"(target 0.7-1.4), max |z| {out['max_abs_z']:.2f}; errors inflated by the block check in {inflated}"
+    )
     return out
 
 
@@ -140,23 +165,53 @@ def runtime():
     with tempfile.TemporaryDirectory() as tmp:
         rec = Path(tmp) / "tumble.h5"
         exe = Path(sys.executable).with_name("sizefx")
-        subprocess.run([str(exe), "simulate", "tumble", "-o", str(rec), "--quiet", "--seed", "3",
-                        "--set", "accel_delay.enabled=true", "--set", "lever_arm.d_y_m=[0.003,0.0274,-0.002]"],
-                       check=True, capture_output=True)
+        subprocess.run(
+            [
+                str(exe),
+                "simulate",
+                "tumble",
+                "-o",
+                str(rec),
+                "--quiet",
+                "--seed",
+                "3",
+                "--set",
+                "accel_delay.enabled=true",
+                "--set",
+                "lever_arm.d_y_m=[0.003,0.0274,-0.002]",
+            ],
+            check=True,
+            capture_output=True,
+        )
         started = time.perf_counter()
-        done = subprocess.run([str(exe), "diagnose", str(rec), "--json", str(Path(tmp) / "d.json")],
-                              check=True, capture_output=True, text=True)
+        done = subprocess.run(
+            [str(exe), "diagnose", str(rec), "--json", str(Path(tmp) / "d.json")],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - started
         peak_mib = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
         doc = json.loads((Path(tmp) / "d.json").read_text())
-    print(f"  two-minute 1600 Hz record ({doc['samples']} samples): {wall:.1f} s wall, peak {peak_mib:.0f} MiB; "
-          f"found {[e['id'] for e in doc['effects']]}")
-    return {"samples": doc["samples"], "wall_s": wall, "peak_mib": peak_mib,
-            "found": [e["id"] for e in doc["effects"]], "report_first_lines": done.stdout.splitlines()[:4]}
+    print(
+        f"  two-minute 1600 Hz record ({doc['samples']} samples): {wall:.1f} s wall, peak {peak_mib:.0f} MiB; "
+        f"found {[e['id'] for e in doc['effects']]}"
+    )
+    return {
+        "samples": doc["samples"],
+        "wall_s": wall,
+        "peak_mib": peak_mib,
+        "found": [e["id"] for e in doc["effects"]],
+        "report_first_lines": done.stdout.splitlines()[:4],
+    }
 
 
-BROAD_TRIALS = {"07": "07_undisturbed_fast_rotation_B.mat", "09": "09_undisturbed_fast_rotation_with_breaks_B.mat",
-                "21": "21_undisturbed_fast_combined.mat", "16": "16_undisturbed_fast_translation_B.mat"}
+BROAD_TRIALS = {
+    "07": "07_undisturbed_fast_rotation_B.mat",
+    "09": "09_undisturbed_fast_rotation_with_breaks_B.mat",
+    "21": "21_undisturbed_fast_combined.mat",
+    "16": "16_undisturbed_fast_translation_B.mat",
+}
 
 
 def broad():
@@ -174,18 +229,32 @@ def broad():
             res = D.run(D.DiagnoseConfig(h5, nominal="none", navigation=False, model_out=Path(tmp) / f"{trial}.toml"))
             d, doc = res.diagnosis, res.to_json()
             out[trial] = {
-                "band_hz": d.bandwidth_hz, "grade": d.grade,
-                "theta": {D.PARAMS[j].label + ("" if D.PARAMS[j].effect == "lever_arm" else f" {D.PARAMS[j].effect}"):
-                          (float(d.theta[j]), float(d.sigma_theta[j]) if j in d.sigma_theta else None) for j in main},
+                "band_hz": d.bandwidth_hz,
+                "grade": d.grade,
+                "theta": {
+                    D.PARAMS[j].label + ("" if D.PARAMS[j].effect == "lever_arm" else f" {D.PARAMS[j].effect}"): (
+                        float(d.theta[j]),
+                        float(d.sigma_theta[j]) if j in d.sigma_theta else None,
+                    )
+                    for j in main
+                },
                 "effects": [f"{e.id}:{e.channel}" if e.channel else e.id for e in d.effects],
                 "rejected": [f"{r['id']}:{r['channel']}" for r in d.rejected],
-                "warnings": [w["kind"] for w in d.warnings], "unexplained": len(d.unexplained),
+                "warnings": [w["kind"] for w in d.warnings],
+                "unexplained": len(d.unexplained),
                 "geometry": d.geometry,
-                "arms_m": d.theta[D.LEVER].tolist(), "arms_cov_m2": d.covariance[np.ix_(D.LEVER, D.LEVER)].tolist(),
-                "rms_before": doc["residual_rms_before"], "rms_after": doc["residual_rms_after"], "wall_s": d.wall_s}
+                "arms_m": d.theta[D.LEVER].tolist(),
+                "arms_cov_m2": d.covariance[np.ix_(D.LEVER, D.LEVER)].tolist(),
+                "rms_before": doc["residual_rms_before"],
+                "rms_after": doc["residual_rms_after"],
+                "wall_s": d.wall_s,
+            }
             o = out[trial]
-            print(f"  trial {trial}: band {d.bandwidth_hz} Hz, {d.grade}; effects {o['effects']}; rejected "
-                  f"{o['rejected']}; warnings {sorted(set(o['warnings']))}; {o['unexplained']} unexplained", flush=True)
+            print(
+                f"  trial {trial}: band {d.bandwidth_hz} Hz, {d.grade}; effects {o['effects']}; rejected "
+                f"{o['rejected']}; warnings {sorted(set(o['warnings']))}; {o['unexplained']} unexplained",
+                flush=True,
+            )
     # cross-trial consistency of the rigid mount's arms and clocks, with the reported errors: the arms as
     # fitted (from the tracked origin), and split at the triad point (sizefx.diagnose.arms): the triad
     # point is the set-up's offset, the arms from it the IMU's own size effect
@@ -206,28 +275,38 @@ def broad():
         w = 1 / s**2
         xbar = np.sum(w * x) / np.sum(w)
         per[key] = float(np.sum(w * (x - xbar) ** 2) / (len(vals) - 1))
-    groups = {"arms from the tracked origin": [k for k in per if k.startswith("r_")],
-              "triad point C (the set-up)": [k for k in per if k.startswith("C[")],
-              "arms from C (the IMU's size effect)": [k for k in per if k.startswith("d_")],
-              "delays": [k for k in per if k.endswith("_delay")]}
+    groups = {
+        "arms from the tracked origin": [k for k in per if k.startswith("r_")],
+        "triad point C (the set-up)": [k for k in per if k.startswith("C[")],
+        "arms from C (the IMU's size effect)": [k for k in per if k.startswith("d_")],
+        "delays": [k for k in per if k.endswith("_delay")],
+    }
     out["cross_trial_chi2_dof"] = {"per_parameter": per, "groups": {}}
-    print("  cross-trial chi2/dof (07, 09, 21) with the reported errors (target <= 4 for the IMU's arms and the "
-          "delays):")
+    print(
+        "  cross-trial chi2/dof (07, 09, 21) with the reported errors (target <= 4 for the IMU's arms and the delays):"
+    )
     for name, keys in groups.items():
         vals = [per[k] for k in keys]
         out["cross_trial_chi2_dof"]["groups"][name] = {"mean": float(np.mean(vals)), "max": float(max(vals))}
         print(f"    {name}: " + ", ".join(f"{k} {per[k]:.1f}" for k in keys) + f"; max {max(vals):.1f}")
         if name.startswith("triad"):
-            print("      " + "; ".join(f"{t}: (" + ", ".join(f"{1e3 * out[t]['theta'][k][0]:.3f}" for k in keys)
-                                      + ") mm" for t in ("07", "09", "21")))
+            print(
+                "      "
+                + "; ".join(
+                    f"{t}: (" + ", ".join(f"{1e3 * out[t]['theta'][k][0]:.3f}" for k in keys) + ") mm"
+                    for t in ("07", "09", "21")
+                )
+            )
     # all nine arms at once, with their covariances: the same figure whatever the arms' parametrisation
     x = [np.array(out[t]["arms_m"]) for t in ("07", "09", "21")]
     W = [np.linalg.pinv(np.array(out[t]["arms_cov_m2"])) for t in ("07", "09", "21")]
     xbar = np.linalg.solve(sum(W), sum(w @ v for w, v in zip(W, x)))
     joint = sum(float((v - xbar) @ w @ (v - xbar)) for w, v in zip(W, x)) / (9 * (len(x) - 1))
     out["cross_trial_chi2_dof"]["arms_joint"] = joint
-    print(f"    the nine arms jointly (full covariances; any split gives the same): chi2/dof {joint:.1f} over "
-          f"{9 * (len(x) - 1)}")
+    print(
+        f"    the nine arms jointly (full covariances; any split gives the same): chi2/dof {joint:.1f} over "
+        f"{9 * (len(x) - 1)}"
+    )
     arms16 = [e for e in out["16"]["effects"] if e.startswith("lever_arm")]
     print(f"  trial 16 (translation only): lever arms reported as found: {arms16 or 'none'}")
     return out
@@ -239,14 +318,23 @@ def main(argv=None):
     ap.add_argument("--coloured-seeds", type=int, default=50, help="coloured-noise records for z-scores and rates")
     ap.add_argument("--fp-seeds", type=int, default=50, help="noise-and-bias records for the false-positive rate")
     ap.add_argument("--json", type=Path)
-    ap.add_argument("--only", nargs="+", choices=["recovery", "coloured", "false_positives", "runtime", "broad"],
-                    help="run only these sections")
+    ap.add_argument(
+        "--only",
+        nargs="+",
+        choices=["recovery", "coloured", "false_positives", "runtime", "broad"],
+        help="run only these sections",
+    )
     args = ap.parse_args(argv)
     sections = {
         "recovery": ("recovery (tumble 60 s, 400 Hz):", lambda: recovery(args.seeds)),
-        "coloured": ("coloured noise (tumble 60 s, 400 Hz, lever arm and accelerometer delay hidden):",
-                     lambda: coloured_noise(args.coloured_seeds)),
-        "false_positives": ("false positives (noise and biases, 30 s, 200 Hz):", lambda: false_positives(args.fp_seeds)),
+        "coloured": (
+            "coloured noise (tumble 60 s, 400 Hz, lever arm and accelerometer delay hidden):",
+            lambda: coloured_noise(args.coloured_seeds),
+        ),
+        "false_positives": (
+            "false positives (noise and biases, 30 s, 200 Hz):",
+            lambda: false_positives(args.fp_seeds),
+        ),
         "runtime": ("runtime:", runtime),
         "broad": ("BROAD (real), band measured by diagnose:", broad),
     }

@@ -21,7 +21,8 @@ import numpy as np
 from sizefx import scenarios
 from sizefx.constants import DEG
 from sizefx.navigate import NavConfig, NavigateConfig, navigate, run
-from sizefx.simulate import SimulateConfig, run as simulate, simulate_in_memory
+from sizefx.simulate import SimulateConfig, simulate_in_memory
+from sizefx.simulate import run as simulate
 from sizefx.theory import coning_residual_rad_s, sculling_residual_mps2
 
 H = 1 / 1600
@@ -37,9 +38,14 @@ def coning_table():
         tel = simulate_in_memory(scenarios.coning(f, DEG, 40.0))
         for k in (1, 2, 3, 4):
             res = navigate(tel, NavConfig(subsamples=k, output_rate_hz=None))
-            rows.append({"freq_hz": f, "subsamples": k,
-                         "measured_deg_per_h": np.degrees(slope(res.errors["time_s"], res.errors["attitude_rad"])) * 3600,
-                         "closed_form_deg_per_h": abs(np.degrees(coning_residual_rad_s(f, DEG, k, H))) * 3600})
+            rows.append(
+                {
+                    "freq_hz": f,
+                    "subsamples": k,
+                    "measured_deg_per_h": np.degrees(slope(res.errors["time_s"], res.errors["attitude_rad"])) * 3600,
+                    "closed_form_deg_per_h": abs(np.degrees(coning_residual_rad_s(f, DEG, k, H))) * 3600,
+                }
+            )
     return rows
 
 
@@ -49,19 +55,24 @@ def sculling_table():
     tel = simulate_in_memory(scenarios.sculling(f, amp, acc, 20.0))
     for k in (1, 2, 3, 4):
         res = navigate(tel, NavConfig(subsamples=k, output_rate_hz=None))
-        rows.append({"freq_hz": f, "subsamples": k,
-                     "measured_ug": abs(slope(res.errors["time_s"], res.errors["velocity_mps"][:, 1])) / 9.80665e-6,
-                     "closed_form_ug": abs(sculling_residual_mps2(f, amp, acc, k, H)) / 9.80665e-6})
+        rows.append(
+            {
+                "freq_hz": f,
+                "subsamples": k,
+                "measured_ug": abs(slope(res.errors["time_s"], res.errors["velocity_mps"][:, 1])) / 9.80665e-6,
+                "closed_form_ug": abs(sculling_residual_mps2(f, amp, acc, k, H)) / 9.80665e-6,
+            }
+        )
     return rows
 
 
 def static_check():
     """1.8 h at the paper's airfield, constant exact increments (the record is static)."""
     from sizefx.effects import IDEAL, load_effects
+    from sizefx.io.telemetry import Reference, Site, Telemetry
     from sizefx.motion import ConstantProfile, RotationChain, StaticSite, Trajectory
     from sizefx.rotation import mat_to_quat
     from sizefx.simulate import kinematics
-    from sizefx.io.telemetry import Reference, Site, Telemetry
 
     site = scenarios.PAPER_AIRFIELD
     lat, lon, h = site.radians()
@@ -69,10 +80,21 @@ def static_check():
     kin = kinematics(traj, np.array([0.0]), load_effects(base=IDEAL))
     n = 6480 * 1600
     q0 = mat_to_quat(traj.evaluate(np.array([0.0])).mat_nb[0])
-    tel = Telemetry(time_s=H * np.arange(1, n + 1), form="increments", dtheta_rad=np.tile(kin.omega_ib_b * H, (n, 1)),
-                    dvel_mps=np.tile(kin.accel_input * H, (n, 1)),
-                    reference=Reference(np.array([0.0, 6480.0]), np.tile(q0, (2, 1)), np.full(2, lat),
-                                        np.full(2, lon), np.full(2, h), np.zeros((2, 3))), site=Site(lat, lon, h))
+    tel = Telemetry(
+        time_s=H * np.arange(1, n + 1),
+        form="increments",
+        dtheta_rad=np.tile(kin.omega_ib_b * H, (n, 1)),
+        dvel_mps=np.tile(kin.accel_input * H, (n, 1)),
+        reference=Reference(
+            np.array([0.0, 6480.0]),
+            np.tile(q0, (2, 1)),
+            np.full(2, lat),
+            np.full(2, lon),
+            np.full(2, h),
+            np.zeros((2, 3)),
+        ),
+        site=Site(lat, lon, h),
+    )
     res = navigate(tel, NavConfig(subsamples=4))
     return {k: res.summary[k] for k in ("max_horizontal_error_m", "max_attitude_error_deg")}
 
@@ -85,7 +107,9 @@ def turn_check():
     speed = ProfileBuilder(0.0).hold(60.0).build(value0=100.0)
     track = ProfileBuilder(0.0).hold(10.0).move(40.0, np.pi).hold(10.0).build()
     height = ProfileBuilder(0.0).hold(60.0).build(value0=h + 500.0)
-    chain = RotationChain([[0, 0, 1.0], [0, 1.0, 0], [1.0, 0, 0]], [track, ConstantProfile(0.0), RateOf(track, 100.0 / 9.81)])
+    chain = RotationChain(
+        [[0, 0, 1.0], [0, 1.0, 0], [1.0, 0, 0]], [track, ConstantProfile(0.0), RateOf(track, 100.0 / 9.81)]
+    )
     tel = simulate_in_memory(Trajectory(FlightPath(speed, track, height, lat, lon, 60.0), chain, 60.0))
     res = navigate(tel, NavConfig(subsamples=4, vertical="free"))
     return {"max_velocity_error_mps": float(np.linalg.norm(res.errors["velocity_mps"], axis=1).max())}
@@ -95,24 +119,33 @@ def schuler_check():
     """10 ug north accelerometer bias, static, free-inertial, 3 h at 50 Hz."""
     from sizefx.constants import MICRO_G
     from sizefx.effects import IDEAL, load_effects
+    from sizefx.io.telemetry import Reference, Site, Telemetry
     from sizefx.motion import ConstantProfile, RotationChain, StaticSite, Trajectory
     from sizefx.simulate import kinematics
-    from sizefx.io.telemetry import Reference, Site, Telemetry
     from sizefx.theory import schuler_peak_error_m, schuler_period_s
 
     lat, lon, h = scenarios.PAPER_AIRFIELD.radians()
     traj = Trajectory(StaticSite(lat, lon, h), RotationChain([[0, 0, 1.0]], [ConstantProfile(0.0)]), 10800.0)
     kin = kinematics(traj, np.array([0.0]), load_effects(base=IDEAL))
     rate, n, b = 50.0, 10800 * 50, 10 * MICRO_G
-    tel = Telemetry(time_s=np.arange(1, n + 1) / rate, form="increments", dtheta_rad=np.tile(kin.omega_ib_b / rate, (n, 1)),
-                    dvel_mps=np.tile((kin.accel_input + [b, 0, 0]) / rate, (n, 1)),
-                    reference=Reference(np.array([0.0, 10800.0]), np.tile([1.0, 0, 0, 0], (2, 1)), np.full(2, lat),
-                                        np.full(2, lon), np.full(2, h)), site=Site(lat, lon, h))
+    tel = Telemetry(
+        time_s=np.arange(1, n + 1) / rate,
+        form="increments",
+        dtheta_rad=np.tile(kin.omega_ib_b / rate, (n, 1)),
+        dvel_mps=np.tile((kin.accel_input + [b, 0, 0]) / rate, (n, 1)),
+        reference=Reference(
+            np.array([0.0, 10800.0]), np.tile([1.0, 0, 0, 0], (2, 1)), np.full(2, lat), np.full(2, lon), np.full(2, h)
+        ),
+        site=Site(lat, lon, h),
+    )
     res = navigate(tel, NavConfig(subsamples=1, output_rate_hz=None))
     crossings = res.time_s[np.flatnonzero(np.diff(np.sign(res.v_n[:, 0])) != 0)]
-    return {"period_min": 2 * np.mean(np.diff(crossings)) / 60, "period_expected_min": schuler_period_s(lat, h) / 60,
-            "peak_error_m": float(res.errors["horizontal_m"].max()),
-            "peak_expected_m": schuler_peak_error_m(b, lat, h)}
+    return {
+        "period_min": 2 * np.mean(np.diff(crossings)) / 60,
+        "period_expected_min": schuler_period_s(lat, h) / 60,
+        "peak_error_m": float(res.errors["horizontal_m"].max()),
+        "peak_expected_m": schuler_peak_error_m(b, lat, h),
+    }
 
 
 def flight_check():
@@ -122,9 +155,21 @@ def flight_check():
         simulate(SimulateConfig("flight", path, ideal=True))
         sim_s = time.perf_counter() - t0
         res = run(NavigateConfig(input=str(path), options=NavConfig(subsamples=4)))
-        return {**{k: res.summary[k] for k in ("samples", "duration_s", "final_horizontal_error_m",
-                                                "max_horizontal_error_m", "drift_nmi_per_h", "final_velocity_error_mps",
-                                                "final_attitude_error_deg")}, "simulate_s": sim_s}
+        return {
+            **{
+                k: res.summary[k]
+                for k in (
+                    "samples",
+                    "duration_s",
+                    "final_horizontal_error_m",
+                    "max_horizontal_error_m",
+                    "drift_nmi_per_h",
+                    "final_velocity_error_mps",
+                    "final_attitude_error_deg",
+                )
+            },
+            "simulate_s": sim_s,
+        }
 
 
 def main(argv=None):
@@ -132,29 +177,44 @@ def main(argv=None):
     ap.add_argument("--skip-flight", action="store_true", help="Leave out the 1.8 h flight (about a minute).")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
-    report = {"coning": coning_table(), "sculling": sculling_table(), "static_1p8h": static_check(),
-              "turn_180_at_100mps": turn_check(), "schuler_10ug": schuler_check()}
+    report = {
+        "coning": coning_table(),
+        "sculling": sculling_table(),
+        "static_1p8h": static_check(),
+        "turn_180_at_100mps": turn_check(),
+        "schuler_10ug": schuler_check(),
+    }
     print("coning, 1 deg half-angle, 1600 Hz: drift [deg/h]")
     print("  f [Hz]  K   measured      closed form   ratio")
     for r in report["coning"]:
         ratio = r["measured_deg_per_h"] / r["closed_form_deg_per_h"]
-        print(f"  {r['freq_hz']:6.0f}  {r['subsamples']}   {r['measured_deg_per_h']:.4e}   "
-              f"{r['closed_form_deg_per_h']:.4e}    {ratio:.3f}")
+        print(
+            f"  {r['freq_hz']:6.0f}  {r['subsamples']}   {r['measured_deg_per_h']:.4e}   "
+            f"{r['closed_form_deg_per_h']:.4e}    {ratio:.3f}"
+        )
     print("sculling, 0.25 deg and 1 m/s^2 at 100 Hz, 1600 Hz: rectified error [ug]")
     for r in report["sculling"]:
-        print(f"  {r['freq_hz']:6.0f}  {r['subsamples']}   {r['measured_ug']:.4e}   {r['closed_form_ug']:.4e}    "
-              f"{r['measured_ug'] / r['closed_form_ug']:.3f}")
+        print(
+            f"  {r['freq_hz']:6.0f}  {r['subsamples']}   {r['measured_ug']:.4e}   {r['closed_form_ug']:.4e}    "
+            f"{r['measured_ug'] / r['closed_form_ug']:.3f}"
+        )
     st, tu, sc = report["static_1p8h"], report["turn_180_at_100mps"], report["schuler_10ug"]
-    print(f"static 1.8 h: max horizontal error {st['max_horizontal_error_m']:.3g} m, "
-          f"max attitude error {st['max_attitude_error_deg']:.3g} deg")
+    print(
+        f"static 1.8 h: max horizontal error {st['max_horizontal_error_m']:.3g} m, "
+        f"max attitude error {st['max_attitude_error_deg']:.3g} deg"
+    )
     print(f"180 deg turn at 100 m/s: max velocity error {tu['max_velocity_error_mps']:.3g} m/s")
-    print(f"Schuler, 10 ug: period {sc['period_min']:.3f} min (theory {sc['period_expected_min']:.3f}), "
-          f"peak {sc['peak_error_m']:.2f} m (2bR/g = {sc['peak_expected_m']:.2f} m)")
+    print(
+        f"Schuler, 10 ug: period {sc['period_min']:.3f} min (theory {sc['period_expected_min']:.3f}), "
+        f"peak {sc['peak_error_m']:.2f} m (2bR/g = {sc['peak_expected_m']:.2f} m)"
+    )
     if not args.skip_flight:
         report["flight"] = flight_check()
         fl = report["flight"]
-        print(f"1.8 h flight, ideal sensors: final horizontal error {fl['final_horizontal_error_m']:.4g} m "
-              f"(max {fl['max_horizontal_error_m']:.4g} m), final velocity error {fl['final_velocity_error_mps']:.3g} m/s")
+        print(
+            f"1.8 h flight, ideal sensors: final horizontal error {fl['final_horizontal_error_m']:.4g} m "
+            f"(max {fl['max_horizontal_error_m']:.4g} m), final velocity error {fl['final_velocity_error_mps']:.3g} m/s"
+        )
     if args.json:
         args.json.write_text(json.dumps(report, indent=2, default=float) + "\n")
     return 0

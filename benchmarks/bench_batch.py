@@ -39,8 +39,12 @@ def main(argv=None):
     ap.add_argument("--duration-h", type=float, default=1.8)
     ap.add_argument("--file", type=Path, help="A telemetry file to copy (default: simulate a flight).")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="The parallel run's workers.")
-    ap.add_argument("--repeat", type=int, default=1,
-                    help="Run each way this many times (interleaved) and report the medians and every run.")
+    ap.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="Run each way this many times (interleaved) and report the medians and every run.",
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     sizefx = Path(sys.executable).with_name("sizefx")
@@ -49,8 +53,13 @@ def main(argv=None):
         source = args.file
         if source is None:
             source = tmp / "flight.h5"
-            simulate(SimulateConfig("flight", source, plan=FlightPlan(duration_s=args.duration_h * 3600.0,
-                                                                      align_s=min(600.0, args.duration_h * 360.0))))
+            simulate(
+                SimulateConfig(
+                    "flight",
+                    source,
+                    plan=FlightPlan(duration_s=args.duration_h * 3600.0, align_s=min(600.0, args.duration_h * 360.0)),
+                )
+            )
         campaign = tmp / "campaign"
         campaign.mkdir()
         for k in range(args.records):
@@ -64,36 +73,64 @@ def main(argv=None):
         for _ in range(args.repeat):  # interleaved, so that a slow spell of the machine hits each way alike
             loop_wall = 0.0
             for record in sorted(campaign.iterdir()):
-                wall, peak = run_measured([sizefx, "navigate", record, "-o", serial_dir / f"{record.stem}.nav.h5",
-                                           "--json", serial_dir / f"{record.stem}.json", "-q", "--force"])
+                wall, peak = run_measured(
+                    [
+                        sizefx,
+                        "navigate",
+                        record,
+                        "-o",
+                        serial_dir / f"{record.stem}.nav.h5",
+                        "--json",
+                        serial_dir / f"{record.stem}.json",
+                        "-q",
+                        "--force",
+                    ]
+                )
                 loop_wall, loop_peak = loop_wall + wall, max(loop_peak, peak)
             loop_walls.append(loop_wall)
             for workers in (1, args.workers):
                 out = tmp / f"out{workers}"
-                wall, peak = run_measured([sizefx, "batch", "navigate", campaign, "--out", out, "--workers", workers,
-                                           "--redo", "-q"])
+                wall, peak = run_measured(
+                    [sizefx, "batch", "navigate", campaign, "--out", out, "--workers", workers, "--redo", "-q"]
+                )
                 batch_walls.setdefault(workers, []).append(wall)
                 manifest = json.loads((out / "manifest.json").read_text())
                 ok = sum(e["status"] == "ok" for e in manifest["records"])
-                runs[workers] = {"workers": workers, "records_ok": ok, "peak_mib_of_the_batch_process": peak,
-                                 "record_peak_mib_max": max(e["peak_memory_mib"] for e in manifest["records"]),
-                                 "record_duration_s": [round(e["duration_s"], 2) for e in manifest["records"]]}
+                runs[workers] = {
+                    "workers": workers,
+                    "records_ok": ok,
+                    "peak_mib_of_the_batch_process": peak,
+                    "record_peak_mib_max": max(e["peak_memory_mib"] for e in manifest["records"]),
+                    "record_duration_s": [round(e["duration_s"], 2) for e in manifest["records"]],
+                }
         loop_wall = float(np.median(loop_walls))
         for workers, walls in batch_walls.items():
             wall = float(np.median(walls))
-            runs[workers].update({"wall_s": wall, "wall_s_each": [round(w, 2) for w in walls],
-                                  "records_per_s": args.records / wall,
-                                  "samples_per_s": args.records * samples / wall})
-        result = {"benchmark": "sizefx batch navigate (issue 18)", "records": args.records,
-                  "samples_per_record": samples, "duration_h": samples / 1600.0 / 3600.0,
-                  "repeat": args.repeat,
-                  "one_after_another": {"wall_s": loop_wall, "wall_s_each": [round(w, 2) for w in loop_walls],
-                                        "peak_mib": loop_peak,
-                                        "samples_per_s": args.records * samples / loop_wall},
-                  "runs": list(runs.values()),
-                  "speed_up_over_one_after_another": loop_wall / runs[args.workers]["wall_s"],
-                  "speed_up_over_one_worker": runs[1]["wall_s"] / runs[args.workers]["wall_s"],
-                  "cores": os.cpu_count()}
+            runs[workers].update(
+                {
+                    "wall_s": wall,
+                    "wall_s_each": [round(w, 2) for w in walls],
+                    "records_per_s": args.records / wall,
+                    "samples_per_s": args.records * samples / wall,
+                }
+            )
+        result = {
+            "benchmark": "sizefx batch navigate (issue 18)",
+            "records": args.records,
+            "samples_per_record": samples,
+            "duration_h": samples / 1600.0 / 3600.0,
+            "repeat": args.repeat,
+            "one_after_another": {
+                "wall_s": loop_wall,
+                "wall_s_each": [round(w, 2) for w in loop_walls],
+                "peak_mib": loop_peak,
+                "samples_per_s": args.records * samples / loop_wall,
+            },
+            "runs": list(runs.values()),
+            "speed_up_over_one_after_another": loop_wall / runs[args.workers]["wall_s"],
+            "speed_up_over_one_worker": runs[1]["wall_s"] / runs[args.workers]["wall_s"],
+            "cores": os.cpu_count(),
+        }
     return emit(result, args.json)
 
 

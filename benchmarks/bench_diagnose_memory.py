@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured  # noqa: E402  (a sibling of this script)
+from _measure import emit, run_measured
 
 RATE_HZ = 1600.0
 HIDDEN = ["--seed", "3", "--set", "accel_delay.enabled=true", "--set", "lever_arm.d_y_m=[0.003,0.0274,-0.002]"]
@@ -35,31 +35,62 @@ EXPECTED = {("lever_arm", "accel_y"), ("accel_delay", None)}
 
 def simulate(exe: Path, path: Path, duration_s: float) -> float:
     started = time.perf_counter()
-    run_measured([exe, "simulate", "tumble", "-o", path, "--quiet", "--force", "--rate-hz", RATE_HZ,
-                  "--duration-s", duration_s, *HIDDEN])
+    run_measured(
+        [
+            exe,
+            "simulate",
+            "tumble",
+            "-o",
+            path,
+            "--quiet",
+            "--force",
+            "--rate-hz",
+            RATE_HZ,
+            "--duration-s",
+            duration_s,
+            *HIDDEN,
+        ]
+    )
     return time.perf_counter() - started
 
 
 def diagnose(exe: Path, path: Path) -> dict:
     js = path.with_suffix(".json")
-    wall, peak_mib = run_measured([exe, "diagnose", path, "--json", js, "--model-out", path.with_suffix(".toml"),
-                                   "--force"])
+    wall, peak_mib = run_measured(
+        [exe, "diagnose", path, "--json", js, "--model-out", path.with_suffix(".toml"), "--force"]
+    )
     doc = json.loads(js.read_text())
     found = {(e["id"], e.get("channel")) for e in doc["effects"]}
     missing = EXPECTED - found
-    assert not missing, f"{path.name}: wrong answer, {sorted(missing, key=str)} not found (found {sorted(found, key=str)})"
-    return {"samples": doc["samples"], "wall_s": round(wall, 2), "samples_per_s": round(doc["samples"] / wall),
-            "peak_mib": round(peak_mib, 1), "found": sorted(f"{i}:{c}" if c else i for i, c in found)}
+    assert not missing, (
+        f"{path.name}: wrong answer, {sorted(missing, key=str)} not found (found {sorted(found, key=str)})"
+    )
+    return {
+        "samples": doc["samples"],
+        "wall_s": round(wall, 2),
+        "samples_per_s": round(doc["samples"] / wall),
+        "peak_mib": round(peak_mib, 1),
+        "found": sorted(f"{i}:{c}" if c else i for i, c in found),
+    }
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--durations-s", type=float, nargs="+", default=[120.0, 625.0, 1875.0, 3750.0],
-                    help="record lengths [s] at 1600 Hz (default: 0.19, 1, 3 and 6 M samples)")
+    ap.add_argument(
+        "--durations-s",
+        type=float,
+        nargs="+",
+        default=[120.0, 625.0, 1875.0, 3750.0],
+        help="record lengths [s] at 1600 Hz (default: 0.19, 1, 3 and 6 M samples)",
+    )
     ap.add_argument("--dir", type=Path, help="where to write the records (default: a temporary folder)")
     ap.add_argument("--keep", type=Path, help="reuse and keep the records in this folder")
-    ap.add_argument("--exe", type=Path, default=Path(sys.executable).with_name("sizefx"),
-                    help="the sizefx command to measure (default: the one next to this Python)")
+    ap.add_argument(
+        "--exe",
+        type=Path,
+        default=Path(sys.executable).with_name("sizefx"),
+        help="the sizefx command to measure (default: the one next to this Python)",
+    )
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     exe = args.exe
@@ -77,13 +108,22 @@ def main(argv=None):
                 write_s = round(simulate(exe, path, duration_s), 1)
             row = {"duration_s": duration_s, **diagnose(exe, path), "simulate_s": write_s}
             rows.append(row)
-            print(f"{row['samples']:>9} samples  {row['wall_s']:7.1f} s  {row['samples_per_s']:>7} samples/s  "
-                  f"peak {row['peak_mib']:7.1f} MiB", file=sys.stderr, flush=True)
+            print(
+                f"{row['samples']:>9} samples  {row['wall_s']:7.1f} s  {row['samples_per_s']:>7} samples/s  "
+                f"peak {row['peak_mib']:7.1f} MiB",
+                file=sys.stderr,
+                flush=True,
+            )
         for a, b in zip(rows[:-1], rows[1:]):
-            b["mib_per_m_samples_since_previous"] = round((b["peak_mib"] - a["peak_mib"])
-                                                          / ((b["samples"] - a["samples"]) / 1e6), 1)
-    result = {"benchmark": "sizefx diagnose end to end against the record's length (tumble, 1600 Hz)",
-              "command": "sizefx diagnose REC --json J", "warm_up_10s_wall_s": round(warm_wall, 2), "records": rows}
+            b["mib_per_m_samples_since_previous"] = round(
+                (b["peak_mib"] - a["peak_mib"]) / ((b["samples"] - a["samples"]) / 1e6), 1
+            )
+    result = {
+        "benchmark": "sizefx diagnose end to end against the record's length (tumble, 1600 Hz)",
+        "command": "sizefx diagnose REC --json J",
+        "warm_up_10s_wall_s": round(warm_wall, 2),
+        "records": rows,
+    }
     return emit(result, args.json)
 
 

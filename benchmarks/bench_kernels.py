@@ -43,11 +43,12 @@ from scipy.signal import savgol_filter
 # `sizefx` is the installed package and not the source tree
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+import naive
+
 from sizefx.kernels import sync
 from sizefx.kernels.omegadot import savgol_derivative, savgol_weights
 from sizefx.omegadot import SAVGOL_ORDER, SAVGOL_WINDOW, savgol, savgol_rows
 from sizefx.sync import resample_increments, resample_onto
-import naive
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import emit, run_measured  # (a sibling of this script)
@@ -84,9 +85,14 @@ def measure(fn, *args, repeat=3):
 
 
 def figures(rows, wall, cpu, peak_mib):
-    return {"rows": int(rows), "wall_s": round(wall, 5), "cpu_s": round(cpu, 5),
-            "samples_per_s": round(rows / wall), "cpu_samples_per_s": round(rows / cpu),
-            "peak_alloc_mib": round(peak_mib, 2)}
+    return {
+        "rows": int(rows),
+        "wall_s": round(wall, 5),
+        "cpu_s": round(cpu, 5),
+        "samples_per_s": round(rows / wall),
+        "cpu_samples_per_s": round(rows / cpu),
+        "peak_alloc_mib": round(peak_mib, 2),
+    }
 
 
 def edges(t):
@@ -112,8 +118,12 @@ def check(t, ta, rates, incr):
     assert worst / cum_scale < 1e-12, worst / cum_scale
     out["sync_increments_vs_scipy_of_running_sum"] = float(worst / cum_scale)
     sg_scale = 2.0 * savgol_weights(SAVGOL_WINDOW, SAVGOL_ORDER, DT)[0].sum() * np.abs(rates[:n]).max()  # sum|c| max|x|
-    worst = np.abs(savgol(rates[:n], DT) - savgol_filter(rates[:n], SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1, delta=DT,
-                                                         axis=0)).max() / sg_scale
+    worst = (
+        np.abs(
+            savgol(rates[:n], DT) - savgol_filter(rates[:n], SAVGOL_WINDOW, SAVGOL_ORDER, deriv=1, delta=DT, axis=0)
+        ).max()
+        / sg_scale
+    )
     assert worst < 1e-12, worst
     out["savgol_vs_scipy_of_tap_sum"] = float(worst)
     k = TWIN_SPLINE_ROWS
@@ -133,7 +143,7 @@ def check(t, ta, rates, incr):
     for j0 in range(0, n, step):
         j1 = min(n, j0 + step)
         lo, hi = max(0, j0 - margin), min(n, j1 + margin)
-        part = resample_onto(rates[lo:hi], ta[lo:hi], t[lo:hi])[j0 - lo:j1 - lo]
+        part = resample_onto(rates[lo:hi], ta[lo:hi], t[lo:hi])[j0 - lo : j1 - lo]
         sync_diff = max(sync_diff, float(np.abs(part - whole_sync[j0:j1]).max() / scale))
         lo, hi = max(0, j0 - half), min(n, j1 + half)
         sg_equal &= bool(np.array_equal(savgol_rows(rates[lo:hi], lo, n, j0, j1, DT), whole_sg[j0:j1]))
@@ -146,9 +156,11 @@ def first_calls():
     """The first call of each kernel in this process: compiling, or loading Numba's cache."""
     t, ta, rates, incr = record(64, seed=1)
     out = {}
-    for name, fn in (("sync_rates", lambda: resample_onto(rates, ta, t)),
-                     ("sync_increments", lambda: resample_increments(incr, ta, t)),
-                     ("savgol", lambda: savgol(rates, DT))):
+    for name, fn in (
+        ("sync_rates", lambda: resample_onto(rates, ta, t)),
+        ("sync_increments", lambda: resample_increments(incr, ta, t)),
+        ("savgol", lambda: savgol(rates, DT)),
+    ):
         t0 = time.perf_counter()
         fn()
         out[name] = round(time.perf_counter() - t0, 3)
@@ -157,17 +169,23 @@ def first_calls():
 
 def cold_compile():
     """All three in a fresh process with an empty Numba cache: compile time and peak memory."""
-    code = ("import numpy as np; from sizefx.sync import resample_onto, resample_increments; "
-            "from sizefx.omegadot import savgol; t = np.arange(64) / 1600; y = np.ones((64, 3)); "
-            "resample_onto(y, t + 3e-4, t); resample_increments(y, t + 3e-4, t); savgol(y, 1 / 1600)")
+    code = (
+        "import numpy as np; from sizefx.sync import resample_onto, resample_increments; "
+        "from sizefx.omegadot import savgol; t = np.arange(64) / 1600; y = np.ones((64, 3)); "
+        "resample_onto(y, t + 3e-4, t); resample_increments(y, t + 3e-4, t); savgol(y, 1 / 1600)"
+    )
     base = [sys.executable, "-c", "import numpy, scipy, numba, sizefx.sync, sizefx.omegadot"]
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "NUMBA_CACHE_DIR": str(Path(tmp) / "cold")}
         imports, _ = run_measured(base, env=env)
         wall, peak = run_measured([sys.executable, "-c", code], env=env)
         warm, _ = run_measured([sys.executable, "-c", code], env=env)
-    return {"cold_process_s": round(wall, 2), "warm_process_s": round(warm, 2), "imports_only_s": round(imports, 2),
-            "cold_peak_mib": round(peak, 1)}
+    return {
+        "cold_process_s": round(wall, 2),
+        "warm_process_s": round(warm, 2),
+        "imports_only_s": round(imports, 2),
+        "cold_peak_mib": round(peak, 1),
+    }
 
 
 def throughput(t, ta, rates, incr, repeat):
@@ -200,14 +218,16 @@ def throughput(t, ta, rates, incr, repeat):
     res["savgol"] = {
         "kernel": figures(n, *measure(savgol_derivative, rates, 0, n, 0, n, taps, head, tail, out, repeat=repeat)),
         "savgol": figures(n, *measure(savgol, rates, DT, repeat=repeat)),
-        "scipy_savgol_filter": figures(ns, *measure(savgol_filter, rates[:ns], SAVGOL_WINDOW, SAVGOL_ORDER, 1, DT, 0,
-                                                    "interp", repeat=2)),
+        "scipy_savgol_filter": figures(
+            ns, *measure(savgol_filter, rates[:ns], SAVGOL_WINDOW, SAVGOL_ORDER, 1, DT, 0, "interp", repeat=2)
+        ),
         "twin": figures(k_sg, *measure(naive.savgol_derivative, rates[:k_sg], DT, repeat=1)),
     }
     for entry in res.values():
         kern = entry["kernel"]["cpu_samples_per_s"]
-        entry["kernel_over"] = {name: round(kern / f["cpu_samples_per_s"], 1)
-                                for name, f in entry.items() if name != "kernel"}
+        entry["kernel_over"] = {
+            name: round(kern / f["cpu_samples_per_s"], 1) for name, f in entry.items() if name != "kernel"
+        }
     return res
 
 
@@ -219,8 +239,12 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.samples < 2 * TWIN_SAVGOL_ROWS:
         ap.error(f"--samples: at least {2 * TWIN_SAVGOL_ROWS}")
-    result = {"benchmark": "sync and angular-acceleration kernels (issue 14 item 8)",
-              "target_samples_per_s": 30_000_000, "samples": args.samples, "channels": 3}
+    result = {
+        "benchmark": "sync and angular-acceleration kernels (issue 14 item 8)",
+        "target_samples_per_s": 30_000_000,
+        "samples": args.samples,
+        "channels": 3,
+    }
     result["first_call_s"] = first_calls()
     t, ta, rates, incr = record(args.samples)
     result["checks"] = check(t, ta, rates, incr)

@@ -26,7 +26,7 @@ from sizefx.constants import DEG
 from sizefx.io.telemetry import Site, TelemetryWriter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured  # noqa: E402  (a sibling of this script)
+from _measure import emit, run_measured
 
 CHUNK = 1 << 22
 ARW_RAD_PER_SQRT_S = 0.00035 * DEG / 60.0  # 0.00035 deg/sqrt(h)
@@ -40,9 +40,17 @@ def write_record(path: Path, hours: float, rate_hz: float, ref_rate_hz: float = 
     w_b = earth.omega_ie_n(np.array([lat]))[0]  # level, heading north: body = NED
     f_b = -earth.gravity_n(np.array([lat]), np.array([h]))[0]
     rng = np.random.default_rng(0)
-    writer = TelemetryWriter(path, n_samples=n, form="rates", n_reference=n_ref, reference_position=True,
-                             reference_velocity=True, site=Site(lat, lon, h),
-                             description=f"static {hours:g} h record for bench_long_record.py", force=True)
+    writer = TelemetryWriter(
+        path,
+        n_samples=n,
+        form="rates",
+        n_reference=n_ref,
+        reference_position=True,
+        reference_velocity=True,
+        site=Site(lat, lon, h),
+        description=f"static {hours:g} h record for bench_long_record.py",
+        force=True,
+    )
     with writer as w:
         for k0 in range(0, n, CHUNK):
             k = np.arange(k0, min(n, k0 + CHUNK))
@@ -52,8 +60,14 @@ def write_record(path: Path, hours: float, rate_hz: float, ref_rate_hz: float = 
         for j0 in range(0, n_ref, CHUNK):
             j = np.arange(j0, min(n_ref, j0 + CHUNK))
             ones = np.ones(j.size)
-            w.write_reference(j / ref_rate_hz, np.tile([1.0, 0.0, 0.0, 0.0], (j.size, 1)), lat * ones, lon * ones,
-                              h * ones, np.zeros((j.size, 3)))
+            w.write_reference(
+                j / ref_rate_hz,
+                np.tile([1.0, 0.0, 0.0, 0.0], (j.size, 1)),
+                lat * ones,
+                lon * ones,
+                h * ones,
+                np.zeros((j.size, 3)),
+            )
     return n
 
 
@@ -79,11 +93,19 @@ def main(argv=None):
         # over 72 h for these grades); anything larger means a wrong answer, not a slow one
         err = summary["max_horizontal_error_m"]
         assert err is not None and err < 20_000.0, f"wrong answer: max horizontal error {err} m"
-        result = {"benchmark": "streamed navigate on a long static record", "hours": args.hours,
-                  "rate_hz": args.rate_hz, "samples": n, "file_gib": round(path.stat().st_size / 2**30, 2),
-                  "write_record_s": round(write_s, 1), "navigate_wall_s": round(wall, 1),
-                  "navigate_samples_per_s": round(n / wall), "navigate_peak_mib": round(peak_mib, 1),
-                  "check_max_horizontal_error_m": err, "output_rows": summary["samples"] // 4 // 40}
+        result = {
+            "benchmark": "streamed navigate on a long static record",
+            "hours": args.hours,
+            "rate_hz": args.rate_hz,
+            "samples": n,
+            "file_gib": round(path.stat().st_size / 2**30, 2),
+            "write_record_s": round(write_s, 1),
+            "navigate_wall_s": round(wall, 1),
+            "navigate_samples_per_s": round(n / wall),
+            "navigate_peak_mib": round(peak_mib, 1),
+            "check_max_horizontal_error_m": err,
+            "output_rows": summary["samples"] // 4 // 40,
+        }
         if args.keep:
             kept = (args.dir or Path(".")) / "long.h5"
             path.rename(kept)

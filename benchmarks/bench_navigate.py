@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
+from sizefx.io.telemetry import read_telemetry
 from sizefx.kernels.strapdown import VERTICAL_REFERENCE, coning_coefficients, pack_state, strapdown
 from sizefx.navigate import NavConfig, increments_of, navigate
-from sizefx.simulate import SimulateConfig, run as simulate
-from sizefx.io.telemetry import read_telemetry
+from sizefx.simulate import SimulateConfig
+from sizefx.simulate import run as simulate
 
 
 def time_kernel(dtheta, dvel, dt, n_sub, repeat):
@@ -34,8 +35,19 @@ def time_kernel(dtheta, dvel, dt, n_sub, repeat):
     for _ in range(repeat):
         state = pack_state([1.0, 0, 0, 0], np.zeros(3), 1.0, 1.0, 300.0)
         t0 = time.perf_counter()
-        strapdown(dtheta, dvel, n_sub, coning_coefficients(n_sub), n_sub * dt, state, VERTICAL_REFERENCE, 0.0,
-                  h_ref, vd_ref, *outs)
+        strapdown(
+            dtheta,
+            dvel,
+            n_sub,
+            coning_coefficients(n_sub),
+            n_sub * dt,
+            state,
+            VERTICAL_REFERENCE,
+            0.0,
+            h_ref,
+            vd_ref,
+            *outs,
+        )
         best = min(best, time.perf_counter() - t0)
     return best
 
@@ -63,9 +75,13 @@ def main(argv=None):
         err = res.summary["final_horizontal_error_m"]
         assert err is not None and err < 1.0, f"wrong answer: final horizontal error {err} m"
         _, dtheta, dvel, dt, _ = increments_of(tel)
-        result = {"benchmark": "navigate kernel, 1.8 h flight at 1600 Hz", "samples": int(dtheta.shape[0]),
-                  "check_final_horizontal_error_m": err, "first_call_s": round(first_call_s, 3),
-                  "navigate_in_memory_s": round(navigate_s, 3)}
+        result = {
+            "benchmark": "navigate kernel, 1.8 h flight at 1600 Hz",
+            "samples": int(dtheta.shape[0]),
+            "check_final_horizontal_error_m": err,
+            "first_call_s": round(first_call_s, 3),
+            "navigate_in_memory_s": round(navigate_s, 3),
+        }
         for k in (1, 2, 4):
             best = time_kernel(dtheta, dvel, dt, k, args.repeat)
             result[f"kernel_s_subsamples_{k}"] = round(best, 4)

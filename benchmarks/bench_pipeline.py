@@ -41,7 +41,10 @@ import numpy as np
 # `sizefx` is the installed package and not the source tree
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from sizefx.sync import sync_accelerometers
+import naive
+
+from sizefx.io.navigation import NavigationWriter, write_navigation
+from sizefx.io.telemetry import TelemetryStream, read_telemetry
 from sizefx.kernels.increments import rates_to_increments
 from sizefx.kernels.sizeeffect import (
     compensate_increments,
@@ -55,14 +58,13 @@ from sizefx.kernels.strapdown import (
     strapdown,
 )
 from sizefx.levers import levers_from_preset, write_levers
-from sizefx.io.navigation import NavigationWriter, write_navigation
 from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.navigate.steps import integrate
 from sizefx.omegadot import edges_from_increments, savgol
 from sizefx.scenarios import FlightPlan
-from sizefx.simulate import SimulateConfig, run as simulate
-from sizefx.io.telemetry import TelemetryStream, read_telemetry
-import naive
+from sizefx.simulate import SimulateConfig
+from sizefx.simulate import run as simulate
+from sizefx.sync import sync_accelerometers
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import emit, run_measured  # (a sibling of this script)
@@ -116,10 +118,35 @@ def twin_ratios(dtheta, dvel, rates, accel, omegadot, dt, levers):
     state = pack_state([1.0, 0, 0, 0], np.zeros(3), 1.0, 1.0, 300.0)
     outs = [np.empty((k // 4, 4)), np.empty((k // 4, 3)), np.empty(k // 4), np.empty(k // 4), np.empty(k // 4)]
     h_ref, vd = np.full(k // 4, 300.0), np.zeros(k // 4)
-    t_k, _ = timed(lambda: strapdown(dtheta[:k], dvel[:k], 4, coning_coefficients(4), 4 * dt, state.copy(),
-                                     VERTICAL_REFERENCE, 0.0, h_ref, vd, *outs), repeat=3)
-    t_n, _ = timed(naive.strapdown, dtheta[:k], dvel[:k], 4, coning_coefficients(4), 4 * dt, [1.0, 0, 0, 0],
-                   np.zeros(3), 1.0, 1.0, 300.0)
+    t_k, _ = timed(
+        lambda: strapdown(
+            dtheta[:k],
+            dvel[:k],
+            4,
+            coning_coefficients(4),
+            4 * dt,
+            state.copy(),
+            VERTICAL_REFERENCE,
+            0.0,
+            h_ref,
+            vd,
+            *outs,
+        ),
+        repeat=3,
+    )
+    t_n, _ = timed(
+        naive.strapdown,
+        dtheta[:k],
+        dvel[:k],
+        4,
+        coning_coefficients(4),
+        4 * dt,
+        [1.0, 0, 0, 0],
+        np.zeros(3),
+        1.0,
+        1.0,
+        300.0,
+    )
     out["strapdown"] = round(t_n / t_k, 1)
     return out
 
@@ -151,8 +178,22 @@ def stages(path: Path, levers_path: Path, levers):
     m = (n - 1) // 4
     state = pack_state([1.0, 0, 0, 0], np.zeros(3), 1.0, 1.0, 300.0)
     outs = [np.empty((m, 4)), np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)]
-    t_n, _ = timed(lambda: strapdown(dtheta[:4 * m], dvel[:4 * m], 4, coning_coefficients(4), 4 * dt, state.copy(),
-                                     VERTICAL_REFERENCE, 0.0, np.full(m, 300.0), np.zeros(m), *outs), repeat=2)
+    t_n, _ = timed(
+        lambda: strapdown(
+            dtheta[: 4 * m],
+            dvel[: 4 * m],
+            4,
+            coning_coefficients(4),
+            4 * dt,
+            state.copy(),
+            VERTICAL_REFERENCE,
+            0.0,
+            np.full(m, 300.0),
+            np.zeros(m),
+            *outs,
+        ),
+        repeat=2,
+    )
     out["navigate_kernel"] = (t_n, 4 * m)
     res = navigate_file(path, NavConfig(levers=str(levers_path)))
     with tempfile.TemporaryDirectory() as tmp:
@@ -175,8 +216,17 @@ def floor_pass(path: Path, n_sub: int = 4, chunk: int = 1 << 20) -> float:
             dtheta, dvel = np.empty((g.shape[0] - 1, 3)), np.empty((g.shape[0] - 1, 3))
             rates_to_increments(g, dt, dtheta)
             rates_to_increments(a, dt, dvel)
-            integrate(dtheta[:m], dvel[:m], n_sub, dt, state, VERTICAL_REFERENCE, 0.0,
-                      np.full(m // n_sub, 300.0), np.zeros(m // n_sub))
+            integrate(
+                dtheta[:m],
+                dvel[:m],
+                n_sub,
+                dt,
+                state,
+                VERTICAL_REFERENCE,
+                0.0,
+                np.full(m // n_sub, 300.0),
+                np.zeros(m // n_sub),
+            )
     return time.perf_counter() - t0
 
 
@@ -191,12 +241,13 @@ def with_accel_stamps(path: Path, out: Path, late_s: float = 5e-4) -> Path:
         stamps = dst["imu"].create_dataset("accel_time", shape=t.shape, dtype="f8", chunks=True)
         stamps.attrs["units"] = t.attrs["units"]
         for k0 in range(0, t.shape[0], 1 << 22):
-            stamps[k0:k0 + (1 << 22)] = t[k0:k0 + (1 << 22)] + late_s
+            stamps[k0 : k0 + (1 << 22)] = t[k0 : k0 + (1 << 22)] + late_s
     return out
 
 
 def whole_flight(path: Path, levers_path: Path, repeat: int) -> dict:
     """The whole-flight path in this process, best of ``repeat``: floor, with levers, with own stamps."""
+
     def navigate_to_file(p):
         with tempfile.TemporaryDirectory() as tmp:
             writer = NavigationWriter(Path(tmp) / "nav.h5", input_file=p)
@@ -221,8 +272,9 @@ def end_to_end(path: Path, levers_path: Path, cold: bool):
     with tempfile.TemporaryDirectory() as tmp:
         if cold:
             env["NUMBA_CACHE_DIR"] = str(Path(tmp) / "numba-cache")
-        wall, peak_mib = run_measured([exe, "navigate", path, "--levers", levers_path, "-o", Path(tmp) / "o.h5",
-                                       "--quiet"], env=env)
+        wall, peak_mib = run_measured(
+            [exe, "navigate", path, "--levers", levers_path, "-o", Path(tmp) / "o.h5", "--quiet"], env=env
+        )
     return {"wall_s": round(wall, 3), "peak_mib": round(peak_mib, 1)}
 
 
@@ -239,8 +291,15 @@ def main(argv=None):
         path = args.file
         if path is None:
             path = Path(tmp) / "flight.h5"
-            simulate(SimulateConfig("flight", path, plan=FlightPlan(duration_s=args.duration_h * 3600.0,
-                                                     align_s=min(600.0, args.duration_h * 3600.0 / 10))))
+            simulate(
+                SimulateConfig(
+                    "flight",
+                    path,
+                    plan=FlightPlan(
+                        duration_s=args.duration_h * 3600.0, align_s=min(600.0, args.duration_h * 3600.0 / 10)
+                    ),
+                )
+            )
         levers = levers_from_preset("high-precision")
         levers_path = Path(tmp) / "levers.json"
         write_levers(levers_path, levers)
@@ -251,7 +310,7 @@ def main(argv=None):
         stride = streamed.config["output_stride"]
         worst = 0.0
         for name in ("quat_nb", "v_n", "lat_rad", "lon_rad", "height_m"):
-            a, b = getattr(whole, name)[stride - 1::stride], getattr(streamed, name)
+            a, b = getattr(whole, name)[stride - 1 :: stride], getattr(streamed, name)
             worst = max(worst, float(np.abs(a - b).max() / np.abs(a).max()))
         assert worst <= 1e-12, f"streamed differs from whole by {worst:.3g} relative"
         result["check_streamed_vs_whole_max_relative"] = worst

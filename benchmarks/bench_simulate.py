@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from sizefx import earth, scenarios
-from sizefx.simulate import SimulateConfig, run
 from sizefx.io.telemetry import read_telemetry
+from sizefx.simulate import SimulateConfig, run
 
 
 def main(argv=None):
@@ -32,8 +32,11 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "flight.h5"
         t0 = time.perf_counter()
-        summary = run(SimulateConfig("flight", out, plan=scenarios.FlightPlan(duration_s=args.duration_h * 3600.0),
-                      form=args.form, seed=0))
+        summary = run(
+            SimulateConfig(
+                "flight", out, plan=scenarios.FlightPlan(duration_s=args.duration_h * 3600.0), form=args.form, seed=0
+            )
+        )
         wall = time.perf_counter() - t0
         peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
         tel = read_telemetry(out)

@@ -24,12 +24,26 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured  # noqa: E402  (a sibling of this script)
+from _measure import emit, run_measured
 
 #: Every command path of the CLI (the group, each command, each scenario and importer).
-COMMANDS = [[], ["calibrate"], ["compare"], ["compensate"], ["demo"], ["diagnose"], ["import"], ["inspect"],
-            ["navigate"], ["paper"], ["simulate"]] + [["simulate", s] for s in ("turntable", "sway", "flight", "tumble")] \
+COMMANDS = (
+    [
+        [],
+        ["calibrate"],
+        ["compare"],
+        ["compensate"],
+        ["demo"],
+        ["diagnose"],
+        ["import"],
+        ["inspect"],
+        ["navigate"],
+        ["paper"],
+        ["simulate"],
+    ]
+    + [["simulate", s] for s in ("turntable", "sway", "flight", "tumble")]
     + [["import", f] for f in ("broad", "psins-imu", "psins-mat", "csv", "ulog")]
+)
 TARGET_S = 0.3
 
 
@@ -54,8 +68,14 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             subprocess.run(cmd, check=True, capture_output=True)
             times.append(time.perf_counter() - t0)
-        rows.append({"command": " ".join(["sizefx", *path, "--help"]), "median_s": round(statistics.median(times), 4),
-                     "min_s": round(min(times), 4), "max_s": round(max(times), 4)})
+        rows.append(
+            {
+                "command": " ".join(["sizefx", *path, "--help"]),
+                "median_s": round(statistics.median(times), 4),
+                "min_s": round(min(times), 4),
+                "max_s": round(max(times), 4),
+            }
+        )
     slowest = max(rows, key=lambda r: r["median_s"])
     _, peak_mib = run_measured([exe, *slowest["command"].split()[1:]])
     result = {

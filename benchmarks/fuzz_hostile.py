@@ -39,8 +39,22 @@ import hostile_corpus as hc  # noqa: E402  (tests/ holds the corpus and support.
 #: first, then a random normal number at a random scale.
 SPECIAL_VALUES = (np.nan, np.inf, -np.inf, 1e300, -1e300, 1e30, 5e-324, 0.0, -0.0)
 #: Random option values: the non-finite spellings click accepts, and extremes.
-SPECIAL_OPTION_VALUES = ("nan", "-nan", "inf", "-inf", "+Infinity", "1e308", "-1e308", "1e309", "5e-324", "0", "-0",
-                         "-1", "1" + "0" * 30, "-" + "9" * 25)
+SPECIAL_OPTION_VALUES = (
+    "nan",
+    "-nan",
+    "inf",
+    "-inf",
+    "+Infinity",
+    "1e308",
+    "-1e308",
+    "1e309",
+    "5e-324",
+    "0",
+    "-0",
+    "-1",
+    "1" + "0" * 30,
+    "-" + "9" * 25,
+)
 
 
 def _random_value(rng):
@@ -67,8 +81,17 @@ def mutations(root: Path, n: int, seed: int) -> list:
             row, col = int(rng.integers(0, 1000)), int(rng.integers(0, 3))
             value = _random_value(rng)
             command = ("inspect", "navigate")[int(rng.integers(2))]
-            cases.append(hc.mutated_value_case(root, f"fuzz{k}-value-{dataset.replace('/', '-')}-{row}-{col}-{value!r}-"
-                                               f"{command}", dataset, row, col, value, command))
+            cases.append(
+                hc.mutated_value_case(
+                    root,
+                    f"fuzz{k}-value-{dataset.replace('/', '-')}-{row}-{col}-{value!r}-{command}",
+                    dataset,
+                    row,
+                    col,
+                    value,
+                    command,
+                )
+            )
         elif kind == 1:
             path, flag, _ = options[int(rng.integers(len(options)))]
             value = _random_option_value(rng)
@@ -109,8 +132,14 @@ def main(argv=None) -> int:
             print(f"  {done[0]}/{len(cases)} run", file=sys.stderr, flush=True)
 
     t1 = time.perf_counter()
-    outcomes = hc.run_cases(cases, root / "runs", workers=args.workers, subprocess_all=True,
-                            subprocess_limit_s=args.limit_s, progress=progress)
+    outcomes = hc.run_cases(
+        cases,
+        root / "runs",
+        workers=args.workers,
+        subprocess_all=True,
+        subprocess_limit_s=args.limit_s,
+        progress=progress,
+    )
     t_run = time.perf_counter() - t1
 
     skipped = [c for c in cases if c.skip]
@@ -119,9 +148,16 @@ def main(argv=None) -> int:
         broken = hc.broken_promises(o, limit_s=args.limit_s)
         if broken:
             first = o.stderr.strip().splitlines()[0][:200] if o.stderr.strip() else hc.tail(o.traceback or "")
-            failures.append({"case": name, "command": "sizefx " + " ".join(a[:80] for a in o.case.argv),
-                             "exit_code": o.exit_code, "broken": broken, "stderr": first,
-                             "peak_rss_mib": round(o.peak_rss_bytes / 2**20)})
+            failures.append(
+                {
+                    "case": name,
+                    "command": "sizefx " + " ".join(a[:80] for a in o.case.argv),
+                    "exit_code": o.exit_code,
+                    "broken": broken,
+                    "stderr": first,
+                    "peak_rss_mib": round(o.peak_rss_bytes / 2**20),
+                }
+            )
         elif o.exit_code == 2:
             refused += 1
         else:
@@ -132,12 +168,18 @@ def main(argv=None) -> int:
     cmd = "python benchmarks/fuzz_hostile.py " + " ".join(sys.argv[1:] if argv is None else argv)
     print(f"command: {cmd}")
     print(f"sizefx: {hc.console_script()}")
-    print(f"corpus {len(corpus)} cases + {args.cases} mutations (seed {args.seed}); written in {t_write:.1f} s, "
-          f"run in {t_run:.1f} s with {args.workers} workers")
-    print(f"tried {len(outcomes)}, refused cleanly {refused}, ran cleanly {accepted}, failed {len(failures)}, "
-          f"skipped {len(skipped)}")
-    print(f"peak RSS {peak.peak_rss_bytes / 2**20:.0f} MiB ({peak.case.name}; ceiling "
-          f"{hc.MEMORY_CEILING_BYTES / 2**30:.1f} GiB), slowest {slowest.seconds:.1f} s ({slowest.case.name})")
+    print(
+        f"corpus {len(corpus)} cases + {args.cases} mutations (seed {args.seed}); written in {t_write:.1f} s, "
+        f"run in {t_run:.1f} s with {args.workers} workers"
+    )
+    print(
+        f"tried {len(outcomes)}, refused cleanly {refused}, ran cleanly {accepted}, failed {len(failures)}, "
+        f"skipped {len(skipped)}"
+    )
+    print(
+        f"peak RSS {peak.peak_rss_bytes / 2**20:.0f} MiB ({peak.case.name}; ceiling "
+        f"{hc.MEMORY_CEILING_BYTES / 2**30:.1f} GiB), slowest {slowest.seconds:.1f} s ({slowest.case.name})"
+    )
     for c in skipped:
         print(f"skipped {c.name}: {c.skip}")
     if failures:
@@ -146,9 +188,20 @@ def main(argv=None) -> int:
         for b in f["broken"]:
             print(f"  {f['case']} | {b[:200]} | {f['stderr']!r}")
     if args.json:
-        args.json.write_text(json.dumps({"command": cmd, "tried": len(outcomes), "refused_cleanly": refused,
-                                         "ran_cleanly": accepted, "failures": failures,
-                                         "skipped": [c.name for c in skipped], "run_s": round(t_run, 1)}, indent=1))
+        args.json.write_text(
+            json.dumps(
+                {
+                    "command": cmd,
+                    "tried": len(outcomes),
+                    "refused_cleanly": refused,
+                    "ran_cleanly": accepted,
+                    "failures": failures,
+                    "skipped": [c.name for c in skipped],
+                    "run_s": round(t_run, 1),
+                },
+                indent=1,
+            )
+        )
     if args.out is None:
         shutil.rmtree(root, ignore_errors=True)
     return 1 if failures else 0

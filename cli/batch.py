@@ -35,18 +35,32 @@ class _Stage:
 
 
 STAGES = {
-    "navigate": _Stage("file", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"},
-                       dropped=("quiet",)),
+    "navigate": _Stage(
+        "file", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"}, dropped=("quiet",)
+    ),
     "compensate": _Stage("file", {"output": ".compensated.h5"}, summary=True),
     "calibrate": _Stage("records", {"json_path": ".levers.json"}, {"plot": ".calibrate.png"}, many=True),
-    "diagnose": _Stage("measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"},
-                       {"plots": ".diagnose-plots"}),
+    "diagnose": _Stage(
+        "measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"}, {"plots": ".diagnose-plots"}
+    ),
     "inspect": _Stage("file", summary=True, dropped=("as_json",)),
-    "compare": _Stage("a", {"json_path": ".comparison.json"}, {"plots_dir": ".compare-plots"}, paired={
-        "b": ("--against", "B for each record A: the solutions to compare with (a file for every record, or "
-                           "folders or globs, paired by name: flight07.nav.h5 with flight07.nav.h5 or flight07.h5)."),
-        "reference": ("--reference", "The truth for each record (a file for every record, or folders or globs of "
-                                     "records or solutions, paired by name as --against).")}),
+    "compare": _Stage(
+        "a",
+        {"json_path": ".comparison.json"},
+        {"plots_dir": ".compare-plots"},
+        paired={
+            "b": (
+                "--against",
+                "B for each record A: the solutions to compare with (a file for every record, or "
+                "folders or globs, paired by name: flight07.nav.h5 with flight07.nav.h5 or flight07.h5).",
+            ),
+            "reference": (
+                "--reference",
+                "The truth for each record (a file for every record, or folders or globs of "
+                "records or solutions, paired by name as --against).",
+            ),
+        },
+    ),
 }
 
 
@@ -68,42 +82,72 @@ class BatchProgress:
             if self.bar is None:
                 from tqdm import tqdm
 
-                self.bar = tqdm(total=self.total, desc=f"batch {self.stage}", unit=" records", file=sys.stderr,
-                                dynamic_ncols=True)
-            self.bar.set_postfix(ok=event["ok"], refused=event["refused"], failed=event["failed"],
-                                 unchanged=event["skipped"], refresh=False)
+                self.bar = tqdm(
+                    total=self.total, desc=f"batch {self.stage}", unit=" records", file=sys.stderr, dynamic_ncols=True
+                )
+            self.bar.set_postfix(
+                ok=event["ok"],
+                refused=event["refused"],
+                failed=event["failed"],
+                unchanged=event["skipped"],
+                refresh=False,
+            )
             self.bar.update(1)
             if event["done"] >= self.total:
                 self.bar.close()
             return
         left = "" if event["eta_s"] is None else f", {event['eta_s']:.0f} s left"
-        click.echo(f"batch {self.stage}: {event['done']}/{event['total']} {event['record']} {event['status']}; "
-                   f"{event['ok']} ok, {event['skipped']} unchanged, {event['refused']} refused, {event['failed']} "
-                   f"failed; {event['records_per_s']:.3g} records/s{left}", err=True)
+        click.echo(
+            f"batch {self.stage}: {event['done']}/{event['total']} {event['record']} {event['status']}; "
+            f"{event['ok']} ok, {event['skipped']} unchanged, {event['refused']} refused, {event['failed']} "
+            f"failed; {event['records_per_s']:.3g} records/s{left}",
+            err=True,
+        )
 
 
 def batch_params(record_plots: bool, chain: bool = False) -> list:
     """The options every batch command has (``sizefx batch STAGE`` and ``sizefx batch run``). A chain
     checks --out itself (click would ask for it before a chained stage's --help)."""
     return [
-        click.Option(["--out", "out_dir"], required=not chain, type=click.Path(file_okay=False),
-                     help="Folder for every record's outputs and manifest.json (made if new; not inside an "
-                          "input folder)." + (" Required." if chain else "")),
-        click.Option(["--workers"], type=click.IntRange(1, 1024),
-                     help="Worker processes [default: the cores]; each loads the kernels once."),
-        click.Option(["--memory-per-worker-mib", "memory_mib"], type=span(256.0, 2.0**40),
-                     help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
-                          "(MemoryError) [default: 80 % of the machine's memory over the workers]."),
-        click.Option(["--redo"], is_flag=True, help="Run every record again, even those whose input, options "
-                                                    "and outputs match the manifest."),
-        click.Option(["--scheduler"], metavar="tcp://HOST:PORT",
-                     help="Run on this Dask scheduler's cluster instead of local workers (the 'distributed' "
-                          "package: pip install 'sizefx[dask]'); the workers must see the records' paths."),
-        click.Option(["--json-progress"], is_flag=True,
-                     help="Progress as one JSON object per record on stderr (for schedulers)."),
-        click.Option(["--plots"], is_flag=True,
-                     help="Also write a figure of the headline figures across the records (fleet.png)"
-                          + (", and each record's plots." if record_plots else "."))]
+        click.Option(
+            ["--out", "out_dir"],
+            required=not chain,
+            type=click.Path(file_okay=False),
+            help="Folder for every record's outputs and manifest.json (made if new; not inside an "
+            "input folder)." + (" Required." if chain else ""),
+        ),
+        click.Option(
+            ["--workers"],
+            type=click.IntRange(1, 1024),
+            help="Worker processes [default: the cores]; each loads the kernels once.",
+        ),
+        click.Option(
+            ["--memory-per-worker-mib", "memory_mib"],
+            type=span(256.0, 2.0**40),
+            help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
+            "(MemoryError) [default: 80 % of the machine's memory over the workers].",
+        ),
+        click.Option(
+            ["--redo"],
+            is_flag=True,
+            help="Run every record again, even those whose input, options and outputs match the manifest.",
+        ),
+        click.Option(
+            ["--scheduler"],
+            metavar="tcp://HOST:PORT",
+            help="Run on this Dask scheduler's cluster instead of local workers (the 'distributed' "
+            "package: pip install 'sizefx[dask]'); the workers must see the records' paths.",
+        ),
+        click.Option(
+            ["--json-progress"], is_flag=True, help="Progress as one JSON object per record on stderr (for schedulers)."
+        ),
+        click.Option(
+            ["--plots"],
+            is_flag=True,
+            help="Also write a figure of the headline figures across the records (fleet.png)"
+            + (", and each record's plots." if record_plots else "."),
+        ),
+    ]
 
 
 def _make(name: str, spec: _Stage) -> click.Command:
@@ -111,14 +155,25 @@ def _make(name: str, spec: _Stage) -> click.Command:
     single = getattr(module, name)
     skip = {spec.input_param, "force", *spec.outputs, *spec.plots, *spec.dropped, *spec.paired}
     stage_params = [p for p in single.params if p.name not in skip]
-    paired_params = [click.Option([flag, f"paired_{param}"], multiple=True, type=click.Path(), help=text,
-                                  required=param == "b", metavar="PATH")
-                     for param, (flag, text) in spec.paired.items()]
-    params = [click.Argument(["inputs"], nargs=-1, required=True, type=click.Path()),
-              *stage_params, *paired_params, *batch_params(bool(spec.plots))]
+    paired_params = [
+        click.Option(
+            [flag, f"paired_{param}"],
+            multiple=True,
+            type=click.Path(),
+            help=text,
+            required=param == "b",
+            metavar="PATH",
+        )
+        for param, (flag, text) in spec.paired.items()
+    ]
+    params = [
+        click.Argument(["inputs"], nargs=-1, required=True, type=click.Path()),
+        *stage_params,
+        *paired_params,
+        *batch_params(bool(spec.plots)),
+    ]
 
-    def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False,
-                 **options):
+    def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False, **options):
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
         from sizefx.batch.inputs import check_out_dir, pair_inputs
         from sizefx.batch.manifest import canonical_options
@@ -128,10 +183,14 @@ def _make(name: str, spec: _Stage) -> click.Command:
         accepted = inspect.signature(module.config_of).parameters
         records = expand_inputs(inputs)
         given_pairs = {param: options.pop(f"paired_{param}") for param in spec.paired}
-        partners = {param: pair_inputs(records, given, spec.paired[param][0])
-                    for param, given in given_pairs.items() if given}
-        out = check_out_dir(out_dir, [*inputs, *(g for given in given_pairs.values() for g in given)],
-                            [*records, *(p for pairs in partners.values() for p in pairs.values())])
+        partners = {
+            param: pair_inputs(records, given, spec.paired[param][0]) for param, given in given_pairs.items() if given
+        }
+        out = check_out_dir(
+            out_dir,
+            [*inputs, *(g for given in given_pairs.values() for g in given)],
+            [*records, *(p for pairs in partners.values() for p in pairs.values())],
+        )
         # the workers start while the configs are built: the stage's code loads in both
         pool = None if scheduler else start_workers(name, local_workers(workers, len(records)), memory_mib)
         try:
@@ -145,9 +204,15 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 if plots:
                     outputs.update({p: str(out / (names[record] + suffix)) for p, suffix in spec.plots.items()})
                 paired = {param: str(pairs[record]) for param, pairs in partners.items()}
-                given = {**options, **{p: None for p in spec.plots}, **outputs, "force": True,
-                         **{param: None for param in spec.paired}, **paired,
-                         spec.input_param: (str(record),) if spec.many else str(record)}
+                given = {
+                    **options,
+                    **{p: None for p in spec.plots},
+                    **outputs,
+                    "force": True,
+                    **{param: None for param in spec.paired},
+                    **paired,
+                    spec.input_param: (str(record),) if spec.many else str(record),
+                }
                 config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
                 # the files the options name (--levers, --model, --nominal, --against, --reference): refused
                 # once, before any work, and hashed with each record, so that a re-calibration into the
@@ -155,14 +220,34 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
                 if not jobs:
                     preflight(inputs=option_files, outputs={})
-                jobs.append(BatchJob(name, str(record), names[record], config, stage_options, outputs,
-                                     str(out / f"{names[record]}.{name}.json") if spec.summary else None,
-                                     entries.get(str(record)), redo,
-                                     {**option_files, **{spec.paired[param][0]: path
-                                                         for param, path in paired.items()}}))
+                jobs.append(
+                    BatchJob(
+                        name,
+                        str(record),
+                        names[record],
+                        config,
+                        stage_options,
+                        outputs,
+                        str(out / f"{names[record]}.{name}.json") if spec.summary else None,
+                        entries.get(str(record)),
+                        redo,
+                        {**option_files, **{spec.paired[param][0]: path for param, path in paired.items()}},
+                    )
+                )
             progress = BatchProgress(name, len(jobs), json_progress, quiet)
-            result = run_batch(name, jobs, out, stage_options, workers=workers, previous=previous,
-                               progress=progress, scheduler=scheduler, plots=plots, memory_mib=memory_mib, pool=pool)
+            result = run_batch(
+                name,
+                jobs,
+                out,
+                stage_options,
+                workers=workers,
+                previous=previous,
+                progress=progress,
+                scheduler=scheduler,
+                plots=plots,
+                memory_mib=memory_mib,
+                pool=pool,
+            )
         finally:  # a refusal before the run: the workers, still starting, are let go
             if pool is not None:
                 pool.shutdown(wait=False, cancel_futures=True)
@@ -170,15 +255,20 @@ def _make(name: str, spec: _Stage) -> click.Command:
         if not result.all_ok:
             sys.exit(1)
 
-    help_text = (f"sizefx {name} over many records, in parallel, into one folder.\n\n"
-                 f"INPUTS: record files, folders of them (*.h5) or globs. Each record goes through the "
-                 f"same stage code as 'sizefx {name}' with the options below (see sizefx {name} --help); its "
-                 f"outputs are named after it in --out, with manifest.json (sizefx/batch/1): per record the input's "
-                 f"SHA-256, the options, the outputs, the status (ok, refused with its reason, failed), duration, "
-                 f"peak memory and headline figures. A re-run skips records whose input, options and outputs "
-                 f"match (--redo to force). Exit code 0 when every record succeeded, 1 otherwise, 2 for bad input.")
-    return quiet_option(click.Command(name, params=params, callback=callback, help=help_text,
-                                      short_help=f"sizefx {name} over many records."))
+    help_text = (
+        f"sizefx {name} over many records, in parallel, into one folder.\n\n"
+        f"INPUTS: record files, folders of them (*.h5) or globs. Each record goes through the "
+        f"same stage code as 'sizefx {name}' with the options below (see sizefx {name} --help); its "
+        f"outputs are named after it in --out, with manifest.json (sizefx/batch/1): per record the input's "
+        f"SHA-256, the options, the outputs, the status (ok, refused with its reason, failed), duration, "
+        f"peak memory and headline figures. A re-run skips records whose input, options and outputs "
+        f"match (--redo to force). Exit code 0 when every record succeeded, 1 otherwise, 2 for bad input."
+    )
+    return quiet_option(
+        click.Command(
+            name, params=params, callback=callback, help=help_text, short_help=f"sizefx {name} over many records."
+        )
+    )
 
 
 @click.group()

@@ -10,14 +10,22 @@ from .options import force_option
 @click.command()
 @click.argument("a", type=click.Path(dir_okay=False))
 @click.argument("b", type=click.Path(dir_okay=False))
-@click.option("--reference", type=click.Path(dir_okay=False),
-              help="The truth (a navigation file or telemetry with /reference/position): report A and B against "
-                   "it, and A against B.")
-@click.option("--json", "json_path", type=click.Path(dir_okay=False),
-              help="Write the figures as JSON (sizefx/comparison/1).")
-@click.option("--plots", "plots_dir", type=click.Path(file_okay=False),
-              help="Write PNG figures into this directory (created if missing): trajectories, horizontal_error, "
-                   "velocity, attitude.")
+@click.option(
+    "--reference",
+    type=click.Path(dir_okay=False),
+    help="The truth (a navigation file or telemetry with /reference/position): report A and B against "
+    "it, and A against B.",
+)
+@click.option(
+    "--json", "json_path", type=click.Path(dir_okay=False), help="Write the figures as JSON (sizefx/comparison/1)."
+)
+@click.option(
+    "--plots",
+    "plots_dir",
+    type=click.Path(file_okay=False),
+    help="Write PNG figures into this directory (created if missing): trajectories, horizontal_error, "
+    "velocity, attitude.",
+)
 @force_option
 def compare(a, b, reference, json_path, plots_dir, force):
     """Compare two navigation solutions (or a solution and a telemetry reference).

@@ -10,8 +10,14 @@ from .options import SEED
 
 
 @click.command()
-@click.option("--out", "out_dir", default="sizefx-demo", show_default=True, type=click.Path(file_okay=False),
-              help="Folder for the demo's files (created; the demo replaces only its own files there).")
+@click.option(
+    "--out",
+    "out_dir",
+    default="sizefx-demo",
+    show_default=True,
+    type=click.Path(file_okay=False),
+    help="Folder for the demo's files (created; the demo replaces only its own files there).",
+)
 @click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of the simulated noise.")
 def demo(out_dir, seed):
     """Run sizefx on built-in data and print what it finds.

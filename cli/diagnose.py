@@ -9,38 +9,78 @@ from .options import allow_gaps_option, force_option, segment_option, span
 
 @click.command()
 @click.argument("measured", type=click.Path(dir_okay=False))
-@click.option("--nominal", default=None,
-              help="Geometry the prediction starts from: high-precision (default), compact, none, or a "
-                   "sizefx/levers/1 file; lever arms from the reference point of the motion.")
-@click.option("--model", type=click.Path(dir_okay=False),
-              help="Start from this effect model instead (sizefx/effects/1 TOML, e.g. a previous diagnosis); "
-                   "sections it omits are off.")
+@click.option(
+    "--nominal",
+    default=None,
+    help="Geometry the prediction starts from: high-precision (default), compact, none, or a "
+    "sizefx/levers/1 file; lever arms from the reference point of the motion.",
+)
+@click.option(
+    "--model",
+    type=click.Path(dir_okay=False),
+    help="Start from this effect model instead (sizefx/effects/1 TOML, e.g. a previous diagnosis); "
+    "sections it omits are off.",
+)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the report (sizefx/diagnosis/2).")
-@click.option("--plots", type=click.Path(file_okay=False),
-              help="Write residual time series and spectra, before and after, into this folder (residuals.png, "
-                   "spectra.png; existing ones are replaced only with --force).")
-@click.option("--model-out", type=click.Path(dir_okay=False),
-              help="Where to write the extended model [default: MEASURED with .model.toml].")
-@click.option("--bandwidth-hz", type=span(0.01, 1e5),
-              help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
-                   "alike). Without it, the band is measured: where the reference's own differentiated noise "
-                   "(motion capture) overtakes the IMU's, or the full band for a table's or simulation's "
-                   "reference; the report says which.")
-@click.option("--grade", type=click.Choice(["auto", "navigation", "tactical", "industrial"]), default="auto",
-              show_default=True,
-              help="Sensor grade whose plausible ranges an estimate must lie in to be a finding (auto: inferred "
-                   "from the noise, and reported).")
+@click.option(
+    "--plots",
+    type=click.Path(file_okay=False),
+    help="Write residual time series and spectra, before and after, into this folder (residuals.png, "
+    "spectra.png; existing ones are replaced only with --force).",
+)
+@click.option(
+    "--model-out",
+    type=click.Path(dir_okay=False),
+    help="Where to write the extended model [default: MEASURED with .model.toml].",
+)
+@click.option(
+    "--bandwidth-hz",
+    type=span(0.01, 1e5),
+    help="Fit the residual low-passed at this frequency [Hz] (zero-phase, applied to the regressors "
+    "alike). Without it, the band is measured: where the reference's own differentiated noise "
+    "(motion capture) overtakes the IMU's, or the full band for a table's or simulation's "
+    "reference; the report says which.",
+)
+@click.option(
+    "--grade",
+    type=click.Choice(["auto", "navigation", "tactical", "industrial"]),
+    default="auto",
+    show_default=True,
+    help="Sensor grade whose plausible ranges an estimate must lie in to be a finding (auto: inferred "
+    "from the noise, and reported).",
+)
 @click.option("--from-s", type=span(-1e10, 1e10), help="Diagnose the record from this time on [s] (IMU clock).")
-@click.option("--to-s", type=span(-1e10, 1e10), help="Diagnose the record up to this time [s]; records over 3 million "
-                                          "samples must be cut (about 3 kB per sample).")
-@click.option("--navigation/--no-navigation", default=True, show_default=True,
-              help="On records of 10 minutes or more with reference position, also navigate with the start "
-                   "and the extended model and report the horizontal error.")
+@click.option(
+    "--to-s",
+    type=span(-1e10, 1e10),
+    help="Diagnose the record up to this time [s]; records over 3 million samples must be cut (about 3 kB per sample).",
+)
+@click.option(
+    "--navigation/--no-navigation",
+    default=True,
+    show_default=True,
+    help="On records of 10 minutes or more with reference position, also navigate with the start "
+    "and the extended model and report the horizontal error.",
+)
 @segment_option
 @allow_gaps_option
 @force_option
-def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, grade, from_s, to_s, navigation,
-             segment, allow_gaps, force):
+def diagnose(
+    measured,
+    nominal,
+    model,
+    json_path,
+    plots,
+    model_out,
+    bandwidth_hz,
+    grade,
+    from_s,
+    to_s,
+    navigation,
+    segment,
+    allow_gaps,
+    force,
+):
     """What the simulation of a record gets wrong: named, fixed, and the gain measured.
 
     Checks the record's /reference against the IMU first (glitches are
@@ -55,15 +95,60 @@ def diagnose(measured, nominal, model, json_path, plots, model_out, bandwidth_hz
     """
     from sizefx.diagnose import run
 
-    click.echo(run(config_of(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, grade, from_s, to_s,
-                             navigation, segment, allow_gaps, force)).report())
+    click.echo(
+        run(
+            config_of(
+                measured,
+                nominal,
+                model,
+                json_path,
+                plots,
+                model_out,
+                bandwidth_hz,
+                grade,
+                from_s,
+                to_s,
+                navigation,
+                segment,
+                allow_gaps,
+                force,
+            )
+        ).report()
+    )
 
 
-def config_of(measured, nominal, model, json_path, plots, model_out, bandwidth_hz, grade, from_s, to_s, navigation,
-              segment, allow_gaps, force):
+def config_of(
+    measured,
+    nominal,
+    model,
+    json_path,
+    plots,
+    model_out,
+    bandwidth_hz,
+    grade,
+    from_s,
+    to_s,
+    navigation,
+    segment,
+    allow_gaps,
+    force,
+):
     """The stage's config from the command's options (also ``sizefx batch diagnose``'s, per record)."""
     from sizefx.diagnose import DiagnoseConfig
 
-    return DiagnoseConfig(measured, nominal=nominal, model=model, json_path=json_path, plots=plots,
-                          model_out=model_out, bandwidth_hz=bandwidth_hz, grade=grade, from_s=from_s, to_s=to_s,
-                          segment=segment, allow_gaps=allow_gaps, navigation=navigation, force=force)
+    return DiagnoseConfig(
+        measured,
+        nominal=nominal,
+        model=model,
+        json_path=json_path,
+        plots=plots,
+        model_out=model_out,
+        bandwidth_hz=bandwidth_hz,
+        grade=grade,
+        from_s=from_s,
+        to_s=to_s,
+        segment=segment,
+        allow_gaps=allow_gaps,
+        navigation=navigation,
+        force=force,
+    )

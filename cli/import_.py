@@ -22,14 +22,20 @@ def run_import(fmt, source, output, *, force, **options):
     ctx = click.get_current_context(silent=True)
     check_units = not (ctx is not None and ctx.meta.get(NO_UNITS_CHECK, False))
     drop = ctx is not None and ctx.meta.get(DROP_INVALID_ROWS, False)
-    result = run(ImportConfig(fmt, source, output, force=force, check_units=check_units, drop_invalid_rows=drop,
-                              options=options))
+    result = run(
+        ImportConfig(fmt, source, output, force=force, check_units=check_units, drop_invalid_rows=drop, options=options)
+    )
     click.echo(result.report())
 
 
 def output_option(f):
-    return click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
-                        help="Telemetry file to write (HDF5, sizefx/telemetry/1).")(f)
+    return click.option(
+        "-o",
+        "--output",
+        required=True,
+        type=click.Path(dir_okay=False),
+        help="Telemetry file to write (HDF5, sizefx/telemetry/1).",
+    )(f)
 
 
 def source_argument(f):
@@ -49,8 +55,13 @@ def import_():
 @import_.command()
 @source_argument
 @output_option
-@click.option("--site-deg", default=",".join(map(str, BROAD_SITE_DEG)), show_default=True, metavar="LAT,LON,H",
-              help="Assumed site (latitude [deg], longitude [deg], height [m]); BROAD gives none.")
+@click.option(
+    "--site-deg",
+    default=",".join(map(str, BROAD_SITE_DEG)),
+    show_default=True,
+    metavar="LAT,LON,H",
+    help="Assumed site (latitude [deg], longitude [deg], height [m]); BROAD gives none.",
+)
 @force_option
 def broad(source, output, site_deg, force):
     """BROAD benchmark trial (.mat, 285.7 Hz): IMU FLU -> FRD, motion capture ENU -> NED."""
@@ -84,52 +95,114 @@ def _names(text):
 @source_argument
 @output_option
 @click.option("--time", "time_col", required=True, help="Time column name.")
-@click.option("--time-units", type=click.Choice(["s", "ms", "us", "ns", "samples"]), default="s", show_default=True,
-              help="Units of the time column; 'samples' for a counter (needs --rate-hz).")
+@click.option(
+    "--time-units",
+    type=click.Choice(["s", "ms", "us", "ns", "samples"]),
+    default="s",
+    show_default=True,
+    help="Units of the time column; 'samples' for a counter (needs --rate-hz).",
+)
 @click.option("--rate-hz", type=span(1.0, 1e5), help="Sample rate [Hz] when time is a sample counter.")
-@click.option("--form", type=click.Choice(["rates", "increments"]), default="rates", show_default=True,
-              help="Rates (gyro, accel) or increments (dtheta, dvel) in the columns.")
+@click.option(
+    "--form",
+    type=click.Choice(["rates", "increments"]),
+    default="rates",
+    show_default=True,
+    help="Rates (gyro, accel) or increments (dtheta, dvel) in the columns.",
+)
 @click.option("--gyro", required=True, metavar="X,Y,Z", help="Gyro (or dtheta) column names.")
-@click.option("--gyro-units", default="rad/s", show_default=True,
-              help="rad/s or deg/s (increments: rad or deg).")
+@click.option("--gyro-units", default="rad/s", show_default=True, help="rad/s or deg/s (increments: rad or deg).")
 @click.option("--accel", required=True, metavar="X,Y,Z", help="Accelerometer (or dvel) column names.")
 @click.option("--accel-units", default="m/s^2", show_default=True, help="m/s^2 or g (increments: m/s).")
-@click.option("--axes", default="x,y,z", show_default=True,
-              help="Body FRD axes in sensor axes, e.g. y,x,-z for a right-forward-up sensor, x,-y,-z for "
-                   "forward-left-up. Applies to the reference attitude too.")
+@click.option(
+    "--axes",
+    default="x,y,z",
+    show_default=True,
+    help="Body FRD axes in sensor axes, e.g. y,x,-z for a right-forward-up sensor, x,-y,-z for "
+    "forward-left-up. Applies to the reference attitude too.",
+)
 @click.option("--delimiter", default=",", show_default=True, help="Field separator.")
 @click.option("--site-deg", metavar="LAT,LON,H", help="Site: latitude [deg], longitude [deg], height [m].")
-@click.option("--reference-file", type=click.Path(dir_okay=False), metavar="FILE",
-              help="Read the reference columns from this CSV (same delimiter), with its own time column at its "
-                   "own rate; without it they are read from SOURCE.")
-@click.option("--reference-time", metavar="COLUMN",
-              help="Time column of the reference, on the IMU clock [default: --time]. In SOURCE, the reference is "
-                   "read from the rows where it is filled (empty cells elsewhere); without it, from the rows "
-                   "where the reference columns are filled, at the IMU time.")
-@click.option("--reference-time-units", metavar="UNITS",
-              help="s, ms, us or ns [default: --time-units].")
-@click.option("--reference-quaternion", metavar="W,X,Y,Z",
-              help="Reference attitude: quaternion columns in scalar-first order, rotating sensor-axis vectors "
-                   "into the reference frame (--reference-frame).")
-@click.option("--reference-euler", metavar="ROLL,PITCH,HEADING",
-              help="Reference attitude: z-y-x Euler angles of the sensor axes in NED, "
-                   "mat = Rz(heading) Ry(pitch) Rx(roll) (NED only).")
+@click.option(
+    "--reference-file",
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Read the reference columns from this CSV (same delimiter), with its own time column at its "
+    "own rate; without it they are read from SOURCE.",
+)
+@click.option(
+    "--reference-time",
+    metavar="COLUMN",
+    help="Time column of the reference, on the IMU clock [default: --time]. In SOURCE, the reference is "
+    "read from the rows where it is filled (empty cells elsewhere); without it, from the rows "
+    "where the reference columns are filled, at the IMU time.",
+)
+@click.option("--reference-time-units", metavar="UNITS", help="s, ms, us or ns [default: --time-units].")
+@click.option(
+    "--reference-quaternion",
+    metavar="W,X,Y,Z",
+    help="Reference attitude: quaternion columns in scalar-first order, rotating sensor-axis vectors "
+    "into the reference frame (--reference-frame).",
+)
+@click.option(
+    "--reference-euler",
+    metavar="ROLL,PITCH,HEADING",
+    help="Reference attitude: z-y-x Euler angles of the sensor axes in NED, "
+    "mat = Rz(heading) Ry(pitch) Rx(roll) (NED only).",
+)
 @click.option("--reference-euler-units", default="deg", show_default=True, metavar="UNITS", help="deg or rad.")
-@click.option("--reference-velocity", metavar="X,Y,Z",
-              help="Reference velocity [m/s] in the frame's axis order: north,east,down (ned) or "
-                   "east,north,up (enu).")
-@click.option("--reference-position", metavar="LAT,LON,H",
-              help="Reference latitude, longitude and height above the WGS-84 ellipsoid [m].")
-@click.option("--reference-position-units", default="deg", show_default=True, metavar="UNITS",
-              help="Units of latitude and longitude: deg or rad.")
-@click.option("--reference-frame", default="ned", show_default=True, metavar="ned|enu",
-              help="Navigation frame of the reference quaternion and velocity; enu (East-North-Up, as ROS and "
-                   "motion capture write it) is converted to NED.")
+@click.option(
+    "--reference-velocity",
+    metavar="X,Y,Z",
+    help="Reference velocity [m/s] in the frame's axis order: north,east,down (ned) or east,north,up (enu).",
+)
+@click.option(
+    "--reference-position",
+    metavar="LAT,LON,H",
+    help="Reference latitude, longitude and height above the WGS-84 ellipsoid [m].",
+)
+@click.option(
+    "--reference-position-units",
+    default="deg",
+    show_default=True,
+    metavar="UNITS",
+    help="Units of latitude and longitude: deg or rad.",
+)
+@click.option(
+    "--reference-frame",
+    default="ned",
+    show_default=True,
+    metavar="ned|enu",
+    help="Navigation frame of the reference quaternion and velocity; enu (East-North-Up, as ROS and "
+    "motion capture write it) is converted to NED.",
+)
 @force_option
-def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, accel, accel_units, axes,
-        delimiter, site_deg, reference_file, reference_time, reference_time_units, reference_quaternion,
-        reference_euler, reference_euler_units, reference_velocity, reference_position, reference_position_units,
-        reference_frame, force):
+def csv(
+    source,
+    output,
+    time_col,
+    time_units,
+    rate_hz,
+    form,
+    gyro,
+    gyro_units,
+    accel,
+    accel_units,
+    axes,
+    delimiter,
+    site_deg,
+    reference_file,
+    reference_time,
+    reference_time_units,
+    reference_quaternion,
+    reference_euler,
+    reference_euler_units,
+    reference_velocity,
+    reference_position,
+    reference_position_units,
+    reference_frame,
+    force,
+):
     """Generic CSV with a column map and units, and optionally a reference.
 
     \b
@@ -138,33 +211,55 @@ def csv(source, output, time_col, time_units, rate_hz, form, gyro, gyro_units, a
     same sensor axes as the IMU columns (--axes maps both into body FRD). Rows
     with an empty or NaN reference cell are dropouts: left out and reported.
     """
-    run_import("csv", source, output, force=force, time=time_col, time_units=time_units, rate_hz=rate_hz,
-               form=form, gyro=_names(gyro), gyro_units=gyro_units, accel=_names(accel),
-               accel_units=accel_units, axes=_names(axes), delimiter=delimiter,
-               site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
-               reference_file=reference_file, reference_time=reference_time,
-               reference_time_units=reference_time_units, reference_quaternion=_names(reference_quaternion),
-               reference_euler=_names(reference_euler), reference_euler_units=reference_euler_units,
-               reference_velocity=_names(reference_velocity), reference_position=_names(reference_position),
-               reference_position_units=reference_position_units, reference_frame=reference_frame)
+    run_import(
+        "csv",
+        source,
+        output,
+        force=force,
+        time=time_col,
+        time_units=time_units,
+        rate_hz=rate_hz,
+        form=form,
+        gyro=_names(gyro),
+        gyro_units=gyro_units,
+        accel=_names(accel),
+        accel_units=accel_units,
+        axes=_names(axes),
+        delimiter=delimiter,
+        site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
+        reference_file=reference_file,
+        reference_time=reference_time,
+        reference_time_units=reference_time_units,
+        reference_quaternion=_names(reference_quaternion),
+        reference_euler=_names(reference_euler),
+        reference_euler_units=reference_euler_units,
+        reference_velocity=_names(reference_velocity),
+        reference_position=_names(reference_position),
+        reference_position_units=reference_position_units,
+        reference_frame=reference_frame,
+    )
 
 
 @import_.command()
 @source_argument
 @output_option
-@click.option("--site-deg", metavar="LAT,LON,H",
-              help="Site: latitude [deg], longitude [deg], height [m] (a log has none; navigation needs one).")
+@click.option(
+    "--site-deg",
+    metavar="LAT,LON,H",
+    help="Site: latitude [deg], longitude [deg], height [m] (a log has none; navigation needs one).",
+)
 @force_option
 def ulog(source, output, site_deg, force):
     """PX4 ULog (sensor_combined, via pyulog): FRD already; dropouts are declared as gaps (/imu/gaps)."""
-    run_import("ulog", source, output, force=force,
-               site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None)
+    run_import("ulog", source, output, force=force, site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None)
 
 
 def _remember(key):
     """A click callback that leaves a flag's value in the context's ``meta`` under ``key``."""
+
     def callback(ctx, param, value):
         ctx.meta[key] = value
+
     return callback
 
 
@@ -172,9 +267,19 @@ def _remember(key):
 # command of the group (a new importer gets them too), and reach run_import through the context, so
 # the commands keep their own signatures.
 for _command in import_.commands.values():
-    click.option("--no-units-check", is_flag=True, expose_value=False, callback=_remember(NO_UNITS_CHECK),
-                 help=NO_UNITS_CHECK_HELP)(_command)
-    click.option("--drop-invalid-rows", is_flag=True, expose_value=False, callback=_remember(DROP_INVALID_ROWS),
-                 help="Drop IMU rows holding NaN, inf or values beyond the physical limits (docs/reliability.md) "
-                      "instead of refusing the source; they become declared gaps, and the report counts them "
-                      "and names the first.")(_command)
+    click.option(
+        "--no-units-check",
+        is_flag=True,
+        expose_value=False,
+        callback=_remember(NO_UNITS_CHECK),
+        help=NO_UNITS_CHECK_HELP,
+    )(_command)
+    click.option(
+        "--drop-invalid-rows",
+        is_flag=True,
+        expose_value=False,
+        callback=_remember(DROP_INVALID_ROWS),
+        help="Drop IMU rows holding NaN, inf or values beyond the physical limits (docs/reliability.md) "
+        "instead of refusing the source; they become declared gaps, and the report counts them "
+        "and names the first.",
+    )(_command)

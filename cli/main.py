@@ -13,7 +13,6 @@ from sizefx import __version__
 from sizefx.errors import Interrupted, SizefxError
 from sizefx.io.files import INTERRUPTED, interrupt
 
-
 #: What the command line says after a signal: the output promise (no unfinished output is left).
 SIGNAL_WORDS = {signal.SIGINT: "interrupted (SIGINT)", signal.SIGTERM: "terminated (SIGTERM)"}
 
@@ -23,9 +22,11 @@ def _quiet_interrupted(hook):
     landing in a weakref callback or a ``__del__`` (h5py closes objects in both) would otherwise print
     an "Exception ignored" traceback. The signal is still honoured: :func:`interrupt` recorded it in
     ``INTERRUPTED``, which :func:`~sizefx.io.files.atomic_output` and ``invoke`` look at."""
+
     def quiet(unraisable):
         if not isinstance(unraisable.exc_value, Interrupted):
             hook(unraisable)
+
     return quiet
 
 
@@ -108,18 +109,18 @@ def main():
 
 
 from . import batch as _batch  # noqa: E402  (imported after `main` exists)
-from . import calibrate as _calibrate  # noqa: E402
-from . import compare as _compare  # noqa: E402
-from . import compensate as _compensate  # noqa: E402
-from . import demo as _demo  # noqa: E402
-from . import diagnose as _diagnose  # noqa: E402
-from . import import_ as _import  # noqa: E402
-from . import inspect as _inspect  # noqa: E402
-from . import navigate as _navigate  # noqa: E402
-from . import paper as _paper  # noqa: E402
-from . import plan as _plan  # noqa: E402
-from . import run as _run  # noqa: E402
-from . import simulate as _simulate  # noqa: E402
+from . import calibrate as _calibrate  # noqa: E402 (after `main`)
+from . import compare as _compare  # noqa: E402 (after `main`)
+from . import compensate as _compensate  # noqa: E402 (after `main`)
+from . import demo as _demo  # noqa: E402 (after `main`)
+from . import diagnose as _diagnose  # noqa: E402 (after `main`)
+from . import import_ as _import  # noqa: E402 (after `main`)
+from . import inspect as _inspect  # noqa: E402 (after `main`)
+from . import navigate as _navigate  # noqa: E402 (after `main`)
+from . import paper as _paper  # noqa: E402 (after `main`)
+from . import plan as _plan  # noqa: E402 (after `main`)
+from . import run as _run  # noqa: E402 (after `main`)
+from . import simulate as _simulate  # noqa: E402 (after `main`)
 
 main.add_command(_batch.batch)
 _batch.batch.add_command(_run.batch_run)  # the chain per flight (cli/run.py builds both chains)

@@ -57,8 +57,10 @@ def parse_overrides(items) -> dict:
             parsed = parse_toml(f"v = {value.strip()}", f"--set {key.strip()}")["v"]
         except ConfigError:
             shown = value if len(value) <= 60 else value[:60] + "..."
-            raise ConfigError(f"--set '{key.strip()}={shown}': not a TOML value (numbers, true/false, "
-                              "\"text\", [1, 2, 3]) of reasonable size") from None
+            raise ConfigError(
+                f"--set '{key.strip()}={shown}': not a TOML value (numbers, true/false, "
+                '"text", [1, 2, 3]) of reasonable size'
+            ) from None
         out.setdefault(section, {})[name] = parsed
     return out
 
@@ -72,17 +74,22 @@ def quiet_option(f):
 
 
 def allow_gaps_option(f):
-    return click.option("--allow-gaps", is_flag=True,
-                        help="Accept IMU time steps longer than 1.5 sample periods that /imu/gaps does not "
-                             "declare (they are reported) instead of refusing the file; declared gaps need "
-                             "no option.")(f)
+    return click.option(
+        "--allow-gaps",
+        is_flag=True,
+        help="Accept IMU time steps longer than 1.5 sample periods that /imu/gaps does not "
+        "declare (they are reported) instead of refusing the file; declared gaps need "
+        "no option.",
+    )(f)
 
 
 #: Help of --no-units-check (import and inspect), in one place.
-NO_UNITS_CHECK_HELP = ("Skip the physics check of the units (specific force at rest against gravity, gyros against "
-                       "the reference attitude or the tilt the accelerometers see), which refuses data that look like "
-                       "deg/s labelled rad/s or g labelled m/s^2. For a record you know is right that the check "
-                       "misjudges (an IMU on a centrifuge, in free fall or in orbit); say so when you share the file.")
+NO_UNITS_CHECK_HELP = (
+    "Skip the physics check of the units (specific force at rest against gravity, gyros against "
+    "the reference attitude or the tilt the accelerometers see), which refuses data that look like "
+    "deg/s labelled rad/s or g labelled m/s^2. For a record you know is right that the check "
+    "misjudges (an IMU on a centrifuge, in free fall or in orbit); say so when you share the file."
+)
 
 
 def no_units_check_option(f):
@@ -90,9 +97,13 @@ def no_units_check_option(f):
 
 
 def segment_option(f):
-    return click.option("--segment", type=click.IntRange(min=1), metavar="K",
-                        help="Process only continuous segment K of a record with IMU gaps (1-based, in time "
-                             "order, as sizefx inspect lists them).")(f)
+    return click.option(
+        "--segment",
+        type=click.IntRange(min=1),
+        metavar="K",
+        help="Process only continuous segment K of a record with IMU gaps (1-based, in time "
+        "order, as sizefx inspect lists them).",
+    )(f)
 
 
 class Progress:
@@ -120,8 +131,15 @@ class Progress:
             self.close()
             from tqdm import tqdm
 
-            self._bar = tqdm(total=total, desc=self.label, file=sys.stderr, unit=" samples", unit_scale=True,
-                             mininterval=self.REDRAW_S, dynamic_ncols=True)
+            self._bar = tqdm(
+                total=total,
+                desc=self.label,
+                file=sys.stderr,
+                unit=" samples",
+                unit_scale=True,
+                mininterval=self.REDRAW_S,
+                dynamic_ncols=True,
+            )
         self._bar.update(done - self._bar.n)
         if done >= total:
             self.close()

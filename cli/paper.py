@@ -12,15 +12,30 @@ from .options import SEED
 
 @click.command()
 @click.argument("experiment", type=click.Choice(["turntable", "sway", "flight", "all"]), default="all")
-@click.option("--size", type=click.Choice(["full", "reduced"]), default="full", show_default=True,
-              help="full: the paper's sizes (1600 Hz, five turntable repeats, the 1.8 h flight); reduced: the "
-                   "demo's (three turntable repeats and the flight at 400 Hz, the sway at 1600 Hz).")
-@click.option("--out", "out_dir", default="sizefx-paper", show_default=True, type=click.Path(file_okay=False),
-              help="Folder for the simulated records, lever-arm files and figures (PNG); created.")
+@click.option(
+    "--size",
+    type=click.Choice(["full", "reduced"]),
+    default="full",
+    show_default=True,
+    help="full: the paper's sizes (1600 Hz, five turntable repeats, the 1.8 h flight); reduced: the "
+    "demo's (three turntable repeats and the flight at 400 Hz, the sway at 1600 Hz).",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    default="sizefx-paper",
+    show_default=True,
+    type=click.Path(file_okay=False),
+    help="Folder for the simulated records, lever-arm files and figures (PNG); created.",
+)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write every figure as JSON.")
 @click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of the simulated noise.")
-@click.option("--keep-records/--no-keep-records", default=True, show_default=True,
-              help="Keep the simulated HDF5 records in --out (the full flight is 611 MiB).")
+@click.option(
+    "--keep-records/--no-keep-records",
+    default=True,
+    show_default=True,
+    help="Keep the simulated HDF5 records in --out (the full flight is 611 MiB).",
+)
 def paper(experiment, size, out_dir, json_path, seed, keep_records):
     """Reproduce Morozov & Bogdanov (2024) in simulation and print the comparison table.
 

@@ -23,9 +23,11 @@ from .options import quiet_option
 
 #: Per chained stage: the single-file command's options a chain does not offer (its outputs, which
 #: the chain names in DIR, and the inputs the chain passes from the stage before).
-_DROPPED = {"calibrate": ("json_path", "plot", "force"),
-            "navigate": ("output", "json_path", "plot", "force", "quiet"),
-            "compare": ("a", "b", "json_path", "plots_dir", "force")}
+_DROPPED = {
+    "calibrate": ("json_path", "plot", "force"),
+    "navigate": ("output", "json_path", "plot", "force", "quiet"),
+    "compare": ("a", "b", "json_path", "plots_dir", "force"),
+}
 
 
 def _records(record, also, **options):
@@ -39,19 +41,35 @@ def _link(name: str, batch: bool) -> click.Command:
     In a batch, navigate's FILE may also be a folder of flights or a (quoted) glob."""
     single = getattr(importlib.import_module(f"sizefx_cli.{name}"), name)
     params = [p for p in single.params if p.name not in _DROPPED[name]]
-    callback = lambda **options: (name, options)  # noqa: E731
+
+    def callback(**options):
+        return name, options
+
     if name == "calibrate":
-        params = [click.Argument(["record"], type=click.Path(dir_okay=False)),
-                  click.Option(["--with", "also"], multiple=True, type=click.Path(dir_okay=False),
-                               help="Another record fitted jointly (a sway for the delay); repeat for more."),
-                  *[p for p in params if p.name != "records"]]
-        callback = lambda **options: (name, _records(**options))  # noqa: E731
+        params = [
+            click.Argument(["record"], type=click.Path(dir_okay=False)),
+            click.Option(
+                ["--with", "also"],
+                multiple=True,
+                type=click.Path(dir_okay=False),
+                help="Another record fitted jointly (a sway for the delay); repeat for more.",
+            ),
+            *[p for p in params if p.name != "records"],
+        ]
+
+        def callback(**options):
+            return name, _records(**options)
+
     if name == "navigate" and batch:
         params = [click.Argument(["file"], type=click.Path()) if p.name == "file" else p for p in params]
     where = "see sizefx batch run --help" if batch else "see sizefx run --help"
-    return click.Command(name, params=params, callback=callback,
-                         help=f"{single.help}\n\nIn a chain: outputs go to --out; {where}.",
-                         short_help=single.get_short_help_str())
+    return click.Command(
+        name,
+        params=params,
+        callback=callback,
+        help=f"{single.help}\n\nIn a chain: outputs go to --out; {where}.",
+        short_help=single.get_short_help_str(),
+    )
 
 
 def _checked(steps, out_dir, *, batch: bool):
@@ -73,24 +91,33 @@ def _checked(steps, out_dir, *, batch: bool):
             raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
         out_dir = f"run-{Path(named).stem}"  # the issue's own example: sizefx run calibrate T.h5 navigate F.h5 compare
     if "calibrate" in chain and nav.get("levers"):
-        raise ConfigError(f"{command}: navigate --levers and calibrate in one chain: the chain passes calibrate's "
-                          "lever arms to navigate; leave out one of the two")
+        raise ConfigError(
+            f"{command}: navigate --levers and calibrate in one chain: the chain passes calibrate's "
+            "lever arms to navigate; leave out one of the two"
+        )
     if nav.get("model") and ("calibrate" in chain or nav.get("levers")):
-        raise ConfigError(f"{command}: navigate --model cannot be combined with lever arms (from calibrate or "
-                          "--levers); navigate the model on its own")
+        raise ConfigError(
+            f"{command}: navigate --model cannot be combined with lever arms (from calibrate or "
+            "--levers); navigate the model on its own"
+        )
     if batch and "navigate" not in chain:
         raise ConfigError("sizefx batch run: the chain runs per flight: put navigate FLIGHTS in it")
     flights = expand_inputs([nav["file"]]) if batch else ([Path(nav["file"])] if nav.get("file") else [])
     # every file the chain reads, before any stage runs
-    given = {**{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
-             **({} if batch else {"navigate FILE": nav.get("file")}), "navigate --levers": nav.get("levers"),
-             "navigate --model": nav.get("model"), "compare --reference": chain.get("compare", {}).get("reference"),
-             "calibrate --nominal": _nominal_file(chain.get("calibrate", {}).get("nominal"))}
+    given = {
+        **{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
+        **({} if batch else {"navigate FILE": nav.get("file")}),
+        "navigate --levers": nav.get("levers"),
+        "navigate --model": nav.get("model"),
+        "compare --reference": chain.get("compare", {}).get("reference"),
+        "calibrate --nominal": _nominal_file(chain.get("calibrate", {}).get("nominal")),
+    }
     preflight(inputs=given, outputs={})
     if "compare" in chain and not chain["compare"].get("reference") and not batch:
         check_truth(nav["file"])  # in a batch each flight is checked in its own record
-    out = check_out_dir(out_dir, [nav["file"]] if batch else [],
-                        [*(Path(p).resolve() for p in given.values() if p), *flights])
+    out = check_out_dir(
+        out_dir, [nav["file"]] if batch else [], [*(Path(p).resolve() for p in given.values() if p), *flights]
+    )
     return names, chain, nav, flights, out
 
 
@@ -107,9 +134,14 @@ def _calibrate_step(chain, out: Path, plots: bool):
 
     options = chain["calibrate"]
     levers = str(out / "levers.json")
-    return ChainStep("calibrate", None, config_of(**{**options, "json_path": levers, "force": True,
-                                                     "plot": str(out / "calibrate.png") if plots else None}),
-                     options), levers
+    return ChainStep(
+        "calibrate",
+        None,
+        config_of(
+            **{**options, "json_path": levers, "force": True, "plot": str(out / "calibrate.png") if plots else None}
+        ),
+        options,
+    ), levers
 
 
 def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
@@ -124,25 +156,54 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
             if label == "compensated" and not with_levers:
                 continue
             solutions[label] = str(out / f"{label}.nav.h5")
-            steps.append(ChainStep("navigate", label, config_of(**{
-                **nav, "file": str(flight), "levers": with_levers, "output": solutions[label],
-                "json_path": str(out / f"{label}.navigate.json"), "force": True,
-                "plot": str(out / f"{label}.navigate.png") if plots else None}), {**nav, "levers": with_levers}))
+            steps.append(
+                ChainStep(
+                    "navigate",
+                    label,
+                    config_of(
+                        **{
+                            **nav,
+                            "file": str(flight),
+                            "levers": with_levers,
+                            "output": solutions[label],
+                            "json_path": str(out / f"{label}.navigate.json"),
+                            "force": True,
+                            "plot": str(out / f"{label}.navigate.png") if plots else None,
+                        }
+                    ),
+                    {**nav, "levers": with_levers},
+                )
+            )
     if "compare" in chain:
         from sizefx_cli.compare import config_of
 
         options = chain["compare"]
-        steps.append(ChainStep("compare", None, config_of(
-            a=solutions["compensated"], b=solutions["plain"], reference=options.get("reference") or str(flight),
-            json_path=str(out / "comparison.json"), plots_dir=str(out / "compare-plots") if plots else None,
-            force=True), options))
+        steps.append(
+            ChainStep(
+                "compare",
+                None,
+                config_of(
+                    a=solutions["compensated"],
+                    b=solutions["plain"],
+                    reference=options.get("reference") or str(flight),
+                    json_path=str(out / "comparison.json"),
+                    plots_dir=str(out / "compare-plots") if plots else None,
+                    force=True,
+                ),
+                options,
+            )
+        )
     return steps
 
 
 @click.group(chain=True)
-@click.option("--out", "out_dir", type=click.Path(file_okay=False),
-              help="Folder for every stage's outputs and run.json (made if new) [default: run-NAME in the "
-                   "current folder, NAME the flight's file name, or calibrate's record's].")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False),
+    help="Folder for every stage's outputs and run.json (made if new) [default: run-NAME in the "
+    "current folder, NAME the flight's file name, or calibrate's record's].",
+)
 @click.option("--plots", is_flag=True, help="Also write each stage's plots into --out.")
 def run(out_dir, plots):
     """Chain calibrate, navigate and compare in one command.
@@ -177,8 +238,10 @@ def _execute(steps, out_dir, plots):
             step, levers = _calibrate_step(chain, out, plots)
             chain_steps.append(step)
         chain_steps += _flight_steps(chain, nav, nav.get("file"), levers, out, plots)
-        result = chain_stage.run(chain_stage.ChainConfig(tuple(chain_steps), str(out)),
-                                 echo=lambda title, text: click.echo(f"{title}\n{text}"))
+        result = chain_stage.run(
+            chain_stage.ChainConfig(tuple(chain_steps), str(out)),
+            echo=lambda title, text: click.echo(f"{title}\n{text}"),
+        )
     click.echo(f"run: {' -> '.join(names)}; every output and run.json in {out}\n{result.summary()}")
 
 
@@ -212,8 +275,9 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
     entries = {e["input"]: e for e in (previous or {}).get("records", [])}
     client = dask_client(scheduler) if scheduler else None  # refused before calibrate runs or anything is written
     try:
-        result = _batch_chain(chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo,
-                              json_progress, plots, quiet)
+        result = _batch_chain(
+            chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
+        )
     finally:
         if client is not None:
             client.close()
@@ -222,8 +286,9 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
         sys.exit(1)
 
 
-def _batch_chain(chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo, json_progress,
-                 plots, quiet):
+def _batch_chain(
+    chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
+):
     """calibrate once into ``out`` (if in the chain), then the chain per flight as a batch."""
     from sizefx import chain as chain_stage
     from sizefx.batch import BatchJob, output_names, run_batch
@@ -235,26 +300,57 @@ def _batch_chain(chain, nav, flights, out, entries, previous, client, workers, m
         levers = nav.get("levers")
         if "calibrate" in chain:
             step, levers = _calibrate_step(chain, out, plots)
-            chain_stage.run(chain_stage.ChainConfig((step,), str(out)),
-                            echo=None if quiet else (lambda title, text: click.echo(f"{title}\n{text}")))
+            chain_stage.run(
+                chain_stage.ChainConfig((step,), str(out)),
+                echo=None if quiet else (lambda title, text: click.echo(f"{title}\n{text}")),
+            )
         # the flights' options (each stage's, flattened: the manifest compares them as JSON)
-        options = canonical_options({f"{stage}.{k}": v for stage, opts in chain.items() if stage != "calibrate"
-                                     for k, v in opts.items() if not (stage == "navigate" and k == "file")})
+        options = canonical_options(
+            {
+                f"{stage}.{k}": v
+                for stage, opts in chain.items()
+                if stage != "calibrate"
+                for k, v in opts.items()
+                if not (stage == "navigate" and k == "file")
+            }
+        )
         flight_names = output_names(flights)
         jobs = []
         for flight in flights:
             folder = out / flight_names[flight]
             config = chain_stage.ChainConfig(
-                tuple(_flight_steps(chain, nav, flight, levers, folder, plots)), str(folder),
-                truth=str(flight) if "compare" in chain and not chain["compare"].get("reference") else None)
+                tuple(_flight_steps(chain, nav, flight, levers, folder, plots)),
+                str(folder),
+                truth=str(flight) if "compare" in chain and not chain["compare"].get("reference") else None,
+            )
             # the files the chain reads besides the flight (the lever arms, a --model, compare's
             # --reference) are hashed with it: a new calibration reruns the flights
-            jobs.append(BatchJob("run", str(flight), flight_names[flight], config, options, {"folder": str(folder)},
-                                 previous=entries.get(str(flight)), redo=redo,
-                                 paired={k: str(v) for k, v in config.inputs().items() if str(v) != str(flight)}))
-        return run_batch("run", jobs, out, options, workers=workers, previous=previous,
-                         progress=BatchProgress("run", len(jobs), json_progress, quiet), client=client,
-                         plots=plots, memory_mib=memory_mib, locked=True)
+            jobs.append(
+                BatchJob(
+                    "run",
+                    str(flight),
+                    flight_names[flight],
+                    config,
+                    options,
+                    {"folder": str(folder)},
+                    previous=entries.get(str(flight)),
+                    redo=redo,
+                    paired={k: str(v) for k, v in config.inputs().items() if str(v) != str(flight)},
+                )
+            )
+        return run_batch(
+            "run",
+            jobs,
+            out,
+            options,
+            workers=workers,
+            previous=previous,
+            progress=BatchProgress("run", len(jobs), json_progress, quiet),
+            client=client,
+            plots=plots,
+            memory_mib=memory_mib,
+            locked=True,
+        )
 
 
 for _name in _DROPPED:

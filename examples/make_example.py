@@ -40,13 +40,27 @@ from pathlib import Path
 import numpy as np
 
 from sizefx.frames import MAT_FRD_FLU, MAT_NED_ENU
-from sizefx.rotation import mat_to_quat, quat_to_mat
 from sizefx.io.telemetry import read_telemetry
+from sizefx.rotation import mat_to_quat, quat_to_mat
 
 HERE = Path(__file__).resolve().parent
-SIMULATE = ["simulate", "tumble", "--rate-hz", "100", "--reference-rate-hz", "50", "--seed", "0",
-            "--set", "lever_arm.d_y_m=[0.0, 0.0279, 0.0]",
-            "--set", "accel_delay.enabled=true", "--set", "accel_delay.tau_s=0.001", "--quiet"]
+SIMULATE = [
+    "simulate",
+    "tumble",
+    "--rate-hz",
+    "100",
+    "--reference-rate-hz",
+    "50",
+    "--seed",
+    "0",
+    "--set",
+    "lever_arm.d_y_m=[0.0, 0.0279, 0.0]",
+    "--set",
+    "accel_delay.enabled=true",
+    "--set",
+    "accel_delay.tau_s=0.001",
+    "--quiet",
+]
 #: Reference rows left empty, as a motion-capture occlusion would: t = 60.00, 60.02, 60.04 s.
 OCCLUDED_ROWS = slice(3000, 3003)
 #: Body FRD = MAT_FRD_FLU @ sensor FLU: the sensor's axes are x forward, y left, z up.
@@ -75,22 +89,29 @@ def main(out: Path):
     # v_sensor = MAT_B_S.T @ v_body, row by row
     gyro_s_dps = np.degrees(tel.gyro_rad_s @ MAT_B_S)
     accel_s_mps2 = tel.accel_mps2 @ MAT_B_S
-    write_csv(out / "tumble_imu.csv",
-              ["time_s", "gyro_x_dps", "gyro_y_dps", "gyro_z_dps", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2"],
-              [tel.time_s, gyro_s_dps, accel_s_mps2], ["%.2f"] + ["%.6f"] * 6)
+    write_csv(
+        out / "tumble_imu.csv",
+        ["time_s", "gyro_x_dps", "gyro_y_dps", "gyro_z_dps", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2"],
+        [tel.time_s, gyro_s_dps, accel_s_mps2],
+        ["%.2f"] + ["%.6f"] * 6,
+    )
     ref = tel.reference
     # mat_enu_sensor = MAT_ENU_NED @ mat_nb @ mat_b_sensor (MAT_NED_ENU is its own inverse)
     quat_enu_s = mat_to_quat(MAT_NED_ENU.T @ quat_to_mat(ref.quat_nb) @ MAT_B_S)
     quat_enu_s *= np.where(quat_enu_s[:, :1] < 0.0, -1.0, 1.0)  # the same rotation, printed with w >= 0
     v_enu = ref.velocity_n_mps @ MAT_NED_ENU  # ENU components of the NED velocity
-    write_csv(out / "tumble_reference.csv",
-              ["time_s", "qw", "qx", "qy", "qz", "v_east_mps", "v_north_mps", "v_up_mps", "lat_deg", "lon_deg",
-               "height_m"],
-              [ref.time_s, quat_enu_s, v_enu, np.degrees(ref.lat_rad), np.degrees(ref.lon_rad), ref.height_m],
-              ["%.2f"] + ["%.9f"] * 4 + ["%.4f"] * 3 + ["%.9f"] * 2 + ["%.3f"], empty_rows=OCCLUDED_ROWS)
-    truth = {"made_by": "examples/make_example.py: sizefx " + " ".join(SIMULATE[:-1]),
-             "frames": "body FRD, SI (m, s, rad); r_m[i] is the arm of accelerometer i from the rotation centre",
-             "simulation": tel.simulation}
+    write_csv(
+        out / "tumble_reference.csv",
+        ["time_s", "qw", "qx", "qy", "qz", "v_east_mps", "v_north_mps", "v_up_mps", "lat_deg", "lon_deg", "height_m"],
+        [ref.time_s, quat_enu_s, v_enu, np.degrees(ref.lat_rad), np.degrees(ref.lon_rad), ref.height_m],
+        ["%.2f"] + ["%.9f"] * 4 + ["%.4f"] * 3 + ["%.9f"] * 2 + ["%.3f"],
+        empty_rows=OCCLUDED_ROWS,
+    )
+    truth = {
+        "made_by": "examples/make_example.py: sizefx " + " ".join(SIMULATE[:-1]),
+        "frames": "body FRD, SI (m, s, rad); r_m[i] is the arm of accelerometer i from the rotation centre",
+        "simulation": tel.simulation,
+    }
     (out / "tumble_truth.json").write_text(json.dumps(truth, indent=1, sort_keys=True) + "\n", encoding="utf-8")
 
 

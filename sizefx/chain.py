@@ -23,8 +23,18 @@ from .errors import ConfigError
 from .io.documents import write_json
 from .io.schema import as_json, check_document
 
-__all__ = ["CHAIN_STAGES", "RUN_SCHEMA", "RUN_MANIFEST", "check_chain", "write_run_manifest", "ChainStep",
-           "ChainConfig", "ChainResult", "run", "check_truth"]
+__all__ = [
+    "CHAIN_STAGES",
+    "RUN_SCHEMA",
+    "RUN_MANIFEST",
+    "check_chain",
+    "write_run_manifest",
+    "ChainStep",
+    "ChainConfig",
+    "ChainResult",
+    "run",
+    "check_truth",
+]
 
 #: The stages a chain may hold, in the order they can come.
 CHAIN_STAGES = ("calibrate", "navigate", "compare")
@@ -46,14 +56,18 @@ def check_chain(names: list[str], *, navigate_has_levers: bool = False, command:
             raise ConfigError(f"{command}: {name} appears {names.count(name)} times; each stage once")
     order = [CHAIN_STAGES.index(n) for n in names]
     if order != sorted(order):
-        raise ConfigError(f"{command}: '{' '.join(names)}' is out of order; the stages run as "
-                          f"{' -> '.join(n for n in CHAIN_STAGES if n in names)} (each feeds the next)")
+        raise ConfigError(
+            f"{command}: '{' '.join(names)}' is out of order; the stages run as "
+            f"{' -> '.join(n for n in CHAIN_STAGES if n in names)} (each feeds the next)"
+        )
     if "compare" in names:
         if "navigate" not in names:
             raise ConfigError(f"{command}: compare has nothing to compare; put navigate FILE before it")
         if "calibrate" not in names and not navigate_has_levers:
-            raise ConfigError(f"{command}: compare needs two solutions, and navigate makes only one without lever "
-                              "arms; put calibrate before navigate, or give navigate --levers")
+            raise ConfigError(
+                f"{command}: compare needs two solutions, and navigate makes only one without lever "
+                "arms; put calibrate before navigate, or give navigate --levers"
+            )
 
 
 def write_run_manifest(out_dir, steps: list[dict]) -> None:
@@ -86,8 +100,12 @@ class ChainConfig:
     def inputs(self) -> dict:
         """The files the chain reads that no step of it writes (for the stage preflight)."""
         written = {str(v) for step in self.steps for v in step.config.outputs().values() if v}
-        return {f"{step.stage} {k}": v for step in self.steps for k, v in step.config.inputs().items()
-                if v and str(v) not in written}
+        return {
+            f"{step.stage} {k}": v
+            for step in self.steps
+            for k, v in step.config.inputs().items()
+            if v and str(v) not in written
+        }
 
     def outputs(self) -> dict:
         return {f"{step.stage} {k}": v for step in self.steps for k, v in step.config.outputs().items() if v}
@@ -114,8 +132,10 @@ class ChainResult:
 
         lines = []
         for step in self.steps:
-            figures = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                                for k, v in table_figures(step["stage"], step["headline"]).items())
+            figures = ", ".join(
+                f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                for k, v in table_figures(step["stage"], step["headline"]).items()
+            )
             name = step["stage"] + (f" ({step['run']})" if step.get("run") else "")
             lines.append(f"  {name}: {step['duration_s']:.1f} s" + (f"; {figures}" if figures else ""))
         return "\n".join(lines)
@@ -135,13 +155,17 @@ def run(config: ChainConfig, *, echo=None) -> ChainResult:
     for step in config.steps:
         t0 = time.perf_counter()
         stage_result = importlib.import_module(f"sizefx.{step.stage}").run(step.config)
-        result.steps.append({
-            "stage": step.stage, **({"run": step.run} if step.run else {}),
-            "inputs": {k: str(v) for k, v in step.config.inputs().items() if v},
-            "options": as_json({k: v for k, v in step.options.items() if not isinstance(v, Path)}),
-            "outputs": {k: str(v) for k, v in step.config.outputs().items() if v},
-            "duration_s": time.perf_counter() - t0,
-            "headline": headline(step.stage, as_json(stage_result.to_json()))})
+        result.steps.append(
+            {
+                "stage": step.stage,
+                **({"run": step.run} if step.run else {}),
+                "inputs": {k: str(v) for k, v in step.config.inputs().items() if v},
+                "options": as_json({k: v for k, v in step.options.items() if not isinstance(v, Path)}),
+                "outputs": {k: str(v) for k, v in step.config.outputs().items() if v},
+                "duration_s": time.perf_counter() - t0,
+                "headline": headline(step.stage, as_json(stage_result.to_json())),
+            }
+        )
         write_run_manifest(out, result.steps)
         title, text = f"== {step.stage}" + (f" ({step.run})" if step.run else ""), stage_result.report()
         result.reports.append((title, text))
@@ -158,5 +182,6 @@ def check_truth(path) -> None:
     with open_hdf5(path, "convert it with sizefx import") as f:
         has = "reference/position" in f
     if not has:
-        raise ConfigError(f"{path}: compare needs the truth, and the flight has no /reference/position; give "
-                          "compare --reference")
+        raise ConfigError(
+            f"{path}: compare needs the truth, and the flight has no /reference/position; give compare --reference"
+        )

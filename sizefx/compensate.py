@@ -26,15 +26,23 @@ import numpy as np
 
 from .correct import correct_imu, load_model
 from .errors import ConfigError
+from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW
-from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
 from .sensor_model import check_estimator, remove_lever_terms
 from .stage import preflight
 from .sync import sync_accelerometers
 
-__all__ = ["compensate", "compensate_arrays_increments", "read_continuous", "segment_note", "GAPS_WHY",
-           "CompensateConfig", "CompensateResult", "run"]
+__all__ = [
+    "compensate",
+    "compensate_arrays_increments",
+    "read_continuous",
+    "segment_note",
+    "GAPS_WHY",
+    "CompensateConfig",
+    "CompensateResult",
+    "run",
+]
 
 
 def _arms(levers: Levers, mode: str):
@@ -44,12 +52,29 @@ def _arms(levers: Levers, mode: str):
 def compensate_arrays_increments(dtheta, dvel, dt, levers: Levers, mode: str, *, centripetal=True, tangential=True):
     """Increment-domain compensation of arrays (used by navigate): the sensor model's lever terms removed."""
     arms, axes = _arms(levers, mode)
-    return remove_lever_terms(dvel, dtheta, arms, axes, form="increments", dt=dt, estimator="increments",
-                              centripetal=centripetal, tangential=tangential)
+    return remove_lever_terms(
+        dvel,
+        dtheta,
+        arms,
+        axes,
+        form="increments",
+        dt=dt,
+        estimator="increments",
+        centripetal=centripetal,
+        tangential=tangential,
+    )
 
 
-def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator: str | None = None,
-               centripetal: bool = True, tangential: bool = True, accel_delay_s: float | None = None) -> Telemetry:
+def compensate(
+    tel: Telemetry,
+    levers: Levers,
+    mode: str = "triad",
+    *,
+    estimator: str | None = None,
+    centripetal: bool = True,
+    tangential: bool = True,
+    accel_delay_s: float | None = None,
+) -> Telemetry:
     """A copy of ``tel`` with size-effect-free accelerometers on the gyro time base."""
     if estimator is None:
         estimator = "increments" if tel.form == "increments" else "savgol"
@@ -62,20 +87,36 @@ def compensate(tel: Telemetry, levers: Levers, mode: str = "triad", *, estimator
     dt = tel.sample_period_s
     arms, axes = _arms(levers, mode)
     gyro_like, accel_like = tel.imu_arrays()
-    out = remove_lever_terms(accel_like, gyro_like, arms, axes, form=tel.form, dt=dt, estimator=estimator,
-                             centripetal=centripetal, tangential=tangential)
+    out = remove_lever_terms(
+        accel_like,
+        gyro_like,
+        arms,
+        axes,
+        form=tel.form,
+        dt=dt,
+        estimator=estimator,
+        centripetal=centripetal,
+        tangential=tangential,
+    )
     new = replace(tel, accel_mps2=out) if tel.form == "rates" else replace(tel, dvel_mps=out)
-    applied = {"mode": mode, "estimator": estimator, "centripetal": centripetal, "tangential": tangential,
-               "accel_delay_s": tau, "arms_m": arms.tolist(), "axes": axes.tolist()}
+    applied = {
+        "mode": mode,
+        "estimator": estimator,
+        "centripetal": centripetal,
+        "tangential": tangential,
+        "accel_delay_s": tau,
+        "arms_m": arms.tolist(),
+        "axes": axes.tolist(),
+    }
     new.source = {**(tel_in.source or {}), "compensation_json": json.dumps(applied)}
-    new.description = (tel_in.description + " | " if tel_in.description else "") + \
-        f"size effect compensated ({mode}, {estimator}, delay {tau * 1e6:.1f} us)"
+    new.description = (
+        tel_in.description + " | " if tel_in.description else ""
+    ) + f"size effect compensated ({mode}, {estimator}, delay {tau * 1e6:.1f} us)"
     return new
 
 
 #: Why compensation refuses a record with IMU gaps unless told to bridge them (--allow-gaps).
-GAPS_WHY = ("estimates angular acceleration and increment edges from neighbouring samples, which a gap "
-            "separates")
+GAPS_WHY = "estimates angular acceleration and increment edges from neighbouring samples, which a gap separates"
 
 
 def read_continuous(path, *, allow_gaps: bool, segment: int | None, command: str) -> Telemetry:
@@ -93,8 +134,12 @@ def segment_note(tel: Telemetry) -> dict:
     seg = tel.segment
     if seg is None:
         return {}
-    return {"segment": seg.number, "segment_of": seg.of, "segment_rows": [seg.first_row, seg.stop_row],
-            "segment_time_s": [seg.start_s, seg.end_s]}
+    return {
+        "segment": seg.number,
+        "segment_of": seg.of,
+        "segment_rows": [seg.first_row, seg.stop_row],
+        "segment_time_s": [seg.start_s, seg.end_s],
+    }
 
 
 @dataclass(frozen=True)
@@ -132,13 +177,17 @@ class CompensateConfig:
     def check_options(self) -> None:
         """The options alone, before any file is looked at (one-line refusals naming them)."""
         if self.levers and self.model:
-            raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
-                              "([lever_arm]); give one of them")
+            raise ConfigError(
+                "--levers and --model both given: the effect model has its own lever arms "
+                "([lever_arm]); give one of them"
+            )
         if not self.levers and not self.model:
             raise ConfigError("give the lever arms (--levers LEVERS.json) or an effect model (--model MODEL.toml)")
         if self.model and (not self.centripetal or not self.tangential or self.accel_delay_s is not None):
-            raise ConfigError("--centripetal-only and --accel-delay-us apply to --levers; with --model the "
-                              "delay comes from the model's [accel_delay] and both terms are removed")
+            raise ConfigError(
+                "--centripetal-only and --accel-delay-us apply to --levers; with --model the "
+                "delay comes from the model's [accel_delay] and both terms are removed"
+            )
         if self.mode not in ("triad", "center"):
             raise ConfigError(f"--mode {self.mode}: use triad or center")
         if self.estimator is not None and self.estimator not in ESTIMATORS:
@@ -162,11 +211,15 @@ class CompensateResult:
         a = self.applied
         delay = f"delay {a['accel_delay_s'] * 1e6:.1f} us"
         if not self.with_model:
-            return (f"wrote {self.output}: {self.samples} samples, mode {a['mode']}, estimator {a['estimator']}, "
-                    f"tangential {'on' if a['tangential'] else 'off'}, {delay}")
-        lines = [f"wrote {self.output}: {self.samples} samples corrected with {a['model']}, mode {a['mode']}, "
-                 f"estimator {a['estimator']}, {delay}; corrected: "
-                 f"{', '.join(a['corrected']) or 'nothing (every section off)'}"]
+            return (
+                f"wrote {self.output}: {self.samples} samples, mode {a['mode']}, estimator {a['estimator']}, "
+                f"tangential {'on' if a['tangential'] else 'off'}, {delay}"
+            )
+        lines = [
+            f"wrote {self.output}: {self.samples} samples corrected with {a['model']}, mode {a['mode']}, "
+            f"estimator {a['estimator']}, {delay}; corrected: "
+            f"{', '.join(a['corrected']) or 'nothing (every section off)'}"
+        ]
         if a["ignored"]:
             lines.append(f"not IMU output errors, left alone: {', '.join(a['ignored'])}")
         return "\n".join(lines)
@@ -193,9 +246,15 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
         new = correct_imu(tel, load_model(config.model), mode=config.mode, estimator=config.estimator)
         key, extra = "correction_json", config.model
     else:
-        new = compensate(tel, read_levers(config.levers), config.mode, estimator=config.estimator,
-                         centripetal=config.centripetal, tangential=config.tangential,
-                         accel_delay_s=config.accel_delay_s)
+        new = compensate(
+            tel,
+            read_levers(config.levers),
+            config.mode,
+            estimator=config.estimator,
+            centripetal=config.centripetal,
+            tangential=config.tangential,
+            accel_delay_s=config.accel_delay_s,
+        )
         key, extra = "compensation_json", config.levers
     if tel.segment is not None:
         new.source[key] = json.dumps({**json.loads(new.source[key]), **segment_note(tel)})

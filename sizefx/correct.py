@@ -63,13 +63,13 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-from .sync import sync_accelerometers
 from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
 from .io.telemetry import Telemetry
 from .omegadot import SAVGOL_WINDOW
 from .sensor_model import INVERTED, NOT_INVERTED, check_estimator, check_invertible, inverse
 from .sensor_model.table import MAX_AXES_CONDITION
+from .sync import sync_accelerometers
 
 __all__ = ["CORRECTED_SECTIONS", "IGNORED_SECTIONS", "MAX_AXES_CONDITION", "correct_imu", "load_model"]
 
@@ -127,19 +127,34 @@ def correct_imu(tel: Telemetry, fx: EffectModel, *, mode: str = "center", estima
 
     tel_in, tel = tel, sync_accelerometers(tel, p.accel_delay)  # step 1
     gyro_like, accel_like = tel.imu_arrays()
-    omega_like, f_like = inverse(p, gyro_like, accel_like, form=tel.form, dt=tel.sample_period_s, mode=mode,
-                                 estimator=estimator, time_s=tel.time_s)  # steps 2-6
+    omega_like, f_like = inverse(
+        p,
+        gyro_like,
+        accel_like,
+        form=tel.form,
+        dt=tel.sample_period_s,
+        mode=mode,
+        estimator=estimator,
+        time_s=tel.time_s,
+    )  # steps 2-6
     if tel.form == "rates":
         new = replace(tel, gyro_rad_s=omega_like, accel_mps2=f_like)
     else:
         new = replace(tel, dtheta_rad=omega_like, dvel_mps=f_like)
 
-    applied = {"model": fx.source, "mode": mode, "estimator": estimator,
-               "corrected": [name for name in CORRECTED_SECTIONS if fx.enabled(name)],
-               "ignored": [name for name in IGNORED_SECTIONS if fx.enabled(name)],
-               "accel_delay_s": p.accel_delay, "arms_m": p.arms(mode).tolist(), "accel_axes": p.accel_axes().tolist(),
-               "effects": fx.truth()}
+    applied = {
+        "model": fx.source,
+        "mode": mode,
+        "estimator": estimator,
+        "corrected": [name for name in CORRECTED_SECTIONS if fx.enabled(name)],
+        "ignored": [name for name in IGNORED_SECTIONS if fx.enabled(name)],
+        "accel_delay_s": p.accel_delay,
+        "arms_m": p.arms(mode).tolist(),
+        "accel_axes": p.accel_axes().tolist(),
+        "effects": fx.truth(),
+    }
     new.source = {**(tel_in.source or {}), "correction_json": json.dumps(applied)}
-    new.description = (tel_in.description + " | " if tel_in.description else "") + \
-        f"corrected with effect model {fx.source} ({mode}, {estimator})"
+    new.description = (
+        tel_in.description + " | " if tel_in.description else ""
+    ) + f"corrected with effect model {fx.source} ({mode}, {estimator})"
     return new

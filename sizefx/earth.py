@@ -74,9 +74,7 @@ def gravity_n(lat_rad, h_m):
     gamma0 = GAMMA_EQUATOR_MPS2 * (1.0 + SOMIGLIANA_K * s2) / np.sqrt(1.0 - WGS84_E2 * s2)
     m = OMEGA_EARTH_RAD_S**2 * WGS84_A_M**2 * WGS84_B_M / WGS84_GM_M3_S2
     g_down = gamma0 * (
-        1.0
-        - 2.0 / WGS84_A_M * (1.0 + WGS84_F + m - 2.0 * WGS84_F * s2) * h_m
-        + 3.0 / WGS84_A_M**2 * h_m**2
+        1.0 - 2.0 / WGS84_A_M * (1.0 + WGS84_F + m - 2.0 * WGS84_F * s2) * h_m + 3.0 / WGS84_A_M**2 * h_m**2
     )
     g_north = -8.08e-9 * h_m * np.sin(2.0 * lat_rad)
     out = np.zeros(np.broadcast(lat_rad, h_m).shape + (3,))

@@ -145,15 +145,19 @@ def _convert(section: str, key: str, rule: dict, value, units: dict, where: str)
         raise ConfigError(f"{label} = {value!r} is not numeric") from None
     want = {"number": (), "vector": (3,), "matrix": (3, 3)}[kind]
     if arr.shape != want:
-        raise ConfigError(f"{label} has shape {list(arr.shape)}; expected "
-                          f"{ {'number': 'a number', 'vector': 'a list of 3 numbers', 'matrix': 'a 3x3 list of lists'}[kind]}")
+        raise ConfigError(
+            f"{label} has shape {list(arr.shape)}; expected "
+            f"{ {'number': 'a number', 'vector': 'a list of 3 numbers', 'matrix': 'a 3x3 list of lists'}[kind] }"
+        )
     if not np.all(np.isfinite(arr)):
         raise ConfigError(f"{label} holds NaN or Inf")
     low, high = rule.get("range", (-np.inf, np.inf))
     outside = (arr < low) | (arr > high)
     if np.any(outside):
-        raise ConfigError(f"{label} = {arr[outside].ravel()[0]:g} is outside its range [{low:g}, {high:g}] "
-                          f"{rule['unit']}; check the value and its unit")
+        raise ConfigError(
+            f"{label} = {arr[outside].ravel()[0]:g} is outside its range [{low:g}, {high:g}] "
+            f"{rule['unit']}; check the value and its unit"
+        )
     si = arr * factor
     return float(si) if kind == "number" else si
 
@@ -193,8 +197,10 @@ def load_effects(path=None, overrides: dict | None = None, base: dict | None = N
                 raw[name][key] = value
     sections = {}
     for name, sec in schema["sections"].items():
-        sections[name] = {rule.get("si_key", k): _convert(name, k, rule, raw[name][k], units, source)
-                          for k, rule in sec["keys"].items()}
+        sections[name] = {
+            rule.get("si_key", k): _convert(name, k, rule, raw[name][k], units, source)
+            for k, rule in sec["keys"].items()
+        }
     return EffectModel(sections=sections, raw=raw, source=source)
 
 
@@ -225,4 +231,3 @@ def effects_template() -> str:
                 lines.append(f"{key} = {fmt(rule['default'])}{note}")
         lines.append("")
     return "\n".join(lines)
-

@@ -89,4 +89,3 @@ class Interrupted(BaseException):
     def __init__(self, signum: int):
         self.signum = int(signum)
         super().__init__(f"signal {self.signum}")
-

@@ -51,8 +51,11 @@ def quat_nb_from_enu_body(quat_enu_src, mat_src_b):
 
 def psins_mat_enu_rfu(pitch_rad, roll_rad, yaw_rad):
     """PSINS attitude: ``C_nb = Rz(yaw) Rx(pitch) Ry(roll)``, n = ENU, b = RFU (yaw counter-clockwise)."""
-    return (axis_angle_mat([0.0, 0.0, 1.0], yaw_rad) @ axis_angle_mat([1.0, 0.0, 0.0], pitch_rad)
-            @ axis_angle_mat([0.0, 1.0, 0.0], roll_rad))
+    return (
+        axis_angle_mat([0.0, 0.0, 1.0], yaw_rad)
+        @ axis_angle_mat([1.0, 0.0, 0.0], pitch_rad)
+        @ axis_angle_mat([0.0, 1.0, 0.0], roll_rad)
+    )
 
 
 def geodetic_from_local_ned(ned_m, lat0_rad, lon0_rad, h0_m):

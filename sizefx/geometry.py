@@ -31,12 +31,13 @@ def preset_arms_m(name: str) -> np.ndarray:
         raise ConfigError(f"unknown geometry preset '{name}'; use one of {', '.join(PRESETS)}") from None
 
 
-def triad_point(arms: np.ndarray, axes: np.ndarray = np.eye(3), how: str = "normals") -> np.ndarray:
+def triad_point(arms: np.ndarray, axes: np.ndarray | None = None, how: str = "normals") -> np.ndarray:
     """The triad point C as a vector from the reference point [m].
 
     ``normals``: the point nearest (least squares) to the three lines through each
     accelerometer along its sensitive axis (the paper's point C, where the normals
     meet); ``x-accelerometer``: accelerometer x itself (the paper's alternative).
+    ``axes`` [3, 3]: the sensitive axes (rows); None: the body axes.
     """
     if how == "x-accelerometer":
         return arms[0].copy()
@@ -44,7 +45,7 @@ def triad_point(arms: np.ndarray, axes: np.ndarray = np.eye(3), how: str = "norm
         raise ConfigError(f"triad point '{how}': use normals or x-accelerometer")
     A = np.zeros((3, 3))
     rhs = np.zeros(3)
-    for r, u in zip(arms, axes):
+    for r, u in zip(arms, np.eye(3) if axes is None else axes):
         P = np.eye(3) - np.outer(u, u)
         A += P
         rhs += P @ r

@@ -97,8 +97,13 @@ def _parse(path: Path):
     """The JSON document in ``path``; every number in it finite (Python's json reads NaN and
     Infinity, which JSON does not allow, and 1e999 as inf): a one-line ConfigError otherwise."""
     try:
-        return read_json(path, "levers file (sizefx/levers/1 JSON)", parse_float=_finite_float,
-                         parse_int=_finite_int, parse_constant=_no_constant)
+        return read_json(
+            path,
+            "levers file (sizefx/levers/1 JSON)",
+            parse_float=_finite_float,
+            parse_int=_finite_int,
+            parse_constant=_no_constant,
+        )
     except _NotFinite as exc:
         raise ConfigError(f"{path}: {exc}; write finite numbers (null where the contract allows it)") from None
 
@@ -119,15 +124,27 @@ def read_levers(path) -> Levers:
     norms = np.linalg.norm(axes, axis=1)
     if np.any(norms < MIN_AXIS_NORM):
         i = int(np.argmin(norms))
-        raise ConfigError(f"{path}: $.axes[{i}] has length {norms[i]:.3g}; axes are the sensitive directions "
-                          "u_x, u_y, u_z, one unit vector per row")
-    rows = lambda prefix: np.array([doc[f"{prefix}_{a}"] for a in "xyz"], dtype=float)  # noqa: E731
+        raise ConfigError(
+            f"{path}: $.axes[{i}] has length {norms[i]:.3g}; axes are the sensitive directions "
+            "u_x, u_y, u_z, one unit vector per row"
+        )
+
+    def rows(prefix):
+        return np.array([doc[f"{prefix}_{a}"] for a in "xyz"], dtype=float)
+
     sigma = None if any(doc[f"sigma_{a}"] is None for a in "xyz") else rows("sigma")
     known = set(load_schema(LEVERS_SCHEMA)["properties"])
-    return Levers(arms_total=rows("r"), offset=np.asarray(doc["offset"], dtype=float), arms_triad=rows("d"),
-                  reference_point=doc["reference_point"], sigma=sigma, tilt_arcsec=doc["tilt_arcsec"],
-                  accel_delay_s=doc["accel_delay_s"], axes=axes / norms[:, None],
-                  extra={k: v for k, v in doc.items() if k not in known})
+    return Levers(
+        arms_total=rows("r"),
+        offset=np.asarray(doc["offset"], dtype=float),
+        arms_triad=rows("d"),
+        reference_point=doc["reference_point"],
+        sigma=sigma,
+        tilt_arcsec=doc["tilt_arcsec"],
+        accel_delay_s=doc["accel_delay_s"],
+        axes=axes / norms[:, None],
+        extra={k: v for k, v in doc.items() if k not in known},
+    )
 
 
 def write_levers(path, levers: Levers, *, inputs=(), force: bool = False):

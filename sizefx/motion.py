@@ -149,7 +149,7 @@ class ProfileBuilder:
             raise ValueError(f"segment duration must be positive, got {duration}")
         c = np.zeros(6)
         coeffs = np.asarray(coeffs_high_first, dtype=float)
-        c[6 - coeffs.size:] = coeffs
+        c[6 - coeffs.size :] = coeffs
         self._c.append(c)
         self.t += duration
         self._x.append(self.t)
@@ -359,8 +359,16 @@ class FlightPath:
     ``displacement * distance / R`` (< 1e-9 m).
     """
 
-    def __init__(self, speed: SmoothProfile, track: SmoothProfile, height: SmoothProfile,
-                 lat0_rad: float, lon0_rad: float, t_end: float, vibration_n: list | None = None):
+    def __init__(
+        self,
+        speed: SmoothProfile,
+        track: SmoothProfile,
+        height: SmoothProfile,
+        lat0_rad: float,
+        lon0_rad: float,
+        t_end: float,
+        vibration_n: list | None = None,
+    ):
         self.speed = speed
         self.track = track
         self.height = height
@@ -406,8 +414,9 @@ class FlightPath:
         h, hdot, hddot = self.height.evaluate(t)
         lat, lon = self._latlon(t)
         v_n = np.column_stack([v * np.cos(psi), v * np.sin(psi), -hdot])
-        vdot_n = np.column_stack([vdot * np.cos(psi) - v * psidot * np.sin(psi),
-                                  vdot * np.sin(psi) + v * psidot * np.cos(psi), -hddot])
+        vdot_n = np.column_stack(
+            [vdot * np.cos(psi) - v * psidot * np.sin(psi), vdot * np.sin(psi) + v * psidot * np.cos(psi), -hddot]
+        )
         if self.vibration_n:
             disp = np.zeros((t.shape[0], 3))
             for axis, sins in self.vibration_n:
@@ -425,8 +434,9 @@ class FlightPath:
 class Trajectory:
     """Reference-point motion: a position model and an attitude model over ``[0, duration_s]``."""
 
-    def __init__(self, position, attitude: RotationChain, duration_s: float, name: str = "custom",
-                 segments: list | None = None):
+    def __init__(
+        self, position, attitude: RotationChain, duration_s: float, name: str = "custom", segments: list | None = None
+    ):
         self.position = position
         self.attitude = attitude
         self.duration_s = float(duration_s)

@@ -41,7 +41,7 @@ class Autocovariance:
         m = e.size
         self.n += m
         for lag in range(min(self.max_lag, m - 1) + 1):
-            self.sums[lag] += e[lag:] @ e[:m - lag]
+            self.sums[lag] += e[lag:] @ e[: m - lag]
 
     def values(self) -> np.ndarray:
         """The biased estimate (divided by the total count): a positive semi-definite sequence, so
@@ -65,7 +65,7 @@ class ARNoise:
         """``u = e - sum_j a[j] e[t-1-j]`` along axis 0; the first ``order`` rows (no past) are dropped."""
         if not self.order:
             return x
-        return lfilter(np.r_[1.0, -self.a], [1.0], x, axis=0)[self.order:]
+        return lfilter(np.r_[1.0, -self.a], [1.0], x, axis=0)[self.order :]
 
     def variance_ratio(self) -> float:
         """Long-run variance (the spectrum at zero frequency times the sampling rate) over the
@@ -83,8 +83,9 @@ WHITE = ARNoise(np.zeros(0), 1.0, 1.0)
 CRITERIA = {"bic": lambda n: np.log(n), "aic": lambda n: 2.0}
 
 
-def fit_ar(acov: Autocovariance | np.ndarray, n: int | None = None, *, max_order: int | None = None,
-           criterion: str = "bic") -> ARNoise:
+def fit_ar(
+    acov: Autocovariance | np.ndarray, n: int | None = None, *, max_order: int | None = None, criterion: str = "bic"
+) -> ARNoise:
     """Yule-Walker AR fit of order 0 .. ``max_order`` (default: every lag held, at most a tenth of
     the count) of least ``n log s2_p + p penalty`` (:data:`CRITERIA`). ``acov``: an
     :class:`Autocovariance`, or its values with the count ``n``."""
@@ -100,8 +101,8 @@ def fit_ar(acov: Autocovariance | np.ndarray, n: int | None = None, *, max_order
     best = ARNoise(np.zeros(0), float(r[0]), float(r[0]))
     best_score = n * np.log(r[0])
     for p in range(1, top + 1):
-        a = solve_toeplitz(r[:p], r[1:p + 1])
-        s2 = float(r[0] - a @ r[1:p + 1])
+        a = solve_toeplitz(r[:p], r[1 : p + 1])
+        s2 = float(r[0] - a @ r[1 : p + 1])
         if not s2 > 0:
             break  # the series is (numerically) predictable: nothing more to learn
         score = n * np.log(s2) + p * penalty

@@ -65,8 +65,9 @@ def savgol(omega, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER):
     return savgol_rows(x, 0, x.shape[0], 0, x.shape[0], dt, window, order)
 
 
-def savgol_rows(rows, lo: int, n_record: int, j0: int, j1: int, dt, window: int = SAVGOL_WINDOW,
-                order: int = SAVGOL_ORDER):
+def savgol_rows(
+    rows, lo: int, n_record: int, j0: int, j1: int, dt, window: int = SAVGOL_WINDOW, order: int = SAVGOL_ORDER
+):
     """:func:`savgol` of record rows ``[j0, j1)``, given ``rows``, the record's rows
     ``[lo, lo + len(rows))`` of ``n_record``. Returns ``[j1 - j0, C]`` (``[j1 - j0]`` for ``[R]``).
 
@@ -84,16 +85,19 @@ def savgol_rows(rows, lo: int, n_record: int, j0: int, j1: int, dt, window: int 
     taps, head, tail = _savgol_weights(dt, window, order)
     m = taps.size
     if n_record < window:
-        raise ValueError(f"Savitzky-Golay window of {window} samples on a record of {n_record}: it needs at "
-                         f"least {window}")
+        raise ValueError(
+            f"Savitzky-Golay window of {window} samples on a record of {n_record}: it needs at least {window}"
+        )
     need_lo, need_hi = max(0, j0 - m), min(n_record, j1 + m)
     if j0 < j1 and j0 < m:
         need_hi = max(need_hi, window)
     if j0 < j1 and j1 > n_record - m:
         need_lo = min(need_lo, n_record - window)
     if not (0 <= j0 <= j1 <= n_record and lo <= need_lo and need_hi <= lo + x.shape[0] <= n_record):
-        raise ValueError(f"savgol_rows: rows [{j0}, {j1}) of {n_record} need rows [{need_lo}, {need_hi}); "
-                         f"given [{lo}, {lo + x.shape[0]})")
+        raise ValueError(
+            f"savgol_rows: rows [{j0}, {j1}) of {n_record} need rows [{need_lo}, {need_hi}); "
+            f"given [{lo}, {lo + x.shape[0]})"
+        )
     out = np.empty((j1 - j0, x.shape[1]))
     savgol_derivative(x, lo, n_record, j0, j1, taps, head, tail, out)
     return out.reshape((j1 - j0,) + given.shape[1:])

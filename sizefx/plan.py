@@ -45,9 +45,27 @@ from .io.plan_file import PLAN_SCHEMA
 from .io.schema import check_document
 from .simulate import true_motion
 
-__all__ = ["TableLimits", "PlanRequest", "Prediction", "PlanDesign", "PlanConfig", "PlanResult", "run", "predict",
-           "design_plan", "plan_document", "PlanError", "PLAN_SCHEMA", "PLAN_RATE_HZ",
-           "RATE_FRACTIONS", "ACCEL_FRACTIONS", "sway_shape", "SWAY_MAX_HZ", "SWAY_MAX_ANGLE_DEG", "SWAY_AXES"]
+__all__ = [
+    "TableLimits",
+    "PlanRequest",
+    "Prediction",
+    "PlanDesign",
+    "PlanConfig",
+    "PlanResult",
+    "run",
+    "predict",
+    "design_plan",
+    "plan_document",
+    "PlanError",
+    "PLAN_SCHEMA",
+    "PLAN_RATE_HZ",
+    "RATE_FRACTIONS",
+    "ACCEL_FRACTIONS",
+    "sway_shape",
+    "SWAY_MAX_HZ",
+    "SWAY_MAX_ANGLE_DEG",
+    "SWAY_AXES",
+]
 
 #: Rows per second of the plan's motion in the information. The table's changes of rate take 0.5 s
 #: or more: on the paper's plan 25, 50 and 12.5 rows a second give the same sigmas to 0.1 %
@@ -106,11 +124,15 @@ class TableLimits:
     def check(self):
         axes, sway_axes = self.axes.upper(), self.sway_axes.upper()
         if not axes or any(a not in "XYZ" for a in axes) or len(set(axes)) != len(axes):
-            raise PlanError(f"table axes '{self.axes}': give the body axes the table can make vertical, each once "
-                            "(letters X, Y, Z, e.g. XYZ)")
+            raise PlanError(
+                f"table axes '{self.axes}': give the body axes the table can make vertical, each once "
+                "(letters X, Y, Z, e.g. XYZ)"
+            )
         if any(a not in SWAY_AXES for a in sway_axes) or len(set(sway_axes)) != len(sway_axes):
-            raise PlanError(f"table sway axes '{self.sway_axes}': give the level body axes the table can swing "
-                            "about, each once (X for roll, Y for pitch, e.g. XY)")
+            raise PlanError(
+                f"table sway axes '{self.sway_axes}': give the level body axes the table can swing "
+                "about, each once (X for roll, Y for pitch, e.g. XY)"
+            )
         for name in ("max_rate_dps", "max_accel_dps2", "reposition_s", "settle_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -135,19 +157,24 @@ class PlanRequest:
 
     def check(self):
         if not (math.isfinite(self.noise_ug_per_sqrt_hz) and self.noise_ug_per_sqrt_hz > 0):
-            raise PlanError(f"noise {self.noise_ug_per_sqrt_hz!r} ug/sqrt(Hz): give the accelerometers' white noise "
-                            "density, positive and finite")
+            raise PlanError(
+                f"noise {self.noise_ug_per_sqrt_hz!r} ug/sqrt(Hz): give the accelerometers' white noise "
+                "density, positive and finite"
+            )
         if (self.budget_s is None) == (self.target_sigma_mm is None):
-            raise PlanError("give either a time budget (--budget-s) or a wanted largest sigma (--target-sigma-mm), "
-                            "one of the two")
+            raise PlanError(
+                "give either a time budget (--budget-s) or a wanted largest sigma (--target-sigma-mm), one of the two"
+            )
         for name in ("budget_s", "target_sigma_mm", "static_s", "target_delay_sigma_us"):
             value = getattr(self, name)
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise PlanError(f"{name} = {value!r}: give a positive, finite number")
         table = self.table.check()
         if self.target_delay_sigma_us is not None and not table.sway_axes:
-            raise PlanError(f"--delay-sigma-us {self.target_delay_sigma_us:g}: the delay needs a sway about a level "
-                            "axis, and the table has none; give the axes it can swing about (--sway-axes X, Y or XY)")
+            raise PlanError(
+                f"--delay-sigma-us {self.target_delay_sigma_us:g}: the delay needs a sway about a level "
+                "axis, and the table has none; give the axes it can swing about (--sway-axes X, Y or XY)"
+            )
         return replace(self, table=table)
 
 
@@ -195,14 +222,17 @@ def _sway_record(sway: scenarios.SwayPlan) -> Record:
     return _motion_record(scenarios.sway(sway)[0], "sway")
 
 
-def _fisher(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit", sway=None,
-            turntable_record=None):
+def _fisher(
+    plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit", sway=None, turntable_record=None
+):
     """``(names, Fisher information)`` of the joint fit's parameters on the plan's motion (with the
     delay's sway, a record of its own, and then the delay); the bias windows the fit's (``"fit"``)
     or one bias per channel and record (None: the information is then a sum over the cycles, which
     :func:`_least_cycles` and :func:`_least_sway` use)."""
     windows = {} if bias_window_s == "fit" else {"bias_window_s": bias_window_s}
-    records = [_plan_record(plan) if turntable_record is None else turntable_record] + ([_sway_record(sway)] if sway is not None else [])
+    records = [_plan_record(plan) if turntable_record is None else turntable_record] + (
+        [_sway_record(sway)] if sway is not None else []
+    )
     return information(records, noise_ug_per_sqrt_hz * MICRO_G, with_delay=sway is not None, **windows)
 
 
@@ -211,14 +241,17 @@ def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
     (the fit's own test, :func:`sizefx.calibrate.joint.unobservable`)."""
     _, bad = unobservable(fisher, names)
     if bad:
-        raise PlanError(f"rotations about {', '.join(plan_axes)} leave unobservable: {', '.join(bad)}; the table "
-                        "must reach at least two body axes (all three for every arm)")
+        raise PlanError(
+            f"rotations about {', '.join(plan_axes)} leave unobservable: {', '.join(bad)}; the table "
+            "must reach at least two body axes (all three for every arm)"
+        )
     scale = 1.0 / np.sqrt(np.diag(fisher))
     return np.sqrt(np.diag(np.linalg.inv(fisher * np.outer(scale, scale)))) * scale
 
 
-def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float,
-            sway: scenarios.SwayPlan | None = None) -> Prediction:
+def predict(
+    plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, sway: scenarios.SwayPlan | None = None
+) -> Prediction:
     """The arms' and the tilt's (and with ``sway``, the delay's) standard errors a calibration on
     ``plan`` (and the sway's record) will state, the accelerometers' noise white with this density.
     Raises :class:`PlanError` naming what the plan leaves unobservable."""
@@ -230,8 +263,12 @@ def predict(plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float,
     names, fisher = _fisher(plan, noise_ug_per_sqrt_hz, sway=sway)
     sigma = _sigmas(names, fisher, plan.axes)
     tilt = [names.index("tilt_north"), names.index("tilt_east")]
-    return Prediction(sigma[:9].reshape(3, 3), sigma[tilt], duration,
-                      float(sigma[names.index("accel_delay")]) if sway is not None else None)
+    return Prediction(
+        sigma[:9].reshape(3, 3),
+        sigma[tilt],
+        duration,
+        float(sigma[names.index("accel_delay")]) if sway is not None else None,
+    )
 
 
 def sway_shape(table: TableLimits) -> tuple[float, float]:
@@ -240,14 +277,20 @@ def sway_shape(table: TableLimits) -> tuple[float, float]:
     rounded up to 0.1 s), and the largest amplitude both, and the table's rate, allow there."""
     meet = 2 * math.pi * math.sqrt(SWAY_MAX_ANGLE_DEG / table.max_accel_dps2)
     period = math.ceil(max(1.0 / SWAY_MAX_HZ, meet) * 10.0 - 1e-9) / 10.0
-    amplitude = min(table.max_rate_dps, table.max_accel_dps2 * period / (2 * math.pi),
-                    SWAY_MAX_ANGLE_DEG * 2 * math.pi / period)
+    amplitude = min(
+        table.max_rate_dps, table.max_accel_dps2 * period / (2 * math.pi), SWAY_MAX_ANGLE_DEG * 2 * math.pi / period
+    )
     return math.floor(amplitude * 100.0) / 100.0, period
 
 
 def _sway(axis: str, amplitude_dps: float, period_s: float, periods: int) -> scenarios.SwayPlan:
-    return scenarios.SwayPlan(axis=SWAY_AXES[axis], amplitudes_dps=(amplitude_dps,), frequency_hz=1.0 / period_s,
-                              static_s=SWAY_LEAD_IN_S, segment_s=periods * period_s)
+    return scenarios.SwayPlan(
+        axis=SWAY_AXES[axis],
+        amplitudes_dps=(amplitude_dps,),
+        frequency_hz=1.0 / period_s,
+        static_s=SWAY_LEAD_IN_S,
+        segment_s=periods * period_s,
+    )
 
 
 def _least_count(sigma_of, target: float, most: int) -> int | None:
@@ -277,12 +320,13 @@ def _least_sway(req: PlanRequest, plan: scenarios.TurntablePlan):
     turntable = _plan_record(plan)
     best, evals = None, 0
     for axis in req.table.sway_axes:
-        (names, one), (_, two) = (_fisher(plan, req.noise_ug_per_sqrt_hz, None, _sway(axis, amplitude, period, k),
-                                          turntable) for k in (1, 2))
+        (names, one), (_, two) = (
+            _fisher(plan, req.noise_ug_per_sqrt_hz, None, _sway(axis, amplitude, period, k), turntable) for k in (1, 2)
+        )
         evals += 2
         step, start, j = two - one, 2 * one - two, names.index("accel_delay")
 
-        def delay_sigma(k):
+        def delay_sigma(k, names=names, start=start, step=step, j=j):  # bound now: called in this pass
             try:
                 return float(_sigmas(names, start + k * step, plan.axes)[j])
             except np.linalg.LinAlgError:
@@ -290,8 +334,9 @@ def _least_sway(req: PlanRequest, plan: scenarios.TurntablePlan):
 
         hi = _least_count(delay_sigma, target, MAX_SWAY_PERIODS)
         while hi is not None and hi <= MAX_SWAY_PERIODS:
-            names_w, fisher = _fisher(plan, req.noise_ug_per_sqrt_hz, "fit", _sway(axis, amplitude, period, hi),
-                                      turntable)
+            names_w, fisher = _fisher(
+                plan, req.noise_ug_per_sqrt_hz, "fit", _sway(axis, amplitude, period, hi), turntable
+            )
             evals += 1
             sigma = float(_sigmas(names_w, fisher, plan.axes)[names_w.index("accel_delay")])
             if sigma <= target:
@@ -312,9 +357,17 @@ def _shape(req: PlanRequest, shape: tuple, seconds_per_axis: float, cycles: int)
     cycles leave no time at the peak rate."""
     t = req.table
     rate, accel, static_s, dwell_s = shape
-    plan = scenarios.TurntablePlan(axes=t.axes, static_s=static_s, seconds_per_axis=float(seconds_per_axis),
-                                   cycles=int(cycles), peak_rate_dps=float(rate), accel_dps2=float(accel),
-                                   dwell_s=float(dwell_s), reposition_s=t.reposition_s, settle_s=t.settle_s)
+    plan = scenarios.TurntablePlan(
+        axes=t.axes,
+        static_s=static_s,
+        seconds_per_axis=float(seconds_per_axis),
+        cycles=int(cycles),
+        peak_rate_dps=float(rate),
+        accel_dps2=float(accel),
+        dwell_s=float(dwell_s),
+        reposition_s=t.reposition_s,
+        settle_s=t.settle_s,
+    )
     try:
         plan.check()
     except ConfigError:
@@ -324,15 +377,21 @@ def _shape(req: PlanRequest, shape: tuple, seconds_per_axis: float, cycles: int)
 
 def _overhead_s(req: PlanRequest, static_s: float) -> float:
     t = req.table
-    return scenarios.TurntablePlan(axes=t.axes, static_s=static_s, reposition_s=t.reposition_s,
-                                   settle_s=t.settle_s).overhead_s
+    return scenarios.TurntablePlan(
+        axes=t.axes, static_s=static_s, reposition_s=t.reposition_s, settle_s=t.settle_s
+    ).overhead_s
 
 
 def _shapes(req: PlanRequest) -> list:
     t = req.table
     leads = LEAD_IN_S if req.static_s is None else (req.static_s,)
-    return [(f_r * t.max_rate_dps, f_a * t.max_accel_dps2, lead, dwell) for f_r in RATE_FRACTIONS
-            for f_a in ACCEL_FRACTIONS for lead in leads for dwell in DWELL_S]
+    return [
+        (f_r * t.max_rate_dps, f_a * t.max_accel_dps2, lead, dwell)
+        for f_r in RATE_FRACTIONS
+        for f_a in ACCEL_FRACTIONS
+        for lead in leads
+        for dwell in DWELL_S
+    ]
 
 
 def _best_in(req: PlanRequest, budget_s: float, progress, tried: int = 0, sway_s: float = 0.0):
@@ -354,10 +413,12 @@ def _best_in(req: PlanRequest, budget_s: float, progress, tried: int = 0, sway_s
     if best is None:
         leads = LEAD_IN_S if req.static_s is None else (req.static_s,)
         after = f" after the delay's sway ({sway_s:.0f} s)" if sway_s else ""
-        raise PlanError(f"--budget-s {req.budget_s:g}: too short{after} for one rotation each way about each of "
-                        f"{len(t.axes)} axes at up to {t.max_rate_dps:g} deg/s and {t.max_accel_dps2:g} deg/s^2, "
-                        f"with the turns between them ({_overhead_s(req, min(leads)):g} s with the lead-in); "
-                        "allow more time")
+        raise PlanError(
+            f"--budget-s {req.budget_s:g}: too short{after} for one rotation each way about each of "
+            f"{len(t.axes)} axes at up to {t.max_rate_dps:g} deg/s and {t.max_accel_dps2:g} deg/s^2, "
+            f"with the turns between them ({_overhead_s(req, min(leads)):g} s with the lead-in); "
+            "allow more time"
+        )
     return best[0], best[1], tried
 
 
@@ -375,8 +436,10 @@ def _shortest(req: PlanRequest, progress):
             if progress is not None:
                 progress(tried)
     if best is None:
-        raise PlanError(f"--target-sigma-mm {req.target_sigma_mm:g}: no plan of up to {MAX_CYCLES} cycles per axis "
-                        f"reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) of noise; allow a larger sigma")
+        raise PlanError(
+            f"--target-sigma-mm {req.target_sigma_mm:g}: no plan of up to {MAX_CYCLES} cycles per axis "
+            f"reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) of noise; allow a larger sigma"
+        )
     return best[0], best[1], tried
 
 
@@ -385,9 +448,11 @@ def _sway_for(req: PlanRequest, plan: scenarios.TurntablePlan):
     sway, evals = _least_sway(req, plan)
     if sway is None:
         amplitude, period = sway_shape(req.table)
-        raise PlanError(f"--delay-sigma-us {req.target_delay_sigma_us:g}: no sway of up to {MAX_SWAY_PERIODS} periods "
-                        f"({amplitude:g} deg/s, {period:g} s) reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) "
-                        "of noise; allow a larger sigma")
+        raise PlanError(
+            f"--delay-sigma-us {req.target_delay_sigma_us:g}: no sway of up to {MAX_SWAY_PERIODS} periods "
+            f"({amplitude:g} deg/s, {period:g} s) reaches it with {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz) "
+            "of noise; allow a larger sigma"
+        )
     return sway, evals
 
 
@@ -409,9 +474,11 @@ def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:
             sway, evals = _sway_for(req, plan)
             tried += evals
             if plan.duration_s + sway.duration_s > req.budget_s + 1e-6:
-                raise PlanError(f"--budget-s {req.budget_s:g}: too short for the turntable plan and the delay's sway "
-                                f"({sway.duration_s:.0f} s for --delay-sigma-us {req.target_delay_sigma_us:g}); "
-                                "allow more time or a larger delay sigma")
+                raise PlanError(
+                    f"--budget-s {req.budget_s:g}: too short for the turntable plan and the delay's sway "
+                    f"({sway.duration_s:.0f} s for --delay-sigma-us {req.target_delay_sigma_us:g}); "
+                    "allow more time or a larger delay sigma"
+                )
     else:
         plan, pred, tried = _shortest(req, progress)
         if req.target_delay_sigma_us is not None:
@@ -421,8 +488,11 @@ def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:
         pred = predict(plan, req.noise_ug_per_sqrt_hz, sway)
     paper_plan = replace(scenarios.TurntablePlan(), reposition_s=t.reposition_s, settle_s=t.settle_s)
     paper = None
-    if set(paper_plan.axes) <= set(t.axes) and paper_plan.peak_rate_dps <= t.max_rate_dps \
-            and paper_plan.accel_dps2 <= t.max_accel_dps2:
+    if (
+        set(paper_plan.axes) <= set(t.axes)
+        and paper_plan.peak_rate_dps <= t.max_rate_dps
+        and paper_plan.accel_dps2 <= t.max_accel_dps2
+    ):
         paper = predict(paper_plan, req.noise_ug_per_sqrt_hz)
     return PlanDesign(plan, pred, req, paper, paper_plan if paper else None, tried, sway)
 
@@ -489,8 +559,13 @@ def plan_document(design: PlanDesign) -> dict:
     }
     if design.sway is not None:
         w = design.sway
-        doc["sway"] = {"axis": w.axis, "amplitude_dps": w.amplitudes_dps[0], "frequency_hz": w.frequency_hz,
-                       "static_s": w.static_s, "segment_s": w.segment_s}
+        doc["sway"] = {
+            "axis": w.axis,
+            "amplitude_dps": w.amplitudes_dps[0],
+            "frequency_hz": w.frequency_hz,
+            "static_s": w.static_s,
+            "segment_s": w.segment_s,
+        }
     if design.paper is not None:
         doc["paper_plan"] = {"duration_s": design.paper.duration_s, "max_sigma_mm": design.paper.max_sigma_mm}
     check_document(doc, PLAN_SCHEMA)
@@ -500,31 +575,42 @@ def plan_document(design: PlanDesign) -> dict:
 def report_lines(design: PlanDesign) -> list[str]:
     """What ``sizefx plan`` prints."""
     p, pred, req = design.plan, design.prediction, design.request
-    goal = (f"the smallest largest arm sigma in {req.budget_s:g} s" if req.budget_s is not None
-            else f"the shortest plan with every arm sigma <= {req.target_sigma_mm:g} mm")
+    goal = (
+        f"the smallest largest arm sigma in {req.budget_s:g} s"
+        if req.budget_s is not None
+        else f"the shortest plan with every arm sigma <= {req.target_sigma_mm:g} mm"
+    )
     if req.target_delay_sigma_us is not None:
         goal += f" and the delay's <= {req.target_delay_sigma_us:g} us"
-    lines = [f"plan for {goal}; noise {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz); table up to "
-             f"{req.table.max_rate_dps:g} deg/s, {req.table.max_accel_dps2:g} deg/s^2, axes {req.table.axes} "
-             f"({design.tried} plans evaluated)",
-             f"  axes {p.axes}: {p.cycles} cycles in {p.seconds_per_axis:.1f} s per axis at {p.peak_rate_dps:g} deg/s, "
-             f"{p.accel_dps2:g} deg/s^2, resting {p.dwell_s:g} s between rotations; lead-in {p.static_s:g} s; "
-             f"{p.duration_s:.0f} s" + (" in all" if design.sway is None else ""),
-             "  predicted sigma [mm] (rows r_x, r_y, r_z; columns x, y, z):"]
+    lines = [
+        f"plan for {goal}; noise {req.noise_ug_per_sqrt_hz:g} ug/sqrt(Hz); table up to "
+        f"{req.table.max_rate_dps:g} deg/s, {req.table.max_accel_dps2:g} deg/s^2, axes {req.table.axes} "
+        f"({design.tried} plans evaluated)",
+        f"  axes {p.axes}: {p.cycles} cycles in {p.seconds_per_axis:.1f} s per axis at {p.peak_rate_dps:g} deg/s, "
+        f"{p.accel_dps2:g} deg/s^2, resting {p.dwell_s:g} s between rotations; lead-in {p.static_s:g} s; "
+        f"{p.duration_s:.0f} s" + (" in all" if design.sway is None else ""),
+        "  predicted sigma [mm] (rows r_x, r_y, r_z; columns x, y, z):",
+    ]
     for i, a in enumerate("xyz"):
         lines.append(f"    r_{a}  " + " ".join(f"{v * 1e3:8.4f}" for v in pred.sigma_arms_m[i]))
-    lines.append(f"  largest {pred.max_sigma_mm:.4f} mm; tilt sigma {pred.sigma_tilt_rad[0] / ARCSEC:.3f}, "
-                 f"{pred.sigma_tilt_rad[1] / ARCSEC:.3f} arcsec")
+    lines.append(
+        f"  largest {pred.max_sigma_mm:.4f} mm; tilt sigma {pred.sigma_tilt_rad[0] / ARCSEC:.3f}, "
+        f"{pred.sigma_tilt_rad[1] / ARCSEC:.3f} arcsec"
+    )
     if design.sway is not None:
         w = design.sway
-        lines.append(f"  delay sway, a record of its own: {w.axis} at {w.amplitudes_dps[0]:g} deg/s, {w.frequency_hz:.4g} Hz "
-                     f"(+-{w.amplitudes_dps[0] / (2 * math.pi * w.frequency_hz):.1f} deg) for {w.segment_s:g} s after "
-                     f"{w.static_s:g} s at rest; delay sigma {pred.sigma_delay_s * 1e6:.3f} us "
-                     f"(wanted {req.target_delay_sigma_us:g}); {w.duration_s:.0f} s of the {pred.duration_s:.0f} s")
+        lines.append(
+            f"  delay sway, a record of its own: {w.axis} at {w.amplitudes_dps[0]:g} deg/s, {w.frequency_hz:.4g} Hz "
+            f"(+-{w.amplitudes_dps[0] / (2 * math.pi * w.frequency_hz):.1f} deg) for {w.segment_s:g} s after "
+            f"{w.static_s:g} s at rest; delay sigma {pred.sigma_delay_s * 1e6:.3f} us "
+            f"(wanted {req.target_delay_sigma_us:g}); {w.duration_s:.0f} s of the {pred.duration_s:.0f} s"
+        )
     if design.paper is not None:
-        lines.append(f"  the paper's plan ({design.paper_plan.axes}, {design.paper_plan.cycles} cycles, "
-                     f"{design.paper_plan.seconds_per_axis:g} s per axis): {design.paper.duration_s:.0f} s, largest "
-                     f"sigma {design.paper.max_sigma_mm:.4f} mm")
+        lines.append(
+            f"  the paper's plan ({design.paper_plan.axes}, {design.paper_plan.cycles} cycles, "
+            f"{design.paper_plan.seconds_per_axis:g} s per axis): {design.paper.duration_s:.0f} s, largest "
+            f"sigma {design.paper.max_sigma_mm:.4f} mm"
+        )
     return lines
 
 
@@ -569,10 +655,17 @@ def run(config: PlanConfig, *, progress=None) -> PlanResult:
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     out = PlanResult(design_plan(request, progress=progress))
     if config.output:
-        write_toml(config.output, plan_document(out.design), force=config.force,
-                   header="sizefx plan: a turntable calibration plan\n"
-                          "run it with: sizefx simulate turntable --plan THIS_FILE -o turntable.h5"
-                          + ("\nand its delay sway with: sizefx simulate sway --plan THIS_FILE -o sway.h5"
-                             if out.design.sway is not None else ""))
+        write_toml(
+            config.output,
+            plan_document(out.design),
+            force=config.force,
+            header="sizefx plan: a turntable calibration plan\n"
+            "run it with: sizefx simulate turntable --plan THIS_FILE -o turntable.h5"
+            + (
+                "\nand its delay sway with: sizefx simulate sway --plan THIS_FILE -o sway.h5"
+                if out.design.sway is not None
+                else ""
+            ),
+        )
         out.written["-o"] = str(config.output)
     return out

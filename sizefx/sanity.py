@@ -47,8 +47,8 @@ import numpy as np
 from . import earth
 from .constants import DEG, GAP_FACTOR, STANDARD_GRAVITY_MPS2
 from .errors import UnitsError
-from .rotation import quat_angle_between, rotvec_to_mat
 from .io.schema import TELEMETRY_SCHEMA, load_schema, unit_factor
+from .rotation import quat_angle_between, rotvec_to_mat
 
 __all__ = ["Check", "UnitsReport", "check_units", "refuse_wrong_units", "looks_like", "report_lines"]
 
@@ -163,8 +163,10 @@ class Check:
     looks_like: str | None = None  #: the unit the data look like, when not the declared one
 
     def as_dict(self) -> dict:
-        return {k: getattr(self, k) for k in ("what", "dataset", "declared", "verdict", "method", "ratio", "count",
-                                              "looks_like", "detail")}
+        return {
+            k: getattr(self, k)
+            for k in ("what", "dataset", "declared", "verdict", "method", "ratio", "count", "looks_like", "detail")
+        }
 
 
 @dataclass
@@ -301,19 +303,27 @@ def _check_accel(tel, win: _Windows, dataset: str, declared: str) -> Check:
         method, band, sel = "motion", ACCEL_MOVING_BAND, np.ones(norms.size, bool)
         label = "specific force (no rest found; median of all windows)"
     else:
-        return Check("accel", dataset, declared, "unchecked",
-                     f"specific force: not checked: the record is shorter than one {WINDOW_S} s window",)
+        return Check(
+            "accel",
+            dataset,
+            declared,
+            "unchecked",
+            f"specific force: not checked: the record is shorter than one {WINDOW_S} s window",
+        )
     value = float(np.median(norms[sel]))
     count = int(sel.sum())
     ratio = value / g
-    figures = (f"{label} {value:.4g} m/s^2 against {where} {g:.4f} (ratio {ratio:.3f}, "
-               f"{count} windows of {WINDOW_S:g} s)")
+    figures = (
+        f"{label} {value:.4g} m/s^2 against {where} {g:.4f} (ratio {ratio:.3f}, {count} windows of {WINDOW_S:g} s)"
+    )
     if 1.0 / band <= ratio <= band:
         return Check("accel", dataset, declared, "ok", figures, method, ratio, count)
     unit = looks_like(quantity, declared, ratio, band)
     state = "at rest" if method == "rest" else "in motion (no rest found)"
-    detail = (f"reads {value:.4g} m/s^2 {state} after converting from '{declared}' (median of {count} windows), "
-              f"{ratio:.4g} times {where} {g:.4f} m/s^2")
+    detail = (
+        f"reads {value:.4g} m/s^2 {state} after converting from '{declared}' (median of {count} windows), "
+        f"{ratio:.4g} times {where} {g:.4f} m/s^2"
+    )
     return Check("accel", dataset, declared, "wrong", detail, method, ratio, count, unit)
 
 
@@ -329,15 +339,15 @@ def _integral(tel, t_a: float, t_b: float, period: float):
     k1 = min(n - 1, int(np.searchsorted(t, t_b)) + 1)
     if k1 - k0 < 1 or t[k0] > t_a or t[k1] < t_b:
         return None
-    tt = t[k0:k1 + 1]
+    tt = t[k0 : k1 + 1]
     dt = np.diff(tt)
     if np.any(dt > GAP_FACTOR * period):
         return None
     if tel.form == "rates":
-        w = g[k0:k1 + 1]
+        w = g[k0 : k1 + 1]
         cum = np.vstack([np.zeros(3), np.cumsum(0.5 * (w[1:] + w[:-1]) * dt[:, None], axis=0)])
     else:  # increment k covers (t[k-1], t[k]]
-        cum = np.vstack([np.zeros(3), np.cumsum(g[k0 + 1:k1 + 1], axis=0)])
+        cum = np.vstack([np.zeros(3), np.cumsum(g[k0 + 1 : k1 + 1], axis=0)])
     return np.array([np.interp(t_b, tt, cum[:, i]) - np.interp(t_a, tt, cum[:, i]) for i in range(3)])
 
 
@@ -373,11 +383,15 @@ def _check_gyro_reference(tel, period: float, dataset: str, declared: str) -> Ch
     hi = int(np.searchsorted(tr, t[-1], side="right"))  # rows [lo, hi) inside the IMU span
     if hi - lo < 3:
         return "the reference has too few rows inside the IMU record"
-    ref_step = float(np.median(np.diff(tr[lo:min(hi, lo + (1 << 16))])))
+    ref_step = float(np.median(np.diff(tr[lo : min(hi, lo + (1 << 16))])))
     far = max(REF_CONSECUTIVE + 1, int(REF_MAX_INTERVAL_S / ref_step))
     starts = _reference_starts(q, lo, hi, far)
-    offsets = np.unique(np.r_[np.arange(REF_CONSECUTIVE + 1),
-                              np.geomspace(REF_CONSECUTIVE, far, REF_END_OFFSETS - REF_CONSECUTIVE).round()]).astype(int)
+    offsets = np.unique(
+        np.r_[
+            np.arange(REF_CONSECUTIVE + 1),
+            np.geomspace(REF_CONSECUTIVE, far, REF_END_OFFSETS - REF_CONSECUTIVE).round(),
+        ]
+    ).astype(int)
     idx = np.minimum(starts[:, None] + offsets[None, :], hi - 1)  # [K, E]: interval ends tried
     t_idx = tr[idx]
     step_dt = np.diff(t_idx, axis=1)
@@ -393,8 +407,10 @@ def _check_gyro_reference(tel, period: float, dataset: str, declared: str) -> Ch
     net[has] = quat_angle_between(q[starts[has]], q[ends[has]])
     use = np.flatnonzero(has & (net >= REF_MIN_ANGLE_RAD))
     if use.size < REF_MIN_INTERVALS:
-        return (f"the reference rotates by {REF_MIN_ANGLE_RAD:g} rad in only {use.size} intervals "
-                f"(needs {REF_MIN_INTERVALS})")
+        return (
+            f"the reference rotates by {REF_MIN_ANGLE_RAD:g} rad in only {use.size} intervals "
+            f"(needs {REF_MIN_INTERVALS})"
+        )
     ratios = []
     for k in use:
         vec = _integral(tel, float(tr[starts[k]]), float(tr[ends[k]]), period)
@@ -406,12 +422,21 @@ def _check_gyro_reference(tel, period: float, dataset: str, declared: str) -> Ch
     count = len(ratios)
     quantity = FORM_QUANTITIES[tel.form][0]
     if 1.0 / GYRO_BAND <= ratio <= GYRO_BAND:
-        return Check("gyro", dataset, declared, "ok",
-                     f"gyro against the reference attitude: ratio {ratio:.3f} over {count} rotating intervals",
-                     "reference", ratio, count)
+        return Check(
+            "gyro",
+            dataset,
+            declared,
+            "ok",
+            f"gyro against the reference attitude: ratio {ratio:.3f} over {count} rotating intervals",
+            "reference",
+            ratio,
+            count,
+        )
     unit = looks_like(quantity, declared, ratio, GYRO_BAND)
-    detail = (f"integrates to {ratio:.4g} times the rotation of the reference attitude "
-              f"(median over {count} rotating intervals, read as '{declared}')")
+    detail = (
+        f"integrates to {ratio:.4g} times the rotation of the reference attitude "
+        f"(median over {count} rotating intervals, read as '{declared}')"
+    )
     return Check("gyro", dataset, declared, "wrong" if unit else "odd", detail, "reference", ratio, count, unit)
 
 
@@ -435,7 +460,7 @@ def _tilt_pairs(win: _Windows, gaps_s) -> list[tuple[int, int]]:
     k = 0
     while k < quasi.size - 1:
         i = quasi[k]
-        later = quasi[k + 1:]
+        later = quasi[k + 1 :]
         later = later[tc[later] - tc[i] <= TILT_PAIR_MAX_S]
         moved = later[_angle(u[i], u[later]) >= TILT_MIN_RAD]
         if moved.size == 0:
@@ -456,8 +481,10 @@ def _check_gyro_tilt(tel, win: _Windows, period: float, dataset: str, declared: 
     gaps_s = [g.time_s for g in tel.gaps if g.dataset.startswith("/imu")]
     pairs = _tilt_pairs(win, gaps_s)
     if len(pairs) < TILT_MIN_PAIRS:
-        return (f"no tilt: the gravity direction moves by {TILT_MIN_RAD / DEG:.0f} deg within "
-                f"{TILT_PAIR_MAX_S:g} s {len(pairs)} times (needs {TILT_MIN_PAIRS})")
+        return (
+            f"no tilt: the gravity direction moves by {TILT_MIN_RAD / DEG:.0f} deg within "
+            f"{TILT_PAIR_MAX_S:g} s {len(pairs)} times (needs {TILT_MIN_PAIRS})"
+        )
     quantity = FORM_QUANTITIES[tel.form][0]
     base = unit_factor(quantity, declared)
     table = load_schema(TELEMETRY_SCHEMA)["units"][quantity]
@@ -481,9 +508,9 @@ def _check_gyro_tilt(tel, win: _Windows, period: float, dataset: str, declared: 
         for p, (i, j) in enumerate(pairs):
             r0, r1 = (int(np.searchsorted(t, win.t_center[x])) for x in (i, j))
             if tel.form == "rates":
-                incr = (g[r0:r1] - bias) * np.diff(t[r0:r1 + 1])[:, None]
+                incr = (g[r0:r1] - bias) * np.diff(t[r0 : r1 + 1])[:, None]
             else:
-                incr = g[r0 + 1:r1 + 1] - bias * period
+                incr = g[r0 + 1 : r1 + 1] - bias * period
             cum = np.vstack([np.zeros(3), np.cumsum(incr, axis=0)])
             edges = np.linspace(0, incr.shape[0], TILT_BLOCKS + 1).round().astype(int)
             blocks[p] = cum[edges[1:]] - cum[edges[:-1]]
@@ -503,18 +530,30 @@ def _check_gyro_tilt(tel, win: _Windows, period: float, dataset: str, declared: 
     count = len(pairs)
     tilts = tilt / DEG
     if at_hypothesis[best] > TILT_MATCH or np.any(others < TILT_REJECT):
-        return (f"the {count} tilt changes ({min(tilts):.0f}-{max(tilts):.0f} deg) fit no unit clearly (median "
-                f"residual / tilt: {', '.join(f'{h} {r:.2f}' for h, r in zip(hypotheses, at_hypothesis))})")
+        return (
+            f"the {count} tilt changes ({min(tilts):.0f}-{max(tilts):.0f} deg) fit no unit clearly (median "
+            f"residual / tilt: {', '.join(f'{h} {r:.2f}' for h, r in zip(hypotheses, at_hypothesis))})"
+        )
     fitted = scales[best] * TILT_SCALE_GRID[int(np.argmin(residual[best]))]
     ratio = 1.0 / fitted  # data as read / truth, as in (b)
     if best == 0:
-        return Check("gyro", dataset, declared, "ok",
-                     f"gyro against the tilt the accelerometers see: ratio {ratio:.3f}, median residual "
-                     f"{100 * at_hypothesis[0]:.1f} % over {count} tilt changes of {min(tilts):.0f}-"
-                     f"{max(tilts):.0f} deg", "tilt", ratio, count)
-    detail = (f"explains the {count} tilt changes the accelerometers see ({min(tilts):.0f}-{max(tilts):.0f} deg) "
-              f"only when read as '{hypotheses[best]}' (median residual {100 * at_hypothesis[best]:.0f} % of the tilt; "
-              f"as '{declared}' {100 * at_hypothesis[0]:.0f} %): it integrates to {ratio:.4g} times the tilt")
+        return Check(
+            "gyro",
+            dataset,
+            declared,
+            "ok",
+            f"gyro against the tilt the accelerometers see: ratio {ratio:.3f}, median residual "
+            f"{100 * at_hypothesis[0]:.1f} % over {count} tilt changes of {min(tilts):.0f}-"
+            f"{max(tilts):.0f} deg",
+            "tilt",
+            ratio,
+            count,
+        )
+    detail = (
+        f"explains the {count} tilt changes the accelerometers see ({min(tilts):.0f}-{max(tilts):.0f} deg) "
+        f"only when read as '{hypotheses[best]}' (median residual {100 * at_hypothesis[best]:.0f} % of the tilt; "
+        f"as '{declared}' {100 * at_hypothesis[0]:.0f} %): it integrates to {ratio:.4g} times the tilt"
+    )
     return Check("gyro", dataset, declared, "wrong", detail, "tilt", ratio, count, hypotheses[best])
 
 
@@ -572,6 +611,10 @@ def refuse_wrong_units(report: UnitsReport, path, *, where: dict | None = None, 
         else:
             verdict = f"the data match no unit the contract knows (declared {check.declared})"
         how = fix(check) if fix is not None else None
-        raise UnitsError(path, name, f"{check.detail}; {verdict}"
-                         + (f": {how}" if how else "")
-                         + " (or pass --no-units-check if you know the data are right)")
+        raise UnitsError(
+            path,
+            name,
+            f"{check.detail}; {verdict}"
+            + (f": {how}" if how else "")
+            + " (or pass --no-units-check if you know the data are right)",
+        )

@@ -27,8 +27,17 @@ from .motion import (
     Trajectory,
 )
 
-__all__ = ["SiteSpec", "TurntablePlan", "SwayPlan", "FlightPlan", "turntable", "sway", "flight", "tumble",
-           "PAPER_AIRFIELD"]
+__all__ = [
+    "SiteSpec",
+    "TurntablePlan",
+    "SwayPlan",
+    "FlightPlan",
+    "turntable",
+    "sway",
+    "flight",
+    "tumble",
+    "PAPER_AIRFIELD",
+]
 
 E_NORTH = np.array([1.0, 0.0, 0.0])
 E_EAST = np.array([0.0, 1.0, 0.0])
@@ -93,8 +102,15 @@ class TurntablePlan:
     def check(self):
         if not self.axes or any(a not in TABLE_ORIENTATIONS_DEG for a in self.axes):
             raise ConfigError(f"turntable axes '{self.axes}': use letters X, Y, Z (e.g. YXZ)")
-        for name in ("static_s", "seconds_per_axis", "peak_rate_dps", "accel_dps2", "ramp_s", "reposition_s",
-                     "settle_s"):
+        for name in (
+            "static_s",
+            "seconds_per_axis",
+            "peak_rate_dps",
+            "accel_dps2",
+            "ramp_s",
+            "reposition_s",
+            "settle_s",
+        ):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"turntable: {name} = {getattr(self, name)} must be positive")
         if self.dwell_s < 0:
@@ -104,10 +120,12 @@ class TurntablePlan:
         spin = max(self.peak_rate_dps / self.accel_dps2, self.ramp_s) + self.ramp_s
         cruise = half - 2 * spin - 2 * self.dwell_s
         if cruise <= 0:
-            raise ConfigError(f"turntable: {self.cycles} cycles (--cycles) in {self.seconds_per_axis} s "
-                              f"(--seconds-per-axis) leave no time at {self.peak_rate_dps} deg/s (--peak-rate-dps) "
-                              f"reached at {self.accel_dps2} deg/s^2 (--accel-dps2); allow more seconds per axis, "
-                              "fewer cycles, a lower rate or a higher acceleration")
+            raise ConfigError(
+                f"turntable: {self.cycles} cycles (--cycles) in {self.seconds_per_axis} s "
+                f"(--seconds-per-axis) leave no time at {self.peak_rate_dps} deg/s (--peak-rate-dps) "
+                f"reached at {self.accel_dps2} deg/s^2 (--accel-dps2); allow more seconds per axis, "
+                "fewer cycles, a lower rate or a higher acceleration"
+            )
         return half, cruise
 
 
@@ -156,8 +174,11 @@ def turntable(plan: TurntablePlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Tra
     )
     lat, lon, h = site.radians()
     traj = Trajectory(StaticSite(lat, lon, h), chain, t, name="turntable", segments=segments)
-    return traj, {"plan": asdict(plan), "site": asdict(site),
-                  "gimbals": "mat_nb = Rz(outer) Rx(middle) Ry(inner) (NED axes)"}
+    return traj, {
+        "plan": asdict(plan),
+        "site": asdict(site),
+        "gimbals": "mat_nb = Rz(outer) Rx(middle) Ry(inner) (NED axes)",
+    }
 
 
 # --------------------------------------------------------------------------- sway
@@ -186,8 +207,10 @@ class SwayPlan:
             raise ConfigError(f"sway axis '{self.axis}': use heading, roll or pitch")
         cycles = self.segment_s * self.frequency_hz
         if abs(cycles - round(cycles)) > 1e-9 or round(cycles) < 1:
-            raise ConfigError(f"sway: {self.segment_s} s (--segment-s) at {self.frequency_hz} Hz (--frequency-hz) "
-                              "is not a whole number of periods; choose a segment that is")
+            raise ConfigError(
+                f"sway: {self.segment_s} s (--segment-s) at {self.frequency_hz} Hz (--frequency-hz) "
+                "is not a whole number of periods; choose a segment that is"
+            )
 
 
 def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:
@@ -207,7 +230,8 @@ def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, d
     chain = RotationChain([E_DOWN, E_EAST, E_NORTH], [heading, pitch, roll])  # z-y-x Euler angles
     duration = plan.duration_s
     segments = [("static", 0.0, plan.static_s)] + [
-        (f"sway {a:g} deg/s", s, s + plan.segment_s) for a, s in zip(plan.amplitudes_dps, starts)]
+        (f"sway {a:g} deg/s", s, s + plan.segment_s) for a, s in zip(plan.amplitudes_dps, starts)
+    ]
     lat, lon, h = site.radians()
     traj = Trajectory(StaticSite(lat, lon, h), chain, duration, name="sway", segments=segments)
     return traj, {"plan": {**asdict(plan), "amplitudes_dps": list(plan.amplitudes_dps)}, "site": asdict(site)}
@@ -297,8 +321,10 @@ def flight(plan: FlightPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajector
 
     t_out_min = (60.0 + 5 * weave_T if weave else 0.0) + 30.0
     if end_time(t_out_min) > plan.duration_s:
-        raise ConfigError(f"flight: {plan.duration_s:.0f} s is too short for alignment, take-off, a turn and "
-                          f"landing (at least {end_time(t_out_min):.0f} s); lengthen it")
+        raise ConfigError(
+            f"flight: {plan.duration_s:.0f} s is too short for alignment, take-off, a turn and "
+            f"landing (at least {end_time(t_out_min):.0f} s); lengthen it"
+        )
     from scipy.optimize import brentq  # here: scipy.optimize costs 0.3 s at start-up
 
     t_out = brentq(lambda x: end_time(x) - plan.duration_s, t_out_min, plan.duration_s, xtol=1e-6)
@@ -338,17 +364,32 @@ def flight(plan: FlightPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajector
     pitch = SumProfile(Scaled(speed_p, plan.cruise_pitch_deg * DEG / V), ang_vib(plan.vib_rate_dps[1], 1.3))
     roll = SumProfile(RateOf(track_p, V / STANDARD_GRAVITY_MPS2), ang_vib(plan.vib_rate_dps[0], 0.7))
     chain = RotationChain([E_DOWN, E_EAST, E_NORTH], [heading, pitch, roll])
-    path = FlightPath(speed_p, track_p, height_p, lat, lon, plan.duration_s,
-                      vibration_n=[(k, lin_vib(a)) for k, a in enumerate(plan.vib_accel_mps2)])
-    segments = [("static alignment", 0.0, t_to), ("take-off", t_to, t_cruise),
-                ("outbound", t_cruise, t_cruise + t_out), ("turn", t_cruise + t_out, t_turn_end),
-                ("return", t_turn_end, t_stop), ("landing", t_stop, t_land + climb_s),
-                ("on ground", t_land + climb_s, plan.duration_s)]
+    path = FlightPath(
+        speed_p,
+        track_p,
+        height_p,
+        lat,
+        lon,
+        plan.duration_s,
+        vibration_n=[(k, lin_vib(a)) for k, a in enumerate(plan.vib_accel_mps2)],
+    )
+    segments = [
+        ("static alignment", 0.0, t_to),
+        ("take-off", t_to, t_cruise),
+        ("outbound", t_cruise, t_cruise + t_out),
+        ("turn", t_cruise + t_out, t_turn_end),
+        ("return", t_turn_end, t_stop),
+        ("landing", t_stop, t_land + climb_s),
+        ("on ground", t_land + climb_s, plan.duration_s),
+    ]
     traj = Trajectory(path, chain, plan.duration_s, name="flight", segments=segments)
-    info = {"plan": {**asdict(plan), "vib_rate_dps": list(plan.vib_rate_dps),
-                     "vib_accel_mps2": list(plan.vib_accel_mps2)},
-            "site": asdict(site), "turn_deg": float(turn_deg), "outbound_cruise_s": float(t_out),
-            "return_cruise_s": float(t_return)}
+    info = {
+        "plan": {**asdict(plan), "vib_rate_dps": list(plan.vib_rate_dps), "vib_accel_mps2": list(plan.vib_accel_mps2)},
+        "site": asdict(site),
+        "turn_deg": float(turn_deg),
+        "outbound_cruise_s": float(t_out),
+        "return_cruise_s": float(t_return),
+    }
     return traj, info
 
 
@@ -362,12 +403,18 @@ def coning(freq_hz: float, half_angle_rad: float, duration_s: float, site: SiteS
     back = ProfileBuilder(0.0).hold(duration_s).build(rate0=-w)
     chain = RotationChain([E_DOWN, E_NORTH, E_DOWN], [spin, ConstantProfile(half_angle_rad), back])
     lat, lon, h = site.radians()
-    return Trajectory(StaticSite(lat, lon, h), chain, duration_s, name="coning",
-                      segments=[(f"coning {freq_hz:g} Hz", 0.0, duration_s)])
+    return Trajectory(
+        StaticSite(lat, lon, h),
+        chain,
+        duration_s,
+        name="coning",
+        segments=[(f"coning {freq_hz:g} Hz", 0.0, duration_s)],
+    )
 
 
-def sculling(freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, duration_s: float,
-             site: SiteSpec = PAPER_AIRFIELD) -> Trajectory:
+def sculling(
+    freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, duration_s: float, site: SiteSpec = PAPER_AIRFIELD
+) -> Trajectory:
     """Classical sculling without gravity coupling: heading A sin(W t) with north acceleration B sin(W t).
 
     The rotation axis is vertical, so gravity (along it) does not enter the rectification;
@@ -379,13 +426,23 @@ def sculling(freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, durati
     height = ProfileBuilder(0.0).hold(duration_s).build(value0=h)
     north = Sinusoids([-accel_amp_mps2 / w**2], [freq_hz], [0.0])  # displacement with acceleration B sin(W t)
     path = FlightPath(still, still, height, lat, lon, duration_s, vibration_n=[(0, north)])
-    chain = RotationChain([E_DOWN, E_EAST, E_NORTH],
-                          [Sinusoids([angle_amp_rad], [freq_hz], [0.0]), ConstantProfile(0.0), ConstantProfile(0.0)])
-    return Trajectory(path, chain, duration_s, name="sculling", segments=[(f"sculling {freq_hz:g} Hz", 0.0, duration_s)])
+    chain = RotationChain(
+        [E_DOWN, E_EAST, E_NORTH],
+        [Sinusoids([angle_amp_rad], [freq_hz], [0.0]), ConstantProfile(0.0), ConstantProfile(0.0)],
+    )
+    return Trajectory(
+        path, chain, duration_s, name="sculling", segments=[(f"sculling {freq_hz:g} Hz", 0.0, duration_s)]
+    )
 
 
-def tumble(duration_s: float = 120.0, site: SiteSpec = PAPER_AIRFIELD, *,
-           amplitudes_deg=(120.0, 70.0, 80.0), freqs_hz=(0.05, 0.083, 0.117), axes: str = "zyx") -> Trajectory:
+def tumble(
+    duration_s: float = 120.0,
+    site: SiteSpec = PAPER_AIRFIELD,
+    *,
+    amplitudes_deg=(120.0, 70.0, 80.0),
+    freqs_hz=(0.05, 0.083, 0.117),
+    axes: str = "zyx",
+) -> Trajectory:
     """Heading, pitch and roll sinusoids on a static site (a three-axis table tumbling).
 
     ``mat_nb = Rz(psi) Ry(theta) Rx(phi)`` with ``psi, theta, phi = A_k sin(2 pi f_k t + k)``:
@@ -400,8 +457,13 @@ def tumble(duration_s: float = 120.0, site: SiteSpec = PAPER_AIRFIELD, *,
         chain_axes.append(axis)
         profiles.append(Sinusoids([amp], [freqs_hz[k]], [float(k)]))
     lat, lon, h = site.radians()
-    return Trajectory(StaticSite(lat, lon, h), RotationChain(chain_axes, profiles), duration_s, name="tumble",
-                      segments=[(f"tumble about {axes}", 0.0, duration_s)])
+    return Trajectory(
+        StaticSite(lat, lon, h),
+        RotationChain(chain_axes, profiles),
+        duration_s,
+        name="tumble",
+        segments=[(f"tumble about {axes}", 0.0, duration_s)],
+    )
 
 
 @dataclass

@@ -47,8 +47,21 @@ from .rotation import mat_to_quat
 from .sensor_model import Motion, SensorParams, accel_inputs, mount_matrix, reported_time, sample, true_attitude
 from .stage import preflight
 
-__all__ = ["ImuKinematics", "kinematics", "true_motion", "ImuSynthesizer", "simulate_to_file", "simulate_in_memory",
-           "SimulateConfig", "SimulateResult", "run", "SCENARIOS", "GAUSS_NODES", "GAUSS_WEIGHTS", "CHUNK_SAMPLES"]
+__all__ = [
+    "ImuKinematics",
+    "kinematics",
+    "true_motion",
+    "ImuSynthesizer",
+    "simulate_to_file",
+    "simulate_in_memory",
+    "SimulateConfig",
+    "SimulateResult",
+    "run",
+    "SCENARIOS",
+    "GAUSS_NODES",
+    "GAUSS_WEIGHTS",
+    "CHUNK_SAMPLES",
+]
 
 #: Three-point Gauss-Legendre rule on [-1, 1].
 GAUSS_NODES = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
@@ -119,8 +132,9 @@ class ImuSynthesizer:
     seed : int
     """
 
-    def __init__(self, traj: Trajectory, effects: EffectModel, *, rate_hz: float = 1600.0,
-                 form: str = "rates", seed: int = 0):
+    def __init__(
+        self, traj: Trajectory, effects: EffectModel, *, rate_hz: float = 1600.0, form: str = "rates", seed: int = 0
+    ):
         if form not in ("rates", "increments"):
             raise ValueError(f"form must be 'rates' or 'increments', got {form!r}")
         self.traj = traj
@@ -138,8 +152,10 @@ class ImuSynthesizer:
         self.params = effects.sensor_params()  #: the deterministic effects (sizefx.sensor_model)
         # a new stream goes last: SeedSequence.spawn gives the earlier ones the same numbers
         streams = np.random.SeedSequence(self.seed).spawn(5)
-        self._rng = {name: np.random.default_rng(s)
-                     for name, s in zip(("gyro_white", "accel_white", "gyro_rw", "accel_rw", "accel_markov"), streams)}
+        self._rng = {
+            name: np.random.default_rng(s)
+            for name, s in zip(("gyro_white", "accel_white", "gyro_rw", "accel_rw", "accel_markov"), streams)
+        }
         self._accel_markov = None  # the coloured part's last value, drawn from its stationary law at the start
         self._gyro_rw = np.zeros(3)
         self._accel_rw = np.zeros(3)
@@ -212,19 +228,30 @@ class ImuSynthesizer:
         per_sample = 1.0 if self.form == "rates" else self.dt  # bias -> increment
         white = 1.0 / np.sqrt(self.dt) if self.form == "rates" else np.sqrt(self.dt)
         if fx.enabled("gyro_noise"):
-            gyro += self._rng["gyro_white"].standard_normal((n, 3)) * (fx.get("gyro_noise", "arw_rad_per_sqrt_s") * white)
-            walk, self._gyro_rw = self._random_walk("gyro_rw", fx.get("gyro_noise", "rrw_rad_s_per_sqrt_s"),
-                                                    n, self._gyro_rw)
+            gyro += self._rng["gyro_white"].standard_normal((n, 3)) * (
+                fx.get("gyro_noise", "arw_rad_per_sqrt_s") * white
+            )
+            walk, self._gyro_rw = self._random_walk(
+                "gyro_rw", fx.get("gyro_noise", "rrw_rad_s_per_sqrt_s"), n, self._gyro_rw
+            )
             gyro += walk * per_sample
         if fx.enabled("accel_noise"):
             accel += self._rng["accel_white"].standard_normal((n, 3)) * (
-                fx.get("accel_noise", "density_mps2_per_sqrt_hz") * white)
-            walk, self._accel_rw = self._random_walk("accel_rw", fx.get("accel_noise", "bias_rw_mps2_per_sqrt_s"),
-                                                     n, self._accel_rw)
+                fx.get("accel_noise", "density_mps2_per_sqrt_hz") * white
+            )
+            walk, self._accel_rw = self._random_walk(
+                "accel_rw", fx.get("accel_noise", "bias_rw_mps2_per_sqrt_s"), n, self._accel_rw
+            )
             accel += walk * per_sample
             if fx.get("accel_noise", "markov_density_mps2_per_sqrt_hz") > 0:
-                accel += self._markov(n, fx.get("accel_noise", "markov_density_mps2_per_sqrt_hz"),
-                                      fx.get("accel_noise", "markov_correlation_s")) * per_sample
+                accel += (
+                    self._markov(
+                        n,
+                        fx.get("accel_noise", "markov_density_mps2_per_sqrt_hz"),
+                        fx.get("accel_noise", "markov_correlation_s"),
+                    )
+                    * per_sample
+                )
         if fx.enabled("quantisation"):
             gyro = self._quantise("gyro", gyro, fx.get("quantisation", "gyro_lsb_rad"))
             accel = self._quantise("accel", accel, fx.get("quantisation", "accel_lsb_m_per_s"))
@@ -241,8 +268,10 @@ def _reference_rate(rate_hz: float, reference_rate_hz: float | None) -> float:
     ref_rate = rate_hz if reference_rate_hz is None else float(reference_rate_hz)
     stride = rate_hz / ref_rate
     if abs(stride - round(stride)) > 1e-9 or stride < 1:
-        raise ConfigError(f"--reference-rate-hz {ref_rate:g} must divide the IMU rate {rate_hz:g} Hz "
-                          "(e.g. 100, 200, 400, 800 for 1600 Hz)")
+        raise ConfigError(
+            f"--reference-rate-hz {ref_rate:g} must divide the IMU rate {rate_hz:g} Hz "
+            "(e.g. 100, 200, 400, 800 for 1600 Hz)"
+        )
     return ref_rate
 
 
@@ -262,17 +291,30 @@ class SimulateResult:
 
     def report(self) -> str:
         """The line ``sizefx simulate`` prints."""
-        return (f"wrote {self.path}: {self.samples} samples ({self.duration_s:.1f} s at {self.rate_hz:g} Hz, "
-                f"{self.form}), {self.file_bytes / 2**20:.1f} MiB in {self.wall_s:.1f} s")
+        return (
+            f"wrote {self.path}: {self.samples} samples ({self.duration_s:.1f} s at {self.rate_hz:g} Hz, "
+            f"{self.form}), {self.file_bytes / 2**20:.1f} MiB in {self.wall_s:.1f} s"
+        )
 
     def to_json(self) -> dict:
         return asdict(self)
 
 
-def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel, out, *,
-                     rate_hz: float = 1600.0, form: str = "rates", seed: int = 0,
-                     reference_rate_hz: float | None = None, force: bool = False,
-                     chunk_samples: int = CHUNK_SAMPLES, inputs=(), progress=None) -> SimulateResult:
+def simulate_to_file(
+    traj: Trajectory,
+    scenario_info: dict,
+    effects: EffectModel,
+    out,
+    *,
+    rate_hz: float = 1600.0,
+    form: str = "rates",
+    seed: int = 0,
+    reference_rate_hz: float | None = None,
+    force: bool = False,
+    chunk_samples: int = CHUNK_SAMPLES,
+    inputs=(),
+    progress=None,
+) -> SimulateResult:
     """Simulate ``traj`` and stream it into a ``sizefx/telemetry/1`` file.
 
     ``reference_rate_hz`` defaults to the IMU rate; it must divide it.
@@ -300,13 +342,24 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
         # the wording is stored in every record (and examples/tumble_truth.json must regenerate bit for bit);
         # sizefx.simulate's docstring points on to sizefx.sensor_model
         "model": "see sizefx.simulate: gyro (1+s)(u.omega_ib)+b+G f; accel (1+s)a+K2 a^2+b, "
-                 "a = u_i.(f + omegadot x r_i + omega x (omega x r_i)); gravity gradient neglected",
+        "a = u_i.(f + omegadot x r_i + omega x (omega x r_i)); gravity gradient neglected",
     }
-    description = (f"sizefx {__version__} simulation: {traj.name}, {rate_hz:g} Hz {form}, seed {seed}; "
-                   "truth in /simulation")
-    writer = TelemetryWriter(out, n_samples=syn.n_samples, form=form, n_reference=n_ref,
-                             reference_position=True, reference_velocity=True, site=site,
-                             description=description, simulation=truth, inputs=inputs, force=force)
+    description = (
+        f"sizefx {__version__} simulation: {traj.name}, {rate_hz:g} Hz {form}, seed {seed}; truth in /simulation"
+    )
+    writer = TelemetryWriter(
+        out,
+        n_samples=syn.n_samples,
+        form=form,
+        n_reference=n_ref,
+        reference_position=True,
+        reference_velocity=True,
+        site=site,
+        description=description,
+        simulation=truth,
+        inputs=inputs,
+        force=force,
+    )
     ref_per_chunk = max(1, int(chunk_samples / stride))
     with writer as w:
         done = 0
@@ -319,9 +372,17 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
         for j0 in range(0, n_ref, ref_per_chunk):
             t_ref = np.arange(j0, min(n_ref, j0 + ref_per_chunk)) / ref_rate
             w.write_reference(t_ref, *syn.reference_rows(t_ref))
-    return SimulateResult(path=str(out), scenario=traj.name, samples=syn.n_samples, rate_hz=rate_hz, form=form,
-                          duration_s=traj.duration_s, reference_samples=n_ref,
-                          file_bytes=Path(out).stat().st_size, wall_s=time.perf_counter() - started)
+    return SimulateResult(
+        path=str(out),
+        scenario=traj.name,
+        samples=syn.n_samples,
+        rate_hz=rate_hz,
+        form=form,
+        duration_s=traj.duration_s,
+        reference_samples=n_ref,
+        file_bytes=Path(out).stat().st_size,
+        wall_s=time.perf_counter() - started,
+    )
 
 
 #: Reference rate of the navigation-length records (sway, flight) when none is
@@ -331,10 +392,12 @@ def simulate_to_file(traj: Trajectory, scenario_info: dict, effects: EffectModel
 NAVIGATION_REFERENCE_RATE_HZ = 100.0
 
 #: scenario -> (builder, its plan's class): the motions ``sizefx simulate`` knows.
-SCENARIOS = {"turntable": (scenarios.turntable, scenarios.TurntablePlan),
-             "sway": (scenarios.sway, scenarios.SwayPlan),
-             "flight": (scenarios.flight, scenarios.FlightPlan),
-             "tumble": (scenarios.tumble_scenario, scenarios.TumblePlan)}
+SCENARIOS = {
+    "turntable": (scenarios.turntable, scenarios.TurntablePlan),
+    "sway": (scenarios.sway, scenarios.SwayPlan),
+    "flight": (scenarios.flight, scenarios.FlightPlan),
+    "tumble": (scenarios.tumble_scenario, scenarios.TumblePlan),
+}
 
 
 @dataclass(frozen=True)
@@ -389,8 +452,10 @@ def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
         reference_rate_hz = NAVIGATION_REFERENCE_RATE_HZ
     _reference_rate(config.rate_hz, reference_rate_hz)
     if config.plan_path and config.scenario not in ("turntable", "sway"):
-        raise ConfigError(f"--plan {config.plan_path}: a plan file holds a turntable plan and a sway; the "
-                          f"{config.scenario} scenario takes its own options")
+        raise ConfigError(
+            f"--plan {config.plan_path}: a plan file holds a turntable plan and a sway; the "
+            f"{config.scenario} scenario takes its own options"
+        )
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     build, plan_cls = SCENARIOS[config.scenario]
     plan = config.plan
@@ -401,27 +466,50 @@ def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
         if config.scenario == "turntable":
             plan = scenarios.TurntablePlan(**doc["turntable"])
         elif "sway" not in doc:
-            raise ConfigError(f"{config.plan_path}: the plan has no [sway] (the accelerometers' delay's); design one "
-                              "with sizefx plan --delay-sigma-us and --sway-axes")
+            raise ConfigError(
+                f"{config.plan_path}: the plan has no [sway] (the accelerometers' delay's); design one "
+                "with sizefx plan --delay-sigma-us and --sway-axes"
+            )
         else:
             w = doc["sway"]
-            plan = scenarios.SwayPlan(axis=w["axis"], amplitudes_dps=(w["amplitude_dps"],),
-                                      frequency_hz=w["frequency_hz"], static_s=w["static_s"], segment_s=w["segment_s"])
+            plan = scenarios.SwayPlan(
+                axis=w["axis"],
+                amplitudes_dps=(w["amplitude_dps"],),
+                frequency_hz=w["frequency_hz"],
+                static_s=w["static_s"],
+                segment_s=w["segment_s"],
+            )
         try:
             plan.check()
         except ConfigError as exc:
             raise ConfigError(f"{config.plan_path}: {exc}") from None
     traj, info = build(plan or plan_cls(), config.site or scenarios.PAPER_AIRFIELD)
-    fx = load_effects(config.effects_path, overrides=dict(config.overrides or {}),
-                      base=IDEAL if config.ideal else None)
+    fx = load_effects(config.effects_path, overrides=dict(config.overrides or {}), base=IDEAL if config.ideal else None)
     inputs = [p for p in (config.effects_path, config.plan_path) if p]
-    return simulate_to_file(traj, info, fx, config.output, rate_hz=config.rate_hz, form=config.form,
-                            seed=config.seed, reference_rate_hz=reference_rate_hz, force=config.force,
-                            chunk_samples=config.chunk_samples, inputs=inputs, progress=progress)
+    return simulate_to_file(
+        traj,
+        info,
+        fx,
+        config.output,
+        rate_hz=config.rate_hz,
+        form=config.form,
+        seed=config.seed,
+        reference_rate_hz=reference_rate_hz,
+        force=config.force,
+        chunk_samples=config.chunk_samples,
+        inputs=inputs,
+        progress=progress,
+    )
 
 
-def simulate_in_memory(traj: Trajectory, effects: EffectModel | None = None, *, rate_hz: float = 1600.0,
-                       form: str = "increments", seed: int = 0):
+def simulate_in_memory(
+    traj: Trajectory,
+    effects: EffectModel | None = None,
+    *,
+    rate_hz: float = 1600.0,
+    form: str = "increments",
+    seed: int = 0,
+):
     """A whole record as a :class:`~sizefx.io.telemetry.Telemetry` in memory, reference at the IMU rate.
 
     For short records (algorithm checks, diagnosis experiments); files go through
@@ -432,8 +520,12 @@ def simulate_in_memory(traj: Trajectory, effects: EffectModel | None = None, *, 
     t, g, a = syn.next_chunk(syn.n_samples)
     t_ref = np.arange(0, int(np.floor(traj.duration_s * rate_hz + 1e-9)) + 1) / rate_hz
     q, lat, lon, h, v = syn.reference_rows(t_ref)
-    tel = Telemetry(time_s=t, form=form, reference=Reference(t_ref, q, lat, lon, h, v),
-                    site=Site(float(lat[0]), float(lon[0]), float(h[0])))
+    tel = Telemetry(
+        time_s=t,
+        form=form,
+        reference=Reference(t_ref, q, lat, lon, h, v),
+        site=Site(float(lat[0]), float(lon[0]), float(h[0])),
+    )
     if form == "rates":
         tel.gyro_rad_s, tel.accel_mps2 = g, a
     else:

@@ -50,8 +50,13 @@ def use_helper_threads(allowed: bool) -> None:
     _helper_threads = bool(allowed)
 
 
-def preflight(*, inputs: Mapping[str, object], outputs: Mapping[str, object], force: bool = False,
-              folders: Mapping[str, object] | None = None) -> None:
+def preflight(
+    *,
+    inputs: Mapping[str, object],
+    outputs: Mapping[str, object],
+    force: bool = False,
+    folders: Mapping[str, object] | None = None,
+) -> None:
     """Refuse, before any work, what would fail later or destroy something.
 
     ``inputs`` and ``outputs`` map the option that named each file to its path (None: not

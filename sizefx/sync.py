@@ -44,17 +44,19 @@ def _by_three(values, rows: int, name: str, call):
             y, part = np.ascontiguousarray(v2), out
         else:
             y = np.zeros((v2.shape[0], 3))
-            y[:, :min(3, n_ch - c0)] = v2[:, c0:c0 + 3]
+            y[:, : min(3, n_ch - c0)] = v2[:, c0 : c0 + 3]
             part = np.empty((rows, 3))
         bad_knot, bad_target = call(y, part)
         if bad_knot >= 0:
-            raise ValueError(f"{name}: the times must increase strictly and be finite; they do not at row "
-                             f"{bad_knot + 1}")
+            raise ValueError(
+                f"{name}: the times must increase strictly and be finite; they do not at row {bad_knot + 1}"
+            )
         if bad_target >= 0:
-            raise ValueError(f"{name}: the target times must be finite and non-decreasing; they are not at "
-                             f"row {bad_target}")
+            raise ValueError(
+                f"{name}: the target times must be finite and non-decreasing; they are not at row {bad_target}"
+            )
         if part is not out:
-            out[:, c0:c0 + 3] = part[:, :min(3, n_ch - c0)]
+            out[:, c0 : c0 + 3] = part[:, : min(3, n_ch - c0)]
     return out[:, 0] if flat else out.reshape((rows,) + v.shape[1:])
 
 
@@ -69,11 +71,11 @@ def resample_onto(values, t_from, t_to):
     """
     x, t = _times("t_from", t_from), _times("t_to", t_to)
     if x.size < 2 or np.shape(values)[:1] != (x.size,):
-        raise ValueError(f"resample_onto: {np.shape(values)} values at {x.size} times; need the same number, "
-                         "at least 2")
+        raise ValueError(
+            f"resample_onto: {np.shape(values)} values at {x.size} times; need the same number, at least 2"
+        )
     inv_h, u, d = np.empty(x.size - 1), np.empty(x.size), np.empty((x.size, 3))
-    return _by_three(values, t.size, "resample_onto",
-                     lambda y, out: _sync.resample(x, y, t, inv_h, u, d, out))
+    return _by_three(values, t.size, "resample_onto", lambda y, out: _sync.resample(x, y, t, inv_h, u, d, out))
 
 
 def _edges(t):
@@ -97,12 +99,15 @@ def resample_increments(incr, t_end_from, t_end_to):
     """
     x, f = _times("t_end_from", t_end_from), _times("t_end_to", t_end_to)
     if x.size < 2 or f.size < 2 or np.shape(incr)[:1] != (x.size,):
-        raise ValueError(f"resample_increments: {np.shape(incr)} increments ending at {x.size} times onto "
-                         f"{f.size}; need the same number, at least 2 of each")
+        raise ValueError(
+            f"resample_increments: {np.shape(incr)} increments ending at {x.size} times onto "
+            f"{f.size}; need the same number, at least 2 of each"
+        )
     e, g = _edges(x), _edges(f)
     inv_h, u, d = np.empty(e.size - 1), np.empty(e.size), np.empty((e.size, 3))
-    return _by_three(incr, f.size, "resample_increments",
-                     lambda y, out: _sync.resample_increments(e, y, g, inv_h, u, d, out))
+    return _by_three(
+        incr, f.size, "resample_increments", lambda y, out: _sync.resample_increments(e, y, g, inv_h, u, d, out)
+    )
 
 
 def sync_accelerometers(tel: Telemetry, tau_s: float = 0.0) -> Telemetry:

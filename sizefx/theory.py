@@ -29,13 +29,17 @@ def coning_residual_rad_s(freq_hz: float, half_angle_rad: float, n_sub: int, sam
     T = n_sub * h
     k = coning_coefficients(n_sub)
     true = 0.5 * a * a * (w * T - np.sin(w * T))
-    alg = sum(k[i, j] * 4 * a * a * np.sin(w * h / 2) ** 2 * np.sin((j - i) * w * h)
-              for i in range(n_sub) for j in range(i + 1, n_sub))
+    alg = sum(
+        k[i, j] * 4 * a * a * np.sin(w * h / 2) ** 2 * np.sin((j - i) * w * h)
+        for i in range(n_sub)
+        for j in range(i + 1, n_sub)
+    )
     return float((true - alg) / T)
 
 
-def sculling_residual_mps2(freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, n_sub: int,
-                           sample_s: float) -> float:
+def sculling_residual_mps2(
+    freq_hz: float, angle_amp_rad: float, accel_amp_mps2: float, n_sub: int, sample_s: float
+) -> float:
     """Rectified velocity error [m/s^2] left by the n_sub-sample sculling correction (signed).
 
     Motion: angle A sin(Omega t) about one axis, specific force B sin(Omega t) along a
@@ -55,8 +59,9 @@ def sculling_residual_mps2(freq_hz: float, angle_amp_rad: float, accel_amp_mps2:
         return A * B / w * (sc(i, j - 1) - sc(i, j) - sc(i - 1, j - 1) + sc(i - 1, j))
 
     total = A * B / w * (sc(n_sub, 0) - sc(n_sub, n_sub) - sc(0, 0) + sc(0, n_sub))
-    alg = 0.5 * total + sum(k[i - 1, j - 1] * (a_u(i, j) - a_u(j, i))
-                            for i in range(1, n_sub + 1) for j in range(i + 1, n_sub + 1))
+    alg = 0.5 * total + sum(
+        k[i - 1, j - 1] * (a_u(i, j) - a_u(j, i)) for i in range(1, n_sub + 1) for j in range(i + 1, n_sub + 1)
+    )
     true = A * B * (T / 2 - np.sin(w * T) / (2 * w))
     return float((alg - true) / T)
 

@@ -39,7 +39,6 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-
 from support import RATE_HZ, write_raw, write_root_attributes
 
 #: The command exits 2 (bad input or option), with one line.
@@ -110,11 +109,22 @@ class Case:
 def _levers_doc():
     """A valid ``sizefx/levers/1`` document: the paper's high-precision arms, from the rotation centre."""
     d = 0.0249  # m, the high-precision preset's arm
-    return {"schema": "sizefx/levers/1", "reference_point": "rotation-center",
-            "r_x": [d, 0.0, 0.0], "r_y": [0.0, d, 0.0], "r_z": [0.0, 0.0, d],
-            "sigma_x": None, "sigma_y": None, "sigma_z": None, "offset": [0.0, 0.0, 0.0],
-            "d_x": [d, 0.0, 0.0], "d_y": [0.0, d, 0.0], "d_z": [0.0, 0.0, d],
-            "tilt_arcsec": None, "accel_delay_s": None}
+    return {
+        "schema": "sizefx/levers/1",
+        "reference_point": "rotation-center",
+        "r_x": [d, 0.0, 0.0],
+        "r_y": [0.0, d, 0.0],
+        "r_z": [0.0, 0.0, d],
+        "sigma_x": None,
+        "sigma_y": None,
+        "sigma_z": None,
+        "offset": [0.0, 0.0, 0.0],
+        "d_x": [d, 0.0, 0.0],
+        "d_y": [0.0, d, 0.0],
+        "d_z": [0.0, 0.0, d],
+        "tilt_arcsec": None,
+        "accel_delay_s": None,
+    }
 
 
 VALID_EFFECTS_TOML = """schema = "sizefx/effects/1"
@@ -143,6 +153,7 @@ CSV_OPTIONS = ("--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az", "--si
 # Each takes the open h5py.File of a valid record (tests/support.py::write_raw) and breaks it
 # in one way. The value is (mutate, expected exit codes of inspect, of navigate).
 
+
 def _set(name, fn):
     def mutate(h5):
         data = h5[name][()]
@@ -152,6 +163,7 @@ def _set(name, fn):
         ds = h5.create_dataset(name, data=data)
         if units is not None:
             ds.attrs["units"] = units
+
     return mutate
 
 
@@ -160,6 +172,7 @@ def _poke(name, index, value):
         a = np.array(a)
         a[index] = value
         return a
+
     return _set(name, fn)
 
 
@@ -171,6 +184,7 @@ def _replace(name, data, units=None):
         u = units if units is not None else old_units
         if u is not None:
             ds.attrs["units"] = u
+
     return mutate
 
 
@@ -180,6 +194,7 @@ def _attr(obj, key, value):
             del h5[obj].attrs[key]
         else:
             h5[obj].attrs[key] = value
+
     return mutate
 
 
@@ -227,6 +242,7 @@ def _ref_velocity(value):
     def mutate(h5):
         m = h5["reference/time"].shape[0]
         h5.create_dataset("reference/velocity", data=np.full((m, 3), value)).attrs["units"] = "m/s"
+
     return mutate
 
 
@@ -235,6 +251,7 @@ def _ref_position(lat_deg):
         m = h5["reference/time"].shape[0]
         pos = np.tile([lat_deg, 55.7089, 120.0], (m, 1))
         h5.create_dataset("reference/position", data=pos).attrs["units"] = "deg,deg,m"
+
     return mutate
 
 
@@ -242,6 +259,7 @@ def _accel_time(fn):
     def mutate(h5):
         t = h5["imu/time"][()]
         h5.create_dataset("imu/accel_time", data=fn(t)).attrs["units"] = "s"
+
     return mutate
 
 
@@ -263,14 +281,17 @@ def _strings(name):
         del h5[name]
         data = np.full(shape, "abc", dtype=object)
         h5.create_dataset(name, data=data, dtype=h5py.string_dtype()).attrs["units"] = units
+
     return mutate
 
 
 def _simulation_truth(text):
     """A /simulation group whose truth_json attribute is ``text`` (the reader parses it)."""
+
     def mutate(h5):
         g = h5.create_group("simulation")
         g.attrs["truth_json"] = text
+
     return mutate
 
 
@@ -284,8 +305,7 @@ DEEP_ATTRIBUTE_JSON = 20_000
 
 HDF5_BREAKERS = {
     # JSON inside an attribute: parsed by the reader, so bounded like a JSON file
-    "simulation-truth-deep": (_simulation_truth("[" * DEEP_ATTRIBUTE_JSON + "]" * DEEP_ATTRIBUTE_JSON), REFUSE,
-                              REFUSE),
+    "simulation-truth-deep": (_simulation_truth("[" * DEEP_ATTRIBUTE_JSON + "]" * DEEP_ATTRIBUTE_JSON), REFUSE, REFUSE),
     "simulation-truth-huge-int": (_simulation_truth('{"seed": 1' + "0" * 5000 + "}"), REFUSE, REFUSE),
     # links and structure
     "soft-link-cycle-gyro": (_soft_cycle_gyro, REFUSE, REFUSE),
@@ -358,11 +378,20 @@ HDF5_BREAKERS = {
 
 #: Breakers also fed to the commands that read a record in other ways (compensate's
 #: accelerometer re-stamping, calibrate's and diagnose's reference use, compare's reader).
-CONSUMER_KINDS = ("accel-time-decreasing", "accel-nan", "gyro-1e300", "time-last-stamp-zero",
-                  "reference-velocity-1e30", "quaternion-zero", "soft-link-cycle-gyro", "gyro-shape-n-2")
+CONSUMER_KINDS = (
+    "accel-time-decreasing",
+    "accel-nan",
+    "gyro-1e300",
+    "time-last-stamp-zero",
+    "reference-velocity-1e30",
+    "quaternion-zero",
+    "soft-link-cycle-gyro",
+    "gyro-shape-n-2",
+)
 
 
 # --------------------------------------------------------------------------- document breakers
+
 
 def _deep_json():
     return ("[" * DEEP_DOCUMENT + "]" * DEEP_DOCUMENT).encode()
@@ -396,33 +425,43 @@ LEVERS_BREAKERS = {
 
 
 TOML_BREAKERS = {
-    "toml-deep-array-100000": (b"schema = \"sizefx/effects/1\"\nx = " + _deep_json() + b"\n", REFUSE),
-    "toml-deep-inline-table-100000": (b"x = " + b"{a = " * DEEP_DOCUMENT + b"1" + b"}" * DEEP_DOCUMENT + b"\n",
-                                      REFUSE),
+    "toml-deep-array-100000": (b'schema = "sizefx/effects/1"\nx = ' + _deep_json() + b"\n", REFUSE),
+    "toml-deep-inline-table-100000": (b"x = " + b"{a = " * DEEP_DOCUMENT + b"1" + b"}" * DEEP_DOCUMENT + b"\n", REFUSE),
     "toml-deep-dotted-key-100000": (b"[" + b".".join([b"a"] * DEEP_DOCUMENT) + b"]\nx = 1\n", REFUSE),
     "toml-invalid-utf8": (b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true # \xff\xfe\n', REFUSE),
     "toml-not-toml": (b"this is not = = toml [\n", REFUSE),
     "toml-binary-garbage": (bytes(range(256)) * 40, REFUSE),
-    "toml-huge-int": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = 1'
-                      + b"0" * 5000 + b"\n", REFUSE),
+    "toml-huge-int": (
+        b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = 1' + b"0" * 5000 + b"\n",
+        REFUSE,
+    ),
     "toml-huge-float": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = 1e400\n', REFUSE),
     "toml-nan": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = nan\n', REFUSE),
-    "toml-inf-in-vector": (b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [inf, 0.0, 0.0]\n',
-                           REFUSE),
-    "toml-1e300-bias": (b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [1e300, 0.0, 0.0]\n',
-                        REFUSE),
-    "toml-string-for-number": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = "fast"\n',
-                               REFUSE),
+    "toml-inf-in-vector": (
+        b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [inf, 0.0, 0.0]\n',
+        REFUSE,
+    ),
+    "toml-1e300-bias": (
+        b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [1e300, 0.0, 0.0]\n',
+        REFUSE,
+    ),
+    "toml-string-for-number": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = "fast"\n', REFUSE),
     "toml-string-for-bool": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = "yes"\n', REFUSE),
-    "toml-vector-two-numbers": (b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [1.0, 2.0]\n',
-                                REFUSE),
-    "toml-vector-mixed-types": (b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\n'
-                                b'bias_ug = [1.0, "x", {a = 1}]\n', REFUSE),
+    "toml-vector-two-numbers": (
+        b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [1.0, 2.0]\n',
+        REFUSE,
+    ),
+    "toml-vector-mixed-types": (
+        b'schema = "sizefx/effects/1"\n[accel_bias]\nenabled = true\nbias_ug = [1.0, "x", {a = 1}]\n',
+        REFUSE,
+    ),
     "toml-section-is-a-number": (b'schema = "sizefx/effects/1"\naccel_bias = 3\n', REFUSE),
     "toml-unknown-section": (b'schema = "sizefx/effects/1"\n[warp_drive]\nenabled = true\n', REFUSE),
     "toml-wrong-schema": (b'schema = "sizefx/effects/99"\n', REFUSE),
-    "toml-datetime-for-number": (b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\n'
-                                 b'tau_s = 1979-05-27T07:32:00Z\n', REFUSE),
+    "toml-datetime-for-number": (
+        b'schema = "sizefx/effects/1"\n[accel_delay]\nenabled = true\ntau_s = 1979-05-27T07:32:00Z\n',
+        REFUSE,
+    ),
 }
 
 
@@ -474,10 +513,27 @@ BASES = {
 
 #: Options whose value must be positive (a rate, a duration, a count, a seed numpy accepts):
 #: -1 must be refused.
-POSITIVE = {"--rate-hz", "--reference-rate-hz", "--duration-h", "--duration-s", "--seconds-per-axis",
-            "--static-s", "--segment-s", "--frequency-hz", "--accel-dps2", "--speed-mps", "--align-s",
-            "--output-rate-hz", "--bandwidth-hz", "--rotor-hz", "--cycles", "--subsamples",
-            "--chunk-samples", "--segment", "--seed"}
+POSITIVE = {
+    "--rate-hz",
+    "--reference-rate-hz",
+    "--duration-h",
+    "--duration-s",
+    "--seconds-per-axis",
+    "--static-s",
+    "--segment-s",
+    "--frequency-hz",
+    "--accel-dps2",
+    "--speed-mps",
+    "--align-s",
+    "--output-rate-hz",
+    "--bandwidth-hz",
+    "--rotor-hz",
+    "--cycles",
+    "--subsamples",
+    "--chunk-samples",
+    "--segment",
+    "--seed",
+}
 #: Positive options where 0 has a documented meaning or is harmless: every navigation interval
 #: (``--output-rate-hz 0``), the whole record (``--chunk-samples 0``), no static lead-in, seed 0.
 ZERO_LEGAL = {"--output-rate-hz", "--chunk-samples", "--static-s", "--seed", "--align-s"}
@@ -572,8 +628,8 @@ def _templates(root: Path):
     model.write_text(VALID_EFFECTS_TOML)
     csv = t / "log.csv"
     csv.write_text(_csv_text())
-    from sizefx.simulate import SimulateConfig, run  # the one sizefx call: a valid tumble record for diagnose
     from sizefx import scenarios
+    from sizefx.simulate import SimulateConfig, run  # the one sizefx call: a valid tumble record for diagnose
 
     tumble = t / "tumble.h5"
     run(SimulateConfig("tumble", str(tumble), plan=scenarios.TumblePlan(duration_s=20.0), rate_hz=100.0, seed=0))
@@ -585,8 +641,16 @@ def option_case(root, path, flag, value, name) -> Case:
     ``root`` (for hypothesis, which draws the option and the value)."""
     root = Path(root)
     valid = root / "_valid"
-    f = _Folder(root, {"rec": valid / "rec.h5", "levers": valid / "levers.json", "model": valid / "model.toml",
-                       "csv": valid / "log.csv", "tumble": valid / "tumble.h5"})
+    f = _Folder(
+        root,
+        {
+            "rec": valid / "rec.h5",
+            "levers": valid / "levers.json",
+            "model": valid / "model.toml",
+            "csv": valid / "log.csv",
+            "tumble": valid / "tumble.h5",
+        },
+    )
     d = f.new(name)
     argv, kept = _fill(tuple(path), d, f)
     return Case(name, argv + (flag, value), d, tuple(kept), option_expectation(flag, value), (flag,))
@@ -637,8 +701,12 @@ def byte_flip_case(root, name, rng, kind) -> Case:
     """A valid input (``kind``: rec, levers, model or csv, from ``root/_valid``) with a few random
     bytes overwritten: the command may accept it or refuse it, within every other promise."""
     valid = Path(root) / "_valid"
-    src = {"rec": valid / "rec.h5", "levers": valid / "levers.json", "model": valid / "model.toml",
-           "csv": valid / "log.csv"}[kind]
+    src = {
+        "rec": valid / "rec.h5",
+        "levers": valid / "levers.json",
+        "model": valid / "model.toml",
+        "csv": valid / "log.csv",
+    }[kind]
     d = Path(root) / name
     d.mkdir(parents=True)
     data = bytearray(src.read_bytes())
@@ -661,10 +729,25 @@ def byte_flip_case(root, name, rng, kind) -> Case:
 
 #: Modules a forked case would otherwise import on its own (diagnose alone takes 1.5 s):
 #: imported once in the parent, before any fork.
-WARM_IMPORTS = ("sizefx.diagnose", "sizefx.navigate", "sizefx.compensate", "sizefx.calibrate", "sizefx.compare",
-                "sizefx.importers", "sizefx.inspect", "sizefx.simulate", "sizefx.correct", "sizefx.scenarios",
-                "scipy.signal", "scipy.optimize", "scipy.stats", "scipy.interpolate", "scipy.integrate",
-                "matplotlib", "matplotlib.pyplot")
+WARM_IMPORTS = (
+    "sizefx.diagnose",
+    "sizefx.navigate",
+    "sizefx.compensate",
+    "sizefx.calibrate",
+    "sizefx.compare",
+    "sizefx.importers",
+    "sizefx.inspect",
+    "sizefx.simulate",
+    "sizefx.correct",
+    "sizefx.scenarios",
+    "scipy.signal",
+    "scipy.optimize",
+    "scipy.stats",
+    "scipy.interpolate",
+    "scipy.integrate",
+    "matplotlib",
+    "matplotlib.pyplot",
+)
 
 
 def warm_imports():
@@ -721,24 +804,40 @@ def _baseline_cases(f):
     out.append(Case("valid-navigate", _nav(rec, d), d, (rec,), ACCEPT))
     d = f.new("valid-compensate-levers")
     rec, lev = f.copy(d, "rec"), f.copy(d, "levers")
-    out.append(Case("valid-compensate-levers", ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5")),
-                    d, (rec, lev), ACCEPT))
+    out.append(
+        Case(
+            "valid-compensate-levers",
+            ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5")),
+            d,
+            (rec, lev),
+            ACCEPT,
+        )
+    )
     d = f.new("valid-compensate-model")
     rec, model = f.copy(d, "rec"), f.copy(d, "model")
-    out.append(Case("valid-compensate-model", ("compensate", str(rec), "--model", str(model), "-o", str(d / "c.h5")),
-                    d, (rec, model), ACCEPT))
+    out.append(
+        Case(
+            "valid-compensate-model",
+            ("compensate", str(rec), "--model", str(model), "-o", str(d / "c.h5")),
+            d,
+            (rec, model),
+            ACCEPT,
+        )
+    )
     d = f.new("valid-import-csv")
     csv = f.copy(d, "csv")
-    out.append(Case("valid-import-csv", ("import", "csv", str(csv), "-o", str(d / "o.h5"), *CSV_OPTIONS),
-                    d, (csv,), ACCEPT))
+    out.append(
+        Case("valid-import-csv", ("import", "csv", str(csv), "-o", str(d / "o.h5"), *CSV_OPTIONS), d, (csv,), ACCEPT)
+    )
     return out
 
 
 def _hdf5_cases(f):
     out = []
     for kind, (mutate, inspect_expect, nav_expect) in HDF5_BREAKERS.items():
-        for command in ("inspect", "navigate") + (("compensate", "calibrate", "diagnose", "compare")
-                                                   if kind in CONSUMER_KINDS else ()):
+        for command in ("inspect", "navigate") + (
+            ("compensate", "calibrate", "diagnose", "compare") if kind in CONSUMER_KINDS else ()
+        ):
             name = f"{kind}-{command}"
             d = f.new(name)
             rec = write_raw(d / "rec.h5", mutate=mutate)
@@ -766,8 +865,12 @@ def _hdf5_cases(f):
         name = f"many-gaps-allowed-{command}"
         d = f.new(name)
         steps = np.tile([1.0, 1.0, 3.0], MANY_GAPS_ROWS // 3) / RATE_HZ  # median step 1 period: 3 is a gap
-        rec = write_raw(d / "rec.h5", n=MANY_GAPS_ROWS, reference=False,
-                        mutate=_replace("imu/time", np.concatenate([[0.0], np.cumsum(steps)[:-1]])))
+        rec = write_raw(
+            d / "rec.h5",
+            n=MANY_GAPS_ROWS,
+            reference=False,
+            mutate=_replace("imu/time", np.concatenate([[0.0], np.cumsum(steps)[:-1]])),
+        )
         argv = ("inspect", str(rec)) if command == "inspect" else _nav(rec, d)
         out.append(Case(name, argv + ("--allow-gaps",), d, (rec,), REFUSE, (str(rec),)))
     for n in range(1, 6):
@@ -809,6 +912,7 @@ def _file_kind_cases(f):
             data = rec.read_bytes()
             rec.write_bytes(data[: int(len(data) * fraction)])
             return rec
+
         return make
 
     def text(d):
@@ -872,8 +976,12 @@ def _document_cases(f):
             out.append(Case(name, argv, d, (rec, lev), expect, (str(lev),)))
     for kind, (data, expect) in TOML_BREAKERS.items():
         for command in ("compensate", "simulate", "navigate", "diagnose"):
-            if command in ("navigate", "diagnose") and ("deep" not in kind or "dotted" in kind) \
-                    and "utf8" not in kind and "huge" not in kind:
+            if (
+                command in ("navigate", "diagnose")
+                and ("deep" not in kind or "dotted" in kind)
+                and "utf8" not in kind
+                and "huge" not in kind
+            ):
                 continue  # every breaker through two readers (--model, --effects); parser-level ones through all
             name = f"{kind}-{command}"
             d = f.new(name)
@@ -885,8 +993,19 @@ def _document_cases(f):
                 kept.append(rec)
                 argv = ("compensate", str(rec), "--model", str(model), "-o", str(d / "c.h5"))
             elif command == "simulate":
-                argv = ("simulate", "tumble", "-o", str(d / "s.h5"), "-q", "--rate-hz", "100", "--duration-s", "2",
-                        "--effects", str(model))
+                argv = (
+                    "simulate",
+                    "tumble",
+                    "-o",
+                    str(d / "s.h5"),
+                    "-q",
+                    "--rate-hz",
+                    "100",
+                    "--duration-s",
+                    "2",
+                    "--effects",
+                    str(model),
+                )
             elif command == "navigate":
                 rec = f.copy(d, "rec")
                 kept.append(rec)
@@ -897,14 +1016,29 @@ def _document_cases(f):
                 argv = ("diagnose", str(rec), "--model", str(model), "--json", str(d / "d.json"), "--no-navigation")
             out.append(Case(name, argv, d, tuple(kept), expect, (str(model),)))
     # --set goes through the same TOML value parser
-    for kind, value in (("set-nan", "accel_bias.bias_ug=[nan,0,0]"), ("set-inf", "accel_delay.tau_s=inf"),
-                        ("set-1e308", "accel_delay.tau_s=1e308"), ("set-1e300-arm", "lever_arm.r0_m=[1e300,0,0]"),
-                        ("set-deep-array", "accel_bias.bias_ug=" + "[" * 5000 + "]" * 5000),
-                        ("set-huge-int", "accel_delay.tau_s=1" + "0" * 5000)):
+    for kind, value in (
+        ("set-nan", "accel_bias.bias_ug=[nan,0,0]"),
+        ("set-inf", "accel_delay.tau_s=inf"),
+        ("set-1e308", "accel_delay.tau_s=1e308"),
+        ("set-1e300-arm", "lever_arm.r0_m=[1e300,0,0]"),
+        ("set-deep-array", "accel_bias.bias_ug=" + "[" * 5000 + "]" * 5000),
+        ("set-huge-int", "accel_delay.tau_s=1" + "0" * 5000),
+    ):
         name = f"{kind}-simulate"
         d = f.new(name)
-        argv = ("simulate", "tumble", "-o", str(d / "s.h5"), "-q", "--rate-hz", "100", "--duration-s", "2",
-                "--set", value)
+        argv = (
+            "simulate",
+            "tumble",
+            "-o",
+            str(d / "s.h5"),
+            "-q",
+            "--rate-hz",
+            "100",
+            "--duration-s",
+            "2",
+            "--set",
+            value,
+        )
         out.append(Case(name, argv, d, (), REFUSE, ("--set", value.split("=")[0])))  # or its key: _spellings
     return out
 
@@ -921,9 +1055,16 @@ def _csv_cases(f):
         out.append(Case(name, argv, d, (src,), expect, (str(src),)))
     d = f.new("csv-samples-without-rate-import")
     src = f.copy(d, "csv")
-    out.append(Case("csv-samples-without-rate-import",
-                    ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--time-units", "samples"),
-                    d, (src,), REFUSE, (str(src), "--rate-hz")))
+    out.append(
+        Case(
+            "csv-samples-without-rate-import",
+            ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--time-units", "samples"),
+            d,
+            (src,),
+            REFUSE,
+            (str(src), "--rate-hz"),
+        )
+    )
     return out
 
 
@@ -966,8 +1107,12 @@ def _output_cases(f):
 
     def model_out_is_input(d):
         rec, model = f.copy(d, "tumble"), f.copy(d, "model")
-        return (["diagnose", rec, "--model", model, "--model-out", model, "--force", "--no-navigation"],
-                [rec, model], [str(model)], [])
+        return (
+            ["diagnose", rec, "--model", model, "--model-out", model, "--force", "--no-navigation"],
+            [rec, model],
+            [str(model)],
+            [],
+        )
 
     def symlink_to_input(d):
         rec = f.copy(d, "rec")
@@ -993,8 +1138,12 @@ def _output_cases(f):
         plots.mkdir()
         old = plots / "residuals.png"
         old.write_bytes(b"an older figure the user wants to keep")
-        return (["diagnose", rec, "--plots", plots, "--json", d / "d.json", "--no-navigation"], [rec, old],
-                [str(plots), str(old)], [])
+        return (
+            ["diagnose", rec, "--plots", plots, "--json", d / "d.json", "--no-navigation"],
+            [rec, old],
+            [str(plots), str(old)],
+            [],
+        )
 
     def plots_is_file(d):
         rec = f.copy(d, "tumble")
@@ -1009,8 +1158,12 @@ def _output_cases(f):
 
     def output_is_dir(d):
         (d / "s.h5").mkdir()
-        return (["simulate", "tumble", "-o", d / "s.h5", "-q", "--rate-hz", "100", "--duration-s", "2", "--force"],
-                [], [str(d / "s.h5")], [])
+        return (
+            ["simulate", "tumble", "-o", d / "s.h5", "-q", "--rate-hz", "100", "--duration-s", "2", "--force"],
+            [],
+            [str(d / "s.h5")],
+            [],
+        )
 
     def no_such_dir(d):
         rec = f.copy(d, "rec")
@@ -1056,9 +1209,13 @@ def _output_cases(f):
     case("output-exists-without-force", output_exists)
     case("output-is-a-directory", output_is_dir)
     case("output-in-missing-directory", no_such_dir)
-    case("output-in-unwritable-directory", unwritable_dir,
-         skip="running as root: permission bits do not bind root (the /proc case covers it)"
-         if os.geteuid() == 0 else None)
+    case(
+        "output-in-unwritable-directory",
+        unwritable_dir,
+        skip="running as root: permission bits do not bind root (the /proc case covers it)"
+        if os.geteuid() == 0
+        else None,
+    )
     case("output-in-proc", proc_dir)
     case("calibrate-json-is-the-record", calibrate_json_is_record)
     case("compare-json-is-b", compare_json_is_b)
@@ -1077,8 +1234,10 @@ def _fill(path, folder, f):
     """A base command line from :data:`BASES` with fresh inputs in ``folder``."""
     template = BASES[path]
     kept = []
-    subs = {"out": str(folder / "out.json" if path == ("diagnose",) else folder / "out.h5"),
-            "out2": str(folder / "model.toml")}
+    subs = {
+        "out": str(folder / "out.json" if path == ("diagnose",) else folder / "out.h5"),
+        "out2": str(folder / "model.toml"),
+    }
     for key in ("rec", "tumble", "csv", "levers"):
         if "{" + key + "}" in template:
             p = f.copy(folder, key)
@@ -1097,8 +1256,16 @@ def numeric_option_cases(f) -> list:
         if flag not in POSITIVE:  # -1, 0 and 1e-300 are ordinary values of a latitude or a heading
             values = tuple(v for v in values if v not in SIGN_VALUES) + ("-1e308",)
         for value in values:
-            label = {"nan": "nan", "inf": "inf", "-inf": "minus-inf", "1e308": "1e308", "-1": "minus-1", "0": "zero",
-                     "1e-300": "1e-300", "-1e308": "minus-1e308"}.get(value, "1e30")
+            label = {
+                "nan": "nan",
+                "inf": "inf",
+                "-inf": "minus-inf",
+                "1e308": "1e308",
+                "-1": "minus-1",
+                "0": "zero",
+                "1e-300": "1e-300",
+                "-1e308": "minus-1e308",
+            }.get(value, "1e30")
             name = f"option-{'-'.join(path)}{flag}-{label}"
             d = f.new(name)
             argv, kept = _fill(path, d, f)
@@ -1159,8 +1326,20 @@ def write_huge_declared_valid_start(path, rows: int = HUGE_DECLARED_ROWS):
 
 #: Long-running or huge command lines: each must be refused, or finish, within the time limit.
 HANG_CANDIDATES = {
-    "hang-flight-altitude-minus-1e7": ("simulate", "flight", "--altitude-m", "-1e7", "--rate-hz", "50",
-                                       "--reference-rate-hz", "10", "--duration-h", "0.3", "--align-s", "10"),
+    "hang-flight-altitude-minus-1e7": (
+        "simulate",
+        "flight",
+        "--altitude-m",
+        "-1e7",
+        "--rate-hz",
+        "50",
+        "--reference-rate-hz",
+        "10",
+        "--duration-h",
+        "0.3",
+        "--align-s",
+        "10",
+    ),
     "hang-flight-duration-1e6-h": ("simulate", "flight", "--duration-h", "1e6"),
     "hang-tumble-duration-1e12-s": ("simulate", "tumble", "--duration-s", "1e12"),
     "hang-tumble-rate-1e9-hz": ("simulate", "tumble", "--duration-s", "1", "--rate-hz", "1e9"),
@@ -1175,9 +1354,11 @@ HANG_CANDIDATES = {
 def resource_cases(f, *, bomb_rows: int = BOMB_ROWS) -> list:
     """Memory bombs and hang candidates: subprocess cases, peak RSS measured."""
     out = []
-    for kind, writer in (("gzip-bomb", lambda p: write_gzip_bomb(p, bomb_rows)),
-                         ("huge-declared-shape", write_huge_declared),
-                         ("huge-declared-valid-start", write_huge_declared_valid_start)):
+    for kind, writer in (
+        ("gzip-bomb", lambda p: write_gzip_bomb(p, bomb_rows)),
+        ("huge-declared-shape", write_huge_declared),
+        ("huge-declared-valid-start", write_huge_declared_valid_start),
+    ):
         for command in ("inspect", "navigate", "compensate"):
             name = f"{kind}-{command}"
             d = f.new(name)
@@ -1194,17 +1375,44 @@ def resource_cases(f, *, bomb_rows: int = BOMB_ROWS) -> list:
     fifo = d / "rec.h5"
     os.mkfifo(fifo)
     out.append(Case("fifo-input-inspect", ("inspect", str(fifo)), d, (), REFUSE, (str(fifo),), resource=True))
-    out.append(Case("dev-zero-input-inspect", ("inspect", "/dev/zero"), f.new("dev-zero-input-inspect"), (), REFUSE,
-                    ("/dev/zero",), resource=True))
+    out.append(
+        Case(
+            "dev-zero-input-inspect",
+            ("inspect", "/dev/zero"),
+            f.new("dev-zero-input-inspect"),
+            (),
+            REFUSE,
+            ("/dev/zero",),
+            resource=True,
+        )
+    )
     # a pipe or a device where a TOML model belongs: opening a FIFO blocks until a writer comes
     d = f.new("fifo-model-simulate")
     fifo = d / "model.toml"
     os.mkfifo(fifo)
-    out.append(Case("fifo-model-simulate", ("simulate", "tumble", "-o", str(d / "t.h5"), "--effects", str(fifo)), d,
-                    (), REFUSE, (str(fifo),), resource=True))
+    out.append(
+        Case(
+            "fifo-model-simulate",
+            ("simulate", "tumble", "-o", str(d / "t.h5"), "--effects", str(fifo)),
+            d,
+            (),
+            REFUSE,
+            (str(fifo),),
+            resource=True,
+        )
+    )
     d = f.new("dev-zero-model-simulate")
-    out.append(Case("dev-zero-model-simulate", ("simulate", "tumble", "-o", str(d / "t.h5"), "--effects", "/dev/zero"),
-                    d, (), REFUSE, ("/dev/zero",), resource=True))
+    out.append(
+        Case(
+            "dev-zero-model-simulate",
+            ("simulate", "tumble", "-o", str(d / "t.h5"), "--effects", "/dev/zero"),
+            d,
+            (),
+            REFUSE,
+            ("/dev/zero",),
+            resource=True,
+        )
+    )
     return out
 
 
@@ -1225,6 +1433,7 @@ IN_PROCESS_LIMIT_S = 15.0
 #: Seconds a subprocess case may take: start-up is ~0.6 s and a refusal must come before any
 #: bulk work, so 20 s means the command went on reading or computing.
 SUBPROCESS_LIMIT_S = 20.0
+
 
 @dataclass
 class Outcome:
@@ -1309,12 +1518,12 @@ def _fork_invoke(argv, cwd, result_file):
         if res.exception is not None and not isinstance(res.exception, SystemExit):
             tb = "".join(_traceback.format_exception(*res.exc_info))
         payload = {"exit_code": res.exit_code, "stdout": res.stdout, "stderr": res.stderr, "traceback": tb}
-    except BaseException:  # noqa: BLE001 - whatever happens in the child is reported, not raised
+    except BaseException:
         payload = {"exit_code": 1, "stdout": "", "stderr": "", "traceback": _traceback.format_exc()}
     try:
         with open(result_file, "wb") as fh:
             pickle.dump(payload, fh)
-    except BaseException:  # noqa: BLE001
+    except BaseException:
         code = 3
     os._exit(code)
 
@@ -1329,13 +1538,27 @@ def _spawn(argv, cwd, out_file, err_file, preexec=None):
             preexec()
 
     with open(out_file, "wb") as out, open(err_file, "wb") as err:
-        proc = subprocess.Popen([_CONSOLE_SCRIPT or "sizefx", *argv], cwd=cwd, stdout=out, stderr=err,
-                                stdin=subprocess.DEVNULL, preexec_fn=pre)
+        proc = subprocess.Popen(
+            [_CONSOLE_SCRIPT or "sizefx", *argv],
+            cwd=cwd,
+            stdout=out,
+            stderr=err,
+            stdin=subprocess.DEVNULL,
+            preexec_fn=pre,
+        )
     return proc
 
 
-def run_cases(cases, scratch, *, workers: int | None = None, in_process_limit_s=IN_PROCESS_LIMIT_S,
-              subprocess_limit_s=SUBPROCESS_LIMIT_S, subprocess_all: bool = False, progress=None) -> dict:
+def run_cases(
+    cases,
+    scratch,
+    *,
+    workers: int | None = None,
+    in_process_limit_s=IN_PROCESS_LIMIT_S,
+    subprocess_limit_s=SUBPROCESS_LIMIT_S,
+    subprocess_all: bool = False,
+    progress=None,
+) -> dict:
     """Run ``cases`` (``workers`` at a time, one thread: children are forked or spawned and
     reaped with ``os.wait4``, which gives each child's own peak RSS) and return
     ``{name: Outcome}``. Resource cases, and every case with ``subprocess_all``, run the
@@ -1383,14 +1606,27 @@ def run_cases(cases, scratch, *, workers: int | None = None, in_process_limit_s=
                 try:
                     with open(f"{tag}.pickle", "rb") as fh:
                         payload = pickle.load(fh)
-                    code, stdout, stderr, tb = (payload["exit_code"], payload["stdout"], payload["stderr"],
-                                                payload["traceback"])
+                    code, stdout, stderr, tb = (
+                        payload["exit_code"],
+                        payload["stdout"],
+                        payload["stderr"],
+                        payload["traceback"],
+                    )
                 except (OSError, EOFError, pickle.UnpicklingError):
                     code, stdout, stderr = os.waitstatus_to_exitcode(status), "", ""
                     tb = None if timed_out else f"the forked child died with status {code} before reporting"
             del running[pid]
-            results[case.name] = Outcome(case, None if timed_out else code, stdout, stderr, tb,
-                                         usage.ru_maxrss * 1024, seconds, before, snapshot(case))
+            results[case.name] = Outcome(
+                case,
+                None if timed_out else code,
+                stdout,
+                stderr,
+                tb,
+                usage.ru_maxrss * 1024,
+                seconds,
+                before,
+                snapshot(case),
+            )
             if progress is not None:
                 progress(results[case.name])
     return results
@@ -1408,8 +1644,11 @@ def broken_promises(o: Outcome, *, limit_s=None) -> list:
     elif o.exit_code not in c.expect:
         how = f"killed by signal {-o.exit_code}" if o.exit_code < 0 else f"exit code {o.exit_code}"
         broken.append(f"exit code: expected {' or '.join(map(str, c.expect))}, got {how}")
-    tb_text = (o.traceback or "") + ("\n" + o.stderr if "Traceback" in o.stderr else "") + \
-        ("\n" + o.stdout if "Traceback" in o.stdout else "")
+    tb_text = (
+        (o.traceback or "")
+        + ("\n" + o.stderr if "Traceback" in o.stderr else "")
+        + ("\n" + o.stdout if "Traceback" in o.stdout else "")
+    )
     if tb_text.strip():
         broken.append(f"traceback: {tail(tb_text)}")
     if o.exit_code == 2:
@@ -1438,8 +1677,10 @@ def broken_promises(o: Outcome, *, limit_s=None) -> list:
     if leftovers:
         broken.append(f"no output left: temporary files remain: {leftovers[:5]}")
     if o.peak_rss_bytes > MEMORY_CEILING_BYTES:
-        broken.append(f"memory: peak RSS {o.peak_rss_bytes / 2**30:.2f} GiB over the "
-                      f"{MEMORY_CEILING_BYTES / 2**30:.1f} GiB ceiling")
+        broken.append(
+            f"memory: peak RSS {o.peak_rss_bytes / 2**30:.2f} GiB over the "
+            f"{MEMORY_CEILING_BYTES / 2**30:.1f} GiB ceiling"
+        )
     return broken
 
 
@@ -1466,5 +1707,7 @@ def describe(o: Outcome, broken) -> str:
     """A failure message a developer can act on: the case, the command, what broke."""
     cmd = "sizefx " + " ".join(a if len(a) < 80 else a[:60] + "..." for a in o.case.argv)
     first = o.stderr.strip().splitlines()[0][:300] if o.stderr.strip() else ""
-    return (f"case {o.case.name}: {cmd}\n  exit {o.exit_code}, {o.seconds:.1f} s, peak RSS "
-            f"{o.peak_rss_bytes / 2**20:.0f} MiB; stderr: {first!r}\n  broken: " + "\n  broken: ".join(broken))
+    return (
+        f"case {o.case.name}: {cmd}\n  exit {o.exit_code}, {o.seconds:.1f} s, peak RSS "
+        f"{o.peak_rss_bytes / 2**20:.0f} MiB; stderr: {first!r}\n  broken: " + "\n  broken: ".join(broken)
+    )

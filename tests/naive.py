@@ -23,10 +23,10 @@ def rates_to_increments(rates, dt):
             out[k - 1] = dt * w @ rates[0:3]
         elif k == n - 1:
             w = np.array([-1.0, 8.0, 5.0]) / 12.0
-            out[k - 1] = dt * w @ rates[n - 3:n]
+            out[k - 1] = dt * w @ rates[n - 3 : n]
         else:
             w = np.array([-1.0, 13.0, 13.0, -1.0]) / 24.0
-            out[k - 1] = dt * w @ rates[k - 2:k + 2]
+            out[k - 1] = dt * w @ rates[k - 2 : k + 2]
     return out
 
 
@@ -37,8 +37,9 @@ def quat_of_rotvec(v):
     return np.r_[np.cos(angle / 2), np.sin(angle / 2) * v / angle]
 
 
-def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, vertical=0, h_hold=0.0,
-              h_ref=None, vd_ref=None):
+def strapdown(
+    dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, vertical=0, h_hold=0.0, h_ref=None, vd_ref=None
+):
     """The mechanisation of sizefx.kernels.strapdown, step by step with vectors and matrices."""
     q = np.asarray(quat0, dtype=float) / np.linalg.norm(quat0)
     v = np.asarray(v0, dtype=float).copy()
@@ -47,8 +48,8 @@ def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, quat0, v0, lat0, lon0, h0, ve
     c_lat = c_lon = 0.0  # Kahan compensation, as in the kernel
     out = []
     for step in range(dtheta.shape[0] // n_sub):
-        a = dtheta[step * n_sub:(step + 1) * n_sub]
-        u = dvel[step * n_sub:(step + 1) * n_sub]
+        a = dtheta[step * n_sub : (step + 1) * n_sub]
+        u = dvel[step * n_sub : (step + 1) * n_sub]
         cone = np.zeros(3)
         scul = np.zeros(3)
         for i in range(n_sub):
@@ -147,7 +148,7 @@ def spline_not_a_knot(x, y, t):
         a[row, col(i, 0)] = 1.0
         b[row] = y[i]
         row += 1
-        a[row, col(i, 0):col(i, 0) + 4] = 1.0
+        a[row, col(i, 0) : col(i, 0) + 4] = 1.0
         b[row] = y[i + 1]
         row += 1
     for i in range(n - 2):  # p_i' and p_i'' at e = 1 equal p_{i+1}' and p_{i+1}'' at e = 0 (times h_i^k)
@@ -173,6 +174,7 @@ def resample_increments(incr, t_end_from, t_end_to):
     """Increments over ``(t_from[k-1], t_from[k]]`` -> over ``(t_to[k-1], t_to[k]]``: the spline
     of their cumulative sum at the target edges, differenced (the first interval of each
     starts one median period before its first stamp)."""
+
     def edges(t):
         return np.r_[t[0] - np.median(np.diff(t)), t]
 
@@ -190,6 +192,6 @@ def savgol_derivative(x, dt, window=41, order=2):
     for k in range(n):
         start = min(max(k - half, 0), n - window)
         u = np.arange(start, start + window) - k  # positions relative to row k
-        coef = np.polynomial.polynomial.polyfit(u, x[start:start + window], order)
+        coef = np.polynomial.polynomial.polyfit(u, x[start : start + window], order)
         out[k] = coef[1] / dt  # d/du at u = 0
     return out

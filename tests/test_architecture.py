@@ -15,13 +15,14 @@ import subprocess
 import sys
 from pathlib import Path
 
-
 import sizefx
 
 #: The installed packages whose modules are checked (the tests run against the installed copy,
 #: which conftest.py checks is the source).
-PACKAGES = {"sizefx": Path(sizefx.__file__).resolve().parent,
-            "sizefx_cli": Path(importlib.util.find_spec("sizefx_cli").submodule_search_locations[0]).resolve()}
+PACKAGES = {
+    "sizefx": Path(sizefx.__file__).resolve().parent,
+    "sizefx_cli": Path(importlib.util.find_spec("sizefx_cli").submodule_search_locations[0]).resolve(),
+}
 
 _IMPORT_EACH_ALONE = """
 import importlib, json, pkgutil, sys
@@ -45,8 +46,9 @@ print(json.dumps({"modules": names, "failures": failures, "sizefx": sizefx.__fil
 def test_every_module_imports_alone(tmp_path):
     """Each module of sizefx and sizefx_cli, imported into an interpreter that holds no sizefx module."""
     # run outside the clone: `python -c` puts the working folder first on sys.path (the source tree)
-    proc = subprocess.run([sys.executable, "-c", _IMPORT_EACH_ALONE], capture_output=True, text=True, timeout=300,
-                          cwd=tmp_path)
+    proc = subprocess.run(
+        [sys.executable, "-c", _IMPORT_EACH_ALONE], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
     assert proc.returncode == 0, proc.stderr
     found = json.loads(proc.stdout.strip().splitlines()[-1])
     assert Path(found["sizefx"]).resolve() == Path(sizefx.__file__).resolve()  # the installed copy
@@ -70,8 +72,9 @@ def _module_names(packages: dict) -> dict:
 
 
 def _is_type_checking(test: ast.expr) -> bool:
-    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or \
-        (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
 
 
 def _imports(tree: ast.AST):
@@ -200,8 +203,9 @@ def test_a_planted_cycle_is_found_and_printed(tmp_path):
     (pkg / "sub").mkdir(parents=True)
     (pkg / "__init__.py").write_text("")
     (pkg / "sub" / "__init__.py").write_text("from .c import C\n")
-    (pkg / "a.py").write_text("from typing import TYPE_CHECKING\n\nfrom .sub import c\n\n"
-                              "if TYPE_CHECKING:\n    from . import d\n")
+    (pkg / "a.py").write_text(
+        "from typing import TYPE_CHECKING\n\nfrom .sub import c\n\nif TYPE_CHECKING:\n    from . import d\n"
+    )
     (pkg / "sub" / "c.py").write_text("def f():\n    from ..b import g\n    return g\n")
     (pkg / "b.py").write_text("import planted.a\n")
     (pkg / "d.py").write_text("from .a import X\n")  # a -> d only for the type checker: no cycle
@@ -211,6 +215,8 @@ def test_a_planted_cycle_is_found_and_printed(tmp_path):
     found = cycles(graph)
     assert found == [["planted.a", "planted.sub.c", "planted.b", "planted.a"]], found
     # and on a graph given by hand: two separate cycles, a self-contained tail that is none
-    assert cycles({"x": {"y"}, "y": {"x"}, "p": {"q"}, "q": {"r"}, "r": {"p", "s"}, "s": set()}) == \
-        [["p", "q", "r", "p"], ["x", "y", "x"]]
+    assert cycles({"x": {"y"}, "y": {"x"}, "p": {"q"}, "q": {"r"}, "r": {"p", "s"}, "s": set()}) == [
+        ["p", "q", "r", "p"],
+        ["x", "y", "x"],
+    ]
     assert cycles({"x": {"y"}, "y": {"z"}, "z": set()}) == []

@@ -22,18 +22,17 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sizefx.batch import BatchJob, BatchResult, RecordOutcome, output_names, run_batch
+from sizefx.batch import BatchJob, BatchResult, RecordOutcome, output_names, run_batch, runner
 from sizefx.batch.fleet import headline, recurring_findings
 from sizefx.batch.manifest import canonical_options
-from sizefx.batch import runner
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
 from sizefx.io.files import sha256_of
 from sizefx.io.schema import check_document
 from sizefx.levers import levers_from_preset, write_levers
-from sizefx.stage import helper_threads
+from sizefx.scenarios import TurntablePlan
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
-from sizefx.scenarios import TurntablePlan
+from sizefx.stage import helper_threads
 from sizefx_cli.main import main
 
 #: A short turntable record (100 s at 200 Hz): each stage runs on it in about a second.
@@ -116,6 +115,7 @@ def _content(path):
     """An HDF5 file's datasets and attributes, the run times taken out of its summary."""
     found = {}
     with h5py.File(path) as f:
+
         def visit(name, obj):
             for key, value in obj.attrs.items():
                 if key == "summary_json":
@@ -123,6 +123,7 @@ def _content(path):
                 found[f"{name}@{key}"] = value
             if isinstance(obj, h5py.Dataset):
                 found[name] = obj[()]
+
         f.visititems(visit)
         visit("/", f)
     return found
@@ -143,8 +144,10 @@ def _crash_stage_jobs(folder, names):
     """A job of tests/batch_crash_stage.py per name, on a record file of that name."""
     for name in names:
         (folder / f"{name}.h5").write_text(name)
-    return [BatchJob("batch_crash_stage", str(folder / f"{n}.h5"), n, str(folder / f"{n}.h5"), canonical_options({}),
-                     {}) for n in names]
+    return [
+        BatchJob("batch_crash_stage", str(folder / f"{n}.h5"), n, str(folder / f"{n}.h5"), canonical_options({}), {})
+        for n in names
+    ]
 
 
 def test_a_worker_that_dies_takes_only_its_record(tmp_path):
@@ -195,9 +198,20 @@ def test_a_reused_record_whose_input_is_gone_is_refused_alone(campaign, tmp_path
     out = tmp_path / "out"
     assert _batch("inspect", runs, "--out", out).exit_code == 0
     names = output_names([runs / f"run{k}.h5" for k in range(3)])
-    jobs = [BatchJob("batch_crash_stage", str(runs / f"run{k}.h5"), names[runs / f"run{k}.h5"],
-                     str(runs / f"run{k}.h5"), e["options"], {}, None, e, False)
-            for k, e in enumerate(_manifest(out)["records"])]
+    jobs = [
+        BatchJob(
+            "batch_crash_stage",
+            str(runs / f"run{k}.h5"),
+            names[runs / f"run{k}.h5"],
+            str(runs / f"run{k}.h5"),
+            e["options"],
+            {},
+            None,
+            e,
+            False,
+        )
+        for k, e in enumerate(_manifest(out)["records"])
+    ]
     (runs / "run1.h5").unlink()
     result = run_batch("inspect", jobs, out, {}, workers=2)
     assert [o.reused for o in result.outcomes] == [True, False, True]
@@ -229,8 +243,12 @@ def test_compensate_batch_writes_each_record_compensated(campaign, tmp_path):
     result = _batch("compensate", campaign, "--levers", levers, "--out", out, "-q")
     assert result.exit_code == 0, result.output
     single = tmp_path / "single.h5"
-    assert CliRunner().invoke(main, ["compensate", str(campaign / "run1.h5"), "--levers", str(levers),
-                                     "-o", str(single)]).exit_code == 0
+    assert (
+        CliRunner()
+        .invoke(main, ["compensate", str(campaign / "run1.h5"), "--levers", str(levers), "-o", str(single)])
+        .exit_code
+        == 0
+    )
     for entry in _manifest(out)["records"]:
         assert entry["status"] == "ok" and set(entry["paired"]) == {"--levers"}
         assert (out / f"{entry['name']}.compensated.h5").exists()
@@ -247,23 +265,34 @@ def test_diagnose_batch_finds_what_the_single_command_finds_and_what_recurs(tmp_
     runs = tmp_path / "runs"
     runs.mkdir()
     for k, hidden in enumerate([{"accel_bias": {"enabled": True}}, {"accel_bias": {"enabled": True}}, None]):
-        simulate(SimulateConfig("turntable", str(runs / f"r{k}.h5"), plan=PLAN, rate_hz=200.0, seed=k,
-                                overrides=hidden))
+        simulate(
+            SimulateConfig("turntable", str(runs / f"r{k}.h5"), plan=PLAN, rate_hz=200.0, seed=k, overrides=hidden)
+        )
     out = tmp_path / "out"
     result = _batch("diagnose", runs, "--out", out, "--workers", "2")
     assert result.exit_code == 0, result.output
     single = tmp_path / "single.json"
-    assert CliRunner().invoke(main, ["diagnose", str(runs / "r0.h5"), "--json", str(single),
-                                     "--model-out", str(tmp_path / "single.toml")]).exit_code == 0
+    assert (
+        CliRunner()
+        .invoke(
+            main, ["diagnose", str(runs / "r0.h5"), "--json", str(single), "--model-out", str(tmp_path / "single.toml")]
+        )
+        .exit_code
+        == 0
+    )
     entries = {e["name"]: e for e in _manifest(out)["records"]}
     for name in ("r0", "r1", "r2"):
         assert entries[name]["status"] == "ok"
         assert (out / f"{name}.diagnosis.json").exists() and (out / f"{name}.model.toml").exists()
-    timeless = lambda h: {k: v for k, v in h.items() if k != "wall_s"}  # noqa: E731 (the run's own time)
+
+    def timeless(headline):  # without the run's own time
+        return {k: v for k, v in headline.items() if k != "wall_s"}
+
     assert timeless(entries["r0"]["headline"]) == timeless(headline("diagnose", json.loads(single.read_text())))
     assert entries["r2"]["headline"]["effects"] == []
-    assert ("findings in more than one of 3 records: accel_bias accel_x (2), accel_bias accel_y (2), "
-            "accel_bias accel_z (2)") in result.output, result.output
+    assert (
+        "findings in more than one of 3 records: accel_bias accel_x (2), accel_bias accel_y (2), accel_bias accel_z (2)"
+    ) in result.output, result.output
 
 
 def test_outputs_do_not_depend_on_the_order_of_the_inputs(campaign, tmp_path):
@@ -335,8 +364,12 @@ def test_a_folder_in_use_by_another_batch_is_refused(campaign, tmp_path):
 
 
 def test_records_with_one_stem_get_names_of_their_folders(tmp_path):
-    paths = [tmp_path / "day1" / "imu.h5", tmp_path / "day2" / "imu.h5", tmp_path / "day2" / "imu.hdf5",
-             tmp_path / "other.h5"]
+    paths = [
+        tmp_path / "day1" / "imu.h5",
+        tmp_path / "day2" / "imu.h5",
+        tmp_path / "day2" / "imu.hdf5",
+        tmp_path / "other.h5",
+    ]
     names = output_names(paths)
     assert names[paths[0]] == "day1__imu" and names[paths[3]] == "other"
     assert len(set(names.values())) == 4
@@ -350,24 +383,29 @@ def _one_line_refusal(result, needle):
     assert needle in lines[0], lines[0]
 
 
-@pytest.mark.parametrize("case, needle", [
-    ("missing", "no such file or folder"),
-    ("glob", "matches no file"),
-    ("twice", "given twice"),
-    ("inside", "inside the input folder"),
-    ("out-is-file", "is a file"),
-    ("empty-folder", "holds no record"),
-    ("levers", "--levers"),
-])
+@pytest.mark.parametrize(
+    "case, needle",
+    [
+        ("missing", "no such file or folder"),
+        ("glob", "matches no file"),
+        ("twice", "given twice"),
+        ("inside", "inside the input folder"),
+        ("out-is-file", "is a file"),
+        ("empty-folder", "holds no record"),
+        ("levers", "--levers"),
+    ],
+)
 def test_bad_batch_input_is_one_line_and_writes_nothing(campaign, tmp_path, case, needle):
     out = tmp_path / "out"
-    args = {"missing": ["navigate", tmp_path / "nope.h5"],
-            "glob": ["navigate", str(tmp_path / "*.h5")],
-            "twice": ["navigate", campaign / "run0.h5", campaign / ".." / "runs" / "run0.h5"],
-            "inside": ["navigate", campaign],
-            "out-is-file": ["navigate", campaign / "run0.h5"],
-            "empty-folder": ["navigate", tmp_path / "empty"],
-            "levers": ["navigate", campaign / "run0.h5", "--levers", tmp_path / "levers.json"]}[case]
+    args = {
+        "missing": ["navigate", tmp_path / "nope.h5"],
+        "glob": ["navigate", str(tmp_path / "*.h5")],
+        "twice": ["navigate", campaign / "run0.h5", campaign / ".." / "runs" / "run0.h5"],
+        "inside": ["navigate", campaign],
+        "out-is-file": ["navigate", campaign / "run0.h5"],
+        "empty-folder": ["navigate", tmp_path / "empty"],
+        "levers": ["navigate", campaign / "run0.h5", "--levers", tmp_path / "levers.json"],
+    }[case]
     if case == "inside":
         out = campaign / "batch-out"
     if case == "out-is-file":
@@ -392,7 +430,9 @@ def test_compare_pairs_each_solution_with_its_partner_and_reference(campaign, tm
     for k, entry in enumerate(doc["records"]):
         assert entry["status"] == "ok" and entry["input"] == str(coarse / f"run{k}.nav.h5")
         assert {o: p["path"] for o, p in entry["paired"].items()} == {
-            "--against": str(plain / f"run{k}.nav.h5"), "--reference": str(campaign.resolve() / f"run{k}.h5")}
+            "--against": str(plain / f"run{k}.nav.h5"),
+            "--reference": str(campaign.resolve() / f"run{k}.h5"),
+        }
         assert entry["paired"]["--against"]["sha256"] == sha256_of(plain / f"run{k}.nav.h5")
         comparison = json.loads((out / f"run{k}.nav.comparison.json").read_text())
         assert [c["label"] for c in comparison["comparisons"]] == ["A vs REF", "B vs REF", "A vs B"]
@@ -405,8 +445,7 @@ def test_compare_pairs_each_solution_with_its_partner_and_reference(campaign, tm
     assert _manifest(out)["records"][1]["headline"]["a_vs_b_max_horizontal_m"] == 0.0
 
 
-@pytest.mark.parametrize("case, needle", [("no-partner", "nothing for run2.nav.h5"),
-                                          ("self", "compared with itself")])
+@pytest.mark.parametrize("case, needle", [("no-partner", "nothing for run2.nav.h5"), ("self", "compared with itself")])
 def test_compare_without_a_partner_is_one_line(campaign, tmp_path, case, needle):
     plain = tmp_path / "plain"
     assert _batch("navigate", campaign, "--out", plain, "-q").exit_code == 0
@@ -430,8 +469,9 @@ def test_a_folder_of_another_stage_is_refused(campaign, tmp_path):
 
 
 def test_json_progress_is_one_object_per_record(campaign, tmp_path):
-    result = CliRunner().invoke(main, ["batch", "inspect", str(campaign), "--out", str(tmp_path / "out"),
-                                       "--json-progress"])
+    result = CliRunner().invoke(
+        main, ["batch", "inspect", str(campaign), "--out", str(tmp_path / "out"), "--json-progress"]
+    )
     assert result.exit_code == 0, result.output
     events = [json.loads(line) for line in result.stderr.splitlines()]
     assert [e["done"] for e in events] == [1, 2, 3] and all(e["total"] == 3 for e in events)
@@ -439,9 +479,14 @@ def test_json_progress_is_one_object_per_record(campaign, tmp_path):
 
 
 def _calibration(name, arms, sigma):
-    return {"name": name, "status": "ok", "headline": {
-        **{f"r_{a}_m": arms[i].tolist() for i, a in enumerate("xyz")},
-        **{f"sigma_{a}_m": sigma[i].tolist() for i, a in enumerate("xyz")}}}
+    return {
+        "name": name,
+        "status": "ok",
+        "headline": {
+            **{f"r_{a}_m": arms[i].tolist() for i, a in enumerate("xyz")},
+            **{f"sigma_{a}_m": sigma[i].tolist() for i, a in enumerate("xyz")},
+        },
+    }
 
 
 def test_calibrations_of_one_unit_combine_and_the_odd_run_is_named():
@@ -463,8 +508,18 @@ def test_calibrations_of_one_unit_combine_and_the_odd_run_is_named():
 
 
 def _outcome(entry):
-    return RecordOutcome({"input": entry["name"], "sha256": "", "options": {}, "outputs": {}, "reason": None,
-                          "duration_s": 1.0, "peak_memory_mib": 100.0, **entry})
+    return RecordOutcome(
+        {
+            "input": entry["name"],
+            "sha256": "",
+            "options": {},
+            "outputs": {},
+            "reason": None,
+            "duration_s": 1.0,
+            "peak_memory_mib": 100.0,
+            **entry,
+        }
+    )
 
 
 def test_fleet_table_lists_each_runs_arms_and_their_spread():
@@ -482,8 +537,10 @@ def test_fleet_table_names_the_diagnose_findings_that_recur():
     """batch diagnose's table: the findings (effect and channel) that more than one record reports, with
     how many; a finding of one record alone is not among them."""
     effects = [["accel_bias x", "delay"], ["accel_bias x", "delay", "scale y"], ["accel_bias x"]]
-    entries = [{"name": f"r{k}", "status": "ok", "headline": {"effects": e, "warnings": 0, "unexplained": 0}}
-               for k, e in enumerate(effects)]
+    entries = [
+        {"name": f"r{k}", "status": "ok", "headline": {"effects": e, "warnings": 0, "unexplained": 0}}
+        for k, e in enumerate(effects)
+    ]
     report = BatchResult("diagnose", [_outcome(e) for e in entries]).report()
     assert "findings in more than one of 3 records: accel_bias x (3), delay (2)" in report
     assert recurring_findings(entries) == [("accel_bias x", 3), ("delay", 2)]
@@ -521,8 +578,7 @@ def test_dask_worker_killed_mid_record_is_retried(tmp_path, cluster):
 def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(campaign, tmp_path):
     pytest.importorskip("distributed")
     out = tmp_path / "out"
-    _one_line_refusal(_batch("inspect", campaign, "--out", out, "--scheduler", "tcp://127.0.0.1:9"),
-                      "cannot reach it")
+    _one_line_refusal(_batch("inspect", campaign, "--out", out, "--scheduler", "tcp://127.0.0.1:9"), "cannot reach it")
     assert not out.exists()
 
 
@@ -544,9 +600,14 @@ def test_headline_figures_of_each_stage():
     """The manifest's headline figures from each stage's JSON (the keys its schema gives)."""
     from sizefx.batch.fleet import headline
 
-    assert headline("diagnose", {"effects": [{"id": "lever_arm", "channel": "accel_y"}, {"id": "accel_delay"}],
-                                 "warnings": [{}], "unexplained": []}) == \
-        {"effects": ["accel_delay", "lever_arm accel_y"], "warnings": 1, "unexplained": 0}
+    assert headline(
+        "diagnose",
+        {
+            "effects": [{"id": "lever_arm", "channel": "accel_y"}, {"id": "accel_delay"}],
+            "warnings": [{}],
+            "unexplained": [],
+        },
+    ) == {"effects": ["accel_delay", "lever_arm accel_y"], "warnings": 1, "unexplained": 0}
     arms = {f"r_{a}": [0.0, 0.0, 0.0] for a in "xyz"} | {f"sigma_{a}": [1e-5] * 3 for a in "xyz"}
     figures = headline("calibrate", {"levers": {**arms, "accel_delay_s": 5e-4}})
     assert figures["r_y_m"] == [0.0, 0.0, 0.0] and figures["sigma_z_m"] == [1e-5] * 3

@@ -16,17 +16,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from support import write_raw
 
 import sizefx.calibrate as calibrate
 from sizefx import scenarios
-from sizefx.calibrate import CalibrateConfig, CalibrationError, excitation, joint_fit, prepare, preflight
+from sizefx.calibrate import CalibrateConfig, CalibrationError, excitation, joint_fit, preflight, prepare
 from sizefx.effects import load_effects
 from sizefx.errors import ConfigError, OutputError
 from sizefx.rotation import quat_interp, quat_to_mat
 from sizefx.simulate import SimulateConfig, simulate_in_memory
 from sizefx.simulate import run as simulate
 from sizefx_cli.main import main
-from support import write_raw
 
 OFFSET_M = [0.0010, -0.0005, 0.0008]
 #: The paper's plan shortened to 214 s (as in test_sizeeffect.py): all nine arms observable.
@@ -43,14 +43,21 @@ def turntable_h5(tmp_path_factory):
 @pytest.fixture(scope="module")
 def one_axis_h5(tmp_path_factory):
     path = tmp_path_factory.mktemp("cal") / "one_axis.h5"
-    simulate(SimulateConfig("turntable", path, rate_hz=400.0,
-                            plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1)))
+    simulate(
+        SimulateConfig(
+            "turntable",
+            path,
+            rate_hz=400.0,
+            plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1),
+        )
+    )
     return path
 
 
 @pytest.fixture
 def no_fit(monkeypatch):
     """Make reading a record whole, or fitting, an error: a refusal must come before either."""
+
     def forbidden(*args, **kwargs):
         raise AssertionError("calibrate read a record whole or fitted before refusing")
 
@@ -123,8 +130,9 @@ def test_preflight_bound_is_optimistic_and_close_on_the_papers_plan(turntable_h5
     barely couple to the arms, close to it."""
     exc = excitation(turntable_h5)
     res = joint_fit([prepare(calibrate.read_telemetry(turntable_h5), str(turntable_h5))])
-    bound = np.array([np.sqrt(np.diag(np.linalg.inv(exc.arm_information[i] / exc.noise_mps2[i] ** 2)))
-                      for i in range(3)])
+    bound = np.array(
+        [np.sqrt(np.diag(np.linalg.inv(exc.arm_information[i] / exc.noise_mps2[i] ** 2))) for i in range(3)]
+    )
     assert np.all(bound <= res.sigma_arms * 1.02), (bound, res.sigma_arms)  # 2 %: the noise estimates differ
     assert np.all(bound >= 0.7 * res.sigma_arms), (bound, res.sigma_arms)
     # the noise estimate from second differences is the simulated white noise (residual RMS)
@@ -152,12 +160,22 @@ def test_slow_reference_gives_the_same_arms():
     sway = simulate_in_memory(scenarios.sway(sway_plan)[0], fx, form="rates", seed=2)
     ref = sway.reference
     every = 16  # 1600 Hz -> 100 Hz
-    slow = replace(sway, reference=replace(ref, time_s=ref.time_s[::every], quat_nb=ref.quat_nb[::every],
-                                           lat_rad=ref.lat_rad[::every], lon_rad=ref.lon_rad[::every],
-                                           height_m=ref.height_m[::every], velocity_n_mps=ref.velocity_n_mps[::every]))
+    slow = replace(
+        sway,
+        reference=replace(
+            ref,
+            time_s=ref.time_s[::every],
+            quat_nb=ref.quat_nb[::every],
+            lat_rad=ref.lat_rad[::every],
+            lon_rad=ref.lon_rad[::every],
+            height_m=ref.height_m[::every],
+            velocity_n_mps=ref.velocity_n_mps[::every],
+        ),
+    )
     fast_rec, slow_rec = prepare(sway, "sway"), prepare(slow, "sway")
-    slerp_rec = replace(slow_rec, mat_nb=quat_to_mat(quat_interp(slow.reference.time_s, slow.reference.quat_nb,
-                                                                  slow_rec.t)))
+    slerp_rec = replace(
+        slow_rec, mat_nb=quat_to_mat(quat_interp(slow.reference.time_s, slow.reference.quat_nb, slow_rec.t))
+    )
     full, spline, slerp = (joint_fit([table, rec]) for rec in (fast_rec, slow_rec, slerp_rec))
     assert np.abs(spline.arms - full.arms).max() < 0.01e-3
     assert np.abs(slerp.arms - full.arms).max() > 0.05e-3  # what the spline removes

@@ -21,8 +21,8 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx import scenarios
-from sizefx.calibrate import joint_fit, prepare
 from sizefx.calibrate import joint as joint_module
+from sizefx.calibrate import joint_fit, prepare
 from sizefx.calibrate.joint import information, mean_angular_acceleration, steps_in_angular_acceleration
 from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import load_effects
@@ -35,9 +35,11 @@ from sizefx_cli.main import main
 #: The paper's plan shortened to 214 s: all nine arms observable.
 SHORT_PLAN = scenarios.TurntablePlan(static_s=20.0, seconds_per_axis=48.0, cycles=2)
 #: Issue 17's set-up: compact geometry 0.1 m off the table's centre, a 10 arcsec tilt, biases.
-SETUP = {"lever_arm": {"preset": "compact", "r_vehicle_m": [0.10, -0.05, 0.02]},
-         "level_tilt": {"enabled": True, "north_arcsec": 8.0, "east_arcsec": -6.0},
-         "accel_bias": {"enabled": True, "bias_ug": [50.0, -30.0, 20.0]}}
+SETUP = {
+    "lever_arm": {"preset": "compact", "r_vehicle_m": [0.10, -0.05, 0.02]},
+    "level_tilt": {"enabled": True, "north_arcsec": 8.0, "east_arcsec": -6.0},
+    "accel_bias": {"enabled": True, "bias_ug": [50.0, -30.0, 20.0]},
+}
 #: Largest |estimate - truth| / sigma allowed on a noiseless record. The increment domain's is
 #: ~0.005 (interval edges from sample means); the issue's bias was 2.2.
 MAX_BIAS_Z = 0.3
@@ -61,7 +63,7 @@ def noiseless_and_sigma(request):
     quiet = load_effects(overrides={**SETUP, "accel_noise": {"enabled": False}, "gyro_noise": {"enabled": False}})
     rec = prepare(simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], quiet, form=request.param, seed=0))
     names, sigma = _sigma([rec])
-    return rec, quiet.arms_total_m(), sigma[:9].reshape(3, 3), sigma[names.index("tilt_north"):][:2]
+    return rec, quiet.arms_total_m(), sigma[:9].reshape(3, 3), sigma[names.index("tilt_north") :][:2]
 
 
 def _bias_z(rec, truth, sigma, **fit):
@@ -98,9 +100,18 @@ def test_mean_angular_acceleration_is_exact_for_any_motion():
     def check(t_step, exact_rows):
         n = 4000
         t = np.arange(n) * dt
-        w_edges = np.vstack([np.zeros(3), np.cumsum(np.where(np.r_[t - dt / 2 + dt / 2] < t_step, 0.2, -0.1)[:, None]
-                                                    * np.array([1.0, -2.0, 0.5]) * dt, axis=0)])
-        rec = type("Rec", (), {"t": t, "omega": 0.5 * (w_edges[:-1] + w_edges[1:])})()  # a sample: the mean of its edges
+        w_edges = np.vstack(
+            [
+                np.zeros(3),
+                np.cumsum(
+                    np.where(np.r_[t - dt / 2 + dt / 2] < t_step, 0.2, -0.1)[:, None] * np.array([1.0, -2.0, 0.5]) * dt,
+                    axis=0,
+                ),
+            ]
+        )
+        rec = type(
+            "Rec", (), {"t": t, "omega": 0.5 * (w_edges[:-1] + w_edges[1:])}
+        )()  # a sample: the mean of its edges
         starts = np.arange(32, 3872, 32)
         got = mean_angular_acceleration(rec, starts, 3872)
         want = (w_edges[np.r_[starts[1:], 3872]] - w_edges[starts]) / (32 * dt)
@@ -110,9 +121,12 @@ def test_mean_angular_acceleration_is_exact_for_any_motion():
 
     check(1.0 + 10 * dt, slice(None))  # inside the interval of samples 1600 .. 1631
     check(1.0, [k for k in range(120) if k not in (48, 49)])  # at the edge before sample 1600
+
+
 def _ar_series(a, n, rng, burn=500):
     e = rng.standard_normal(n + burn)
     from scipy.signal import lfilter
+
     return lfilter([1.0], np.r_[1.0, -np.asarray(a)], e)[burn:]
 
 
@@ -161,9 +175,17 @@ def test_gauss_markov_noise_is_what_the_effects_file_says():
     """The simulator's coloured accelerometer noise: variance M^2 / (2 T), AR(1) with exp(-dt / T),
     and the same values whatever the chunk size."""
     plan = scenarios.turntable(scenarios.TurntablePlan(axes="Y", static_s=5.0, seconds_per_axis=20.0, cycles=1))[0]
-    only = load_effects(overrides={"accel_noise": {"density_ug_per_sqrt_hz": 0.0, "bias_rw_ug_per_sqrt_h": 0.0,
-                                                   "markov_density_ug_per_sqrt_hz": 10.0, "markov_correlation_s": 0.05},
-                                   "gyro_noise": {"enabled": False}})
+    only = load_effects(
+        overrides={
+            "accel_noise": {
+                "density_ug_per_sqrt_hz": 0.0,
+                "bias_rw_ug_per_sqrt_h": 0.0,
+                "markov_density_ug_per_sqrt_hz": 10.0,
+                "markov_correlation_s": 0.05,
+            },
+            "gyro_noise": {"enabled": False},
+        }
+    )
     none = load_effects(overrides={"accel_noise": {"enabled": False}, "gyro_noise": {"enabled": False}})
 
     def accel(fx, chunk=None):
@@ -187,8 +209,14 @@ def test_delay_with_a_large_offset_is_unbiased():
     the lever terms (formed at the first arms) and its second-order term is taken off: a column at
     zero arms gave -44 us (34 sigma), and without the second-order term the arms the sway shows
     best came out half a sigma off."""
-    fx = load_effects(overrides={**SETUP, "accel_delay": {"enabled": True, "tau_s": 0.5e-3},
-                                 "accel_noise": {"enabled": False}, "gyro_noise": {"enabled": False}})
+    fx = load_effects(
+        overrides={
+            **SETUP,
+            "accel_delay": {"enabled": True, "tau_s": 0.5e-3},
+            "accel_noise": {"enabled": False},
+            "gyro_noise": {"enabled": False},
+        }
+    )
     records = [prepare(simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], fx, form="rates"), "turntable")]
     for axis in ("roll", "pitch"):
         sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=5.0, segment_s=30.0))[0]
@@ -196,15 +224,16 @@ def test_delay_with_a_large_offset_is_unbiased():
     res = joint_fit(records, with_delay=True)
     names, sigma = _sigma(records, with_delay=True)
     z_arms = (res.arms - fx.arms_total_m()).ravel() / sigma[:9]
-    z_tilt = (res.tilt_rad - np.array([8.0, -6.0]) * ARCSEC) / sigma[names.index("tilt_north"):][:2]
+    z_tilt = (res.tilt_rad - np.array([8.0, -6.0]) * ARCSEC) / sigma[names.index("tilt_north") :][:2]
     z_delay = (res.delay_s - 0.5e-3) / sigma[-1]
     assert np.abs(z_arms).max() < MAX_BIAS_Z, np.round(z_arms, 3)
     assert np.abs(z_tilt).max() < MAX_BIAS_Z and abs(z_delay) < MAX_BIAS_Z, (z_tilt, z_delay)
 
 
 def _sway(axis, static_s=5.0, segment_s=30.0):
-    return scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=static_s,
-                                             segment_s=segment_s))[0]
+    return scenarios.sway(
+        scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=static_s, segment_s=segment_s)
+    )[0]
 
 
 def test_steps_in_angular_acceleration_are_found_where_they_are():
@@ -226,15 +255,25 @@ def test_delay_is_unbiased_across_a_sway_switched_on_at_once(monkeypatch):
     0.007 us measured). Keeping the rows at the steps gave -0.45 us, 0.4 sigma, over 100 seeds
     (issue 17), and gives -2.1 us here on the shorter record; the test checks that too, so that
     it can fail."""
+
     def delay(tau, seed):
-        fx = load_effects(overrides={**SETUP, "accel_delay": {"enabled": tau > 0, "tau_s": tau},
-                                     "accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": NOISE_UG}})
-        records = [prepare(simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], fx, form="rates", seed=seed),
-                           "turntable")]
-        records += [prepare(simulate_in_memory(_sway(axis), fx, form="rates", seed=seed + k + 1), f"sway-{axis}")
-                    for k, axis in enumerate(("roll", "pitch"))]
+        fx = load_effects(
+            overrides={
+                **SETUP,
+                "accel_delay": {"enabled": tau > 0, "tau_s": tau},
+                "accel_noise": {"enabled": True, "density_ug_per_sqrt_hz": NOISE_UG},
+            }
+        )
+        records = [
+            prepare(simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], fx, form="rates", seed=seed), "turntable")
+        ]
+        records += [
+            prepare(simulate_in_memory(_sway(axis), fx, form="rates", seed=seed + k + 1), f"sway-{axis}")
+            for k, axis in enumerate(("roll", "pitch"))
+        ]
         res = joint_fit(records, with_delay=True)
         return res.delay_s, res
+
     (with_tau, res), (without, _) = delay(0.5e-3, 7), delay(0.0, 7)
     assert res.left_out_steps == 2 and 0.2 < res.left_out_s < 0.5
     assert abs(with_tau - without - 0.5e-3) < 0.05e-6, (with_tau - without - 0.5e-3) * 1e6

@@ -9,10 +9,10 @@ import sys
 
 import pytest
 from click.testing import CliRunner
-
-from sizefx_cli.main import main
 from support import write_raw
 from test_telemetry import BAD_CASES
+
+from sizefx_cli.main import main
 
 
 @pytest.fixture
@@ -25,10 +25,12 @@ def test_help_explains_every_command_with_units(runner):
     assert top.exit_code == 0
     for cmd in ("demo", "diagnose", "inspect", "paper", "simulate"):
         assert cmd in top.output
-    for args, units in ((["simulate", "turntable", "--help"], ["[deg/s]", "[deg/s^2]", "[s]", "[Hz]", "[mm]"]),
-                        (["simulate", "sway", "--help"], ["[deg/s]", "[Hz]", "[s]"]),
-                        (["simulate", "flight", "--help"], ["[h]", "[m/s]", "[m]", "[Hz]", "[deg]"]),
-                        (["inspect", "--help"], ["[Hz]", "[s]"])):
+    for args, units in (
+        (["simulate", "turntable", "--help"], ["[deg/s]", "[deg/s^2]", "[s]", "[Hz]", "[mm]"]),
+        (["simulate", "sway", "--help"], ["[deg/s]", "[Hz]", "[s]"]),
+        (["simulate", "flight", "--help"], ["[h]", "[m/s]", "[m]", "[Hz]", "[deg]"]),
+        (["inspect", "--help"], ["[Hz]", "[s]"]),
+    ):
         result = runner.invoke(main, args)
         assert result.exit_code == 0, result.output
         text = " ".join(result.output.split())
@@ -38,9 +40,30 @@ def test_help_explains_every_command_with_units(runner):
 
 def test_simulate_then_inspect(runner, tmp_path):
     out = tmp_path / "sway.h5"
-    result = runner.invoke(main, ["simulate", "sway", "-o", str(out), "--static-s", "2", "--segment-s", "3",
-                                  "--amplitudes-dps", "10,20", "--rate-hz", "400", "--form", "increments",
-                                  "--ideal", "--set", "accel_delay.enabled=true", "--offset-mm", "10,0,0"])
+    result = runner.invoke(
+        main,
+        [
+            "simulate",
+            "sway",
+            "-o",
+            str(out),
+            "--static-s",
+            "2",
+            "--segment-s",
+            "3",
+            "--amplitudes-dps",
+            "10,20",
+            "--rate-hz",
+            "400",
+            "--form",
+            "increments",
+            "--ideal",
+            "--set",
+            "accel_delay.enabled=true",
+            "--offset-mm",
+            "10,0,0",
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "wrote" in result.output
     result = runner.invoke(main, ["inspect", str(out), "--json"])
@@ -62,10 +85,12 @@ def test_print_effects_is_a_complete_template(runner):
 
 def test_bad_option_values_exit_2_with_one_line(runner, tmp_path):
     out = str(tmp_path / "x.h5")
-    for args in (["simulate", "turntable", "-o", out, "--set", "nonsense"],
-                 ["simulate", "turntable", "-o", out, "--set", "lever_arm.preset=\"huge\""],
-                 ["simulate", "turntable", "-o", out, "--cycles", "50"],
-                 ["simulate", "sway", "-o", out, "--segment-s", "2.5", "--frequency-hz", "1"]):
+    for args in (
+        ["simulate", "turntable", "-o", out, "--set", "nonsense"],
+        ["simulate", "turntable", "-o", out, "--set", 'lever_arm.preset="huge"'],
+        ["simulate", "turntable", "-o", out, "--cycles", "50"],
+        ["simulate", "sway", "-o", out, "--segment-s", "2.5", "--frequency-hz", "1"],
+    ):
         result = runner.invoke(main, args)
         assert result.exit_code == 2, (args, result.output)
         assert "Traceback" not in result.output
@@ -90,7 +115,10 @@ def test_installed_console_script_exits_2_without_traceback(tmp_path):
     proc = subprocess.run([exe, "inspect", str(bad)], capture_output=True, text=True)
     assert proc.returncode == 2
     assert proc.stdout == ""
-    assert proc.stderr.strip() == f"sizefx: error: {bad}: /: is not an HDF5 file (no HDF5 signature); convert it with sizefx import"
+    assert (
+        proc.stderr.strip()
+        == f"sizefx: error: {bad}: /: is not an HDF5 file (no HDF5 signature); convert it with sizefx import"
+    )
 
 
 def test_inspect_valid_file(runner, raw_file):
@@ -111,9 +139,15 @@ def test_demo_smoke(tmp_path):
     for figure in ("turntable, 1 repeats", "heading sway", "flight 0.45 h"):
         assert figure in text, figure
     assert "accelerometer y sits" in text and "lag the gyros by" in text  # diagnose found both hidden effects
-    for png in ("fig6_turntable_compensation.png", "fig8_sway_velocity.png", "fig9_sway_position.png",
-                "flight_horizontal_error.png", "flight_ground_speed_error.png", "diagnosis/residuals.png",
-                "diagnosis/spectra.png"):
+    for png in (
+        "fig6_turntable_compensation.png",
+        "fig8_sway_velocity.png",
+        "fig9_sway_position.png",
+        "flight_horizontal_error.png",
+        "flight_ground_speed_error.png",
+        "diagnosis/residuals.png",
+        "diagnosis/spectra.png",
+    ):
         assert (out / png).stat().st_size > 10_000, png
     assert f"plots in {out}/" in text
     # the table's paper column holds the paper's figures (sizefx.experiments.paper.PAPER, checked
@@ -121,11 +155,15 @@ def test_demo_smoke(tmp_path):
     from sizefx.experiments.paper import PAPER
 
     tt, fl = PAPER["turntable"], PAPER["flight"]
-    for label, figure in (("|signed mean| [mm]", tt["diff_mean_mm"]), ("  max [mm]", tt["diff_max_mm"]),
-                          ("spread over repeats, mean [mm]", tt["sigma_mean_mm"]),
-                          ("spread over repeats, max [mm]", tt["sigma_max_mm"]),
-                          ("compensated vs uncompensated [km]", PAPER["sway"]["divergence_km"]),
-                          ("final error removed [km]", fl["gain_km"]), ("as a drift rate [nmi/h]", fl["gain_nmi_per_h"])):
+    for label, figure in (
+        ("|signed mean| [mm]", tt["diff_mean_mm"]),
+        ("  max [mm]", tt["diff_max_mm"]),
+        ("spread over repeats, mean [mm]", tt["sigma_mean_mm"]),
+        ("spread over repeats, max [mm]", tt["sigma_max_mm"]),
+        ("compensated vs uncompensated [km]", PAPER["sway"]["divergence_km"]),
+        ("final error removed [km]", fl["gain_km"]),
+        ("as a drift rate [nmi/h]", fl["gain_nmi_per_h"]),
+    ):
         row = next(line for line in text.splitlines() if label in line)
         assert float(row.split(label, 1)[1].split()[0]) == figure, (label, row)
 
@@ -157,8 +195,9 @@ print(len(paths), ",".join(m for m in {heavy!r} if m in sys.modules))
 
 def test_help_of_every_command_imports_nothing_heavy():
     """Start-up is kept fast by construction, not measured here (benchmarks/bench_startup.py times it)."""
-    proc = subprocess.run([sys.executable, "-c", _HELP_PROBE.format(heavy=HEAVY_MODULES)],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-c", _HELP_PROBE.format(heavy=HEAVY_MODULES)], capture_output=True, text=True, timeout=60
+    )
     assert proc.returncode == 0, proc.stderr
     count, heavy = proc.stdout.split()[0], proc.stdout.split()[1:]
     assert int(count) >= 18, proc.stdout  # the group, 10 commands, 4 scenarios, 5 importers

@@ -20,17 +20,18 @@ import pytest
 from click.testing import CliRunner
 from scipy.integrate import quad
 from scipy.spatial.transform import Rotation
-from sizefx_cli.compare import compare as compare_command
-from sizefx_cli.main import SizefxGroup
+from support import write_raw
 
 from sizefx import compare as C
+from sizefx import earth
 from sizefx.compare import report as R
 from sizefx.compare.plots import PLOT_NAMES
-from sizefx import earth
-from sizefx.constants import WGS84_A_M
+from sizefx.constants import METRES_PER_NMI, WGS84_A_M
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError, OutputError, SizefxError, TelemetryError
 from sizefx.frames import geodetic_from_local_ned
+from sizefx.io.navigation import write_navigation
+from sizefx.io.telemetry import write_telemetry
 from sizefx.motion import (
     ConstantProfile,
     FlightPath,
@@ -38,8 +39,6 @@ from sizefx.motion import (
     RotationChain,
     Trajectory,
 )
-from sizefx.constants import METRES_PER_NMI
-from sizefx.io.navigation import write_navigation
 from sizefx.navigate import NavConfig, navigate
 from sizefx.rotation import (
     axis_angle_mat,
@@ -49,8 +48,8 @@ from sizefx.rotation import (
     quat_to_mat,
 )
 from sizefx.simulate import simulate_in_memory
-from sizefx.io.telemetry import write_telemetry
-from support import write_raw
+from sizefx_cli.compare import compare as compare_command
+from sizefx_cli.main import SizefxGroup
 
 #: Tolerances, per quantity, with their reasons.
 #: Chord against its closed form: float64 ECEF coordinates (6.4e6 m) resolve 1e-9 m; the
@@ -166,8 +165,9 @@ def test_along_cross_for_any_direction_with_and_without_velocity(psi_deg, along,
     psi = np.radians(psi_deg)
     north = along * np.cos(psi) - cross * np.sin(psi)  # right of direction psi is direction psi + 90 deg
     east = along * np.sin(psi) + cross * np.cos(psi)
-    a = offset_track(b, north, east, velocity=np.tile([SPEED_MPS * np.cos(psi), SPEED_MPS * np.sin(psi), 0.0],
-                                                      (b.time_s.size, 1)))
+    a = offset_track(
+        b, north, east, velocity=np.tile([SPEED_MPS * np.cos(psi), SPEED_MPS * np.sin(psi), 0.0], (b.time_s.size, 1))
+    )
     res = C.compare(a, b)
     np.testing.assert_allclose(res.along_track_m, along, atol=OFFSET_TOL_M)
     np.testing.assert_allclose(res.cross_track_m, cross, atol=OFFSET_TOL_M)
@@ -189,8 +189,10 @@ def test_track_direction_undefined_below_the_speed_threshold():
     assert res.summary["track_defined_samples"] == int((~slow).sum())
     assert any("undefined at 10 of 21" in n for n in res.notes)
     # all slow: the figures are null in JSON, "n/a" in the text
-    res = C.compare(C.Track(t[:5], lat[:5], lon[:5], 0.0, b.vel_n_mps[:5], None, name="A2"),
-                    C.Track(t[:5], lat[:5], lon[:5], 0.0, b.vel_n_mps[:5], None, name="B2"))
+    res = C.compare(
+        C.Track(t[:5], lat[:5], lon[:5], 0.0, b.vel_n_mps[:5], None, name="A2"),
+        C.Track(t[:5], lat[:5], lon[:5], 0.0, b.vel_n_mps[:5], None, name="B2"),
+    )
     assert res.summary["along_track_m"] == {"final": None, "rms": None, "max_abs": None}
     assert "along track (A ahead +): final n/a m" in C.format_comparison(res)
     doc = C.to_json([res], {"a": "A2", "b": "B2"})
@@ -276,11 +278,13 @@ def test_heading_wraps_and_total_angle_matches_scipy(heading_a, heading_b):
 
 def test_attitude_of_b_is_slerped_between_its_samples():
     t_b = np.array([0.0, 2.0, 4.0])
-    b = C.Track(t_b, LAT0, LON0, 0.0, np.zeros((3, 3)), np.vstack([quat_of(0, 0, h, 1) for h in (0.0, 20.0, 30.0)]),
-                name="B")
+    b = C.Track(
+        t_b, LAT0, LON0, 0.0, np.zeros((3, 3)), np.vstack([quat_of(0, 0, h, 1) for h in (0.0, 20.0, 30.0)]), name="B"
+    )
     t_a = np.array([1.0, 3.0])
-    a = C.Track(t_a, LAT0, LON0, 0.0, np.zeros((2, 3)), np.vstack([quat_of(0, 0, h, 1) for h in (10.0, 25.0)]),
-                name="A")
+    a = C.Track(
+        t_a, LAT0, LON0, 0.0, np.zeros((2, 3)), np.vstack([quat_of(0, 0, h, 1) for h in (10.0, 25.0)]), name="A"
+    )
     res = C.compare(a, b)
     np.testing.assert_allclose(res.attitude_rad, 0.0, atol=np.radians(ANGLE_TOL_DEG))
     assert any("no attitude" in n for n in C.compare(a, C.Track(t_b, LAT0, LON0, 0.0, None, None, name="B")).notes)
@@ -297,8 +301,10 @@ def test_only_a_samples_inside_the_overlap_are_compared():
     np.testing.assert_allclose(res.horizontal_m, 0.0, atol=OFFSET_TOL_M)
 
 
-@pytest.mark.parametrize("t_b, words", [(np.arange(200.0, 300.0), "no time overlap"),
-                                        (np.arange(100.0, 120.0), "only 1 sample inside the time overlap")])
+@pytest.mark.parametrize(
+    "t_b, words",
+    [(np.arange(200.0, 300.0), "no time overlap"), (np.arange(100.0, 120.0), "only 1 sample inside the time overlap")],
+)
 def test_empty_or_single_sample_overlap_is_an_error(t_b, words):
     a = straight_track(90.0, t=np.arange(0.0, 101.0), name="A")
     b = straight_track(90.0, t=t_b)
@@ -325,8 +331,9 @@ def write_navigation_by_hand(path, t, lat_rad, lon_rad, h_m, v_n, quat_nb):
     with h5py.File(path, "w") as h5:
         h5.attrs["schema"] = "sizefx/navigation/1"
         h5.create_dataset("time", data=t).attrs["units"] = "s"
-        h5.create_dataset("position", data=np.column_stack([np.degrees(lat_rad), np.degrees(lon_rad), h_m])
-                          ).attrs["units"] = "deg,deg,m"
+        h5.create_dataset("position", data=np.column_stack([np.degrees(lat_rad), np.degrees(lon_rad), h_m])).attrs[
+            "units"
+        ] = "deg,deg,m"
         h5.create_dataset("velocity", data=v_n).attrs["units"] = "m/s"
         h5.create_dataset("quaternion", data=quat_nb).attrs["units"] = "1"
         h5.create_dataset("euler", data=np.column_stack([roll, pitch, heading % 360.0])).attrs["units"] = "deg"
@@ -346,8 +353,11 @@ def flight_files(tmp_path_factory):
     speed = ProfileBuilder().hold(duration).build(50.0)
     track = ProfileBuilder().hold(duration).build(np.pi / 2)
     height = ProfileBuilder().hold(duration).build(h0)
-    traj = Trajectory(FlightPath(speed, track, height, lat0, lon0, duration),
-                      RotationChain([np.array([0.0, 0.0, 1.0])], [ConstantProfile(np.pi / 2)]), duration)
+    traj = Trajectory(
+        FlightPath(speed, track, height, lat0, lon0, duration),
+        RotationChain([np.array([0.0, 0.0, 1.0])], [ConstantProfile(np.pi / 2)]),
+        duration,
+    )
     tel = simulate_in_memory(traj, load_effects(base=IDEAL), rate_hz=400.0)
     ref = write_telemetry(d / "ref.h5", tel)
     res = navigate(tel, NavConfig(subsamples=4, output_rate_hz=10.0))
@@ -355,8 +365,9 @@ def flight_files(tmp_path_factory):
     write_navigation(nav, res, input_file=ref)
     a = C.read_track(nav)
     cross = 0.5 * (a.time_s - a.time_s[0])
-    lat_b, lon_b, h_b = geodetic_from_local_ned(np.column_stack([-cross, 0 * cross, 0 * cross]), a.lat_rad,
-                                                a.lon_rad, a.height_m)
+    lat_b, lon_b, h_b = geodetic_from_local_ned(
+        np.column_stack([-cross, 0 * cross, 0 * cross]), a.lat_rad, a.lon_rad, a.height_m
+    )
     q_b = mat_to_quat(axis_angle_mat([0.0, 0.0, 1.0], np.radians(2.0)) @ quat_to_mat(a.quat_nb))
     b = write_navigation_by_hand(d / "b_nav.h5", a.time_s, lat_b, lon_b, h_b, a.vel_n_mps, q_b)
     return {"dir": d, "tel": tel, "res": res, "ref": ref, "a": nav, "b": b, "cross_final_m": float(cross[-1])}
@@ -401,8 +412,17 @@ def cli():
 def test_cli_with_reference_json_and_plots(flight_files, tmp_path):
     f = flight_files
     out_json, plots = tmp_path / "cmp.json", tmp_path / "figs"
-    args = ["compare", str(f["a"]), str(f["b"]), "--reference", str(f["ref"]), "--json", str(out_json),
-            "--plots", str(plots)]
+    args = [
+        "compare",
+        str(f["a"]),
+        str(f["b"]),
+        "--reference",
+        str(f["ref"]),
+        "--json",
+        str(out_json),
+        "--plots",
+        str(plots),
+    ]
     result = CliRunner().invoke(cli(), args)
     assert result.exit_code == 0, result.output
     doc = json.loads(out_json.read_text())
@@ -489,15 +509,13 @@ def _telemetry_without_position(d, good):
 
 def _no_overlap(d, good):
     a = C.read_track(good)
-    write_navigation_by_hand(d / "late.h5", a.time_s + 1000.0, a.lat_rad, a.lon_rad, a.height_m, a.vel_n_mps,
-                             a.quat_nb)
+    write_navigation_by_hand(d / "late.h5", a.time_s + 1000.0, a.lat_rad, a.lon_rad, a.height_m, a.vel_n_mps, a.quat_nb)
     return d / "late.h5", "no time overlap"
 
 
 def _missing_velocity(d, good):
     a = C.read_track(good)
-    path = write_navigation_by_hand(d / "novel.h5", a.time_s, a.lat_rad, a.lon_rad, a.height_m, a.vel_n_mps,
-                                    a.quat_nb)
+    path = write_navigation_by_hand(d / "novel.h5", a.time_s, a.lat_rad, a.lon_rad, a.height_m, a.vel_n_mps, a.quat_nb)
     with h5py.File(path, "a") as h5:
         del h5["velocity"]
     return path, "/velocity: dataset is missing"
@@ -511,15 +529,23 @@ def _wrong_schema(d, good):
 
 def _position_in_radians_labelled(d, good):
     a = C.read_track(good)
-    path = write_navigation_by_hand(d / "rad.h5", a.time_s, a.lat_rad, a.lon_rad, a.height_m, a.vel_n_mps,
-                                    a.quat_nb)
+    path = write_navigation_by_hand(d / "rad.h5", a.time_s, a.lat_rad, a.lon_rad, a.height_m, a.vel_n_mps, a.quat_nb)
     with h5py.File(path, "a") as h5:
         h5["position"].attrs["units"] = "rad,rad,m"
     return path, "/position: has units 'rad,rad,m'"
 
 
-@pytest.mark.parametrize("make", [_not_hdf5, _telemetry_without_position, _no_overlap, _missing_velocity,
-                                  _wrong_schema, _position_in_radians_labelled])
+@pytest.mark.parametrize(
+    "make",
+    [
+        _not_hdf5,
+        _telemetry_without_position,
+        _no_overlap,
+        _missing_velocity,
+        _wrong_schema,
+        _position_in_radians_labelled,
+    ],
+)
 def test_bad_input_exits_2_with_one_line(flight_files, tmp_path, make):
     bad, words = make(tmp_path, flight_files["a"])
     result = CliRunner().invoke(cli(), ["compare", str(flight_files["a"]), str(bad)])

@@ -22,8 +22,9 @@ SCHEMA = load_schema(TELEMETRY_SCHEMA)
 ACCEL_LIMIT = SCHEMA["sample_limits"]["/imu/accel"]  # m/s^2, symmetric or per column
 
 # finite values of every size, and the values a file may hold that are not
-_samples = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
-                     st.sampled_from([0.0, 1e3, -1e3, 1e6, 1e308, -1e308]))
+_samples = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=64), st.sampled_from([0.0, 1e3, -1e3, 1e6, 1e308, -1e308])
+)
 
 
 def _first(mask: np.ndarray) -> int:
@@ -32,8 +33,10 @@ def _first(mask: np.ndarray) -> int:
 
 
 @settings(max_examples=300, deadline=None)
-@given(arrays(np.float64, st.tuples(st.integers(1, 40), st.just(3)), elements=_samples),
-       st.sampled_from([1.0, 9.80665, 1e-3, 1e3]))
+@given(
+    arrays(np.float64, st.tuples(st.integers(1, 40), st.just(3)), elements=_samples),
+    st.sampled_from([1.0, 9.80665, 1e-3, 1e3]),
+)
 def test_kernel_finds_what_the_numpy_twin_finds(raw, factor):
     """The first sample not finite as read, and the first whose SI value the twin calls invalid
     (not finite after scaling, or beyond the limits), at the same flat index; the SI values
@@ -49,10 +52,15 @@ def test_kernel_finds_what_the_numpy_twin_finds(raw, factor):
 
 
 @settings(max_examples=150, deadline=None)
-@given(st.integers(1, 3 * CHECK_BLOCK_ROWS + 7), st.lists(st.tuples(st.floats(0, 1), st.integers(0, 2),
-                                                                     st.sampled_from([np.nan, np.inf, -np.inf, 1e6,
-                                                                                      -1e6, 1e308])), max_size=3),
-       st.sampled_from([1.0, 9.80665]), st.integers(0, 2**32))
+@given(
+    st.integers(1, 3 * CHECK_BLOCK_ROWS + 7),
+    st.lists(
+        st.tuples(st.floats(0, 1), st.integers(0, 2), st.sampled_from([np.nan, np.inf, -np.inf, 1e6, -1e6, 1e308])),
+        max_size=3,
+    ),
+    st.sampled_from([1.0, 9.80665]),
+    st.integers(0, 2**32),
+)
 def test_kernel_blocks_find_what_the_numpy_twin_finds(n, bad, factor, seed):
     """Records longer than a block, in SI (judged block by block, a bad block scanned again) and not
     (scanned sample by sample): the same first indices and SI values as the twin wherever the bad
@@ -102,8 +110,11 @@ def test_reader_names_the_first_row_beyond_the_limits_after_the_units(tmp_path):
     accel = np.tile([0.0, 0.0, -1.0], (3000, 1))  # in g
     accel[1234, 0] = 1e5
     accel[2000, 2] = -2e5
-    with pytest.raises(TelemetryError, match=r"holds 980665 \(SI, after its units\) at row 1234, column 0, outside "
-                                             r".*\(2 rows in this read\)"):
+    with pytest.raises(
+        TelemetryError,
+        match=r"holds 980665 \(SI, after its units\) at row 1234, column 0, outside "
+        r".*\(2 rows in this read\)",
+    ):
         read_telemetry(_record(tmp_path / "g.h5", accel, units="g"))
 
 

@@ -21,8 +21,11 @@ from sizefx import rotation as rot
 from sizefx.constants import OMEGA_EARTH_RAD_S, STANDARD_GRAVITY_MPS2
 from sizefx.io.schema import load_schema
 
-unit_quats = st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4).filter(
-    lambda q: np.linalg.norm(q) > 0.1).map(lambda q: np.asarray(q) / np.linalg.norm(q))
+unit_quats = (
+    st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4)
+    .filter(lambda q: np.linalg.norm(q) > 0.1)
+    .map(lambda q: np.asarray(q) / np.linalg.norm(q))
+)
 
 
 #: The package docstring, whitespace collapsed: where the conventions are stated, once.
@@ -75,8 +78,9 @@ def test_the_formulas_of_the_package_docstring_hold_for_the_code():
         np.testing.assert_allclose(mat_nb, written, atol=1e-15)
         q = rot.mat_to_quat(mat_nb)
         v_b = rng.standard_normal(3)
-        v_n = eval(sandwich, {"q": _Quat(q), "v_b": _Quat(np.r_[0.0, v_b]),
-                              "conj": lambda p: _Quat(rot.quat_conjugate(p.q))}).q
+        v_n = eval(
+            sandwich, {"q": _Quat(q), "v_b": _Quat(np.r_[0.0, v_b]), "conj": lambda p: _Quat(rot.quat_conjugate(p.q))}
+        ).q
         assert abs(v_n[0]) < 1e-15  # a pure quaternion stays pure
         np.testing.assert_allclose(v_n[1:], mat_nb @ v_b, atol=1e-14)  # mat_nb @ v_b = v_n, with q_nb of mat_nb
 
@@ -95,8 +99,9 @@ def test_quaternion_rotates_body_vectors_into_ned_like_scipy(q):
 @settings(max_examples=200, deadline=None)
 @given(unit_quats, unit_quats)
 def test_hamilton_product_composes_like_matrices(p, q):
-    np.testing.assert_allclose(rot.quat_to_mat(rot.quat_multiply(p, q)), rot.quat_to_mat(p) @ rot.quat_to_mat(q),
-                               atol=1e-14)
+    np.testing.assert_allclose(
+        rot.quat_to_mat(rot.quat_multiply(p, q)), rot.quat_to_mat(p) @ rot.quat_to_mat(q), atol=1e-14
+    )
 
 
 @settings(max_examples=200, deadline=None)

@@ -8,18 +8,18 @@ import tomllib
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from sizefx_cli.main import main
 
 from sizefx import scenarios
 from sizefx.constants import DEG_PER_H, MICRO_G
 from sizefx.correct import correct_imu, load_model
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError
+from sizefx.io.telemetry import read_telemetry
 from sizefx.motion import RotationChain, Sinusoids, StaticSite, Trajectory
 from sizefx.navigate import NavConfig, navigate
 from sizefx.omegadot import SAVGOL_WINDOW
 from sizefx.simulate import simulate_in_memory
-from sizefx.io.telemetry import read_telemetry
+from sizefx_cli.main import main
 
 RATE_HZ = 1600.0
 #: Samples left out at each end: the Savitzky-Golay fit and np.gradient are one-sided there,
@@ -100,9 +100,10 @@ EXACT_TOL_DEG_H = 1e-8
 def tumbling(duration_s: float = 4.0) -> Trajectory:
     """Heading, pitch and roll swinging together (0.4, 0.55, 0.7 Hz; up to 2.2 rad/s, 8.4 rad/s^2)."""
     lat, lon, h = scenarios.PAPER_AIRFIELD.radians()
-    chain = RotationChain([scenarios.E_DOWN, scenarios.E_EAST, scenarios.E_NORTH],
-                          [Sinusoids([0.5], [0.4], [0.3]), Sinusoids([0.3], [0.55], [1.0]),
-                           Sinusoids([0.35], [0.7], [2.0])])
+    chain = RotationChain(
+        [scenarios.E_DOWN, scenarios.E_EAST, scenarios.E_NORTH],
+        [Sinusoids([0.5], [0.4], [0.3]), Sinusoids([0.3], [0.55], [1.0]), Sinusoids([0.35], [0.7], [2.0])],
+    )
     return Trajectory(StaticSite(lat, lon, h), chain, duration_s, name="tumbling")
 
 
@@ -118,8 +119,7 @@ def errors(tel, truth):
     per_sample = 1.0 if tel.form == "rates" else 1.0 / RATE_HZ
     (g, a), (g0, a0) = tel.imu_arrays(), truth.imu_arrays()
     inner = slice(EDGE, -EDGE)
-    return (np.abs(a - a0)[inner].max() / per_sample / MICRO_G,
-            np.abs(g - g0)[inner].max() / per_sample / DEG_PER_H)
+    return (np.abs(a - a0)[inner].max() / per_sample / MICRO_G, np.abs(g - g0)[inner].max() / per_sample / DEG_PER_H)
 
 
 @pytest.fixture(scope="module")
@@ -128,8 +128,10 @@ def records():
     out = {}
     for name, form in {(name, form) for name, form, _ in ROUND_TRIP_TOL}:
         traj = TRAJECTORIES[name]()
-        out[name, form] = (simulate_in_memory(traj, model(MODEL), rate_hz=RATE_HZ, form=form, seed=1),
-                           simulate_in_memory(traj, model({}), rate_hz=RATE_HZ, form=form, seed=1))
+        out[name, form] = (
+            simulate_in_memory(traj, model(MODEL), rate_hz=RATE_HZ, form=form, seed=1),
+            simulate_in_memory(traj, model({}), rate_hz=RATE_HZ, form=form, seed=1),
+        )
     return out
 
 
@@ -159,8 +161,13 @@ def test_triad_mode_leaves_the_triad_points_specific_force(records):
     # 0.022 ug). The gyros stay exact (1.7e-7 deg/h): G f_b takes f_b at the reference point, as the
     # simulator does; taking the triad point's f_b there would leave 0.088 deg/h.
     tel, _ = records["tumbling", "increments"]
-    at_triad = simulate_in_memory(tumbling(), model({"lever_arm": {**MODEL["lever_arm"], "preset": "none"}}),
-                                  rate_hz=RATE_HZ, form="increments", seed=1)
+    at_triad = simulate_in_memory(
+        tumbling(),
+        model({"lever_arm": {**MODEL["lever_arm"], "preset": "none"}}),
+        rate_hz=RATE_HZ,
+        form="increments",
+        seed=1,
+    )
     after_ug, after_deg_h = errors(correct_imu(tel, model(MODEL), mode="triad"), at_triad)
     assert after_ug < ROUND_TRIP_TOL["tumbling", "increments", "increments"][0]
     assert after_deg_h < ROUND_TRIP_TOL["tumbling", "increments", "increments"][1]
@@ -169,29 +176,42 @@ def test_triad_mode_leaves_the_triad_points_specific_force(records):
 def test_a_model_file_switches_off_what_it_omits(tmp_path, records):
     _, point = records["tumbling", "rates"]
     path = tmp_path / "bias.toml"
-    path.write_text('[gyro_bias]\nenabled = true\ndeg_per_h = [5.0, -3.0, 4.0]\n'
-                    '[accel_noise]\nenabled = true\n[level_tilt]\nenabled = true\n'
-                    '[reference_delay]\nenabled = true\n[accel_bias]\nenabled = false\nbias_ug = [1e4, 0.0, 0.0]\n')
+    path.write_text(
+        "[gyro_bias]\nenabled = true\ndeg_per_h = [5.0, -3.0, 4.0]\n"
+        "[accel_noise]\nenabled = true\n[level_tilt]\nenabled = true\n"
+        "[reference_delay]\nenabled = true\n[accel_bias]\nenabled = false\nbias_ug = [1e4, 0.0, 0.0]\n"
+    )
     fx = load_model(path)
     assert not fx.enabled("lever_arm") and not fx.enabled("gyro_noise")  # on by the schema's defaults
     out = correct_imu(point, fx)
     # only the gyro bias is taken off; the noise, tilt and reference delay are not IMU output errors
     np.testing.assert_array_equal(out.accel_mps2, point.accel_mps2)
-    np.testing.assert_allclose(out.gyro_rad_s - point.gyro_rad_s,
-                               np.broadcast_to(-np.array([5.0, -3.0, 4.0]) * DEG_PER_H, point.gyro_rad_s.shape),
-                               rtol=0.0, atol=1e-15)  # rounding of rates up to 3 rad/s
+    np.testing.assert_allclose(
+        out.gyro_rad_s - point.gyro_rad_s,
+        np.broadcast_to(-np.array([5.0, -3.0, 4.0]) * DEG_PER_H, point.gyro_rad_s.shape),
+        rtol=0.0,
+        atol=1e-15,
+    )  # rounding of rates up to 3 rad/s
     applied = json.loads(out.source["correction_json"])
     assert applied["corrected"] == ["gyro_bias"]
     assert applied["ignored"] == ["reference_delay", "level_tilt", "accel_noise"]
 
 
-@pytest.mark.parametrize("sections,words", [
-    # beyond its range already when read (the inverse's own refusal is tested in test_sensor_model)
-    ({"accel_quadratic": {"enabled": True, "ug_per_g2": [0.0, 0.0, 1e6]}}, "ug_per_g2 = 1e+06 is outside its range"),
-    ({"gyro_scale_factor": {"enabled": True, "ppm": [0.0, -1.5e6, 0.0]}}, "[gyro_scale_factor]"),
-    ({"accel_misalignment": {"enabled": True, "arcsec": [[0.0, 2e5, 0.0], [2e5, 0.0, 0.0], [0.0, 0.0, 0.0]]}},
-     "[accel_misalignment]"),
-])
+@pytest.mark.parametrize(
+    "sections,words",
+    [
+        # beyond its range already when read (the inverse's own refusal is tested in test_sensor_model)
+        (
+            {"accel_quadratic": {"enabled": True, "ug_per_g2": [0.0, 0.0, 1e6]}},
+            "ug_per_g2 = 1e+06 is outside its range",
+        ),
+        ({"gyro_scale_factor": {"enabled": True, "ppm": [0.0, -1.5e6, 0.0]}}, "[gyro_scale_factor]"),
+        (
+            {"accel_misalignment": {"enabled": True, "arcsec": [[0.0, 2e5, 0.0], [2e5, 0.0, 0.0], [0.0, 0.0, 0.0]]}},
+            "[accel_misalignment]",
+        ),
+    ],
+)
 def test_a_model_that_cannot_be_inverted_is_named(records, sections, words):
     tel, _ = records["tumbling", "rates"]
     with pytest.raises(ConfigError) as err:
@@ -247,11 +267,14 @@ def test_compensate_and_navigate_take_a_model(tmp_path, sim_with_model):
     assert raw_m > 1.0 and corrected_m < 1e-4, (raw_m, corrected_m)
 
 
-@pytest.mark.parametrize("text,words", [
-    ("[accel_bias]\nbias_ug = [1.0, 2.0]\n", "[accel_bias] bias_ug has shape [2]"),
-    ("[accel_bias\nbias_ug = 1\n", "not valid TOML"),
-    ("[wobble]\nenabled = true\n", "unknown section [wobble]"),
-])
+@pytest.mark.parametrize(
+    "text,words",
+    [
+        ("[accel_bias]\nbias_ug = [1.0, 2.0]\n", "[accel_bias] bias_ug has shape [2]"),
+        ("[accel_bias\nbias_ug = 1\n", "not valid TOML"),
+        ("[wobble]\nenabled = true\n", "unknown section [wobble]"),
+    ],
+)
 @pytest.mark.parametrize("command", ["navigate", "compensate"])
 def test_a_bad_model_file_exits_2_with_one_line(tmp_path, sim_with_model, command, text, words):
     sim, _ = sim_with_model

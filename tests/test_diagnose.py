@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from sizefx_cli.main import main
+from support import write_raw
 
 from sizefx import diagnose as D
 from sizefx import scenarios
@@ -25,12 +25,15 @@ from sizefx.constants import ARCSEC, DEG
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import OutputError
 from sizefx.simulate import simulate_in_memory
-from support import write_raw
+from sizefx_cli.main import main
 
 RATE_HZ = 400.0
 DURATION_S = 60.0
-BASE = {"lever_arm": {"enabled": True, "preset": "high-precision"},
-        "accel_noise": {"enabled": True}, "gyro_noise": {"enabled": True}}
+BASE = {
+    "lever_arm": {"enabled": True, "preset": "high-precision"},
+    "accel_noise": {"enabled": True},
+    "gyro_noise": {"enabled": True},
+}
 NOMINAL = D.theta_from_model(load_effects(base=IDEAL, overrides={"lever_arm": {"enabled": True}}))
 #: Sizes: the schema's defaults where a one-minute record sees them at >= 10 sigma; larger gyro
 #: bias and g-sensitivity, which the navigation-grade gyro noise (2e-6 rad/s per sample at 400 Hz)
@@ -90,9 +93,14 @@ def test_each_effect_is_found_within_3_sigma_and_nothing_else(effect):
         assert e.sentence and 0.0 < e.explained_fraction <= 1.0
 
 
-@pytest.mark.parametrize("combo", [("lever_arm", "accel_delay"),
-                                   ("reference_delay", "level_tilt", "accel_scale_factor"),
-                                   ("accel_misalignment", "gyro_scale_factor", "accel_delay")])
+@pytest.mark.parametrize(
+    "combo",
+    [
+        ("lever_arm", "accel_delay"),
+        ("reference_delay", "level_tilt", "accel_scale_factor"),
+        ("accel_misalignment", "gyro_scale_factor", "accel_delay"),
+    ],
+)
 def test_combinations_are_separated(combo):
     tel, truth = record({k: HIDDEN[k] for k in combo}, seed=7)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
@@ -149,8 +157,12 @@ def test_collinear_effects_are_named_as_indistinguishable():
 
 
 def test_increments_form_and_1600_hz():
-    tel, truth = record({"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"]},
-                        rate_hz=1600.0, duration_s=20.0, form="increments")
+    tel, truth = record(
+        {"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"]},
+        rate_hz=1600.0,
+        duration_s=20.0,
+        form="increments",
+    )
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert {i for i, _ in found(d)} == {"lever_arm", "accel_delay"}
     assert_within_3_sigma(d, truth, {"lever_arm", "accel_delay"})
@@ -186,8 +198,9 @@ def test_prediction_with_the_true_model_reproduces_the_simulation():
     Floors: RotationSpline rates at 200 Hz (1e-8 rad/s against motion under 0.12 Hz) and the
     Savitzky-Golay gyro derivative in the lever terms (1e-10 m/s^2 at these rates).
     """
-    fx = load_effects(base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"}
-                      | {"lever_arm": {"enabled": True}})
+    fx = load_effects(
+        base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"} | {"lever_arm": {"enabled": True}}
+    )
     tel = simulate_in_memory(scenarios.tumble(20.0), fx, rate_hz=200.0, form="rates")
     pred = D.Predictor(tel)
     r = (pred.measured - pred.predict(D.theta_from_model(fx)))[pred.mask]
@@ -224,8 +237,9 @@ def test_analytic_jacobian_matches_its_numerical_twin():
     1e-8 relative pull on the lever terms): exact terms, the tilt included, to 1e-7 (they agree
     to 1e-8); the delay columns, from numpy.gradient time derivatives, to 1e-3 (1e-5 at 200 Hz
     on sub-hertz motion)."""
-    fx = load_effects(base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"}
-                      | {"lever_arm": {"enabled": True}})
+    fx = load_effects(
+        base=IDEAL, overrides={k: v for k, v in HIDDEN.items() if k != "lever_arm"} | {"lever_arm": {"enabled": True}}
+    )
     tel = simulate_in_memory(scenarios.tumble(20.0), fx, rate_hz=200.0, form="rates")
     pred = D.Predictor(tel)
     th = D.theta_from_model(fx)
@@ -271,8 +285,14 @@ def test_model_document_loads_in_memory_as_the_same_vector():
 
 
 def test_units_of_the_named_parameters():
-    tel, _ = record({"level_tilt": HIDDEN["level_tilt"], "accel_delay": HIDDEN["accel_delay"],
-                         "gyro_scale_factor": HIDDEN["gyro_scale_factor"]}, seed=3)
+    tel, _ = record(
+        {
+            "level_tilt": HIDDEN["level_tilt"],
+            "accel_delay": HIDDEN["accel_delay"],
+            "gyro_scale_factor": HIDDEN["gyro_scale_factor"],
+        },
+        seed=3,
+    )
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     by = {(e.id, e.channel): e for e in d.effects}
     tilt = by[("level_tilt", None)]
@@ -294,9 +314,19 @@ def tumble_file(tmp_path_factory):
     from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path_factory.mktemp("diag") / "tumble.h5"
-    run(SimulateConfig("tumble", path, plan=scenarios.TumblePlan(duration_s=30.0), rate_hz=400.0, seed=5,
-        overrides={"accel_delay": {"enabled": True, "tau_s": 0.0005},
-                   "lever_arm": {"d_y_m": [0.003, 0.0274, -0.002]}}))
+    run(
+        SimulateConfig(
+            "tumble",
+            path,
+            plan=scenarios.TumblePlan(duration_s=30.0),
+            rate_hz=400.0,
+            seed=5,
+            overrides={
+                "accel_delay": {"enabled": True, "tau_s": 0.0005},
+                "lever_arm": {"d_y_m": [0.003, 0.0274, -0.002]},
+            },
+        )
+    )
     return path
 
 
@@ -304,8 +334,9 @@ def test_cli_writes_report_model_and_plots(tumble_file, tmp_path):
     out = tmp_path / "report.json"
     model = tmp_path / "model.toml"
     plots = tmp_path / "plots"
-    result = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--json", str(out), "--plots", str(plots),
-                                       "--model-out", str(model)])
+    result = CliRunner().invoke(
+        main, ["diagnose", str(tumble_file), "--json", str(out), "--plots", str(plots), "--model-out", str(model)]
+    )
     assert result.exit_code == 0, result.output
     assert "accelerometers lag the gyros by" in result.output and "accelerometer y sits" in result.output
     doc = json.loads(out.read_text())
@@ -330,8 +361,9 @@ def test_cli_writes_report_model_and_plots(tumble_file, tmp_path):
     assert all(s > 0 for s in g["d_sigma_m"][1]) and sc[0] > 0 and sc[2] > 0 and sc[1] == 0
     assert (plots / "residuals.png").stat().st_size > 10_000 and (plots / "spectra.png").stat().st_size > 10_000
     # the written model is accepted by diagnose --model (and finds nothing more)
-    again = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--model", str(model),
-                                      "--model-out", str(tmp_path / "m2.toml")])
+    again = CliRunner().invoke(
+        main, ["diagnose", str(tumble_file), "--model", str(model), "--model-out", str(tmp_path / "m2.toml")]
+    )
     assert again.exit_code == 0, again.output
     assert "found nothing beyond the start model" in again.output
 
@@ -344,9 +376,11 @@ def test_cli_bad_input_is_one_line(tmp_path):
     assert len(lines) == 1 and "noref.h5" in lines[0] and "/reference" in lines[0]
     both = CliRunner().invoke(main, ["diagnose", str(no_ref), "--nominal", "compact", "--model", "x.toml"])
     assert both.exit_code == 2 and "not both" in both.output
-    for option, value, words in (("--bandwidth-hz", "0", "'--bandwidth-hz': 0.0 is not in the range 0.01<=x"),
-                                 ("--bandwidth-hz", "nan", "'nan' is not a finite number"),
-                                 ("--to-s", "-1", "span is empty")):
+    for option, value, words in (
+        ("--bandwidth-hz", "0", "'--bandwidth-hz': 0.0 is not in the range 0.01<=x"),
+        ("--bandwidth-hz", "nan", "'nan' is not a finite number"),
+        ("--to-s", "-1", "span is empty"),
+    ):
         bad = CliRunner().invoke(main, ["diagnose", str(no_ref), "--from-s", "0", option, value])
         assert bad.exit_code == 2 and words in bad.output and bad.output.count("\n") == 1, bad.output
 
@@ -358,8 +392,7 @@ def test_outputs_are_refused_before_any_work(tmp_path):
     rec = write_raw(tmp_path / "rec.h5", reference=False)
     plots = tmp_path / "plots"
     plots.mkdir()
-    same = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots),
-                                     "--json", str(plots / "spectra.png")])
+    same = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots), "--json", str(plots / "spectra.png")])
     assert same.exit_code == 2 and "given to both --json and --plots spectra.png" in same.output, same.output
     (plots / "residuals.png").write_bytes(b"an earlier plot")
     old = CliRunner().invoke(main, ["diagnose", str(rec), "--plots", str(plots)])
@@ -381,11 +414,21 @@ def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
     from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path / "sway.h5"
-    run(SimulateConfig("sway", path, plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0), rate_hz=200.0, seed=4,
-        overrides={"lever_arm": {"d_y_m": [0.0, 0.0273, 0.0]}, "accel_delay": {"enabled": True}}))
+    run(
+        SimulateConfig(
+            "sway",
+            path,
+            plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0),
+            rate_hz=200.0,
+            seed=4,
+            overrides={"lever_arm": {"d_y_m": [0.0, 0.0273, 0.0]}, "accel_delay": {"enabled": True}},
+        )
+    )
     passes = []
-    res = D.run(D.DiagnoseConfig(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml"),
-                progress=lambda done, total: passes.append((done, total)))
+    res = D.run(
+        D.DiagnoseConfig(path, json_path=tmp_path / "d.json", model_out=tmp_path / "m.toml"),
+        progress=lambda done, total: passes.append((done, total)),
+    )
     d, report, doc = res.diagnosis, res.report(), res.to_json()
     settled = [D.MAX_PASSES] if d.passes < D.MAX_PASSES else []  # progress ends at done == total
     assert passes == [(k, D.MAX_PASSES) for k in list(range(1, d.passes + 1)) + settled], passes
@@ -423,8 +466,15 @@ def broad_diagnoses(tmp_path_factory):
     for trial, name in (("07", "07_undisturbed_fast_rotation_B.mat"), ("21", "21_undisturbed_fast_combined.mat")):
         h5 = folder / f"broad{trial}.h5"
         run_import("broad", REAL / "broad" / name, h5)
-        res = D.run(D.DiagnoseConfig(h5, nominal="none", bandwidth_hz=BROAD_BANDWIDTH_HZ,
-                                     json_path=folder / f"{trial}.json", navigation=False))
+        res = D.run(
+            D.DiagnoseConfig(
+                h5,
+                nominal="none",
+                bandwidth_hz=BROAD_BANDWIDTH_HZ,
+                json_path=folder / f"{trial}.json",
+                navigation=False,
+            )
+        )
         out[trial] = (res.diagnosis, res.report(), res.to_json())
     return out
 
@@ -451,12 +501,12 @@ def test_broad_trials_agree_on_lever_arms_and_time_offsets(broad_diagnoses):
 
 
 def test_broad_residual_gain_is_reported(broad_diagnoses):
-    for trial, (d, report, doc) in broad_diagnoses.items():
+    for trial, (_d, report, doc) in broad_diagnoses.items():
         for c in D.CHANNELS:  # in the fitted band every channel improves by at least a fifth
             assert doc["residual_rms_after"][c] < 0.8 * doc["residual_rms_before"][c], (trial, c)
         assert doc["bandwidth_hz"] == BROAD_BANDWIDTH_HZ
         assert "lag the gyros" in report or "lead the gyros" in report
-        assert ("the reference leads the IMU by" in report or "the reference lags the IMU by" in report)
+        assert "the reference leads the IMU by" in report or "the reference lags the IMU by" in report
         assert "full band" in report
 
 
@@ -465,10 +515,11 @@ def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
     selection redone there; the spread is part of the errors (issue 15: BROAD's trials agree across
     trials only with it). Reported per parameter in consistency.systematic, added in quadrature (the
     error is at least that part, and at least the white-noise error), and named in the printed report."""
-    for trial, (d, report, doc) in broad_diagnoses.items():
+    for trial, (_d, report, doc) in broad_diagnoses.items():
         systematic = doc["consistency"]["systematic"]
         assert [b["bandwidth_hz"] for b in systematic["bands"]] == pytest.approx(
-            [BROAD_BANDWIDTH_HZ * 2 ** (-1 / 3), BROAD_BANDWIDTH_HZ * 2 ** (1 / 3)])
+            [BROAD_BANDWIDTH_HZ * 2 ** (-1 / 3), BROAD_BANDWIDTH_HZ * 2 ** (1 / 3)]
+        )
         assert all(("lever_arm:accel_x" in b["selected"]) for b in systematic["bands"]), systematic["bands"]
         errors = {(e["effect"], e["parameter"]): e["sigma"] for e in doc["consistency"]["standard_errors"]}
         parts = {(q["effect"], q["parameter"]): q["sigma_selection"] for q in systematic["parameters"]}
@@ -476,6 +527,8 @@ def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
         assert max(parts[k] / errors[k] for k in parts if k[0] == "lever_arm") > 0.3, (trial, parts)
         assert all(errors[k] >= parts[k] * (1 - 1e-9) for k in parts)
         assert "the band's and the selection's part" in report
+
+
 def test_normal_equations_chunk_by_chunk_equal_the_whole_records(monkeypatch):
     """Regressors formed a chunk at a time from the terms of that chunk alone (bounded memory) give
     the same normal equations as the whole record's columns at once: the chunks overlap by one sample
@@ -493,8 +546,9 @@ def test_normal_equations_chunk_by_chunk_equal_the_whole_records(monkeypatch):
     whole = normal.normal_equations(rows_of, y, jacobian_columns(truth, pred.terms(truth), pred.t), np.ones(6))
     monkeypatch.setattr(normal, "CHUNK_SAMPLES", 1999)  # several chunks, boundaries inside blocks
     pred._cached_shifts = 0  # and the motion evaluated chunk by chunk too
-    chunked = normal.normal_equations(rows_of, y, columns_between(truth, functools.partial(pred.terms_span, truth),
-                                                                  pred.t), np.ones(6))
+    chunked = normal.normal_equations(
+        rows_of, y, columns_between(truth, functools.partial(pred.terms_span, truth), pred.t), np.ones(6)
+    )
     scale = np.abs(whole.N).max()
     assert np.abs(chunked.N - whole.N).max() < 1e-12 * scale
     assert np.abs(chunked.b - whole.b).max() < 1e-12 * np.abs(whole.b).max()
@@ -530,8 +584,10 @@ def test_low_passed_rows_span_by_span_equal_the_whole_series():
     mask[12_345:12_400] = False
     rows_of = normal.Rows(t, mask, dt, bandwidth_hz=10.0)
     whole = rows_of(x)
-    parts = [rows_of.span_rows(x[slice(*rows_of.extended(lo, hi))], rows_of.extended(lo, hi)[0], lo, hi)
-             for lo, hi in rows_of.spans(3_000)]
+    parts = [
+        rows_of.span_rows(x[slice(*rows_of.extended(lo, hi))], rows_of.extended(lo, hi)[0], lo, hi)
+        for lo, hi in rows_of.spans(3_000)
+    ]
     assert len(parts) > 3
     assert np.abs(np.vstack(parts) - whole).max() < 1e-12 * np.abs(x).max()
 
@@ -544,8 +600,10 @@ def test_diagnose_span_by_span_equals_the_whole_record_at_once(monkeypatch, band
     error and RMS within 1e-9 relative, far below anything the report shows; only sums are split."""
     from sizefx.diagnose import fit, normal, predictor
 
-    tel, _ = record({"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"],
-                     "accel_bias": HIDDEN["accel_bias"]}, duration_s=30.0)
+    tel, _ = record(
+        {"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"], "accel_bias": HIDDEN["accel_bias"]},
+        duration_s=30.0,
+    )
 
     def run(chunk, cache):
         monkeypatch.setattr(normal, "CHUNK_SAMPLES", chunk)
@@ -568,8 +626,20 @@ def test_diagnose_span_by_span_equals_the_whole_record_at_once(monkeypatch, band
 
 def test_cli_grade_option_sets_the_ranges_and_is_reported(tumble_file, tmp_path):
     out = tmp_path / "g.json"
-    result = CliRunner().invoke(main, ["diagnose", str(tumble_file), "--grade", "tactical", "--json", str(out),
-                                       "--model-out", str(tmp_path / "g.toml"), "--no-navigation"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "diagnose",
+            str(tumble_file),
+            "--grade",
+            "tactical",
+            "--json",
+            str(out),
+            "--model-out",
+            str(tmp_path / "g.toml"),
+            "--no-navigation",
+        ],
+    )
     assert result.exit_code == 0, result.output
     doc = json.loads(out.read_text())
     assert doc["grade"] == "tactical" and "as given" in doc["grade_reason"]
@@ -587,7 +657,9 @@ def test_long_rotation_spline_equals_one_spline(monkeypatch):
     from sizefx.diagnose import reference
 
     t = np.sort(np.random.default_rng(4).uniform(0.0, 60.0, 3000))
-    rot = Rotation.from_euler("zyx", np.column_stack([np.sin(0.7 * t), 0.5 * np.sin(1.1 * t + 1), 0.3 * np.cos(2.3 * t)]))
+    rot = Rotation.from_euler(
+        "zyx", np.column_stack([np.sin(0.7 * t), 0.5 * np.sin(1.1 * t + 1), 0.3 * np.cos(2.3 * t)])
+    )
     monkeypatch.setattr(reference, "SPLINE_ROWS", 1000)
     monkeypatch.setattr(reference, "SPLINE_PIECE_ROWS", 700)
     long = reference._LongRotationSpline(t, rot)
@@ -605,5 +677,7 @@ def test_running_median_in_pieces_is_the_median_of_every_window(monkeypatch):
     whole = np.median(np.lib.stride_tricks.sliding_window_view(x, 31, axis=0), axis=-1)
     monkeypatch.setattr(integrity, "_MEDIAN_WINDOWS", 777)
     assert np.array_equal(integrity._running_median(x, 31), whole)
-    assert np.array_equal(integrity._running_median(x[:, 0], 25),
-                          np.median(np.lib.stride_tricks.sliding_window_view(x[:, 0], 25), axis=-1))
+    assert np.array_equal(
+        integrity._running_median(x[:, 0], 25),
+        np.median(np.lib.stride_tricks.sliding_window_view(x[:, 0], 25), axis=-1),
+    )

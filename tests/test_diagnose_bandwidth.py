@@ -24,8 +24,11 @@ from sizefx.simulate import simulate_in_memory
 
 RATE_HZ = 400.0
 DURATION_S = 30.0
-BASE = {"lever_arm": {"enabled": True, "preset": "high-precision"},
-        "accel_noise": {"enabled": True}, "gyro_noise": {"enabled": True}}
+BASE = {
+    "lever_arm": {"enabled": True, "preset": "high-precision"},
+    "accel_noise": {"enabled": True},
+    "gyro_noise": {"enabled": True},
+}
 NOMINAL = D.theta_from_model(load_effects(base=IDEAL, overrides={"lever_arm": {"enabled": True}}))
 #: A hand-held rotation: the tumble's three sinusoids at 1.1-2.3 Hz and 20-30 deg, the band where
 #: motion capture tracks a hand (BROAD: 1-8 Hz). The default table tumble (0.05-0.12 Hz) has no
@@ -42,8 +45,7 @@ EARTH_RADIUS_M = 6.371e6  # metres to radians of latitude and longitude for the 
 
 def record(motion: dict | None = None):
     fx = load_effects(base=IDEAL, overrides=BASE)
-    return simulate_in_memory(scenarios.tumble(DURATION_S, **(motion or {})), fx, rate_hz=RATE_HZ, form="rates",
-                              seed=2)
+    return simulate_in_memory(scenarios.tumble(DURATION_S, **(motion or {})), fx, rate_hz=RATE_HZ, form="rates", seed=2)
 
 
 def with_mocap_noise(tel, *, seed=0):
@@ -57,8 +59,9 @@ def with_mocap_noise(tel, *, seed=0):
     lat = ref.lat_rad[rows] + rng.normal(0.0, MOCAP_POSITION_M, m) / EARTH_RADIUS_M
     lon = ref.lon_rad[rows] + rng.normal(0.0, MOCAP_POSITION_M, m) / (EARTH_RADIUS_M * np.cos(ref.lat_rad[rows]))
     h = ref.height_m[rows] + rng.normal(0.0, MOCAP_POSITION_M, m)
-    noisy = dataclasses.replace(ref, time_s=ref.time_s[rows], quat_nb=quat, lat_rad=lat, lon_rad=lon, height_m=h,
-                                velocity_n_mps=None)
+    noisy = dataclasses.replace(
+        ref, time_s=ref.time_s[rows], quat_nb=quat, lat_rad=lat, lon_rad=lon, height_m=h, velocity_n_mps=None
+    )
     return dataclasses.replace(tel, reference=noisy)
 
 
@@ -125,8 +128,17 @@ def test_a_record_too_short_for_spectra_keeps_the_full_band_and_says_why():
     assert choice.bandwidth_hz is None and "fewer than" in choice.reason
 
 
-@pytest.mark.parametrize("f_hz, down, up", [(10.08, 10.0, 12.0), (12.7, 12.0, 15.0), (10.0, 10.0, 10.0),
-                                            (0.63, 0.6, 0.8), (2.26, 2.0, 2.5), (97.0, 80.0, 100.0)])
+@pytest.mark.parametrize(
+    "f_hz, down, up",
+    [
+        (10.08, 10.0, 12.0),
+        (12.7, 12.0, 15.0),
+        (10.0, 10.0, 10.0),
+        (0.63, 0.6, 0.8),
+        (2.26, 2.0, 2.5),
+        (97.0, 80.0, 100.0),
+    ],
+)
 def test_readable_values(f_hz, down, up):
     assert readable_floor(f_hz) == pytest.approx(down, rel=1e-12)  # 1e-12: float powers of ten
     assert readable_ceil(f_hz) == pytest.approx(up, rel=1e-12)

@@ -26,11 +26,13 @@ RATE_HZ = 400.0
 REF_DECIMATION = 2  # reference at 200 Hz
 BASE = {"accel_noise": {"enabled": True}, "gyro_noise": {"enabled": True}}
 #: Small sensor errors and a 2 ms reference delay: what every real record carries, never an alarm.
-ORDINARY = {"reference_delay": {"enabled": True, "tau_s": 0.002},
-            "accel_bias": {"enabled": True, "bias_ug": [300.0, -200.0, 500.0]},
-            "gyro_bias": {"enabled": True, "deg_per_h": [5.0, -4.0, 3.0]},
-            "gyro_scale_factor": {"enabled": True, "ppm": [500.0, -300.0, 400.0]},
-            "accel_scale_factor": {"enabled": True, "ppm": [500.0, -300.0, 200.0]}}
+ORDINARY = {
+    "reference_delay": {"enabled": True, "tau_s": 0.002},
+    "accel_bias": {"enabled": True, "bias_ug": [300.0, -200.0, 500.0]},
+    "gyro_bias": {"enabled": True, "deg_per_h": [5.0, -4.0, 3.0]},
+    "gyro_scale_factor": {"enabled": True, "ppm": [500.0, -300.0, 400.0]},
+    "accel_scale_factor": {"enabled": True, "ppm": [500.0, -300.0, 200.0]},
+}
 
 
 def record(extra=None, *, seed=3, duration_s=30.0, decimation=REF_DECIMATION, traj=None):
@@ -40,8 +42,14 @@ def record(extra=None, *, seed=3, duration_s=30.0, decimation=REF_DECIMATION, tr
     tel = simulate_in_memory(traj or scenarios.tumble(duration_s), fx, rate_hz=RATE_HZ, form="rates", seed=seed)
     ref = tel.reference
     keep = slice(None, None, decimation)
-    tel.reference = replace(ref, **{k: getattr(ref, k)[keep] for k in (
-        "time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps") if getattr(ref, k) is not None})
+    tel.reference = replace(
+        ref,
+        **{
+            k: getattr(ref, k)[keep]
+            for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")
+            if getattr(ref, k) is not None
+        },
+    )
     return tel
 
 
@@ -51,10 +59,15 @@ def kinds(check):
 
 def test_clean_records_raise_nothing():
     """Tumble and sway, with a 2 ms reference delay and sensor errors far above navigation grade."""
-    sway = scenarios.sway(scenarios.SwayPlan(axis="pitch", amplitudes_dps=(20.0,), frequency_hz=1.0,
-                                             static_s=2.0, segment_s=18.0))[0]
-    for tel in (record(), record(ORDINARY, seed=5), record(ORDINARY, traj=sway, seed=6),
-                record(ORDINARY, decimation=1, seed=7)):
+    sway = scenarios.sway(
+        scenarios.SwayPlan(axis="pitch", amplitudes_dps=(20.0,), frequency_hz=1.0, static_s=2.0, segment_s=18.0)
+    )[0]
+    for tel in (
+        record(),
+        record(ORDINARY, seed=5),
+        record(ORDINARY, traj=sway, seed=6),
+        record(ORDINARY, decimation=1, seed=7),
+    ):
         check = I.check_reference(tel)
         assert check.warnings == [], check.warnings
         assert check.bad_rows.size == 0 and check.breaks_s == ()
@@ -137,8 +150,10 @@ def test_a_dropout_is_reported_as_a_gap():
     tel = record(seed=13, duration_s=20.0)
     ref = tel.reference
     keep = ~((ref.time_s > 8.0) & (ref.time_s < 8.25))
-    tel.reference = replace(ref, **{k: getattr(ref, k)[keep] for k in (
-        "time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")})
+    tel.reference = replace(
+        ref,
+        **{k: getattr(ref, k)[keep] for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")},
+    )
     check = I.check_reference(tel)
     assert kinds(check) == ["reference_gap"], check.warnings
     w = check.warnings[0]
@@ -150,8 +165,10 @@ def test_a_rate_change_is_reported():
     tel = record(seed=14, duration_s=20.0, decimation=1)
     ref = tel.reference
     keep = (ref.time_s < 10.0) | (np.arange(ref.time_s.size) % 2 == 0)  # 400 Hz, then 200 Hz
-    tel.reference = replace(ref, **{k: getattr(ref, k)[keep] for k in (
-        "time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")})
+    tel.reference = replace(
+        ref,
+        **{k: getattr(ref, k)[keep] for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")},
+    )
     check = I.check_reference(tel)
     assert kinds(check) == ["reference_rate_change"], check.warnings
     w = check.warnings[0]

@@ -35,10 +35,16 @@ def _regressors(t):
     """A sway about x and y at 0.5 and 0.3 Hz: rates, omega^2, angular acceleration, specific force."""
     w1, w2 = 2 * np.pi * 0.5, 2 * np.pi * 0.3
     omega_x, omega_y = 0.5 * np.sin(w1 * t), 0.3 * np.cos(w2 * t)
-    return {"omega_x": omega_x, "omega_y": omega_y, "omega_z": 0.05 * np.sin(2 * np.pi * 0.11 * t),
-            "omega_sq": omega_x**2 + omega_y**2, "omegadot_x": 0.5 * w1 * np.cos(w1 * t),
-            "omegadot_y": -0.3 * w2 * np.sin(w2 * t), "f_x": 9.8 * np.sin(0.3 * np.sin(w2 * t)),
-            "f_z": -9.8 * np.cos(0.3 * np.sin(w2 * t))}
+    return {
+        "omega_x": omega_x,
+        "omega_y": omega_y,
+        "omega_z": 0.05 * np.sin(2 * np.pi * 0.11 * t),
+        "omega_sq": omega_x**2 + omega_y**2,
+        "omegadot_x": 0.5 * w1 * np.cos(w1 * t),
+        "omegadot_y": -0.3 * w2 * np.sin(w2 * t),
+        "f_x": 9.8 * np.sin(0.3 * np.sin(w2 * t)),
+        "f_z": -9.8 * np.cos(0.3 * np.sin(w2 * t)),
+    }
 
 
 def _white(seed):
@@ -167,8 +173,8 @@ def test_gaps_are_neither_bridged_nor_read():
     y = _white(5)
     y[:, 1] += 3.0 * SIGMA[1] * np.sin(2 * np.pi * 12.5 * t)
     keep = np.ones(M, dtype=bool)
-    keep[int(0.2 * M):int(0.25 * M)] = False
-    keep[int(0.5 * M):int(0.5 * M) + 37] = False
+    keep[int(0.2 * M) : int(0.25 * M)] = False
+    keep[int(0.5 * M) : int(0.5 * M) + 37] = False
     y[~keep] = 1e3
     y[int(0.2 * M) + 10] = np.nan
     found = unexplained(t, y, keep, _regressors(_t()), SIGMA)
@@ -180,8 +186,18 @@ def test_findings_carry_every_field_and_kinds_are_known():
     y = _white(6)
     y[:, 5] += 3.0 * SIGMA[5] * np.sin(2 * np.pi * 37.0 * _t())
     (f,) = _run(y)
-    assert set(f) == {"channel", "kind", "frequency_hz", "regressor", "time_s", "size", "unit", "statistic",
-                      "p_value", "sentence"}
+    assert set(f) == {
+        "channel",
+        "kind",
+        "frequency_hz",
+        "regressor",
+        "time_s",
+        "size",
+        "unit",
+        "statistic",
+        "p_value",
+        "sentence",
+    }
     assert f["channel"] in CHANNELS and f["kind"] in KINDS
 
 

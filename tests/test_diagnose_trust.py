@@ -13,6 +13,8 @@ import json
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from test_diagnose import BASE, HIDDEN, NOMINAL, assert_within_3_sigma, found, record
+from test_diagnose_integrity import remount
 
 from sizefx import diagnose as D
 from sizefx import scenarios
@@ -21,8 +23,6 @@ from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError
 from sizefx.scenarios import SwayPlan, sway
 from sizefx.simulate import simulate_in_memory
-from test_diagnose import BASE, HIDDEN, NOMINAL, assert_within_3_sigma, found, record
-from test_diagnose_integrity import remount
 
 
 def simulated(traj, hidden, *, seed=3, rate_hz=400.0):
@@ -34,8 +34,11 @@ def simulated(traj, hidden, *, seed=3, rate_hz=400.0):
 
 
 def pitch_sway(duration_s=60.0, amplitude_dps=10.0):
-    traj, _ = sway(SwayPlan(axis="pitch", amplitudes_dps=(amplitude_dps,), frequency_hz=1.0, static_s=1.0,
-                            segment_s=duration_s - 1.0))
+    traj, _ = sway(
+        SwayPlan(
+            axis="pitch", amplitudes_dps=(amplitude_dps,), frequency_hz=1.0, static_s=1.0, segment_s=duration_s - 1.0
+        )
+    )
     return traj
 
 
@@ -148,8 +151,9 @@ def test_lever_arms_without_rotation_are_not_revealed():
 def test_a_tilt_the_sway_cannot_tell_from_the_biases_is_no_finding():
     """Pitch sway with an accelerometer delay and biases: the delay is found; the level tilt and the
     horizontal biases explain the same constant and are named as indistinguishable, not as found."""
-    tel, truth = simulated(pitch_sway(), {"accel_delay": HIDDEN["accel_delay"], "accel_bias": HIDDEN["accel_bias"]},
-                           seed=4)
+    tel, truth = simulated(
+        pitch_sway(), {"accel_delay": HIDDEN["accel_delay"], "accel_bias": HIDDEN["accel_bias"]}, seed=4
+    )
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert ids(d) == {"accel_delay"}, (found(d), d.log)
     assert_within_3_sigma(d, truth, {"accel_delay"})
@@ -215,10 +219,20 @@ def test_report_version_2_validates_and_version_1_still_reads(tmp_path):
     for key in ("warnings", "unexplained", "rejected", "not_revealed", "consistency", "grade", "bandwidth_reason"):
         assert key in doc
     assert all(0.0 <= e["explained_fraction"] <= 1.0 for e in doc["effects"])
-    v1 = {"schema": "sizefx/diagnosis/1", "record": "old.h5", "start_model": "nominal", "effects": [],
-          "not_revealed": [], "residual_rms_before": dict.fromkeys(D.CHANNELS, 1.0),
-          "residual_rms_after": dict.fromkeys(D.CHANNELS, 1.0), "model": None, "samples": 10,
-          "noise_sigma": dict.fromkeys(D.CHANNELS, 1.0), "kappa": dict.fromkeys(D.CHANNELS, 1.0), "passes": 1}
+    v1 = {
+        "schema": "sizefx/diagnosis/1",
+        "record": "old.h5",
+        "start_model": "nominal",
+        "effects": [],
+        "not_revealed": [],
+        "residual_rms_before": dict.fromkeys(D.CHANNELS, 1.0),
+        "residual_rms_after": dict.fromkeys(D.CHANNELS, 1.0),
+        "model": None,
+        "samples": 10,
+        "noise_sigma": dict.fromkeys(D.CHANNELS, 1.0),
+        "kappa": dict.fromkeys(D.CHANNELS, 1.0),
+        "passes": 1,
+    }
     path = tmp_path / "old.json"
     path.write_text(json.dumps(v1))
     assert D.read_diagnosis(path)["schema"] == "sizefx/diagnosis/1"

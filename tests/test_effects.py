@@ -21,8 +21,10 @@ def test_defaults_are_the_papers_high_precision_arms_and_navigation_grade_noise(
 
 def test_toml_file_overrides_only_what_it_names(tmp_path):
     path = tmp_path / "fx.toml"
-    path.write_text('schema = "sizefx/effects/1"\n[lever_arm]\npreset = "compact"\nr_vehicle_m = [0.1, 0, 0]\n'
-                    "[level_tilt]\nenabled = true\nnorth_arcsec = 3.0\n")
+    path.write_text(
+        'schema = "sizefx/effects/1"\n[lever_arm]\npreset = "compact"\nr_vehicle_m = [0.1, 0, 0]\n'
+        "[level_tilt]\nenabled = true\nnorth_arcsec = 3.0\n"
+    )
     fx = load_effects(path)
     np.testing.assert_allclose(fx.arms_d_m()[0], [0.0060, 0.0010, 0.0242])
     np.testing.assert_allclose(fx.arms_total_m()[1], [0.1, -0.0172, 0.0])
@@ -49,16 +51,19 @@ def test_template_parses_and_equals_the_defaults():
                 np.testing.assert_allclose(got, value, rtol=1e-6, err_msg=f"{name}.{key}")
 
 
-@pytest.mark.parametrize("body,words", [
-    ("[lever_arms]\nenabled = true\n", "unknown section [lever_arms]"),
-    ("[lever_arm]\nd_x = [1, 2, 3]\n", "unknown key 'd_x'"),
-    ("[lever_arm]\nd_x_m = [1, 2]\n", "expected a list of 3 numbers"),
-    ("[accel_delay]\nenabled = 1\n", "must be true or false"),
-    ("[lever_arm]\npreset = \"big\"\n", "must be one of"),
-    ("[accel_bias]\nbias_ug = [1, \"a\", 3]\n", "not numeric"),
-    ("[accel_bias\n", "not valid TOML"),
-    ('schema = "sizefx/effects/9"\n', "expected 'sizefx/effects/1'"),
-])
+@pytest.mark.parametrize(
+    "body,words",
+    [
+        ("[lever_arms]\nenabled = true\n", "unknown section [lever_arms]"),
+        ("[lever_arm]\nd_x = [1, 2, 3]\n", "unknown key 'd_x'"),
+        ("[lever_arm]\nd_x_m = [1, 2]\n", "expected a list of 3 numbers"),
+        ("[accel_delay]\nenabled = 1\n", "must be true or false"),
+        ('[lever_arm]\npreset = "big"\n', "must be one of"),
+        ('[accel_bias]\nbias_ug = [1, "a", 3]\n', "not numeric"),
+        ("[accel_bias\n", "not valid TOML"),
+        ('schema = "sizefx/effects/9"\n', "expected 'sizefx/effects/1'"),
+    ],
+)
 def test_bad_effects_files_name_the_key(tmp_path, body, words):
     path = tmp_path / "bad.toml"
     path.write_text(body)
@@ -72,7 +77,8 @@ def test_the_reference_mount_is_read_in_arcsec_and_off_by_default():
     assert not load_effects().enabled("reference_mount")
     assert not load_effects().sensor_params().reference_mount.any()  # off: zeros, whatever the default angles
     fx = load_effects(base=IDEAL, overrides={"reference_mount": {"enabled": True, "arcsec": [30.0, -20.0, 45.0]}})
-    np.testing.assert_allclose(fx.sensor_params().reference_mount, np.array([30.0, -20.0, 45.0]) * ARCSEC,
-                               rtol=1e-15)  # one multiplication by the schema's factor
+    np.testing.assert_allclose(
+        fx.sensor_params().reference_mount, np.array([30.0, -20.0, 45.0]) * ARCSEC, rtol=1e-15
+    )  # one multiplication by the schema's factor
     with pytest.raises(ConfigError, match=r"\[reference_mount\] arcsec has shape \[2\]"):
         load_effects(overrides={"reference_mount": {"arcsec": [1.0, 2.0]}})

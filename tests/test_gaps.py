@@ -16,8 +16,8 @@ from click.testing import CliRunner
 from support import RATE_HZ, write_raw
 
 from sizefx.errors import ConfigError, TelemetryError
-from sizefx.levers import levers_from_preset, write_levers
 from sizefx.io.telemetry import TelemetryStream, find_imu_gaps, read_telemetry, write_telemetry
+from sizefx.levers import levers_from_preset, write_levers
 from sizefx_cli.main import main
 
 GAP_ROW = 600  #: write_raw's record (1000 rows at 100 Hz) loses 0.5 s before this row
@@ -27,6 +27,7 @@ GAP_AT_S = (GAP_ROW - 1) / RATE_HZ  #: time of the last sample before it [s]
 
 def _with_gap(accel_time=False, declared=None):
     """write_raw's mutation: a gap at GAP_ROW (in /imu/accel_time too), and ``declared`` as /imu/gaps."""
+
     def mutate(h5):
         t = h5["imu/time"][()]
         t[GAP_ROW:] += 0.5
@@ -35,6 +36,7 @@ def _with_gap(accel_time=False, declared=None):
             h5["imu"].create_dataset("accel_time", data=t + 1e-4).attrs["units"] = "s"
         if declared is not None:
             h5["imu"].create_dataset("gaps", data=np.asarray(declared, dtype=float).reshape(-1, 2)).attrs["units"] = "s"
+
     return mutate
 
 
@@ -56,17 +58,29 @@ def test_declared_gaps_are_read_without_allow_gaps_and_counted_once(tmp_path):
     assert not read_telemetry(undeclared, allow_gaps=True).gaps[0].declared
 
 
-@pytest.mark.parametrize("declared,words", [
-    ([[GAP_AT_S + 0.1, GAP_S]], "row 0 declares a gap after t = 6.090000 s lasting 510 ms, but /imu/time has no "
-                                "gap there"),
-    ([[GAP_AT_S, 0.2]], "row 0 declares a gap after t = 5.990000 s lasting 200 ms, but the gap of /imu/time there "
-                        "(row 600) lasts 510 ms"),
-    ([[GAP_AT_S, GAP_S], [8.0, 0.1]], "row 1 declares a gap after t = 8.000000 s lasting 100 ms, but /imu/time has "
-                                      "no gap there"),
-    (np.zeros((0, 2)), "declares 0 gaps but /imu/time has 1: the gap at row 600 (t = 5.990000 s, 510 ms) is not "
-                       "declared"),
-    ([[GAP_AT_S, -0.5]], "gap lengths are positive"),
-])
+@pytest.mark.parametrize(
+    "declared,words",
+    [
+        (
+            [[GAP_AT_S + 0.1, GAP_S]],
+            "row 0 declares a gap after t = 6.090000 s lasting 510 ms, but /imu/time has no gap there",
+        ),
+        (
+            [[GAP_AT_S, 0.2]],
+            "row 0 declares a gap after t = 5.990000 s lasting 200 ms, but the gap of /imu/time there "
+            "(row 600) lasts 510 ms",
+        ),
+        (
+            [[GAP_AT_S, GAP_S], [8.0, 0.1]],
+            "row 1 declares a gap after t = 8.000000 s lasting 100 ms, but /imu/time has no gap there",
+        ),
+        (
+            np.zeros((0, 2)),
+            "declares 0 gaps but /imu/time has 1: the gap at row 600 (t = 5.990000 s, 510 ms) is not declared",
+        ),
+        ([[GAP_AT_S, -0.5]], "gap lengths are positive"),
+    ],
+)
 def test_a_declaration_that_contradicts_the_data_is_refused_naming_both(tmp_path, declared, words):
     path = _file(tmp_path, declared=declared)
     for allow_gaps in (False, True):  # the file contradicts itself: --allow-gaps does not make it right
@@ -116,9 +130,11 @@ def test_compensate_refuses_a_gap_offers_segments_and_bridges_with_allow_gaps(ga
     refused = _run("compensate", path, "--levers", levers, "-o", tmp_path / "out.h5")
     assert refused.exit_code == 2 and refused.output.count("\n") == 1, refused.output
     assert refused.output.startswith(f"sizefx: error: {path}: /imu/time: has 1 gap (declared in /imu/gaps")
-    assert ("compensate estimates angular acceleration and increment edges from neighbouring samples, which a gap "
-            "separates: process one continuous segment with --segment K (1..2, as sizefx inspect numbers them), "
-            "or pass --allow-gaps to bridge the gaps") in refused.output
+    assert (
+        "compensate estimates angular acceleration and increment edges from neighbouring samples, which a gap "
+        "separates: process one continuous segment with --segment K (1..2, as sizefx inspect numbers them), "
+        "or pass --allow-gaps to bridge the gaps"
+    ) in refused.output
     seg = _run("compensate", path, "--levers", levers, "-o", tmp_path / "seg.h5", "--segment", "1")
     assert seg.exit_code == 0, seg.output
     out = read_telemetry(tmp_path / "seg.h5")
@@ -161,11 +177,14 @@ def test_px4_import_and_inspect_count_the_same_gaps_and_inspect_accepts_them(px4
     assert "9 continuous segments" in imported
     shown = _run("inspect", path)
     assert shown.exit_code == 0, shown.output
-    assert "gaps      8 in the IMU time stamps (declared in /imu/gaps); the first at row 1 (t = 112.614307 s, " \
-           "36 ms), the longest at row 10242 (t = 153.851108 s, 64.79 ms)" in shown.output
+    assert (
+        "gaps      8 in the IMU time stamps (declared in /imu/gaps); the first at row 1 (t = 112.614307 s, "
+        "36 ms), the longest at row 10242 (t = 153.851108 s, 64.79 ms)" in shown.output
+    )
     assert "segments  9 continuous" in shown.output
-    assert "   2  rows         1..10241         10241 samples  t = 112.650307 .. 153.851108 s (41.201 s)" \
-        in shown.output
+    assert (
+        "   2  rows         1..10241         10241 samples  t = 112.650307 .. 153.851108 s (41.201 s)" in shown.output
+    )
     assert "checked   specific force at rest" in shown.output
 
 
@@ -174,8 +193,10 @@ def test_px4_navigate_refuses_across_gaps_and_runs_one_segment(px4):
     for extra in ([], ["--allow-gaps"]):  # navigation cannot bridge a gap, allowed or not
         refused = _run("navigate", path, *extra)
         assert refused.exit_code == 2 and refused.output.count("\n") == 1, refused.output
-        assert ("navigate integrates every sample and cannot bridge a gap (--allow-gaps does not help here): "
-                "process one continuous segment with --segment K (1..9") in refused.output
+        assert (
+            "navigate integrates every sample and cannot bridge a gap (--allow-gaps does not help here): "
+            "process one continuous segment with --segment K (1..9"
+        ) in refused.output
     one = _run("navigate", path, "--segment", "1")
     assert one.exit_code == 2 and "segment 1 of" in one.output and "holds 1 sample" in one.output
     beyond = _run("navigate", path, "--segment", "10")

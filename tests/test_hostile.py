@@ -26,12 +26,11 @@ import tempfile
 import time
 from pathlib import Path
 
+import hostile_corpus as hc
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
-
-import hostile_corpus as hc
 
 #: Hypothesis examples per property: each is one forked run (~0.1-1 s), and the file must stay
 #: under a minute on two cores.
@@ -70,8 +69,11 @@ def corpus(request):
 def outcomes(request, corpus, tmp_path_factory):
     """Run every selected case once (two at a time) and keep the outcomes by name."""
     root, cases = corpus
-    selected = {item.callspec.params["case_name"] for item in request.session.items
-                if hasattr(item, "callspec") and "case_name" in item.callspec.params}
+    selected = {
+        item.callspec.params["case_name"]
+        for item in request.session.items
+        if hasattr(item, "callspec") and "case_name" in item.callspec.params
+    }
     hc.warm_imports()
     return hc.run_cases([cases[n] for n in cases if n in selected], tmp_path_factory.mktemp("hostile-runs"))
 
@@ -93,14 +95,48 @@ def test_corpus_covers_the_issue(corpus):
     (a runner that refused everything would fail those)."""
     _, cases = corpus
     names = " ".join(cases)
-    for kind in ("soft-link-cycle", "hard-link-cycle", "deep-groups", "samples-1-", "samples-5-",
-                 "accel-time-decreasing", "time-last-stamp-zero", "time-non-monotonic", "accel-nan", "gyro-inf",
-                 "1e300", "reference-velocity-1e30", "latitude-plus-90", "latitude-91", "units", "strings",
-                 "shape-n-2", "huge-declared-shape", "gzip-bomb", "truncated", "zero-byte", "text-named-h5",
-                 "directory-input", "json-deep", "toml-deep", "invalid-utf8", "huge-int", "toml-nan",
-                 "csv-missing-column", "csv-nan", "csv-non-monotonic", "csv-one-row", "option-", "output-is-the-input",
-                 "output-and-json-same-path", "force-output-is-levers", "symlink-output", "plots-with-existing",
-                 "unwritable", "missing-directory"):
+    for kind in (
+        "soft-link-cycle",
+        "hard-link-cycle",
+        "deep-groups",
+        "samples-1-",
+        "samples-5-",
+        "accel-time-decreasing",
+        "time-last-stamp-zero",
+        "time-non-monotonic",
+        "accel-nan",
+        "gyro-inf",
+        "1e300",
+        "reference-velocity-1e30",
+        "latitude-plus-90",
+        "latitude-91",
+        "units",
+        "strings",
+        "shape-n-2",
+        "huge-declared-shape",
+        "gzip-bomb",
+        "truncated",
+        "zero-byte",
+        "text-named-h5",
+        "directory-input",
+        "json-deep",
+        "toml-deep",
+        "invalid-utf8",
+        "huge-int",
+        "toml-nan",
+        "csv-missing-column",
+        "csv-nan",
+        "csv-non-monotonic",
+        "csv-one-row",
+        "option-",
+        "output-is-the-input",
+        "output-and-json-same-path",
+        "force-output-is-levers",
+        "symlink-output",
+        "plots-with-existing",
+        "unwritable",
+        "missing-directory",
+    ):
         assert kind in names, f"the corpus lost its {kind!r} cases"
     assert sum(c.expect == hc.ACCEPT for c in cases.values()) >= 5
     # every numeric option of every fuzzed command has its NaN case (click introspection)
@@ -135,8 +171,12 @@ TMP_WAIT_S = 3.0
 def test_signal_mid_write_leaves_nothing(sig, tmp_path):
     """Killed while writing: the conventional exit code, no traceback, no ``*.tmp``, no output."""
     out = tmp_path / "flight.h5"
-    proc = subprocess.Popen([hc.console_script() or "sizefx", LONG_SIMULATE[0], LONG_SIMULATE[1], "-o", str(out),
-                             *LONG_SIMULATE[2:]], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [hc.console_script() or "sizefx", LONG_SIMULATE[0], LONG_SIMULATE[1], "-o", str(out), *LONG_SIMULATE[2:]],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     saw_tmp = _wait_for_tmp(tmp_path, TMP_WAIT_S)
     proc.send_signal(sig)
     try:
@@ -144,8 +184,9 @@ def test_signal_mid_write_leaves_nothing(sig, tmp_path):
     except subprocess.TimeoutExpired:
         proc.kill()
         stdout, stderr = proc.communicate()
-        pytest.fail(f"{sig.name}: sizefx {' '.join(LONG_SIMULATE)} did not exit within {hc.SUBPROCESS_LIMIT_S} s "
-                    "of the signal")
+        pytest.fail(
+            f"{sig.name}: sizefx {' '.join(LONG_SIMULATE)} did not exit within {hc.SUBPROCESS_LIMIT_S} s of the signal"
+        )
     left = sorted(p.name for p in tmp_path.iterdir())
     broken = []
     if proc.returncode != SIGNAL_EXIT[sig]:
@@ -155,8 +196,10 @@ def test_signal_mid_write_leaves_nothing(sig, tmp_path):
         broken.append(f"traceback: {hc.tail(stderr)}")
     if left:
         broken.append(f"no output left: {left}")
-    assert not broken, (f"case {sig.name}-mid-write (signal sent {'while a .tmp existed' if saw_tmp else 'after 3 s'}):"
-                        f" {' | '.join(broken)}; stderr: {stderr.strip()[-300:]!r}")
+    assert not broken, (
+        f"case {sig.name}-mid-write (signal sent {'while a .tmp existed' if saw_tmp else 'after 3 s'}):"
+        f" {' | '.join(broken)}; stderr: {stderr.strip()[-300:]!r}"
+    )
 
 
 #: The file-size limit of the ``ulimit -f`` case: far below the record simulate writes.
@@ -169,8 +212,8 @@ def test_signal_swallowed_by_a_finalizer_prints_no_traceback():
     that quiet (``INTERRUPTED`` still records the signal) and reports every other exception."""
     import sys
 
-    from sizefx_cli.main import _quiet_interrupted
     from sizefx.errors import Interrupted
+    from sizefx_cli.main import _quiet_interrupted
 
     reported = []
 
@@ -200,8 +243,13 @@ def test_file_size_limit_is_a_one_line_refusal(tmp_path):
     def limit():
         resource.setrlimit(resource.RLIMIT_FSIZE, (FSIZE_LIMIT_BYTES, FSIZE_LIMIT_BYTES))
 
-    proc = subprocess.run([hc.console_script() or "sizefx", *argv], capture_output=True, text=True, preexec_fn=limit,
-                          timeout=hc.SUBPROCESS_LIMIT_S * 3)
+    proc = subprocess.run(
+        [hc.console_script() or "sizefx", *argv],
+        capture_output=True,
+        text=True,
+        preexec_fn=limit,
+        timeout=hc.SUBPROCESS_LIMIT_S * 3,
+    )
     left = sorted(p.name for p in tmp_path.iterdir())
     lines = proc.stderr.splitlines()
     broken = []
@@ -219,14 +267,20 @@ def test_file_size_limit_is_a_one_line_refusal(tmp_path):
 # --------------------------------------------------------------------------- hypothesis
 
 
-_VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
-                    st.sampled_from([0.0, -0.0, 1e300, -1e300, 1e-300, 5e-324, 1e30, np.nan, np.inf, -np.inf]))
+_VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0.0, -0.0, 1e300, -1e300, 1e-300, 5e-324, 1e30, np.nan, np.inf, -np.inf]),
+)
 
 
-@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES,
-          suppress_health_check=list(HealthCheck))
-@given(dataset=st.sampled_from(sorted(hc.MUTATION_TARGETS)), row=st.integers(0, 999), col=st.integers(0, 3),
-       value=_VALUES, command=st.sampled_from(["inspect", "navigate"]))
+@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck))
+@given(
+    dataset=st.sampled_from(sorted(hc.MUTATION_TARGETS)),
+    row=st.integers(0, 999),
+    col=st.integers(0, 3),
+    value=_VALUES,
+    command=st.sampled_from(["inspect", "navigate"]),
+)
 def test_mutated_record_keeps_promises(tmp_path_factory, dataset, row, col, value, command):
     """One value of a valid record replaced (tests/support.py::write_raw): refused with one
     line, or accepted; never a traceback, a hang or a changed input. NaN, inf and time stamps
@@ -239,13 +293,14 @@ def test_mutated_record_keeps_promises(tmp_path_factory, dataset, row, col, valu
     assert not broken, hc.describe(o, broken)
 
 
-_OPTION_VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr),
-                           st.integers(-10**20, 10**20).map(str),
-                           st.sampled_from(["nan", "-nan", "+inf", "-Infinity", "1e309", "0", "-0", "1e-320"]))
+_OPTION_VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-(10**20), 10**20).map(str),
+    st.sampled_from(["nan", "-nan", "+inf", "-Infinity", "1e309", "0", "-0", "1e-320"]),
+)
 
 
-@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES,
-          suppress_health_check=list(HealthCheck))
+@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck))
 @given(option=st.sampled_from(hc.numeric_options()), value=_OPTION_VALUES)
 def test_numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
     """Any value for any numeric option (click introspection): non-finite values are refused

@@ -88,10 +88,13 @@ POS_COLS = ("lat", "lon", "h")
 IMU_OPTS = dict(time="t", gyro=("gx", "gy", "gz"), accel=("ax", "ay", "az"))
 
 
-def _reference_file(tmp_path, kind="quaternion", frame="ned", sensor="frd", time_scale=1.0, time_offset=0.0,
-                    name="ref.csv"):
+def _reference_file(
+    tmp_path, kind="quaternion", frame="ned", sensor="frd", time_scale=1.0, time_offset=0.0, name="ref.csv"
+):
     att = QUAT_COLS if kind == "quaternion" else EULER_COLS
-    rows = np.column_stack([(T_S[REF_ROWS] + time_offset) * time_scale, _reference_columns(kind, frame, sensor)]).tolist()
+    rows = np.column_stack(
+        [(T_S[REF_ROWS] + time_offset) * time_scale, _reference_columns(kind, frame, sensor)]
+    ).tolist()
     return _write(tmp_path / name, ["t", *att, *VEL_COLS, *POS_COLS], rows)  # "t": --reference-time defaults to --time
 
 
@@ -126,8 +129,9 @@ def _assert_truth(ref, rows=REF_ROWS):
 
 @pytest.mark.parametrize("kind", ["quaternion", "euler"])
 def test_quaternion_and_euler_give_the_closed_form_attitude(tmp_path, kind):
-    tel, summary = _import(tmp_path, _imu_file(tmp_path), reference_file=_reference_file(tmp_path, kind),
-                           **_ref_opts(kind))
+    tel, summary = _import(
+        tmp_path, _imu_file(tmp_path), reference_file=_reference_file(tmp_path, kind), **_ref_opts(kind)
+    )
     _assert_truth(tel.reference)
     assert summary["reference_rows"] == REF_ROWS.size and summary["reference_gaps"] == 0
 
@@ -135,8 +139,9 @@ def test_quaternion_and_euler_give_the_closed_form_attitude(tmp_path, kind):
 def test_euler_in_radians(tmp_path):
     rows = np.column_stack([T_S[REF_ROWS], np.radians(_reference_columns("euler")[:, :3])]).tolist()
     ref = _write(tmp_path / "ref.csv", ["t", *EULER_COLS], rows)
-    tel, _ = _import(tmp_path, _imu_file(tmp_path), reference_file=ref, reference_euler=EULER_COLS,
-                     reference_euler_units="rad")
+    tel, _ = _import(
+        tmp_path, _imu_file(tmp_path), reference_file=ref, reference_euler=EULER_COLS, reference_euler_units="rad"
+    )
     got = Rotation.from_quat(tel.reference.quat_nb, scalar_first=True)
     assert np.max((got * ROT_NB[REF_ROWS].inv()).magnitude()) < ATTITUDE_TOL_RAD
     assert tel.reference.velocity_n_mps is None and not tel.reference.has_position
@@ -179,8 +184,10 @@ def test_same_file_reference_with_its_own_time_column(tmp_path):
 
 def test_same_file_reference_at_the_imu_time(tmp_path):
     values = _reference_columns("euler")
-    rows = [imu + (list(values[k // DECIMATION]) if k % DECIMATION == 0 else [None] * values.shape[1])
-            for k, imu in enumerate(_imu_rows())]
+    rows = [
+        imu + (list(values[k // DECIMATION]) if k % DECIMATION == 0 else [None] * values.shape[1])
+        for k, imu in enumerate(_imu_rows())
+    ]
     src = _write(tmp_path / "both.csv", IMU_HEADER + [*EULER_COLS, *VEL_COLS, *POS_COLS], rows)
     tel, _ = _import(tmp_path, src, **_ref_opts("euler"))
     _assert_truth(tel.reference)
@@ -188,10 +195,11 @@ def test_same_file_reference_at_the_imu_time(tmp_path):
 
 
 def test_separate_file_equals_same_file(tmp_path):
-    a, _ = _import(tmp_path, _imu_file(tmp_path), name="a.h5", reference_file=_reference_file(tmp_path),
-                   **_ref_opts())
-    rows = [imu + (list(_reference_columns("quaternion")[k // DECIMATION]) if k % DECIMATION == 0
-                   else [None] * 10) for k, imu in enumerate(_imu_rows())]
+    a, _ = _import(tmp_path, _imu_file(tmp_path), name="a.h5", reference_file=_reference_file(tmp_path), **_ref_opts())
+    rows = [
+        imu + (list(_reference_columns("quaternion")[k // DECIMATION]) if k % DECIMATION == 0 else [None] * 10)
+        for k, imu in enumerate(_imu_rows())
+    ]
     src = _write(tmp_path / "both.csv", IMU_HEADER + [*QUAT_COLS, *VEL_COLS, *POS_COLS], rows)
     b, _ = _import(tmp_path, src, name="b.h5", **_ref_opts())
     for name in ("time_s", "quat_nb", "velocity_n_mps", "lat_rad", "lon_rad", "height_m"):
@@ -201,8 +209,9 @@ def test_separate_file_equals_same_file(tmp_path):
 @pytest.mark.parametrize("units,scale", [("ms", 1e3), ("us", 1e6), ("s", 1.0)])
 def test_reference_time_units(tmp_path, units, scale):
     ref = _reference_file(tmp_path, time_scale=scale)
-    tel, _ = _import(tmp_path, _imu_file(tmp_path), reference_file=ref, reference_time="t",
-                     reference_time_units=units, **_ref_opts())
+    tel, _ = _import(
+        tmp_path, _imu_file(tmp_path), reference_file=ref, reference_time="t", reference_time_units=units, **_ref_opts()
+    )
     _assert_truth(tel.reference)
 
 
@@ -250,9 +259,25 @@ def _cli(args):
 def _bad_setup(tmp_path):
     """A good IMU file, a good reference file, and the CLI arguments that import them."""
     imu, ref = _imu_file(tmp_path), _reference_file(tmp_path)
-    args = [imu, "-o", tmp_path / "out.h5", "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az",
-            "--reference-file", ref, "--reference-quaternion", ",".join(QUAT_COLS),
-            "--reference-velocity", ",".join(VEL_COLS), "--reference-position", ",".join(POS_COLS)]
+    args = [
+        imu,
+        "-o",
+        tmp_path / "out.h5",
+        "--time",
+        "t",
+        "--gyro",
+        "gx,gy,gz",
+        "--accel",
+        "ax,ay,az",
+        "--reference-file",
+        ref,
+        "--reference-quaternion",
+        ",".join(QUAT_COLS),
+        "--reference-velocity",
+        ",".join(VEL_COLS),
+        "--reference-position",
+        ",".join(POS_COLS),
+    ]
     return imu, ref, args
 
 
@@ -268,7 +293,7 @@ def _replace(args, option, value):
 def _drop(args, option):
     out = list(args)
     k = out.index(option)
-    return out[:k] + out[k + 2:]
+    return out[:k] + out[k + 2 :]
 
 
 def _edit_ref(ref, row, col, text):
@@ -282,60 +307,135 @@ def _edit_ref(ref, row, col, text):
 
 BAD = {
     # name: (change the setup, the file the message names, words it must hold)
-    "misnamed reference column": (lambda a, ref: _replace(a, "--reference-quaternion", "qw,qx,qy,q_z"), "ref",
-                                  ["column 'q_z' is not in the header (--reference-quaternion)",
-                                   "columns are: t, qw, qx, qy, qz"]),
-    "missing reference time column": (lambda a, ref: _replace(a, "--reference-time", "stamp"), "ref",
-                                      ["column 'stamp' is not in the header (--reference-time)"]),
-    "reference column in the IMU file": (lambda a, ref: _drop(a, "--reference-file"), "imu",
-                                         ["column 'qw' is not in the header (--reference-quaternion)",
-                                          "columns are: t, gx"]),
-    "unknown euler units": (lambda a, ref: _replace(_replace(_drop(a, "--reference-quaternion"), "--reference-euler",
-                                                             "qw,qx,qy"), "--reference-euler-units", "grad"),
-                            "ref", ["--reference-euler-units 'grad' are not known; use deg or rad"]),
-    "unknown position units": (lambda a, ref: _replace(a, "--reference-position-units", "gon"), "ref",
-                               ["--reference-position-units 'gon' are not known"]),
-    "unknown time units": (lambda a, ref: _replace(a, "--reference-time-units", "min"), "ref",
-                           ["--reference-time-units 'min' are not known; use s, ms, us, ns"]),
-    "unknown frame": (lambda a, ref: _replace(a, "--reference-frame", "nwu"), "ref",
-                      ["--reference-frame 'nwu' is not known; use ned or enu"]),
-    "three quaternion columns": (lambda a, ref: _replace(a, "--reference-quaternion", "qw,qx,qy"), "ref",
-                                 ["--reference-quaternion names 3 columns (qw, qx, qy); give exactly four"]),
-    "two euler columns": (lambda a, ref: _replace(_drop(a, "--reference-quaternion"), "--reference-euler", "qx,qy"),
-                          "ref", ["--reference-euler names 2 columns", "give exactly three"]),
-    "four velocity columns": (lambda a, ref: _replace(a, "--reference-velocity", "v1,v2,v3,lat"), "ref",
-                              ["--reference-velocity names 4 columns"]),
-    "two position columns": (lambda a, ref: _replace(a, "--reference-position", "lat,lon"), "ref",
-                             ["--reference-position names 2 columns"]),
-    "both attitudes": (lambda a, ref: _replace(a, "--reference-euler", "qx,qy,qz"), "ref",
-                       ["give the reference attitude once"]),
-    "euler in enu": (lambda a, ref: _replace(_replace(_drop(a, "--reference-quaternion"), "--reference-euler",
-                                                      "qx,qy,qz"), "--reference-frame", "enu"),
-                     "ref", ["--reference-euler: roll, pitch and heading are defined in NED only"]),
-    "velocity without attitude": (lambda a, ref: _drop(a, "--reference-quaternion"), "imu",
-                                  ["--reference-file needs a reference attitude"]),
-    "non-numeric cell": (lambda a, ref: (_edit_ref(ref, 7, 3, "0.5x"), a)[1], "ref",
-                         ["column 'qy' (--reference-quaternion) on line 9 holds '0.5x', which is not numeric"]),
-    "no overlap": (lambda a, ref: (_reference_file(ref.parent, time_offset=1000.0), a)[1], "ref",
-                   ["reference time 't' [s] spans 1000 .. 1004 s and the IMU time 't' in imu.csv spans 0 .. 4 s",
-                    "do not overlap"]),
-    "one row": (lambda a, ref: (ref.write_text("\n".join(ref.read_text().splitlines()[:2]) + "\n"), a)[1], "ref",
-                ["the reference has 1 row(s) with every column filled", "at least 2 are needed"]),
-    "time going back": (lambda a, ref: (_edit_ref(ref, 20, 0, "0.01"), a)[1], "ref",
-                        ["reference time column 't' (--reference-time) goes back on line 22"]),
-    "non-unit quaternion": (lambda a, ref: (_edit_ref(ref, 5, 1, "2"), a)[1], "ref",
-                            ["columns qw,qx,qy,qz (--reference-quaternion) on line 7 have |q| =",
-                             "check the columns are named in scalar-first order W,X,Y,Z"]),
-    "scalar-last order": (lambda a, ref: _replace(a, "--reference-quaternion", "qx,qy,qz,qw"), "ref",
-                          ["the reference attitude puts 'up'", "--reference-quaternion (order W,X,Y,Z)"]),
-    "latitude out of range": (lambda a, ref: (_edit_ref(ref, 3, 8, "91"), a)[1], "ref",
-                              ["column 'lat' (--reference-position) on line 5 holds latitude 91 deg, outside +-90"]),
-    "latitude in degrees said radians": (lambda a, ref: _replace(a, "--reference-position-units", "rad"), "ref",
-                                         ["holds latitude 52.5 rad, outside +-90 deg"]),
+    "misnamed reference column": (
+        lambda a, ref: _replace(a, "--reference-quaternion", "qw,qx,qy,q_z"),
+        "ref",
+        ["column 'q_z' is not in the header (--reference-quaternion)", "columns are: t, qw, qx, qy, qz"],
+    ),
+    "missing reference time column": (
+        lambda a, ref: _replace(a, "--reference-time", "stamp"),
+        "ref",
+        ["column 'stamp' is not in the header (--reference-time)"],
+    ),
+    "reference column in the IMU file": (
+        lambda a, ref: _drop(a, "--reference-file"),
+        "imu",
+        ["column 'qw' is not in the header (--reference-quaternion)", "columns are: t, gx"],
+    ),
+    "unknown euler units": (
+        lambda a, ref: _replace(
+            _replace(_drop(a, "--reference-quaternion"), "--reference-euler", "qw,qx,qy"),
+            "--reference-euler-units",
+            "grad",
+        ),
+        "ref",
+        ["--reference-euler-units 'grad' are not known; use deg or rad"],
+    ),
+    "unknown position units": (
+        lambda a, ref: _replace(a, "--reference-position-units", "gon"),
+        "ref",
+        ["--reference-position-units 'gon' are not known"],
+    ),
+    "unknown time units": (
+        lambda a, ref: _replace(a, "--reference-time-units", "min"),
+        "ref",
+        ["--reference-time-units 'min' are not known; use s, ms, us, ns"],
+    ),
+    "unknown frame": (
+        lambda a, ref: _replace(a, "--reference-frame", "nwu"),
+        "ref",
+        ["--reference-frame 'nwu' is not known; use ned or enu"],
+    ),
+    "three quaternion columns": (
+        lambda a, ref: _replace(a, "--reference-quaternion", "qw,qx,qy"),
+        "ref",
+        ["--reference-quaternion names 3 columns (qw, qx, qy); give exactly four"],
+    ),
+    "two euler columns": (
+        lambda a, ref: _replace(_drop(a, "--reference-quaternion"), "--reference-euler", "qx,qy"),
+        "ref",
+        ["--reference-euler names 2 columns", "give exactly three"],
+    ),
+    "four velocity columns": (
+        lambda a, ref: _replace(a, "--reference-velocity", "v1,v2,v3,lat"),
+        "ref",
+        ["--reference-velocity names 4 columns"],
+    ),
+    "two position columns": (
+        lambda a, ref: _replace(a, "--reference-position", "lat,lon"),
+        "ref",
+        ["--reference-position names 2 columns"],
+    ),
+    "both attitudes": (
+        lambda a, ref: _replace(a, "--reference-euler", "qx,qy,qz"),
+        "ref",
+        ["give the reference attitude once"],
+    ),
+    "euler in enu": (
+        lambda a, ref: _replace(
+            _replace(_drop(a, "--reference-quaternion"), "--reference-euler", "qx,qy,qz"), "--reference-frame", "enu"
+        ),
+        "ref",
+        ["--reference-euler: roll, pitch and heading are defined in NED only"],
+    ),
+    "velocity without attitude": (
+        lambda a, ref: _drop(a, "--reference-quaternion"),
+        "imu",
+        ["--reference-file needs a reference attitude"],
+    ),
+    "non-numeric cell": (
+        lambda a, ref: (_edit_ref(ref, 7, 3, "0.5x"), a)[1],
+        "ref",
+        ["column 'qy' (--reference-quaternion) on line 9 holds '0.5x', which is not numeric"],
+    ),
+    "no overlap": (
+        lambda a, ref: (_reference_file(ref.parent, time_offset=1000.0), a)[1],
+        "ref",
+        [
+            "reference time 't' [s] spans 1000 .. 1004 s and the IMU time 't' in imu.csv spans 0 .. 4 s",
+            "do not overlap",
+        ],
+    ),
+    "one row": (
+        lambda a, ref: (ref.write_text("\n".join(ref.read_text().splitlines()[:2]) + "\n"), a)[1],
+        "ref",
+        ["the reference has 1 row(s) with every column filled", "at least 2 are needed"],
+    ),
+    "time going back": (
+        lambda a, ref: (_edit_ref(ref, 20, 0, "0.01"), a)[1],
+        "ref",
+        ["reference time column 't' (--reference-time) goes back on line 22"],
+    ),
+    "non-unit quaternion": (
+        lambda a, ref: (_edit_ref(ref, 5, 1, "2"), a)[1],
+        "ref",
+        [
+            "columns qw,qx,qy,qz (--reference-quaternion) on line 7 have |q| =",
+            "check the columns are named in scalar-first order W,X,Y,Z",
+        ],
+    ),
+    "scalar-last order": (
+        lambda a, ref: _replace(a, "--reference-quaternion", "qx,qy,qz,qw"),
+        "ref",
+        ["the reference attitude puts 'up'", "--reference-quaternion (order W,X,Y,Z)"],
+    ),
+    "latitude out of range": (
+        lambda a, ref: (_edit_ref(ref, 3, 8, "91"), a)[1],
+        "ref",
+        ["column 'lat' (--reference-position) on line 5 holds latitude 91 deg, outside +-90"],
+    ),
+    "latitude in degrees said radians": (
+        lambda a, ref: _replace(a, "--reference-position-units", "rad"),
+        "ref",
+        ["holds latitude 52.5 rad, outside +-90 deg"],
+    ),
     # refused by the pre-flight every stage shares (sizefx.stage.preflight), before any conversion
     "missing reference file": (lambda a, ref: (ref.unlink(), a)[1], "ref", ["--reference-file: no such file"]),
-    "output over the reference": (lambda a, ref: _replace(_replace(a, "-o", ref), "--force", None), "ref",
-                                  ["output would overwrite the input"]),
+    "output over the reference": (
+        lambda a, ref: _replace(_replace(a, "-o", ref), "--force", None),
+        "ref",
+        ["output would overwrite the input"],
+    ),
 }
 
 
@@ -377,10 +477,24 @@ def test_samples_time_needs_explicit_reference_time_units(tmp_path):
     src = _write(tmp_path / "imu.csv", IMU_HEADER, np.column_stack([np.arange(N_IMU), GYRO_B, F_B]).tolist())
     ref = _reference_file(tmp_path)
     with pytest.raises(SourceError, match="give the reference's time units"):
-        run_import("csv", src, tmp_path / "o.h5", time_units="samples", rate_hz=RATE_HZ, reference_file=ref,
-                   **(IMU_OPTS | _ref_opts()))
-    tel, _ = _import(tmp_path, src, time_units="samples", rate_hz=RATE_HZ, reference_file=ref,
-                     reference_time_units="s", **_ref_opts())
+        run_import(
+            "csv",
+            src,
+            tmp_path / "o.h5",
+            time_units="samples",
+            rate_hz=RATE_HZ,
+            reference_file=ref,
+            **(IMU_OPTS | _ref_opts()),
+        )
+    tel, _ = _import(
+        tmp_path,
+        src,
+        time_units="samples",
+        rate_hz=RATE_HZ,
+        reference_file=ref,
+        reference_time_units="s",
+        **_ref_opts(),
+    )
     _assert_truth(tel.reference)
 
 
@@ -390,8 +504,22 @@ def test_a_contract_violation_found_after_conversion_names_the_csv_not_a_tempora
     src = tmp_path / "backwards.csv"
     rows = ["t,gx,gy,gz,ax,ay,az"] + [f"{t},0,0,0,0,0,-9.81" for t in (0.00, 0.01, 0.02, 0.015, 0.03)]
     src.write_text("\n".join(rows) + "\n")
-    result = CliRunner().invoke(main, ["import", "csv", str(src), "-o", str(tmp_path / "out.h5"), "--time", "t",
-                                       "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "import",
+            "csv",
+            str(src),
+            "-o",
+            str(tmp_path / "out.h5"),
+            "--time",
+            "t",
+            "--gyro",
+            "gx,gy,gz",
+            "--accel",
+            "ax,ay,az",
+        ],
+    )
     assert result.exit_code == 2, result.output
     line = result.output.strip()
     assert line.count("\n") == 0 and str(src) in line and ".tmp" not in line, line

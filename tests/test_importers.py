@@ -13,11 +13,11 @@ from click.testing import CliRunner
 from sizefx import earth
 from sizefx.constants import DEG, OMEGA_EARTH_RAD_S
 from sizefx.errors import ConfigError, SourceError, UnitsError
-from sizefx.frames import MAT_FRD_FLU, enu_to_ned, mat_nb_from_enu_body, psins_mat_enu_rfu, MAT_FRD_RFU
+from sizefx.frames import MAT_FRD_FLU, MAT_FRD_RFU, enu_to_ned, mat_nb_from_enu_body, psins_mat_enu_rfu
 from sizefx.importers import run_import
 from sizefx.importers.table import axis_matrix
-from sizefx.rotation import mat_to_euler, quat_multiply, quat_to_mat
 from sizefx.io.telemetry import read_telemetry
+from sizefx.rotation import mat_to_euler, quat_multiply, quat_to_mat
 from sizefx_cli.main import main
 
 REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
@@ -26,8 +26,15 @@ if os.environ.get("CI") and not REAL.is_dir():
     raise RuntimeError(f"CI: real data folder {REAL} not found")
 needs_real = pytest.mark.skipif(not REAL.is_dir(), reason=f"real data folder {REAL} not found (set SIZEFX_REAL_DATA)")
 
-IMUCAL = dict(time="n_samples", time_units="samples", rate_hz=102.4, gyro=("gyr_x", "gyr_y", "gyr_z"),
-              gyro_units="deg/s", accel=("acc_x", "acc_y", "acc_z"), accel_units="m/s^2")
+IMUCAL = dict(
+    time="n_samples",
+    time_units="samples",
+    rate_hz=102.4,
+    gyro=("gyr_x", "gyr_y", "gyr_z"),
+    gyro_units="deg/s",
+    accel=("acc_x", "acc_y", "acc_z"),
+    accel_units="m/s^2",
+)
 REAL_FILES = {
     "broad07": ("broad", "broad/07_undisturbed_fast_rotation_B.mat", {}),
     "broad09": ("broad", "broad/09_undisturbed_fast_rotation_with_breaks_B.mat", {}),
@@ -68,8 +75,16 @@ def test_every_real_file_imports_and_validates(imported, name):
 #: How the units check judges each real file's gyros (issue 13, item 6): against the motion capture or
 #: the FOG-INS attitude, against the tilts between imucal's static faces, or not at all (with the reason
 #: given) where nothing rotates against a reference and nothing tilts by 20 deg.
-GYRO_CHECK = {"broad07": "reference", "broad09": "reference", "broad16": "reference", "broad21": "reference",
-              "lasergyro": None, "fog_mems": "reference", "imucal": "tilt", "px4": None}
+GYRO_CHECK = {
+    "broad07": "reference",
+    "broad09": "reference",
+    "broad16": "reference",
+    "broad21": "reference",
+    "lasergyro": None,
+    "fog_mems": "reference",
+    "imucal": "tilt",
+    "px4": None,
+}
 #: Real, partly uncalibrated sensors: imucal's raw accelerometers read 1.054 g at rest, BROAD's gyros
 #: 0.98 of the motion capture's rate; a unit mistake is a factor 9.8 or 57.3.
 REAL_RATIO_TOL = 0.08
@@ -87,7 +102,6 @@ def test_units_check_passes_every_real_file(imported, name):
     else:
         assert gyro["verdict"] == "ok" and gyro["method"] == GYRO_CHECK[name], gyro["detail"]
         assert gyro["ratio"] == pytest.approx(1.0, abs=REAL_RATIO_TOL)
-
 
 
 @needs_real
@@ -186,12 +200,12 @@ def test_imucal_rotations_are_minus_360_deg_and_faces_read_g(imported):
     dt = 1 / 102.4
     for axis, key in enumerate(("x_rot", "y_rot", "z_rot")):
         s = sections[key]
-        angle = np.degrees(tel.gyro_rad_s[s["start"]:s["end"], axis].sum() * dt)
+        angle = np.degrees(tel.gyro_rad_s[s["start"] : s["end"], axis].sum() * dt)
         # uncalibrated sensor, hand-turned: "each rotation is about -360 deg"
         assert angle == pytest.approx(-360.0, rel=0.1), (key, angle)
     for key in ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a"):
         s = sections[key]
-        f = np.linalg.norm(tel.accel_mps2[s["start"]:s["end"]].mean(axis=0))
+        f = np.linalg.norm(tel.accel_mps2[s["start"] : s["end"]].mean(axis=0))
         assert f == pytest.approx(9.81, rel=0.08), (key, f)  # raw, uncalibrated accelerometers
 
 
@@ -216,8 +230,11 @@ def test_real_imucal_csv_mislabelled_as_rad_s_is_refused(tmp_path):
     msg = str(info.value)
     assert msg.startswith(f"{src}: gyro columns gyr_x, gyr_y, gyr_z: explains the 5 tilt changes"), msg
     assert "the data look like deg/s, not rad/s: import with --gyro-units deg/s" in msg
-    with pytest.raises(UnitsError, match="accel columns acc_x, acc_y, acc_z: reads 101.3 m/s.2 at rest .* "
-                                         "the data look like m/s\\^2, not g: import with --accel-units m/s\\^2"):
+    with pytest.raises(
+        UnitsError,
+        match="accel columns acc_x, acc_y, acc_z: reads 101.3 m/s.2 at rest .* "
+        "the data look like m/s\\^2, not g: import with --accel-units m/s\\^2",
+    ):
         run_import("csv", src, tmp_path / "o.h5", **{**IMUCAL, "accel_units": "g"})
     assert not (tmp_path / "o.h5").exists()
 
@@ -274,14 +291,17 @@ def _csv(tmp_path, text):
 GOOD_CSV = "t,gx,gy,gz,ax,ay,az\n" + "".join(f"{k / 100},0,0,0,0,0,-9.8\n" for k in range(200))
 
 
-@pytest.mark.parametrize("text,options,words", [
-    (GOOD_CSV, {"gyro": ("gx", "gy", "gq")}, "column 'gq' is not in the header"),
-    (GOOD_CSV.replace("0,0,-9.8\n", "0,x,-9.8\n", 1), {}, "not numeric"),
-    (GOOD_CSV, {"gyro_units": "dps"}, "gyro units 'dps' are not known"),
-    (GOOD_CSV, {"time_units": "samples"}, "needs the sample rate"),
-    (GOOD_CSV, {"axes": ("x", "x", "z")}, "not a rotation"),
-    ("t,gx,gy,gz,ax,ay,az\n", {}, "0 data rows"),
-])
+@pytest.mark.parametrize(
+    "text,options,words",
+    [
+        (GOOD_CSV, {"gyro": ("gx", "gy", "gq")}, "column 'gq' is not in the header"),
+        (GOOD_CSV.replace("0,0,-9.8\n", "0,x,-9.8\n", 1), {}, "not numeric"),
+        (GOOD_CSV, {"gyro_units": "dps"}, "gyro units 'dps' are not known"),
+        (GOOD_CSV, {"time_units": "samples"}, "needs the sample rate"),
+        (GOOD_CSV, {"axes": ("x", "x", "z")}, "not a rotation"),
+        ("t,gx,gy,gz,ax,ay,az\n", {}, "0 data rows"),
+    ],
+)
 def test_bad_csv_sources(tmp_path, text, options, words):
     opts = dict(time="t", gyro=("gx", "gy", "gz"), accel=("ax", "ay", "az")) | options
     with pytest.raises(SourceError) as info:
@@ -300,8 +320,10 @@ def test_truncated_psins_log(tmp_path):
 
 
 @needs_real
-@pytest.mark.parametrize("fmt,rel", [("broad", "broad/07_undisturbed_fast_rotation_B.mat"),
-                                     ("psins-mat", "psins/transfer_align_fog_mems.mat")])
+@pytest.mark.parametrize(
+    "fmt,rel",
+    [("broad", "broad/07_undisturbed_fast_rotation_B.mat"), ("psins-mat", "psins/transfer_align_fog_mems.mat")],
+)
 def test_truncated_mat(tmp_path, fmt, rel):
     data = (REAL / rel).read_bytes()
     cut = tmp_path / "cut.mat"
@@ -336,8 +358,22 @@ def test_missing_and_empty_source(tmp_path):
 
 def test_cli_import_bad_source_is_one_line_exit_2(tmp_path):
     p = _csv(tmp_path, GOOD_CSV)
-    result = CliRunner().invoke(main, ["import", "csv", str(p), "-o", str(tmp_path / "o.h5"), "--time", "t",
-                                       "--gyro", "gx,gy,nope", "--accel", "ax,ay,az"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "import",
+            "csv",
+            str(p),
+            "-o",
+            str(tmp_path / "o.h5"),
+            "--time",
+            "t",
+            "--gyro",
+            "gx,gy,nope",
+            "--accel",
+            "ax,ay,az",
+        ],
+    )
     assert result.exit_code == 2
     assert result.output.strip().count("\n") == 0 and "column 'nope'" in result.output
 
@@ -345,14 +381,34 @@ def test_cli_import_bad_source_is_one_line_exit_2(tmp_path):
 def test_cli_import_csv_round_trip(tmp_path):
     p = _csv(tmp_path, GOOD_CSV)
     out = tmp_path / "o.h5"
-    result = CliRunner().invoke(main, ["import", "csv", str(p), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz",
-                                       "--accel", "ax,ay,az", "--axes", "y,x,-z", "--site-deg", "50,10,100"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "import",
+            "csv",
+            str(p),
+            "-o",
+            str(out),
+            "--time",
+            "t",
+            "--gyro",
+            "gx,gy,gz",
+            "--accel",
+            "ax,ay,az",
+            "--axes",
+            "y,x,-z",
+            "--site-deg",
+            "50,10,100",
+        ],
+    )
     assert result.exit_code == 0, result.output
     tel = read_telemetry(out)
     np.testing.assert_allclose(tel.accel_mps2[0], [0.0, 0.0, 9.8])  # sensor z up -> body z down
     assert tel.site.height_m == 100.0
-    again = CliRunner().invoke(main, ["import", "csv", str(p), "-o", str(p), "--time", "t", "--gyro", "gx,gy,gz",
-                                      "--accel", "ax,ay,az", "--force"])
+    again = CliRunner().invoke(
+        main,
+        ["import", "csv", str(p), "-o", str(p), "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az", "--force"],
+    )
     assert again.exit_code == 2 and "overwrite the input" in again.output
 
 
@@ -376,8 +432,22 @@ def test_import_is_a_stage_whose_report_the_command_prints(tmp_path):
     assert isinstance(res, ImportResult) and res.samples == 200 and res.form == "rates"
     assert res.to_json()["samples"] == 200 and res.to_json()["units_check"]["accel"]["verdict"] == "ok"
     json.dumps(res.to_json())  # JSON-ready
-    cli = CliRunner().invoke(main, ["import", "csv", str(src), "-o", str(tmp_path / "b.h5"), "--time", "t",
-                                    "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"])
+    cli = CliRunner().invoke(
+        main,
+        [
+            "import",
+            "csv",
+            str(src),
+            "-o",
+            str(tmp_path / "b.h5"),
+            "--time",
+            "t",
+            "--gyro",
+            "gx,gy,gz",
+            "--accel",
+            "ax,ay,az",
+        ],
+    )
     assert cli.exit_code == 0, cli.output
     assert cli.output == res.report().replace(str(tmp_path / "a.h5"), str(tmp_path / "b.h5")) + "\n"
     assert cli.output.startswith(f"wrote {tmp_path / 'b.h5'}: 200 rates samples at 100 Hz, 1.99 s; reference rows: 0")
@@ -424,8 +494,9 @@ def test_invalid_rows_are_refused_or_dropped_as_gaps(tmp_path):
     out = tmp_path / "o.h5"
     args = ["import", "csv", str(src), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"]
     refused = CliRunner().invoke(main, args)
-    assert refused.exit_code == 2 and refused.stderr.count("\n") == 1 and "'gy' (--gyro) holds NaN" in refused.stderr, \
+    assert refused.exit_code == 2 and refused.stderr.count("\n") == 1 and "'gy' (--gyro) holds NaN" in refused.stderr, (
         refused.stderr
+    )
     assert str(src) in refused.stderr and ".tmp" not in refused.stderr and not out.exists()
     kept = CliRunner().invoke(main, args + ["--drop-invalid-rows"])
     assert kept.exit_code == 0, kept.output

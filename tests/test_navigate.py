@@ -6,6 +6,7 @@ import json
 import os
 from pathlib import Path
 
+import naive
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -13,6 +14,7 @@ from click.testing import CliRunner
 from sizefx import scenarios
 from sizefx.constants import DEG, MICRO_G
 from sizefx.effects import IDEAL, load_effects
+from sizefx.io.telemetry import Reference, Site, Telemetry
 from sizefx.kernels.increments import rates_to_increments
 from sizefx.kernels.strapdown import (
     VERTICAL_FREE,
@@ -34,10 +36,8 @@ from sizefx.motion import (
 from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.rotation import mat_to_quat
 from sizefx.simulate import ImuSynthesizer, kinematics, simulate_in_memory
-from sizefx.io.telemetry import Reference, Site, Telemetry
 from sizefx.theory import coning_residual_rad_s, schuler_peak_error_m, schuler_period_s, sculling_residual_mps2
 from sizefx_cli.main import main
-import naive
 
 E_N, E_E, E_D = np.eye(3)
 LAT, LON, H = np.radians(57.9825), np.radians(55.7089), 120.0
@@ -99,10 +99,25 @@ def test_kernel_matches_naive_twin(short_flight, n_sub, vertical):
     state = pack_state(q0, v0, st.lat_rad[0], st.lon_rad[0], st.height_m[0])
     out_q, out_v = np.empty((n_steps, 4)), np.empty((n_steps, 3))
     out_lat, out_lon, out_h = np.empty(n_steps), np.empty(n_steps), np.empty(n_steps)
-    strapdown(dtheta, dvel, n_sub, coeffs, T, state, vertical, 420.0, h_ref, vd_ref, out_q, out_v, out_lat,
-              out_lon, out_h)
-    twin = naive.strapdown(dtheta, dvel, n_sub, coeffs, T, q0, v0, st.lat_rad[0], st.lon_rad[0], st.height_m[0],
-                           vertical, 420.0, h_ref, vd_ref)
+    strapdown(
+        dtheta, dvel, n_sub, coeffs, T, state, vertical, 420.0, h_ref, vd_ref, out_q, out_v, out_lat, out_lon, out_h
+    )
+    twin = naive.strapdown(
+        dtheta,
+        dvel,
+        n_sub,
+        coeffs,
+        T,
+        q0,
+        v0,
+        st.lat_rad[0],
+        st.lon_rad[0],
+        st.height_m[0],
+        vertical,
+        420.0,
+        h_ref,
+        vd_ref,
+    )
     # 1e-9 relative (issue 4); in practice rounding only, ~1e-13
     np.testing.assert_allclose(out_q, twin[:, 0:4], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(out_v, twin[:, 4:7], rtol=1e-9, atol=1e-9)
@@ -125,8 +140,19 @@ def test_chunked_kernel_equals_whole(short_flight):
         for a, b in parts:
             n = (b - a) // 4
             out = [np.empty((n, 4)), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n)]
-            strapdown(dtheta[a:b], dvel[a:b], 4, coning_coefficients(4), 4 * H_SAMPLE, state, VERTICAL_FREE, 0.0,
-                      empty, empty, *out)
+            strapdown(
+                dtheta[a:b],
+                dvel[a:b],
+                4,
+                coning_coefficients(4),
+                4 * H_SAMPLE,
+                state,
+                VERTICAL_FREE,
+                0.0,
+                empty,
+                empty,
+                *out,
+            )
             rows.append(np.column_stack([out[0], out[1], out[2], out[3], out[4]]))
         return np.vstack(rows)
 
@@ -152,8 +178,14 @@ def test_static_18_hours_stays_put(tmp_path):
     path = tmp_path / "static_18h.h5"
     block = 1 << 20
     with h5py.File(path, "w") as h5:
-        h5.attrs.update({"schema": "sizefx/telemetry/1", "latitude_deg": np.degrees(LAT),
-                         "longitude_deg": np.degrees(LON), "height_m": H})
+        h5.attrs.update(
+            {
+                "schema": "sizefx/telemetry/1",
+                "latitude_deg": np.degrees(LAT),
+                "longitude_deg": np.degrees(LON),
+                "height_m": H,
+            }
+        )
         opts = {"chunks": True, "compression": "gzip", "shuffle": True}
         time = h5.create_dataset("imu/time", shape=(n,), dtype="f8", **opts)
         dtheta = h5.create_dataset("imu/dtheta", shape=(n, 3), dtype="f8", **opts)
@@ -257,11 +289,16 @@ def test_schuler_oscillation_of_an_accelerometer_bias():
     n = int(duration * rate)
     b = 10 * MICRO_G
     dvel = np.tile((kin.accel_input + [b, 0.0, 0.0]) / rate, (n, 1))
-    tel = Telemetry(time_s=np.arange(1, n + 1) / rate, form="increments",
-                    dtheta_rad=np.tile(kin.omega_ib_b / rate, (n, 1)), dvel_mps=dvel,
-                    reference=Reference(np.array([0.0, duration]), np.tile([1.0, 0, 0, 0], (2, 1)),
-                                        np.full(2, LAT), np.full(2, LON), np.full(2, H)),
-                    site=Site(LAT, LON, H))
+    tel = Telemetry(
+        time_s=np.arange(1, n + 1) / rate,
+        form="increments",
+        dtheta_rad=np.tile(kin.omega_ib_b / rate, (n, 1)),
+        dvel_mps=dvel,
+        reference=Reference(
+            np.array([0.0, duration]), np.tile([1.0, 0, 0, 0], (2, 1)), np.full(2, LAT), np.full(2, LON), np.full(2, H)
+        ),
+        site=Site(LAT, LON, H),
+    )
     res = navigate(tel, NavConfig(subsamples=1, output_rate_hz=None))
     err, t = res.errors["horizontal_m"], res.errors["time_s"]
     period_expected = schuler_period_s(LAT, H)
@@ -292,8 +329,9 @@ def test_ring_laser_log_aligns_to_the_header_heading(tmp_path):
     run_import("psins-imu", REAL / "psins/lasergyro.imu", h5)
     out = tmp_path / "nav.h5"
     summary, png = tmp_path / "nav.json", tmp_path / "err.png"
-    result = CliRunner().invoke(main, ["navigate", str(h5), "--align-s", "300", "-o", str(out),
-                                       "--json", str(summary), "--plot", str(png)])
+    result = CliRunner().invoke(
+        main, ["navigate", str(h5), "--align-s", "300", "-o", str(out), "--json", str(summary), "--plot", str(png)]
+    )
     assert result.exit_code == 0, result.output
     s = json.loads(summary.read_text())
     c = s["configuration"]
@@ -320,8 +358,14 @@ def test_navigate_command_on_a_simulated_file(tmp_path, short_turntable_plan):
     result = CliRunner().invoke(main, ["navigate", str(sim), "-o", str(out), "--json", str(js)])
     assert result.exit_code == 0, result.output
     s = json.loads(js.read_text())
-    for key in ("samples", "duration_s", "final_horizontal_error_m", "max_horizontal_error_m", "drift_nmi_per_h",
-                "final_velocity_error_mps"):
+    for key in (
+        "samples",
+        "duration_s",
+        "final_horizontal_error_m",
+        "max_horizontal_error_m",
+        "drift_nmi_per_h",
+        "final_velocity_error_mps",
+    ):
         assert key in s
     assert s["max_horizontal_error_m"] < 1e-3
     import h5py

@@ -9,7 +9,7 @@ from sizefx import earth
 from sizefx.io.telemetry import Reference
 from sizefx.kernels.errors import navigation_errors
 from sizefx.navigate.reference import reference_at
-from sizefx.rotation import quat_angle_between, rotvec_to_mat, mat_to_quat
+from sizefx.rotation import mat_to_quat, quat_angle_between, rotvec_to_mat
 
 
 def random_track(rng, n, t0=100.0, step=0.01):
@@ -42,8 +42,23 @@ def test_kernel_equals_its_numpy_twin(seed):
     lat = ref.lat_rad[0] + rng.normal(0, 1e-6, t.size)  # metres of error
     lon = ref.lon_rad[0] + rng.normal(0, 1e-6, t.size)
     out = np.full((t.size, 7), np.nan)
-    navigation_errors(t, q, v, lat, lon, ref.time_s, ref.quat_nb, ref.lat_rad, ref.lon_rad, ref.height_m,
-                      ref.velocity_n_mps, True, True, True, out)
+    navigation_errors(
+        t,
+        q,
+        v,
+        lat,
+        lon,
+        ref.time_s,
+        ref.quat_nb,
+        ref.lat_rad,
+        ref.lon_rad,
+        ref.height_m,
+        ref.velocity_n_mps,
+        True,
+        True,
+        True,
+        out,
+    )
     expected = twin(ref, t, q, v, lat, lon)
     # positions: metres to 1e-9 m (rounding of two interpolation formulas on ~1e7 m radii);
     # velocity to 1e-12 m/s; attitude to 1e-12 rad (slerp and angle in the same order of operations)
@@ -57,7 +72,21 @@ def test_columns_not_asked_for_are_left_alone():
     ref = random_track(rng, 50)
     t = np.linspace(ref.time_s[0], ref.time_s[-1], 80)
     out = np.full((t.size, 7), -7.0)
-    navigation_errors(t, np.tile([1.0, 0, 0, 0], (80, 1)), np.zeros((80, 3)),
-                      np.zeros(80), np.zeros(80), ref.time_s, ref.quat_nb, np.zeros(2), np.zeros(2), np.zeros(2),
-                      np.zeros((2, 3)), False, False, True, out)
+    navigation_errors(
+        t,
+        np.tile([1.0, 0, 0, 0], (80, 1)),
+        np.zeros((80, 3)),
+        np.zeros(80),
+        np.zeros(80),
+        ref.time_s,
+        ref.quat_nb,
+        np.zeros(2),
+        np.zeros(2),
+        np.zeros(2),
+        np.zeros((2, 3)),
+        False,
+        False,
+        True,
+        out,
+    )
     assert np.all(out[:, :6] == -7.0) and np.all(out[:, 6] >= 0.0)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import click
 import pytest
 from click.testing import CliRunner
+
 from sizefx_cli.main import main
 from sizefx_cli.options import Span
 
@@ -19,8 +20,12 @@ def _commands(group: click.Group, path=()):
             yield path + (name,), cmd
 
 
-NUMERIC = [(path, p) for path, cmd in _commands(main) for p in cmd.params
-           if isinstance(p, click.Option) and isinstance(p.type, (click.types.FloatParamType, click.types.IntParamType))]
+NUMERIC = [
+    (path, p)
+    for path, cmd in _commands(main)
+    for p in cmd.params
+    if isinstance(p, click.Option) and isinstance(p.type, (click.types.FloatParamType, click.types.IntParamType))
+]
 
 
 def test_there_are_numeric_options_to_check():
@@ -38,8 +43,11 @@ def test_each_numeric_option_has_a_range(path, param):
         assert param.type.max is not None or param.opts[0] == "--segment", "loops and chunks need an upper bound"
 
 
-@pytest.mark.parametrize("path,param", [(p, q) for p, q in NUMERIC if isinstance(q.type, Span)],
-                         ids=[f"{' '.join(p)} {q.opts[0]}" for p, q in NUMERIC if isinstance(q.type, Span)])
+@pytest.mark.parametrize(
+    "path,param",
+    [(p, q) for p, q in NUMERIC if isinstance(q.type, Span)],
+    ids=[f"{' '.join(p)} {q.opts[0]}" for p, q in NUMERIC if isinstance(q.type, Span)],
+)
 @pytest.mark.parametrize("value", ["nan", "inf", "-inf", "1e400"])
 def test_non_finite_values_are_one_line(tmp_path, path, param, value):
     cmd = main

@@ -30,9 +30,15 @@ EXAMPLE_FILES = ("tumble_imu.csv", "tumble_reference.csv", "tumble_truth.json")
 #: "under about 1.5 MB" (issue 13, item 5): the example travels with every clone.
 EXAMPLE_MAX_BYTES = 1_500_000
 #: What the walk-through must contain, in this order: (command, must have, must not have).
-STEPS = (("import csv", "--reference-quaternion", None), ("inspect", None, None), ("diagnose", "--json", None),
-         ("calibrate", "--json", None), ("navigate", None, "--levers"), ("navigate", "--levers", None),
-         ("compare", "--json", None))
+STEPS = (
+    ("import csv", "--reference-quaternion", None),
+    ("inspect", None, None),
+    ("diagnose", "--json", None),
+    ("calibrate", "--json", None),
+    ("navigate", None, "--levers"),
+    ("navigate", "--levers", None),
+    ("compare", "--json", None),
+)
 
 # Tolerances, each with its reason.
 #: Calibrated arms against the truth, in their own sigma (0.004-0.013 mm): the 50 Hz reference is
@@ -99,9 +105,12 @@ def run(argv: list, cwd: Path) -> subprocess.CompletedProcess:
 
 
 def test_parser_reads_continuations_comments_and_every_block():
-    text = ("intro\n```sh\nnot this\n```\n" + START + " x -->\ntext\n```sh\nsizefx a b \\\n    --c 'd e'  # why\n"
-            "\n# a comment line\nsizefx f\n```\nmore text\n```python\nnot sh\n```\n```sh\nsizefx g\n```\n" + END
-            + "\n```sh\nsizefx after\n```\n")
+    text = (
+        "intro\n```sh\nnot this\n```\n" + START + " x -->\ntext\n```sh\nsizefx a b \\\n    --c 'd e'  # why\n"
+        "\n# a comment line\nsizefx f\n```\nmore text\n```python\nnot sh\n```\n```sh\nsizefx g\n```\n"
+        + END
+        + "\n```sh\nsizefx after\n```\n"
+    )
     assert readme_commands(text) == [["sizefx", "a", "b", "--c", "d e"], ["sizefx", "f"], ["sizefx", "g"]]
     with pytest.raises(AssertionError, match="markers"):
         readme_commands("no markers")
@@ -113,7 +122,7 @@ def test_readme_walkthrough_has_every_step():
     # the check bites: each step removed in turn is named as missing
     for k in range(len(commands)):
         with pytest.raises(AssertionError, match="lacks"):
-            check_steps(commands[:k] + commands[k + 1:])
+            check_steps(commands[:k] + commands[k + 1 :])
 
 
 # --------------------------------------------------------------------------- the walk-through, run
@@ -136,7 +145,11 @@ def walkthrough(tmp_path_factory):
 def _step(walkthrough, verb: str, has: str | None = None, lacks: str | None = None):
     _, done = walkthrough
     for argv, result in done:
-        if " ".join(argv[1:]).startswith(verb) and (has is None or has in argv) and (lacks is None or lacks not in argv):
+        if (
+            " ".join(argv[1:]).startswith(verb)
+            and (has is None or has in argv)
+            and (lacks is None or lacks not in argv)
+        ):
             return argv, result
     raise AssertionError(f"no 'sizefx {verb}' ran")
 
@@ -230,8 +243,7 @@ def test_a_wrong_column_in_the_import_fails(walkthrough, tmp_path):
 
 
 def test_example_regenerates_bit_for_bit(tmp_path):
-    subprocess.run([sys.executable, str(EXAMPLES / "make_example.py"), "--out", str(tmp_path)], check=True,
-                   timeout=300)
+    subprocess.run([sys.executable, str(EXAMPLES / "make_example.py"), "--out", str(tmp_path)], check=True, timeout=300)
     for name in EXAMPLE_FILES:
         assert (tmp_path / name).read_bytes() == (EXAMPLES / name).read_bytes(), name
 

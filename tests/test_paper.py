@@ -49,16 +49,24 @@ def test_offset_to_the_table_centre_does_not_rectify(tmp_path):
     """The paper's closed form takes the total arm; the strapdown solution shows only the masses'
     spread d matters: a point IMU 0.5 m off the sway axis navigates like one on it."""
     from sizefx import scenarios
+    from sizefx.io.telemetry import read_telemetry
     from sizefx.navigate import NavConfig, navigate
     from sizefx.simulate import SimulateConfig, run
-    from sizefx.io.telemetry import read_telemetry
 
     plan = scenarios.SwayPlan(static_s=60.0, segment_s=300.0, amplitudes_dps=(30.0,))
     errors = {}
     for name, offset in (("on axis", [0.0, 0.0, 0.0]), ("off axis", [0.5, 0.2, -0.1])):
         path = tmp_path / f"{name}.h5"
-        run(SimulateConfig("sway", path, plan=plan, rate_hz=400.0, seed=3,
-            overrides={"lever_arm": {"preset": "none", "r_vehicle_m": offset}}))
+        run(
+            SimulateConfig(
+                "sway",
+                path,
+                plan=plan,
+                rate_hz=400.0,
+                seed=3,
+                overrides={"lever_arm": {"preset": "none", "r_vehicle_m": offset}},
+            )
+        )
         res = navigate(read_telemetry(path), NavConfig(init="align", align_s=60.0))
         errors[name] = res.summary["final_horizontal_error_m"]
     # the total-arm law would give 0.54 * 0.27 / 4 * 300^2 = 3.3 km off axis; both stay at noise level

@@ -7,6 +7,7 @@ same ``run_all``); the closed forms are checked in ``tests/test_paper.py``.
 from __future__ import annotations
 
 from click.testing import CliRunner
+
 from sizefx_cli.main import main
 
 

@@ -8,10 +8,10 @@ import pytest
 
 from sizefx import scenarios
 from sizefx.errors import TelemetryError
+from sizefx.io.telemetry import read_telemetry
 from sizefx.levers import levers_from_preset, write_levers
 from sizefx.navigate import NavConfig, navigate, navigate_file
 from sizefx.simulate import SimulateConfig, run
-from sizefx.io.telemetry import read_telemetry
 
 FIELDS = ("time_s", "quat_nb", "v_n", "lat_rad", "lon_rad", "height_m")
 
@@ -20,8 +20,16 @@ FIELDS = ("time_s", "quat_nb", "v_n", "lat_rad", "lon_rad", "height_m")
 def sway(tmp_path_factory):
     folder = tmp_path_factory.mktemp("stream")
     path = folder / "sway.h5"
-    run(SimulateConfig("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=30.0), rate_hz=400.0, seed=1,
-        overrides={"accel_delay": {"enabled": True}}))
+    run(
+        SimulateConfig(
+            "sway",
+            path,
+            plan=scenarios.SwayPlan(static_s=60.0, segment_s=30.0),
+            rate_hz=400.0,
+            seed=1,
+            overrides={"accel_delay": {"enabled": True}},
+        )
+    )
     levers = levers_from_preset("high-precision")
     levers.accel_delay_s = 5e-4  # the spline sync runs on every chunk
     write_levers(folder / "levers.json", levers)
@@ -32,7 +40,7 @@ def assert_same(whole, streamed):
     """Streamed rows equal the whole run's output rows to 1e-12 relative (in practice bit for bit)."""
     stride = streamed.config["output_stride"]
     for name in FIELDS:
-        a, b = getattr(whole, name)[stride - 1::stride], getattr(streamed, name)
+        a, b = getattr(whole, name)[stride - 1 :: stride], getattr(streamed, name)
         assert a.shape == b.shape, name
         np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * np.abs(a).max(), err_msg=name)
     for key, value in whole.summary.items():
@@ -90,8 +98,16 @@ def test_stamps_far_from_zero_give_the_same_period_whole_and_streamed(tmp_path):
     from sizefx.io.telemetry import TelemetryStream, write_telemetry
 
     path = tmp_path / "sway.h5"
-    run(SimulateConfig("sway", path, plan=scenarios.SwayPlan(static_s=60.0, segment_s=40.0, amplitudes_dps=(20.0,)),
-        rate_hz=1600.0, reference_rate_hz=100.0, seed=4))
+    run(
+        SimulateConfig(
+            "sway",
+            path,
+            plan=scenarios.SwayPlan(static_s=60.0, segment_s=40.0, amplitudes_dps=(20.0,)),
+            rate_hz=1600.0,
+            reference_rate_hz=100.0,
+            seed=4,
+        )
+    )
     tel = read_telemetry(path)
     tel.time_s = tel.time_s + 2007.0
     tel.reference.time_s = tel.reference.time_s + 2007.0

@@ -54,8 +54,9 @@ def test_least_time_search_is_minimal():
     design = design_plan(PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target, static_s=10.0))
     p = design.plan
     assert design.prediction.max_sigma_mm <= target
-    fewer = scenarios.TurntablePlan(**{**p.__dict__, "cycles": p.cycles - 1,
-                                       "seconds_per_axis": p.seconds_per_axis * (p.cycles - 1) / p.cycles})
+    fewer = scenarios.TurntablePlan(
+        **{**p.__dict__, "cycles": p.cycles - 1, "seconds_per_axis": p.seconds_per_axis * (p.cycles - 1) / p.cycles}
+    )
     if p.cycles > 1:
         assert predict(fewer, NOISE_UG).max_sigma_mm > target
 
@@ -68,13 +69,15 @@ def test_two_axes_leave_arms_unobservable():
 def test_plan_file_runs_in_simulate(tmp_path):
     plan_file, record = tmp_path / "plan.toml", tmp_path / "turntable.h5"
     runner = CliRunner()
-    result = runner.invoke(main, ["plan", "--noise-ug", str(NOISE_UG), "--budget-s", "200", "--static-s", "10",
-                                  "-o", str(plan_file)])
+    result = runner.invoke(
+        main, ["plan", "--noise-ug", str(NOISE_UG), "--budget-s", "200", "--static-s", "10", "-o", str(plan_file)]
+    )
     assert result.exit_code == 0, result.output
     doc = tomllib.loads(plan_file.read_text())
     assert doc["schema"] == "sizefx/plan/1" and doc["designed_for"]["objective"] == "min-sigma"
-    result = runner.invoke(main, ["simulate", "turntable", "--plan", str(plan_file), "-o", str(record),
-                                  "--rate-hz", "400", "-q"])
+    result = runner.invoke(
+        main, ["simulate", "turntable", "--plan", str(plan_file), "-o", str(record), "--rate-hz", "400", "-q"]
+    )
     assert result.exit_code == 0, result.output
     tel = read_telemetry(record)
     assert tel.time_s[-1] == pytest.approx(doc["prediction"]["duration_s"], abs=0.01)
@@ -93,14 +96,18 @@ def test_noise_must_be_positive_and_finite(noise):
     _one_line_refusal(["plan", "--noise-ug", noise, "--budget-s", "300"], needle="--noise-ug")
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["--budget-s", "300", "--target-sigma-mm", "0.05"], "either"),
-    ([], "either"),
-    (["--budget-s", "300", "--axes", "XQ"], "table axes"),
-    (["--budget-s", "300", "--axes", "XX"], "table axes"),
-    (["--budget-s", "40"], "--budget-s 40"),
-    (["--target-sigma-mm", "1e-7"], "--target-sigma-mm"),
-], ids=["both", "neither", "bad-axis", "axis-twice", "budget-too-short", "unreachable-sigma"])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--budget-s", "300", "--target-sigma-mm", "0.05"], "either"),
+        ([], "either"),
+        (["--budget-s", "300", "--axes", "XQ"], "table axes"),
+        (["--budget-s", "300", "--axes", "XX"], "table axes"),
+        (["--budget-s", "40"], "--budget-s 40"),
+        (["--target-sigma-mm", "1e-7"], "--target-sigma-mm"),
+    ],
+    ids=["both", "neither", "bad-axis", "axis-twice", "budget-too-short", "unreachable-sigma"],
+)
 def test_requests_no_plan_can_meet_are_one_line(args, needle):
     _one_line_refusal(["plan", "--noise-ug", "2.96", *args], needle=needle)
 
@@ -108,17 +115,22 @@ def test_requests_no_plan_can_meet_are_one_line(args, needle):
 @pytest.fixture
 def plan_file(tmp_path):
     path = tmp_path / "plan.toml"
-    result = CliRunner().invoke(main, ["plan", "--noise-ug", "2.96", "--budget-s", "200", "--static-s", "10",
-                                       "-o", str(path)])
+    result = CliRunner().invoke(
+        main, ["plan", "--noise-ug", "2.96", "--budget-s", "200", "--static-s", "10", "-o", str(path)]
+    )
     assert result.exit_code == 0, result.output
     return path
 
 
-@pytest.mark.parametrize("key, value, needle", [
-    ("peak_rate_dps", "40.0", "above the table's max_rate_dps"),
-    ("accel_dps2", "25.0", "above the table's max_accel_dps2"),
-    ("axes", '"XYZ"', None),
-], ids=["rate", "acceleration", "axes-ok"])
+@pytest.mark.parametrize(
+    "key, value, needle",
+    [
+        ("peak_rate_dps", "40.0", "above the table's max_rate_dps"),
+        ("accel_dps2", "25.0", "above the table's max_accel_dps2"),
+        ("axes", '"XYZ"', None),
+    ],
+    ids=["rate", "acceleration", "axes-ok"],
+)
 def test_a_plan_the_table_cannot_run_is_refused(plan_file, tmp_path, key, value, needle):
     text = plan_file.read_text()
     edited = "\n".join(f"{key} = {value}" if line.startswith(f"{key} =") else line for line in text.splitlines())
@@ -126,32 +138,47 @@ def test_a_plan_the_table_cannot_run_is_refused(plan_file, tmp_path, key, value,
         edited = edited.replace('axes = "XYZ"\nreposition_s', 'axes = "XY"\nreposition_s')
         needle = "cannot reach"
     plan_file.write_text(edited)
-    _one_line_refusal(["simulate", "turntable", "--plan", str(plan_file), "-o", str(tmp_path / "t.h5")],
-                      needle=needle)
+    _one_line_refusal(["simulate", "turntable", "--plan", str(plan_file), "-o", str(tmp_path / "t.h5")], needle=needle)
     assert not (tmp_path / "t.h5").exists()
 
 
 def test_plan_with_plan_options_is_refused(plan_file, tmp_path):
-    _one_line_refusal(["simulate", "turntable", "--plan", str(plan_file), "--cycles", "3", "-o",
-                       str(tmp_path / "t.h5")], needle="--cycles")
+    _one_line_refusal(
+        ["simulate", "turntable", "--plan", str(plan_file), "--cycles", "3", "-o", str(tmp_path / "t.h5")],
+        needle="--cycles",
+    )
 
 
 def test_plan_never_overwrites_its_input(plan_file):
-    _one_line_refusal(["simulate", "turntable", "--plan", str(plan_file), "-o", str(plan_file), "--force"],
-                      needle=str(plan_file))
+    _one_line_refusal(
+        ["simulate", "turntable", "--plan", str(plan_file), "-o", str(plan_file), "--force"], needle=str(plan_file)
+    )
 
 
-@pytest.mark.parametrize("text, needle", [
-    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\n', "seconds_per_axis"),
-    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 120.0\ncycles = "five"\n'
-     'peak_rate_dps = 20.0\naccel_dps2 = 10.0\n', "cycles"),
-    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 120.0\ncycles = 5\n'
-     'peak_rate_dps = 1e9\naccel_dps2 = 10.0\n', "peak_rate_dps"),
-    ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 2.0\ncycles = 5\n'
-     'peak_rate_dps = 20.0\naccel_dps2 = 10.0\n', "leave no time"),
-    ('schema = "sizefx/levers/1"\n', "schema"),
-    ("[turntable\n", "plan file"),
-], ids=["missing-keys", "wrong-type", "absurd-rate", "no-time", "other-schema", "not-toml"])
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ('schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\n', "seconds_per_axis"),
+        (
+            'schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 120.0\ncycles = "five"\n'
+            "peak_rate_dps = 20.0\naccel_dps2 = 10.0\n",
+            "cycles",
+        ),
+        (
+            'schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 120.0\ncycles = 5\n'
+            "peak_rate_dps = 1e9\naccel_dps2 = 10.0\n",
+            "peak_rate_dps",
+        ),
+        (
+            'schema = "sizefx/plan/1"\n[turntable]\naxes = "YXZ"\nseconds_per_axis = 2.0\ncycles = 5\n'
+            "peak_rate_dps = 20.0\naccel_dps2 = 10.0\n",
+            "leave no time",
+        ),
+        ('schema = "sizefx/levers/1"\n', "schema"),
+        ("[turntable\n", "plan file"),
+    ],
+    ids=["missing-keys", "wrong-type", "absurd-rate", "no-time", "other-schema", "not-toml"],
+)
 def test_malformed_plan_files_are_one_line(tmp_path, text, needle):
     path = tmp_path / "plan.toml"
     path.write_text(text)
@@ -161,8 +188,9 @@ def test_malformed_plan_files_are_one_line(tmp_path, text, needle):
 
 #: A request with the delay's sway: the turntable's budget and the delay sigma small enough to
 #: run in a test (the sway 43 s, the whole plan 400 s).
-DELAY_REQUEST = PlanRequest(NOISE_UG, TableLimits(sway_axes="XY"), budget_s=400.0, static_s=10.0,
-                            target_delay_sigma_us=2.0)
+DELAY_REQUEST = PlanRequest(
+    NOISE_UG, TableLimits(sway_axes="XY"), budget_s=400.0, static_s=10.0, target_delay_sigma_us=2.0
+)
 
 
 @pytest.fixture(scope="module")
@@ -185,11 +213,16 @@ def test_sway_stays_within_the_table(delay_design):
 def test_delay_prediction_is_what_the_fit_states(delay_design):
     """The designed turntable plan and sway simulated with white noise of the request's density:
     the fit's delay sigma (and arms) within 5 % of the prediction, and the delay found within 4 sigma."""
-    fx = load_effects(overrides={"accel_noise": {"density_ug_per_sqrt_hz": NOISE_UG, "bias_rw_ug_per_sqrt_h": 0.0},
-                                 "accel_delay": {"enabled": True, "tau_s": 0.3e-3}})
-    records = [prepare(simulate_in_memory(scenarios.turntable(delay_design.plan)[0], fx, form="rates", seed=4),
-                       "turntable"),
-               prepare(simulate_in_memory(scenarios.sway(delay_design.sway)[0], fx, form="rates", seed=5), "sway")]
+    fx = load_effects(
+        overrides={
+            "accel_noise": {"density_ug_per_sqrt_hz": NOISE_UG, "bias_rw_ug_per_sqrt_h": 0.0},
+            "accel_delay": {"enabled": True, "tau_s": 0.3e-3},
+        }
+    )
+    records = [
+        prepare(simulate_in_memory(scenarios.turntable(delay_design.plan)[0], fx, form="rates", seed=4), "turntable"),
+        prepare(simulate_in_memory(scenarios.sway(delay_design.sway)[0], fx, form="rates", seed=5), "sway"),
+    ]
     res = joint_fit(records, with_delay=True)
     pred = delay_design.prediction
     assert res.sigma_delay_s == pytest.approx(pred.sigma_delay_s, rel=0.05)
@@ -210,8 +243,24 @@ def test_least_sway_is_minimal(delay_design):
 @pytest.fixture
 def delay_plan_file(tmp_path):
     path = tmp_path / "plan.toml"
-    result = CliRunner().invoke(main, ["plan", "--noise-ug", "2.96", "--budget-s", "400", "--static-s", "10",
-                                       "--delay-sigma-us", "2", "--sway-axes", "XY", "-o", str(path)])
+    result = CliRunner().invoke(
+        main,
+        [
+            "plan",
+            "--noise-ug",
+            "2.96",
+            "--budget-s",
+            "400",
+            "--static-s",
+            "10",
+            "--delay-sigma-us",
+            "2",
+            "--sway-axes",
+            "XY",
+            "-o",
+            str(path),
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "delay sway" in result.output and "simulate sway --plan" in path.read_text()
     return path
@@ -220,31 +269,40 @@ def delay_plan_file(tmp_path):
 def test_plan_sway_runs_in_simulate(delay_plan_file, tmp_path):
     doc = tomllib.loads(delay_plan_file.read_text())
     record = tmp_path / "sway.h5"
-    result = CliRunner().invoke(main, ["simulate", "sway", "--plan", str(delay_plan_file), "-o", str(record),
-                                       "--rate-hz", "400", "-q"])
+    result = CliRunner().invoke(
+        main, ["simulate", "sway", "--plan", str(delay_plan_file), "-o", str(record), "--rate-hz", "400", "-q"]
+    )
     assert result.exit_code == 0, result.output
     sway = doc["sway"]
     assert read_telemetry(record).time_s[-1] == pytest.approx(sway["static_s"] + sway["segment_s"], abs=0.01)
     assert doc["prediction"]["sigma_delay_us"] <= 2.0
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["--delay-sigma-us", "1"], "--sway-axes"),
-    (["--delay-sigma-us", "1", "--sway-axes", "Z"], "sway axes"),
-    (["--delay-sigma-us", "1e-6", "--sway-axes", "X"], "--delay-sigma-us"),
-    # 100 s holds a turntable plan alone, not with the 43 s sway
-    (["--delay-sigma-us", "2", "--sway-axes", "XY", "--budget-s", "100"], "after the delay's sway"),
-], ids=["no-sway-axes", "bad-sway-axis", "unreachable-delay", "budget-too-short-for-the-sway"])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--delay-sigma-us", "1"], "--sway-axes"),
+        (["--delay-sigma-us", "1", "--sway-axes", "Z"], "sway axes"),
+        (["--delay-sigma-us", "1e-6", "--sway-axes", "X"], "--delay-sigma-us"),
+        # 100 s holds a turntable plan alone, not with the 43 s sway
+        (["--delay-sigma-us", "2", "--sway-axes", "XY", "--budget-s", "100"], "after the delay's sway"),
+    ],
+    ids=["no-sway-axes", "bad-sway-axis", "unreachable-delay", "budget-too-short-for-the-sway"],
+)
 def test_delay_requests_no_plan_can_meet_are_one_line(args, needle):
     extra = [] if "--budget-s" in args else ["--budget-s", "400"]
     _one_line_refusal(["plan", "--noise-ug", "2.96", "--static-s", "10", *extra, *args], needle=needle)
 
 
-@pytest.mark.parametrize("key, value, needle", [
-    ("amplitude_dps", "25.0", "above the table's max_rate_dps"),
-    ("frequency_hz", "1.0", "above the table's max_accel_dps2"),
-    ("axis", '"pitch"', "cannot swing about"),
-], ids=["rate", "acceleration", "axis"])
+@pytest.mark.parametrize(
+    "key, value, needle",
+    [
+        ("amplitude_dps", "25.0", "above the table's max_rate_dps"),
+        ("frequency_hz", "1.0", "above the table's max_accel_dps2"),
+        ("axis", '"pitch"', "cannot swing about"),
+    ],
+    ids=["rate", "acceleration", "axis"],
+)
 def test_a_sway_the_table_cannot_run_is_refused(delay_plan_file, tmp_path, key, value, needle):
     lines = delay_plan_file.read_text().splitlines()
     start = lines.index("[sway]")
@@ -252,16 +310,16 @@ def test_a_sway_the_table_cannot_run_is_refused(delay_plan_file, tmp_path, key, 
     if key == "axis":  # a table that swings about body x only cannot pitch
         lines = ['sway_axes = "X"' if line.startswith("sway_axes =") else line for line in lines]
     delay_plan_file.write_text("\n".join(lines) + "\n")
-    _one_line_refusal(["simulate", "sway", "--plan", str(delay_plan_file), "-o", str(tmp_path / "s.h5")],
-                      needle=needle)
+    _one_line_refusal(["simulate", "sway", "--plan", str(delay_plan_file), "-o", str(tmp_path / "s.h5")], needle=needle)
     assert not (tmp_path / "s.h5").exists()
 
 
 def test_sway_from_a_plan_without_one_is_refused(plan_file, tmp_path):
-    _one_line_refusal(["simulate", "sway", "--plan", str(plan_file), "-o", str(tmp_path / "s.h5")],
-                      needle="no [sway]")
+    _one_line_refusal(["simulate", "sway", "--plan", str(plan_file), "-o", str(tmp_path / "s.h5")], needle="no [sway]")
 
 
 def test_sway_plan_with_sway_options_is_refused(delay_plan_file, tmp_path):
-    _one_line_refusal(["simulate", "sway", "--plan", str(delay_plan_file), "--axis", "roll", "-o",
-                       str(tmp_path / "s.h5")], needle="--axis")
+    _one_line_refusal(
+        ["simulate", "sway", "--plan", str(delay_plan_file), "--axis", "roll", "-o", str(tmp_path / "s.h5")],
+        needle="--axis",
+    )

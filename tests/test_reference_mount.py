@@ -21,8 +21,11 @@ from sizefx.simulate import simulate_in_memory, true_motion
 
 RATE_HZ = 400.0
 DURATION_S = 60.0
-BASE = {"lever_arm": {"enabled": True, "preset": "high-precision"},
-        "accel_noise": {"enabled": True}, "gyro_noise": {"enabled": True}}
+BASE = {
+    "lever_arm": {"enabled": True, "preset": "high-precision"},
+    "accel_noise": {"enabled": True},
+    "gyro_noise": {"enabled": True},
+}
 NOMINAL = D.theta_from_model(load_effects(base=IDEAL, overrides={"lever_arm": {"enabled": True}}))
 MOUNT_ARCSEC = [30.0, -20.0, 45.0]
 #: The HIDDEN pattern of tests/test_diagnose.py, for the one effect this file adds.

@@ -7,12 +7,12 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from support import write_raw
 
 from sizefx import scenarios
 from sizefx.errors import SourceError
 from sizefx.importers import run_import
 from sizefx_cli.main import main
-from support import write_raw
 
 
 def test_short_rate_changes_keep_the_turntable_on_time():
@@ -40,29 +40,36 @@ def test_a_rejected_import_leaves_no_output(tmp_path):
     rows[100] = "0.5,0,0,0,0,0,-9.8\n"  # time goes back
     p.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
     out = tmp_path / "o.h5"
-    result = CliRunner().invoke(main, ["import", "csv", str(p), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz",
-                                       "--accel", "ax,ay,az"])
+    result = CliRunner().invoke(
+        main, ["import", "csv", str(p), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"]
+    )
     assert result.exit_code == 2 and "not strictly increasing" in result.output
     assert sorted(x.name for x in tmp_path.iterdir()) == ["back.csv"]
 
 
-@pytest.mark.parametrize("args,words", [
-    (["simulate", "turntable", "--reference-rate-hz", "7"], "must divide the IMU rate"),
-    (["simulate", "sway", "--amplitudes-dps", "10,x"], "not a list of numbers"),
-    (["simulate", "turntable", "--static-s", "0"], "'--static-s': 0.0 is not in the range 1.0<=x"),
-    (["simulate", "turntable", "--accel-dps2", "0"], "'--accel-dps2': 0.0 is not in the range 0.01<=x"),
-    (["simulate", "turntable", "--accel-dps2", "nan"], "'nan' is not a finite number"),
-])
+@pytest.mark.parametrize(
+    "args,words",
+    [
+        (["simulate", "turntable", "--reference-rate-hz", "7"], "must divide the IMU rate"),
+        (["simulate", "sway", "--amplitudes-dps", "10,x"], "not a list of numbers"),
+        (["simulate", "turntable", "--static-s", "0"], "'--static-s': 0.0 is not in the range 1.0<=x"),
+        (["simulate", "turntable", "--accel-dps2", "0"], "'--accel-dps2': 0.0 is not in the range 0.01<=x"),
+        (["simulate", "turntable", "--accel-dps2", "nan"], "'nan' is not a finite number"),
+    ],
+)
 def test_bad_simulate_options_are_one_line(tmp_path, args, words):
     result = CliRunner().invoke(main, args + ["-o", str(tmp_path / "x.h5")])
     assert result.exit_code == 2 and words in result.output and "Traceback" not in result.output
 
 
-@pytest.mark.parametrize("change,words", [
-    ({"accel_delay_s": "5e-4"}, "accel_delay_s"),
-    ({"axes": [[1, 0, 0], [0, 1]]}, "axes must be"),
-    ({"tilt_arcsec": [1.0]}, "tilt_arcsec"),
-])
+@pytest.mark.parametrize(
+    "change,words",
+    [
+        ({"accel_delay_s": "5e-4"}, "accel_delay_s"),
+        ({"axes": [[1, 0, 0], [0, 1]]}, "axes must be"),
+        ({"tilt_arcsec": [1.0]}, "tilt_arcsec"),
+    ],
+)
 def test_levers_file_extras_are_checked(tmp_path, change, words):
     from sizefx.levers import levers_from_preset, write_levers
 
@@ -71,8 +78,10 @@ def test_levers_file_extras_are_checked(tmp_path, change, words):
     doc = json.loads(p.read_text()) | change
     p.write_text(json.dumps(doc))
     raw = write_raw(tmp_path / "rec.h5")
-    for args in (["navigate", str(raw), "--levers", str(p), "--align-s", "5"],
-                 ["compensate", str(raw), "--levers", str(p), "-o", str(tmp_path / "c.h5")]):
+    for args in (
+        ["navigate", str(raw), "--levers", str(p), "--align-s", "5"],
+        ["compensate", str(raw), "--levers", str(p), "-o", str(tmp_path / "c.h5")],
+    ):
         result = CliRunner().invoke(main, args)
         assert result.exit_code == 2 and words in result.output, (args, result.output)
 
@@ -83,8 +92,10 @@ def test_short_and_siteless_records_are_one_line(tmp_path):
 
     lev = tmp_path / "lev.json"
     write_levers(lev, levers_from_preset("high-precision"))
-    for args in (["compensate", str(short), "--levers", str(lev), "-o", str(tmp_path / "c.h5")],
-                 ["calibrate", str(short)]):
+    for args in (
+        ["compensate", str(short), "--levers", str(lev), "-o", str(tmp_path / "c.h5")],
+        ["calibrate", str(short)],
+    ):
         result = CliRunner().invoke(main, args)
         assert result.exit_code == 2 and "samples" in result.output, result.output
 
@@ -99,25 +110,30 @@ def test_short_and_siteless_records_are_one_line(tmp_path):
 
 def test_plot_into_a_missing_folder_fails_before_the_work(tmp_path):
     raw = write_raw(tmp_path / "rec.h5")
-    result = CliRunner().invoke(main, ["navigate", str(raw), "--align-s", "5", "--plot", str(tmp_path / "no" / "f.png")])
+    result = CliRunner().invoke(
+        main, ["navigate", str(raw), "--align-s", "5", "--plot", str(tmp_path / "no" / "f.png")]
+    )
     assert result.exit_code == 2 and "does not exist" in result.output
 
 
 def test_navigate_syncs_separately_stamped_accelerometers():
     from dataclasses import replace
 
-    from sizefx.sync import resample_onto
     from sizefx.navigate import NavConfig, navigate
     from sizefx.simulate import simulate_in_memory
+    from sizefx.sync import resample_onto
 
     # roll sway: gravity sweeps through the y and z accelerometers, so their timing matters
     sway = scenarios.sway(scenarios.SwayPlan(axis="roll", amplitudes_dps=(30.0,), static_s=5.0, segment_s=30.0))[0]
     tel = simulate_in_memory(sway, form="rates")
     tau = 2e-3
     # the accelerometers sampled 2 ms after the gyros, and stamped so
-    late = replace(tel, accel_mps2=resample_onto(tel.accel_mps2, tel.time_s, tel.time_s + tau),
-                   accel_time_s=tel.time_s + tau)
+    late = replace(
+        tel, accel_mps2=resample_onto(tel.accel_mps2, tel.time_s, tel.time_s + tau), accel_time_s=tel.time_s + tau
+    )
     ignored = replace(late, accel_time_s=None)  # what navigating without the stamps would use
-    err = {name: navigate(t, NavConfig()).summary["max_horizontal_error_m"]
-           for name, t in (("ok", tel), ("synced", late), ("ignored", ignored))}
+    err = {
+        name: navigate(t, NavConfig()).summary["max_horizontal_error_m"]
+        for name, t in (("ok", tel), ("synced", late), ("ignored", ignored))
+    }
     assert err["ignored"] > 10 * err["synced"], err

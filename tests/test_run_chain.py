@@ -30,10 +30,18 @@ def records(tmp_path_factory):
     """A short turntable record and the shortest flight the plan allows (27 min), both at 400 Hz."""
     folder = tmp_path_factory.mktemp("chain")
     turntable, flight = folder / "turntable.h5", folder / "flight.h5"
-    simulate(SimulateConfig("turntable", str(turntable), rate_hz=400.0, seed=1,
-                            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1)))
-    simulate(SimulateConfig("flight", str(flight), rate_hz=400.0, seed=2,
-                            plan=FlightPlan(duration_s=1620.0, align_s=162.0)))
+    simulate(
+        SimulateConfig(
+            "turntable",
+            str(turntable),
+            rate_hz=400.0,
+            seed=1,
+            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1),
+        )
+    )
+    simulate(
+        SimulateConfig("flight", str(flight), rate_hz=400.0, seed=2, plan=FlightPlan(duration_s=1620.0, align_s=162.0))
+    )
     return turntable, flight
 
 
@@ -49,12 +57,19 @@ def test_calibrate_navigate_compare(records, tmp_path):
     doc = json.loads((out / "run.json").read_text())
     check_document(doc, "sizefx/run/1")
     assert [(s["stage"], s.get("run")) for s in doc["steps"]] == [
-        ("calibrate", None), ("navigate", "plain"), ("navigate", "compensated"), ("compare", None)]
+        ("calibrate", None),
+        ("navigate", "plain"),
+        ("navigate", "compensated"),
+        ("compare", None),
+    ]
     levers = str(out / "levers.json")
     assert doc["steps"][1]["inputs"] == {"FILE": str(flight)}
     assert doc["steps"][2]["inputs"] == {"FILE": str(flight), "--levers": levers}
-    assert doc["steps"][3]["inputs"] == {"A": str(out / "compensated.nav.h5"), "B": str(out / "plain.nav.h5"),
-                                         "--reference": str(flight)}
+    assert doc["steps"][3]["inputs"] == {
+        "A": str(out / "compensated.nav.h5"),
+        "B": str(out / "plain.nav.h5"),
+        "--reference": str(flight),
+    }
     with h5py.File(out / "plain.nav.h5") as f:  # --output-rate-hz kept its meaning: a row a second
         t = f["/time"][()]
         assert np.allclose(np.diff(t), 1.0)
@@ -73,24 +88,43 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
     assert (out / "plain.nav.h5").exists() and (out / "compensated.nav.h5").exists()
 
 
-@pytest.mark.parametrize("chain, needle", [
-    (["compare"], "nothing to compare"),
-    (["navigate", "{flight}", "compare"], "needs two solutions"),
-    (["navigate", "{flight}", "calibrate", "{turntable}"], "out of order"),
-    (["calibrate", "{turntable}", "navigate", "--levers", "{turntable}", "{flight}"], "leave out one"),
-    (["calibrate", "{turntable}", "navigate", "{missing}", "compare"], "no such file"),
-    (["calibrate", "{turntable}", "navigate", "{flight}", "navigate", "{flight}"], "each stage once"),
-    (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
-    (["navigate", "--levers", "{turntable}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
-    (["--no-out", "compare"], "nothing to compare"),
-    (["navigate", "--levers", "{levers}", "{no_truth}", "compare"], "has no /reference/position"),
-], ids=["compare-alone", "one-solution", "order", "levers-twice", "missing-flight", "repeated", "missing-nominal",
-        "flight-not-hdf5", "no-out-no-file", "flight-without-truth"])
+@pytest.mark.parametrize(
+    "chain, needle",
+    [
+        (["compare"], "nothing to compare"),
+        (["navigate", "{flight}", "compare"], "needs two solutions"),
+        (["navigate", "{flight}", "calibrate", "{turntable}"], "out of order"),
+        (["calibrate", "{turntable}", "navigate", "--levers", "{turntable}", "{flight}"], "leave out one"),
+        (["calibrate", "{turntable}", "navigate", "{missing}", "compare"], "no such file"),
+        (["calibrate", "{turntable}", "navigate", "{flight}", "navigate", "{flight}"], "each stage once"),
+        (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
+        (["navigate", "--levers", "{turntable}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
+        (["--no-out", "compare"], "nothing to compare"),
+        (["navigate", "--levers", "{levers}", "{no_truth}", "compare"], "has no /reference/position"),
+    ],
+    ids=[
+        "compare-alone",
+        "one-solution",
+        "order",
+        "levers-twice",
+        "missing-flight",
+        "repeated",
+        "missing-nominal",
+        "flight-not-hdf5",
+        "no-out-no-file",
+        "flight-without-truth",
+    ],
+)
 def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path, chain, needle):
     turntable, flight = records
     (tmp_path / "notes.txt").write_text("not a record")
-    names = {"flight": flight, "turntable": turntable, "missing": tmp_path / "nope.h5",
-             "missing_levers": tmp_path / "nope.json", "not_hdf5": tmp_path / "notes.txt"}
+    names = {
+        "flight": flight,
+        "turntable": turntable,
+        "missing": tmp_path / "nope.h5",
+        "missing_levers": tmp_path / "nope.json",
+        "not_hdf5": tmp_path / "notes.txt",
+    }
     if "{no_truth}" in chain:
         names["no_truth"] = _without_truth(flight, tmp_path / "no-truth.h5")
         names["levers"] = tmp_path / "levers.json"
@@ -128,6 +162,7 @@ def test_without_out_the_chain_writes_into_a_folder_named_after_its_file(records
 
 # --------------------------------------------------------------------------- a chain per flight (sizefx batch run)
 
+
 @pytest.fixture(scope="module")
 def flights(records, tmp_path_factory):
     """A folder of two flights: the fixture's and one with other noise."""
@@ -135,8 +170,11 @@ def flights(records, tmp_path_factory):
     folder = tmp_path_factory.mktemp("flights") / "flights"
     folder.mkdir()
     (folder / "day1.h5").write_bytes(flight.read_bytes())
-    simulate(SimulateConfig("flight", str(folder / "day2.h5"), rate_hz=400.0, seed=3,
-                            plan=FlightPlan(duration_s=1620.0, align_s=162.0)))
+    simulate(
+        SimulateConfig(
+            "flight", str(folder / "day2.h5"), rate_hz=400.0, seed=3, plan=FlightPlan(duration_s=1620.0, align_s=162.0)
+        )
+    )
     return folder
 
 
@@ -150,8 +188,20 @@ def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp
     re-run skips them all, and new lever arms run them all again."""
     turntable, _ = records
     out = tmp_path / "campaign"
-    args = ["--out", out, "-q", "--workers", "2", "calibrate", turntable, "navigate", "--output-rate-hz", "1",
-            flights, "compare"]
+    args = [
+        "--out",
+        out,
+        "-q",
+        "--workers",
+        "2",
+        "calibrate",
+        turntable,
+        "navigate",
+        "--output-rate-hz",
+        "1",
+        flights,
+        "compare",
+    ]
     result = _batch_run(*args)
     assert result.exit_code == 0, result.output
     doc = json.loads((out / "manifest.json").read_text())
@@ -163,25 +213,49 @@ def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp
         assert entry["status"] == "ok" and entry["name"] == name
         assert entry["paired"]["navigate --levers"]["path"] == str(levers)
         steps = json.loads((out / name / "run.json").read_text())["steps"]
-        assert [(s["stage"], s.get("run")) for s in steps] == [("navigate", "plain"), ("navigate", "compensated"),
-                                                               ("compare", None)]
+        assert [(s["stage"], s.get("run")) for s in steps] == [
+            ("navigate", "plain"),
+            ("navigate", "compensated"),
+            ("compare", None),
+        ]
         assert steps[1]["inputs"] == {"FILE": str(flights.resolve() / f"{name}.h5"), "--levers": str(levers)}
-        assert set(entry["outputs"]) == {f"folder/{f}" for f in ("plain.nav.h5", "compensated.nav.h5",
-                                                                 "plain.navigate.json", "compensated.navigate.json",
-                                                                 "comparison.json", "run.json")}
-        assert entry["headline"]["compensated_final_horizontal_error_m"] == \
-            steps[1]["headline"]["final_horizontal_error_m"]
+        assert set(entry["outputs"]) == {
+            f"folder/{f}"
+            for f in (
+                "plain.nav.h5",
+                "compensated.nav.h5",
+                "plain.navigate.json",
+                "compensated.navigate.json",
+                "comparison.json",
+                "run.json",
+            )
+        }
+        assert (
+            entry["headline"]["compensated_final_horizontal_error_m"]
+            == steps[1]["headline"]["final_horizontal_error_m"]
+        )
     # the same numbers as sizefx run on the flight alone
     single = tmp_path / "single"
-    assert _run("--out", single, "calibrate", turntable, "navigate", "--output-rate-hz", "1", flights / "day1.h5",
-                "compare").exit_code == 0
+    assert (
+        _run(
+            "--out", single, "calibrate", turntable, "navigate", "--output-rate-hz", "1", flights / "day1.h5", "compare"
+        ).exit_code
+        == 0
+    )
     with h5py.File(out / "day1" / "compensated.nav.h5") as a, h5py.File(single / "compensated.nav.h5") as b:
         assert np.array_equal(a["/position"][()], b["/position"][()])
     again = _batch_run(*args)
     assert again.exit_code == 0 and "0 ok, 2 unchanged" in again.output, again.output
     turntable2 = tmp_path / "turntable2.h5"  # another calibration run: other noise, other arms
-    simulate(SimulateConfig("turntable", str(turntable2), rate_hz=400.0, seed=7,
-                            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1)))
+    simulate(
+        SimulateConfig(
+            "turntable",
+            str(turntable2),
+            rate_hz=400.0,
+            seed=7,
+            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1),
+        )
+    )
     other = _batch_run(*[turntable2 if a == turntable else a for a in args])
     assert other.exit_code == 0 and "2 ok, 0 unchanged" in other.output, other.output
 
@@ -204,17 +278,22 @@ def test_batch_run_a_flight_without_truth_is_refused_alone(records, flights, tmp
     assert not (out / "blind" / "plain.nav.h5").exists()  # refused before navigating
 
 
-@pytest.mark.parametrize("chain, needle", [
-    (["calibrate", "{turntable}"], "put navigate FLIGHTS in it"),
-    (["navigate", "{flights}", "compare"], "needs two solutions"),
-    (["calibrate", "{turntable}", "navigate", "{nothing}", "compare"], "matches no file"),
-    (["calibrate", "{turntable}", "navigate", "{flights}", "compare", "--inside"], "inside the input folder"),
-], ids=["no-flights", "one-solution", "glob-matches-nothing", "out-inside"])
+@pytest.mark.parametrize(
+    "chain, needle",
+    [
+        (["calibrate", "{turntable}"], "put navigate FLIGHTS in it"),
+        (["navigate", "{flights}", "compare"], "needs two solutions"),
+        (["calibrate", "{turntable}", "navigate", "{nothing}", "compare"], "matches no file"),
+        (["calibrate", "{turntable}", "navigate", "{flights}", "compare", "--inside"], "inside the input folder"),
+    ],
+    ids=["no-flights", "one-solution", "glob-matches-nothing", "out-inside"],
+)
 def test_batch_chains_that_cannot_work_are_one_line(records, flights, tmp_path, chain, needle):
     turntable, _ = records
     out = flights / "out" if "--inside" in chain else tmp_path / "out"
-    given = [a.format(turntable=turntable, flights=flights, nothing=tmp_path / "*.h5") for a in chain
-             if a != "--inside"]
+    given = [
+        a.format(turntable=turntable, flights=flights, nothing=tmp_path / "*.h5") for a in chain if a != "--inside"
+    ]
     result = _batch_run("--out", out, *given)
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
@@ -228,8 +307,9 @@ def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, flights
     pytest.importorskip("distributed")
     turntable, _ = records
     out = tmp_path / "out"
-    result = _batch_run("--out", out, "--scheduler", "tcp://127.0.0.1:9", "calibrate", turntable, "navigate",
-                        flights, "compare")
+    result = _batch_run(
+        "--out", out, "--scheduler", "tcp://127.0.0.1:9", "calibrate", turntable, "navigate", flights, "compare"
+    )
     assert result.exit_code == 2, result.output
     assert len(result.output.strip().splitlines()) == 1 and "cannot reach it" in result.output, result.output
     assert not out.exists()

@@ -19,8 +19,9 @@ from click.testing import CliRunner
 from sizefx import sanity, scenarios
 from sizefx.constants import STANDARD_GRAVITY_MPS2
 from sizefx.errors import UnitsError
-from sizefx.simulate import SimulateConfig, run as simulate
 from sizefx.io.telemetry import read_telemetry
+from sizefx.simulate import SimulateConfig
+from sizefx.simulate import run as simulate
 from sizefx_cli.main import main
 
 DEG_PER_RAD = 180.0 / math.pi
@@ -44,7 +45,11 @@ def sims(tmp_path_factory):
         out[name] = folder / f"{name}.h5"
         simulate(SimulateConfig(name, out[name], plan=plan, rate_hz=100.0, seed=3))
     out["tumble-increments"] = folder / "tumble-increments.h5"
-    simulate(SimulateConfig("tumble", out["tumble-increments"], plan=plans["tumble"], rate_hz=100.0, seed=3, form="increments"))
+    simulate(
+        SimulateConfig(
+            "tumble", out["tumble-increments"], plan=plans["tumble"], rate_hz=100.0, seed=3, form="increments"
+        )
+    )
     return out
 
 
@@ -67,8 +72,9 @@ def _mislabel(tel, *, gyro=1.0, accel=1.0, reference=True):
 
 @pytest.mark.parametrize("form", ["rates", "increments"])
 @pytest.mark.parametrize("reference", [True, False], ids=["reference", "tilt"])
-@pytest.mark.parametrize("factor,looks", [(DEG_PER_RAD, "deg"), (1 / DEG_PER_RAD, "rad")],
-                         ids=["deg-as-rad", "rad-as-deg"])
+@pytest.mark.parametrize(
+    "factor,looks", [(DEG_PER_RAD, "deg"), (1 / DEG_PER_RAD, "rad")], ids=["deg-as-rad", "rad-as-deg"]
+)
 def test_gyro_mixups_are_found_with_a_reference_and_from_the_tilt(sims, form, reference, factor, looks):
     tel = read_telemetry(sims["tumble" if form == "rates" else "tumble-increments"])
     per = "/s" if form == "rates" else ""
@@ -83,16 +89,25 @@ def test_gyro_mixups_are_found_with_a_reference_and_from_the_tilt(sims, form, re
     assert report.accel.verdict == "ok"
 
 
-@pytest.mark.parametrize("form,declared,factor,looks", [
-    ("rates", "m/s^2", 1 / STANDARD_GRAVITY_MPS2, "g"),
-    ("rates", "g", STANDARD_GRAVITY_MPS2, "m/s^2"),
-    ("increments", "m/s", 1 / STANDARD_GRAVITY_MPS2, "g*s"),
-])
+@pytest.mark.parametrize(
+    "form,declared,factor,looks",
+    [
+        ("rates", "m/s^2", 1 / STANDARD_GRAVITY_MPS2, "g"),
+        ("rates", "g", STANDARD_GRAVITY_MPS2, "m/s^2"),
+        ("increments", "m/s", 1 / STANDARD_GRAVITY_MPS2, "g*s"),
+    ],
+)
 def test_accelerometer_mixups_are_found_at_rest(sims, form, declared, factor, looks):
     tel = read_telemetry(sims["turntable"])
     if form == "increments":
-        tel = replace(tel, form="increments", dtheta_rad=tel.gyro_rad_s / 100.0, dvel_mps=tel.accel_mps2 / 100.0,
-                      gyro_rad_s=None, accel_mps2=None)
+        tel = replace(
+            tel,
+            form="increments",
+            dtheta_rad=tel.gyro_rad_s / 100.0,
+            dvel_mps=tel.accel_mps2 / 100.0,
+            gyro_rad_s=None,
+            accel_mps2=None,
+        )
     name = "/imu/accel" if form == "rates" else "/imu/dvel"
     report = sanity.check_units(_mislabel(tel, accel=factor), declared={name: declared})
     assert report.accel.verdict == "wrong" and report.accel.looks_like == looks
@@ -103,8 +118,13 @@ def test_nothing_is_refused_when_nothing_can_be_decided(sims):
     """A record that neither rotates against a reference nor tilts: the gyro check says why it was not made."""
     tel = read_telemetry(sims["flight"])
     static = tel.time_s < 50.0  # the alignment on the ground
-    tel = replace(tel, time_s=tel.time_s[static], gyro_rad_s=tel.gyro_rad_s[static] * DEG_PER_RAD,
-                  accel_mps2=tel.accel_mps2[static], reference=None)
+    tel = replace(
+        tel,
+        time_s=tel.time_s[static],
+        gyro_rad_s=tel.gyro_rad_s[static] * DEG_PER_RAD,
+        accel_mps2=tel.accel_mps2[static],
+        reference=None,
+    )
     report = sanity.check_units(tel)
     assert report.gyro.verdict == "unchecked" and not report.wrong
     assert "no reference" in report.gyro.detail and "no tilt" in report.gyro.detail
@@ -122,21 +142,38 @@ def _csv(path, tel, *, gyro=1.0, accel=1.0):
 
 
 def _import(src, out, *extra):
-    return CliRunner().invoke(main, ["import", "csv", str(src), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz",
-                                     "--accel", "ax,ay,az", *extra])
+    return CliRunner().invoke(
+        main,
+        ["import", "csv", str(src), "-o", str(out), "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az", *extra],
+    )
 
 
-@pytest.mark.parametrize("form,case", [(form, case) for form in ("rates", "increments") for case in (
-    "gyro deg/s as rad/s", "gyro rad/s as deg/s", "accel g as m/s^2", "accel m/s^2 as g")
-    if (form, case) != ("increments", "accel m/s^2 as g")])  # velocity has one unit (m/s): no g to mislabel
+@pytest.mark.parametrize(
+    "form,case",
+    [
+        (form, case)
+        for form in ("rates", "increments")
+        for case in ("gyro deg/s as rad/s", "gyro rad/s as deg/s", "accel g as m/s^2", "accel m/s^2 as g")
+        if (form, case) != ("increments", "accel m/s^2 as g")
+    ],
+)  # velocity has one unit (m/s): no g to mislabel
 def test_import_refuses_each_mixup_in_one_line(sims, tmp_path, form, case):
     tel = read_telemetry(sims["tumble" if form == "rates" else "tumble-increments"])
     per = "/s" if form == "rates" else ""
     cases = {  # scale of the numbers, options, the columns named, the unit they look like
         "gyro deg/s as rad/s": ({"gyro": DEG_PER_RAD}, [], "gyro columns gx, gy, gz", f"deg{per}, not rad{per}"),
-        "gyro rad/s as deg/s": ({}, ["--gyro-units", f"deg{per}"], "gyro columns gx, gy, gz", f"rad{per}, not deg{per}"),
-        "accel g as m/s^2": ({"accel": 1 / STANDARD_GRAVITY_MPS2}, [], "accel columns ax, ay, az",
-                             "g, not m/s^2" if form == "rates" else "g*s, not m/s"),
+        "gyro rad/s as deg/s": (
+            {},
+            ["--gyro-units", f"deg{per}"],
+            "gyro columns gx, gy, gz",
+            f"rad{per}, not deg{per}",
+        ),
+        "accel g as m/s^2": (
+            {"accel": 1 / STANDARD_GRAVITY_MPS2},
+            [],
+            "accel columns ax, ay, az",
+            "g, not m/s^2" if form == "rates" else "g*s, not m/s",
+        ),
         "accel m/s^2 as g": ({}, ["--accel-units", "g"], "accel columns ax, ay, az", "m/s^2, not g"),
     }
     scale, options, columns, words = cases[case]

@@ -13,9 +13,11 @@ from sizefx.io.schema import check_document, load_schema, schema_errors
 from sizefx.levers import Levers, levers_from_preset, read_levers, write_levers
 
 #: The contracts that are JSON Schema (the others are our HDF5/TOML formats, read by our own readers).
-JSON_SCHEMAS = sorted(f"sizefx/{p.name.rsplit('-', 1)[0]}/{p.stem.rsplit('-', 1)[1]}"
-                      for p in resources.files("sizefx.schemas").iterdir()
-                      if p.name.endswith(".json") and "$schema" in json.loads(p.read_text("utf-8")))
+JSON_SCHEMAS = sorted(
+    f"sizefx/{p.name.rsplit('-', 1)[0]}/{p.stem.rsplit('-', 1)[1]}"
+    for p in resources.files("sizefx.schemas").iterdir()
+    if p.name.endswith(".json") and "$schema" in json.loads(p.read_text("utf-8"))
+)
 
 
 def test_every_json_schema_is_valid_for_the_draft_it_declares():
@@ -43,11 +45,15 @@ BAD_LEVERS = {
     "not an object": (lambda d: [1, 2, 3], "$ must be an object, got [1, 2, 3]"),
     "missing key": (lambda d: {k: v for k, v in d.items() if k != "d_z"}, "$.d_z: key 'd_z' is missing"),
     "short vector": (lambda d: _set(d, "r_y", [0.0, 0.02]), "$.r_y must be a list of 3 numbers, got [0.0, 0.02]"),
-    "text in a vector": (lambda d: _set(d, "offset", [0.0, "1 mm", 0.0]), "$.offset[1] must be a number, got \"1 mm\""),
-    "unknown reference point": (lambda d: _set(d, "reference_point", "centre"),
-                                "$.reference_point must be one of \"rotation-center\", \"triad\", got \"centre\""),
-    "other contract": (lambda d: _set(d, "schema", "sizefx/levers/2"),
-                       "$.schema must be \"sizefx/levers/1\", got \"sizefx/levers/2\""),
+    "text in a vector": (lambda d: _set(d, "offset", [0.0, "1 mm", 0.0]), '$.offset[1] must be a number, got "1 mm"'),
+    "unknown reference point": (
+        lambda d: _set(d, "reference_point", "centre"),
+        '$.reference_point must be one of "rotation-center", "triad", got "centre"',
+    ),
+    "other contract": (
+        lambda d: _set(d, "schema", "sizefx/levers/2"),
+        '$.schema must be "sizefx/levers/1", got "sizefx/levers/2"',
+    ),
     "delay as text": (lambda d: _set(d, "accel_delay_s", "5e-4"), "$.accel_delay_s must be a number or null"),
     "delay as a flag": (lambda d: _set(d, "accel_delay_s", True), "$.accel_delay_s must be a number or null, got true"),
     "one tilt angle": (lambda d: _set(d, "tilt_arcsec", [3.0]), "$.tilt_arcsec must be a list of 2 numbers or null"),
@@ -68,10 +74,15 @@ def test_a_bad_levers_file_is_one_line_naming_the_file_the_json_path_and_the_pro
     assert words in message, message
 
 
-@pytest.mark.parametrize("text, words", [("NaN", "NaN is not a JSON number"),
-                                         ("Infinity", "Infinity is not a JSON number"),
-                                         ("1e999", "the number 1e999 overflows a float"),
-                                         ("1" + "0" * 400, "overflows a float")])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("NaN", "NaN is not a JSON number"),
+        ("Infinity", "Infinity is not a JSON number"),
+        ("1e999", "the number 1e999 overflows a float"),
+        ("1" + "0" * 400, "overflows a float"),
+    ],
+)
 def test_numbers_json_cannot_hold_are_refused_where_they_enter(tmp_path, text, words):
     path, doc = _good_levers(tmp_path)
     path.write_text(json.dumps(doc).replace('"offset": [0.01', f'"offset": [{text}'))
@@ -105,11 +116,16 @@ def test_check_document_lists_every_problem_and_reads_numpy_values_as_json():
     check_document(doc, "sizefx/levers/1")
     del doc["d_y"], doc["offset"]
     doc["r_z"] = [0.0, 0.0]
-    assert schema_errors(doc, "sizefx/levers/1") == ["$.offset: key 'offset' is missing",
-                                                     "$.d_y: key 'd_y' is missing",
-                                                     "$.r_z must be a list of 3 numbers, got [0.0, 0.0]"]
-    with pytest.raises(AssertionError, match=r"document breaks sizefx/levers/1: \$\.offset: key 'offset' is missing; "
-                                             r"\$\.d_y: key 'd_y' is missing; \$\.r_z must be"):
+    assert schema_errors(doc, "sizefx/levers/1") == [
+        "$.offset: key 'offset' is missing",
+        "$.d_y: key 'd_y' is missing",
+        "$.r_z must be a list of 3 numbers, got [0.0, 0.0]",
+    ]
+    with pytest.raises(
+        AssertionError,
+        match=r"document breaks sizefx/levers/1: \$\.offset: key 'offset' is missing; "
+        r"\$\.d_y: key 'd_y' is missing; \$\.r_z must be",
+    ):
         check_document(doc, "sizefx/levers/1")
 
 

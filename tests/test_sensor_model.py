@@ -14,12 +14,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sizefx import sensor_model as sm
-from sizefx.sync import sync_accelerometers
 from sizefx.effects import EFFECTS_SCHEMA, IDEAL, load_effects
 from sizefx.errors import ConfigError
 from sizefx.io.schema import load_schema
 from sizefx.io.telemetry import Telemetry
 from sizefx.rotation import rotvec_to_mat
+from sizefx.sync import sync_accelerometers
 
 RATE_HZ = 1600.0
 DT = 1.0 / RATE_HZ
@@ -61,12 +61,20 @@ def a_model(rng, scale=1.0) -> sm.SensorParams:
     """Every deterministic effect on, at tens of times realistic sizes (so that a wrong term shows)."""
     s = scale
     return sm.SensorParams(
-        accel_bias=s * rng.uniform(-1e-2, 1e-2, 3), accel_scale_factor=s * rng.uniform(-1e-3, 1e-3, 3),
-        accel_misalignment=s * rng.uniform(-1e-3, 1e-3, (3, 3)), accel_quadratic=s * rng.uniform(-1e-4, 1e-4, 3),
-        lever_arm=rng.uniform(-0.1, 0.1, (3, 3)), accel_delay=5e-4, reference_delay=2e-3,
-        level_tilt=s * rng.uniform(-1e-4, 1e-4, 2), gyro_bias=s * rng.uniform(-1e-4, 1e-4, 3),
-        gyro_scale_factor=s * rng.uniform(-1e-3, 1e-3, 3), gyro_misalignment=s * rng.uniform(-1e-3, 1e-3, (3, 3)),
-        gyro_g_sensitivity=s * rng.uniform(-1e-5, 1e-5, (3, 3)), reference_mount=s * rng.uniform(-1e-3, 1e-3, 3))
+        accel_bias=s * rng.uniform(-1e-2, 1e-2, 3),
+        accel_scale_factor=s * rng.uniform(-1e-3, 1e-3, 3),
+        accel_misalignment=s * rng.uniform(-1e-3, 1e-3, (3, 3)),
+        accel_quadratic=s * rng.uniform(-1e-4, 1e-4, 3),
+        lever_arm=rng.uniform(-0.1, 0.1, (3, 3)),
+        accel_delay=5e-4,
+        reference_delay=2e-3,
+        level_tilt=s * rng.uniform(-1e-4, 1e-4, 2),
+        gyro_bias=s * rng.uniform(-1e-4, 1e-4, 3),
+        gyro_scale_factor=s * rng.uniform(-1e-3, 1e-3, 3),
+        gyro_misalignment=s * rng.uniform(-1e-3, 1e-3, (3, 3)),
+        gyro_g_sensitivity=s * rng.uniform(-1e-5, 1e-5, (3, 3)),
+        reference_mount=s * rng.uniform(-1e-3, 1e-3, 3),
+    )
 
 
 # --------------------------------------------------------------------------- the table
@@ -90,10 +98,17 @@ def test_the_table_is_the_schema():
 
 
 def test_an_effects_file_and_the_model_vector_give_the_same_parameters():
-    fx = load_effects(base=IDEAL, overrides={
-        "lever_arm": {"enabled": True, "preset": "compact", "r_vehicle_m": [0.1, -0.2, 0.3]},
-        "accel_misalignment": {"enabled": True}, "gyro_g_sensitivity": {"enabled": True},
-        "accel_delay": {"enabled": True}, "level_tilt": {"enabled": True}, "accel_quadratic": {"enabled": True}})
+    fx = load_effects(
+        base=IDEAL,
+        overrides={
+            "lever_arm": {"enabled": True, "preset": "compact", "r_vehicle_m": [0.1, -0.2, 0.3]},
+            "accel_misalignment": {"enabled": True},
+            "gyro_g_sensitivity": {"enabled": True},
+            "accel_delay": {"enabled": True},
+            "level_tilt": {"enabled": True},
+            "accel_quadratic": {"enabled": True},
+        },
+    )
     p = fx.sensor_params()
     np.testing.assert_array_equal(p.lever_arm, fx.arms_total_m())
     np.testing.assert_array_equal(p.accel_axes(), fx.accel_axes())
@@ -142,9 +157,14 @@ def test_the_jacobian_is_the_derivative_of_the_forward_map():
         mat_nb = sm.true_attitude(q, mat_ref)
         w_in_b = np.einsum("nji,j->ni", mat_nb, w_in_n)
         mount = sm.mount_matrix(q)
-        return replace(base, omega_ib_b=base.omega_ib_b @ mount.T + w_in_b,
-                       omegadot_ib_b=base.omegadot_ib_b @ mount.T, f_b=np.einsum("nji,nj->ni", mat_nb, f_n),
-                       mat_nb=mat_nb, omega_in_b=w_in_b)
+        return replace(
+            base,
+            omega_ib_b=base.omega_ib_b @ mount.T + w_in_b,
+            omegadot_ib_b=base.omegadot_ib_b @ mount.T,
+            f_b=np.einsum("nji,nj->ni", mat_nb, f_n),
+            mat_nb=mat_nb,
+            omega_in_b=w_in_b,
+        )
 
     reference_side = ("level_tilt", "reference_mount")
     at = motion(t + p.reference_delay)
@@ -162,7 +182,7 @@ def test_the_jacobian_is_the_derivative_of_the_forward_map():
         # h^2 times the third derivative, both far below the tolerance)
         h = {"lever_arm": 1e-6, "accel_delay": 1e-6, "reference_delay": 1e-6}.get(param.effect, 1e-7)
 
-        def at_theta(x, j=j):
+        def at_theta(x, j=j, by_tilt=by_tilt):
             th = theta.copy()
             th[j] = x
             q = sm.SensorParams.from_vector(th)
@@ -200,15 +220,24 @@ def test_the_jacobian_can_be_asked_for_some_effects_and_one_sensor():
 
 
 @settings(max_examples=20, deadline=None, derandomize=True)
-@given(seed=st.integers(0, 2**32 - 1), arms_m=st.floats(0.0, 0.12), errors=st.floats(0.0, 1.0),
-       delay_s=st.sampled_from([0.0, 2.5e-4, 1e-3]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    arms_m=st.floats(0.0, 0.12),
+    errors=st.floats(0.0, 1.0),
+    delay_s=st.sampled_from([0.0, 2.5e-4, 1e-3]),
+)
 def test_inverse_undoes_forward(seed, arms_m, errors, delay_s):
     """Random effect sets (arms up to 12 cm, biases, scale factors, misalignments, K2, G and the
     accelerometer delay, up to tens of times realistic), a random smooth motion: the readings
     corrected by sync_accelerometers (step 1) and inverse() give back omega_ib_b and f_b."""
     rng = np.random.default_rng(seed)
-    p = replace(a_model(rng, scale=errors), lever_arm=rng.uniform(-arms_m, arms_m, (3, 3)), accel_delay=delay_s,
-                reference_delay=0.0, level_tilt=np.zeros(2))
+    p = replace(
+        a_model(rng, scale=errors),
+        lever_arm=rng.uniform(-arms_m, arms_m, (3, 3)),
+        accel_delay=delay_s,
+        reference_delay=0.0,
+        level_tilt=np.zeros(2),
+    )
     motion = Sines(rng)
     t = np.arange(int(1.0 * RATE_HZ)) * DT
     gyro, accel = sm.sample(p, motion, t)
@@ -256,6 +285,7 @@ def test_the_mount_turns_the_imu_by_psi():
     assert heading == pytest.approx(0.7 + psi_z, abs=1e-12)  # rounding of two matrix products
     psi = np.array([2e-4, -1e-4, 3e-4])  # rad, a few tens of arcsec
     # |psi|^2 / 2 is the second-order term that I - [psi x] leaves out
-    np.testing.assert_allclose(sm.mount_matrix(sm.SensorParams(reference_mount=psi)), np.eye(3) - skew(psi),
-                               rtol=0, atol=np.dot(psi, psi))
+    np.testing.assert_allclose(
+        sm.mount_matrix(sm.SensorParams(reference_mount=psi)), np.eye(3) - skew(psi), rtol=0, atol=np.dot(psi, psi)
+    )
     np.testing.assert_array_equal(sm.true_attitude(sm.SensorParams(), mat_nb_ref), mat_nb_ref)  # off: untouched

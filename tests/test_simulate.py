@@ -11,11 +11,11 @@ import pytest
 from sizefx import scenarios
 from sizefx.constants import ARCSEC, DEG, MICRO_G, OMEGA_EARTH_RAD_S
 from sizefx.effects import IDEAL, load_effects
+from sizefx.errors import OutputError
+from sizefx.io.telemetry import read_telemetry
 from sizefx.motion import ProfileBuilder, RotationChain, StaticSite, Trajectory
 from sizefx.rotation import quat_to_mat
-from sizefx.errors import OutputError
 from sizefx.simulate import GAUSS_NODES, ImuSynthesizer, SimulateConfig, kinematics, run, simulate_to_file
-from sizefx.io.telemetry import read_telemetry
 
 SITE0 = scenarios.SiteSpec(57.9825, 55.7089, 0.0)  # height 0: pure Somigliana gravity
 
@@ -60,7 +60,7 @@ def test_constant_rotation_about_vertical_gives_minus_omega_squared_r():
     extra = with_arms.accel_input - point.accel_input
     w_z = omega - OMEGA_EARTH_RAD_S * np.sin(lat)  # body z is down: the table rate plus Earth's down component
     for i, key in ((0, "d_x_m"), (1, "d_y_m")):
-        expected = -w_z**2 * arms[key][i]
+        expected = -(w_z**2) * arms[key][i]
         # Neglected: Earth-rate cross terms, bounded by Omega_E (2 omega + Omega_E) |r_i| < 2e-6 m/s^2
         np.testing.assert_allclose(extra[:, i], expected, rtol=0, atol=2e-6)
     # the vertical channel feels no centripetal term from a vertical spin (only those cross terms)
@@ -154,17 +154,24 @@ def test_flight_specific_force_and_position_agree_with_the_reference_velocity(sh
         vdot_fd = (traj.evaluate(t + h).v_n - traj.evaluate(t - h).v_n) / (2 * h)
         w_ie = earth.omega_ie_n(st.lat_rad)
         w_en = earth.omega_en_n(st.lat_rad, st.height_m, st.v_n)
-        vdot = (np.einsum("nij,nj->ni", st.mat_nb, kin.f_b) + earth.gravity_n(st.lat_rad, st.height_m)
-                - np.cross(2 * w_ie + w_en, st.v_n))
+        vdot = (
+            np.einsum("nij,nj->ni", st.mat_nb, kin.f_b)
+            + earth.gravity_n(st.lat_rad, st.height_m)
+            - np.cross(2 * w_ie + w_en, st.v_n)
+        )
         # FD truncation on 1 m/s^2 vibration at 16 Hz with h = 1e-5 s: ~2e-7 m/s^2
         np.testing.assert_allclose(vdot, vdot_fd, rtol=0, atol=1e-6)
         # position: lat' = v_N / (R_M + h), lon' = v_E / ((R_T + h) cos lat), h' = -v_D
         h = 1e-3
         a, b = traj.evaluate(t - h), traj.evaluate(t + h)
         r_mer, r_tr = earth.radii_m(st.lat_rad)
-        v_from_pos = np.array([(b.lat_rad - a.lat_rad)[0] / (2 * h) * (r_mer + st.height_m)[0],
-                               (b.lon_rad - a.lon_rad)[0] / (2 * h) * ((r_tr + st.height_m) * np.cos(st.lat_rad))[0],
-                               -(b.height_m - a.height_m)[0] / (2 * h)])
+        v_from_pos = np.array(
+            [
+                (b.lat_rad - a.lat_rad)[0] / (2 * h) * (r_mer + st.height_m)[0],
+                (b.lon_rad - a.lon_rad)[0] / (2 * h) * ((r_tr + st.height_m) * np.cos(st.lat_rad))[0],
+                -(b.height_m - a.height_m)[0] / (2 * h),
+            ]
+        )
         # FD truncation on 0.1 mm vibration at 16 Hz with h = 1 ms: 1e-4 * (2 pi 16)^3 h^2 / 6 ~ 2e-5 m/s
         np.testing.assert_allclose(v_from_pos, st.v_n[0], rtol=0, atol=5e-5)
 
@@ -236,11 +243,13 @@ def test_accel_delay_shifts_the_accelerometers_in_time(z_plan_traj):
 
 
 def test_biases_scale_factors_quadratic_and_misalignment(z_plan_traj):
-    fx = ideal(accel_bias={"enabled": True, "bias_ug": [30.0, -20.0, 50.0]},
-               accel_scale_factor={"enabled": True, "ppm": [100.0, 0.0, -200.0]},
-               accel_quadratic={"enabled": True, "ug_per_g2": [0.0, 0.0, 20.0]},
-               gyro_bias={"enabled": True, "deg_per_h": [0.01, 0.0, -0.02]},
-               gyro_scale_factor={"enabled": True, "ppm": [0.0, 0.0, 1000.0]})
+    fx = ideal(
+        accel_bias={"enabled": True, "bias_ug": [30.0, -20.0, 50.0]},
+        accel_scale_factor={"enabled": True, "ppm": [100.0, 0.0, -200.0]},
+        accel_quadratic={"enabled": True, "ug_per_g2": [0.0, 0.0, 20.0]},
+        gyro_bias={"enabled": True, "deg_per_h": [0.01, 0.0, -0.02]},
+        gyro_scale_factor={"enabled": True, "ppm": [0.0, 0.0, 1000.0]},
+    )
     t, gyro, accel = _chunk(z_plan_traj, fx)
     _, gyro0, accel0 = _chunk(z_plan_traj, ideal())
     f = accel0[:, 2]
@@ -257,8 +266,10 @@ def test_biases_scale_factors_quadratic_and_misalignment(z_plan_traj):
 
 
 def test_noise_levels_match_their_densities(z_plan_traj):
-    fx = ideal(gyro_noise={"enabled": True, "rrw_deg_per_h_per_sqrt_h": 0.0},
-               accel_noise={"enabled": True, "bias_rw_ug_per_sqrt_h": 0.0})
+    fx = ideal(
+        gyro_noise={"enabled": True, "rrw_deg_per_h_per_sqrt_h": 0.0},
+        accel_noise={"enabled": True, "bias_rw_ug_per_sqrt_h": 0.0},
+    )
     _, gyro, accel = _chunk(z_plan_traj, fx, seed=3)
     _, gyro0, accel0 = _chunk(z_plan_traj, ideal())
     n = gyro.size
@@ -321,13 +332,16 @@ def test_integrating_ideal_increments_reproduces_the_reference_attitude(tmp_path
 
     plan = scenarios.TurntablePlan(axes="YX", static_s=2.0, seconds_per_axis=24.0, cycles=1, settle_s=2.0)
     path = tmp_path / "inc.h5"
-    run(SimulateConfig("turntable", path, plan=plan, site=SITE0, ideal=True, form="increments",
-                       reference_rate_hz=1600.0))
+    run(
+        SimulateConfig(
+            "turntable", path, plan=plan, site=SITE0, ideal=True, form="increments", reference_rate_hz=1600.0
+        )
+    )
     tel = read_telemetry(path)
     lat = tel.site.lat_rad
     a = tel.dtheta_rad
     n_pairs = a.shape[0] // 2
-    a1, a2 = a[0:2 * n_pairs:2], a[1:2 * n_pairs:2]
+    a1, a2 = a[0 : 2 * n_pairs : 2], a[1 : 2 * n_pairs : 2]
     phi = a1 + a2 + 2.0 / 3.0 * np.cross(a1, a2)
     q_body = mat_to_quat(rotvec_to_mat(phi))
     zeta = omega_ie_n(lat) * (2.0 / 1600.0)
@@ -353,8 +367,11 @@ def test_the_stage_refuses_before_any_work_and_reports_what_it_wrote(tmp_path, s
     with pytest.raises(OutputError, match="would overwrite the input"):
         run(SimulateConfig("turntable", effects, effects_path=effects, force=True))
     assert effects.read_text() == "[accel_bias]\nenabled = true\n"
-    res = run(SimulateConfig("turntable", tmp_path / "tt.h5", plan=short_turntable_plan, effects_path=effects,
-                             rate_hz=400.0, seed=2))
+    res = run(
+        SimulateConfig(
+            "turntable", tmp_path / "tt.h5", plan=short_turntable_plan, effects_path=effects, rate_hz=400.0, seed=2
+        )
+    )
     assert res.samples == 13601 and res.reference_samples == 13601 and res.form == "rates"
     assert res.report().startswith(f"wrote {tmp_path / 'tt.h5'}: 13601 samples (34.0 s at 400 Hz, rates), ")
     assert res.to_json()["file_bytes"] == (tmp_path / "tt.h5").stat().st_size

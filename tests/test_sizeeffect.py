@@ -4,24 +4,24 @@ from __future__ import annotations
 
 import json
 
+import naive
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from sizefx import scenarios
 from sizefx.calibrate import CalibrationError, joint_fit, per_rotation_fit, prepare
-from sizefx.geometry import triad_point
 from sizefx.compensate import compensate
 from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError
+from sizefx.geometry import triad_point
 from sizefx.kernels.sizeeffect import compensate_increments, compensate_rates
 from sizefx.levers import Levers, levers_from_preset, read_levers, write_levers
 from sizefx.omegadot import central, edges_from_increments, noise_gain, response, savgol
 from sizefx.simulate import simulate_in_memory
 from sizefx.sync import resample_increments, resample_onto
 from sizefx_cli.main import main
-import naive
 
 H = 1 / 1600
 OFFSET_M = [0.0010, -0.0005, 0.0008]  # triad point 1 mm off the table's centre, as a real mount would be
@@ -49,20 +49,26 @@ def test_compensation_kernels_match_their_twins():
     for cen, tan in ((True, True), (True, False), (False, True)):
         out = np.empty_like(accel)
         compensate_rates(accel, omega, omegadot, arms, axes, cen, tan, out)
-        np.testing.assert_allclose(out, naive.compensate_rates(accel, omega, omegadot, arms, axes, cen, tan),
-                                   rtol=1e-13, atol=1e-15)
+        np.testing.assert_allclose(
+            out, naive.compensate_rates(accel, omega, omegadot, arms, axes, cen, tan), rtol=1e-13, atol=1e-15
+        )
         edges = edges_from_increments(omega * H, H)
         out = np.empty_like(accel)
         compensate_increments(accel * H, omega * H, edges, H, arms, axes, cen, tan, out)
-        np.testing.assert_allclose(out, naive.compensate_increments(accel * H, omega * H, edges, H, arms, axes,
-                                                                    cen, tan), rtol=1e-13, atol=1e-17)
+        np.testing.assert_allclose(
+            out,
+            naive.compensate_increments(accel * H, omega * H, edges, H, arms, axes, cen, tan),
+            rtol=1e-13,
+            atol=1e-17,
+        )
 
 
 # --------------------------------------------------------------------------- compensation round trips
 
 
-@pytest.mark.parametrize("form,estimator,tol_ug", [("rates", "central", 0.1), ("rates", "savgol", 1.0),
-                                                   ("increments", "increments", 0.05)])
+@pytest.mark.parametrize(
+    "form,estimator,tol_ug", [("rates", "central", 0.1), ("rates", "savgol", 1.0), ("increments", "increments", 0.05)]
+)
 def test_compensation_to_the_rotation_centre_recovers_the_point_imu(small_plan, form, estimator, tol_ug):
     fx = ideal(lever_arm={"enabled": True, "r_vehicle_m": OFFSET_M})
     tel = simulate_in_memory(small_plan, fx, form=form)
@@ -81,15 +87,21 @@ def test_compensation_to_the_rotation_centre_recovers_the_point_imu(small_plan, 
 def test_triad_mode_leaves_the_triad_points_specific_force(small_plan):
     # d_i removed, the common offset kept: the same as a point IMU sitting at the triad point
     tel = simulate_in_memory(small_plan, ideal(lever_arm={"enabled": True, "r_vehicle_m": OFFSET_M}), form="increments")
-    at_triad = simulate_in_memory(small_plan, ideal(lever_arm={"enabled": True, "preset": "none", "r_vehicle_m": OFFSET_M}),
-                                  form="increments")
+    at_triad = simulate_in_memory(
+        small_plan, ideal(lever_arm={"enabled": True, "preset": "none", "r_vehicle_m": OFFSET_M}), form="increments"
+    )
     out = compensate(tel, levers_from_preset("high-precision", OFFSET_M), "triad")
     assert np.abs(out.dvel_mps - at_triad.dvel_mps)[5:-5].max() / H / MICRO_G < 0.05
 
 
 def test_compensation_with_noise_leaves_the_noise(small_plan):
-    fx = load_effects(overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "accel_noise": {"bias_rw_ug_per_sqrt_h": 0.0},
-                                 "gyro_noise": {"rrw_deg_per_h_per_sqrt_h": 0.0}})
+    fx = load_effects(
+        overrides={
+            "lever_arm": {"r_vehicle_m": OFFSET_M},
+            "accel_noise": {"bias_rw_ug_per_sqrt_h": 0.0},
+            "gyro_noise": {"rrw_deg_per_h_per_sqrt_h": 0.0},
+        }
+    )
     tel = simulate_in_memory(small_plan, fx, form="rates", seed=4)
     point = simulate_in_memory(small_plan, ideal(), form="rates")
     out = compensate(tel, levers_from_preset("high-precision", OFFSET_M), "center", estimator="savgol")
@@ -236,8 +248,10 @@ def test_table_tilt_is_estimated_and_the_per_rotation_fit_is_biased(paper_plan):
     np.testing.assert_allclose(res.tilt_rad / ARCSEC, [-11.0, -6.0], atol=2.0)  # issue 5: within 2 arcsec
     assert np.abs((res.arms - truth) / res.sigma_arms).max() < 3.0  # unbiased arms
     paper = per_rotation_fit(rec)
-    worst = max(abs(row["r_own"] - truth["xyz".index(row["channel"])]["xyz".index(row["channel"])]) / row["sigma_r_own"]
-                for row in paper)
+    worst = max(
+        abs(row["r_own"] - truth["xyz".index(row["channel"])]["xyz".index(row["channel"])]) / row["sigma_r_own"]
+        for row in paper
+    )
     assert worst > 10.0  # the tilt, ignored, biases the paper's fit by many sigma
     # without the tilt, the paper's fit is fine
     flat = prepare(simulate_in_memory(paper_plan, _fx(), form="rates", seed=11))
@@ -287,7 +301,11 @@ def test_no_rotation_and_one_axis_only_are_named_not_singular(tmp_path):
     from sizefx.simulate import SimulateConfig, run
 
     path = tmp_path / "one_axis.h5"
-    run(SimulateConfig("turntable", path, plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1)))
+    run(
+        SimulateConfig(
+            "turntable", path, plan=scenarios.TurntablePlan(axes="Z", static_s=5.0, seconds_per_axis=24.0, cycles=1)
+        )
+    )
     result = CliRunner().invoke(main, ["calibrate", str(path)])
     assert result.exit_code == 2 and result.output.count("\n") == 1 and "r_z[z]" in result.output
 
@@ -296,8 +314,14 @@ def test_no_rotation_and_one_axis_only_are_named_not_singular(tmp_path):
 
 
 def test_levers_file_round_trip_and_errors(tmp_path):
-    lev = Levers(arms_total=np.eye(3) * 0.02 + 0.001, offset=np.full(3, 0.001), arms_triad=np.eye(3) * 0.02,
-                 sigma=np.full((3, 3), 4e-5), tilt_arcsec=[-11.0, -6.0], accel_delay_s=5e-4)
+    lev = Levers(
+        arms_total=np.eye(3) * 0.02 + 0.001,
+        offset=np.full(3, 0.001),
+        arms_triad=np.eye(3) * 0.02,
+        sigma=np.full((3, 3), 4e-5),
+        tilt_arcsec=[-11.0, -6.0],
+        accel_delay_s=5e-4,
+    )
     p = tmp_path / "lev.json"
     write_levers(p, lev)
     back = read_levers(p)
@@ -320,8 +344,14 @@ def test_calibrate_compensate_navigate_commands(tmp_path, paper_plan):
     from sizefx.simulate import SimulateConfig, run
 
     sim = tmp_path / "tt.h5"
-    run(SimulateConfig("turntable", sim, overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "level_tilt": {"enabled": True}},
-        rate_hz=CAL_RATE_HZ))
+    run(
+        SimulateConfig(
+            "turntable",
+            sim,
+            overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}, "level_tilt": {"enabled": True}},
+            rate_hz=CAL_RATE_HZ,
+        )
+    )
     lev, png = tmp_path / "lev.json", tmp_path / "fig6.png"
     r = CliRunner().invoke(main, ["calibrate", str(sim), "--json", str(lev), "--plot", str(png)])
     assert r.exit_code == 0, r.output
@@ -358,22 +388,46 @@ def test_compensate_stage_config_run_result(tmp_path):
 
     rec, lev = _record_and_levers(tmp_path)
     seen = []
-    res = run(CompensateConfig(input=str(rec), output=str(tmp_path / "api.h5"), levers=str(lev), mode="center",
-                               tangential=False, accel_delay_s=20e-6),
-              progress=lambda done, total: seen.append((done, total)))
+    res = run(
+        CompensateConfig(
+            input=str(rec),
+            output=str(tmp_path / "api.h5"),
+            levers=str(lev),
+            mode="center",
+            tangential=False,
+            accel_delay_s=20e-6,
+        ),
+        progress=lambda done, total: seen.append((done, total)),
+    )
     assert isinstance(res, CompensateResult) and seen == [(1, 3), (2, 3), (3, 3)]
     n = read_telemetry(rec).n_samples
-    assert res.report() == (f"wrote {tmp_path / 'api.h5'}: {n} samples, mode center, estimator savgol, "
-                            "tangential off, delay 20.0 us")
+    assert res.report() == (
+        f"wrote {tmp_path / 'api.h5'}: {n} samples, mode center, estimator savgol, tangential off, delay 20.0 us"
+    )
     doc = res.to_json()
     assert doc["path"] == str(tmp_path / "api.h5") and doc["samples"] == n and doc["tangential"] is False
     written = json.loads(read_telemetry(tmp_path / "api.h5").source["compensation_json"])
     assert written == {k: v for k, v in doc.items() if k not in ("path", "samples")}
-    cli = CliRunner().invoke(main, ["compensate", str(rec), "--levers", str(lev), "-o", str(tmp_path / "cli.h5"),
-                                    "--mode", "center", "--centripetal-only", "--accel-delay-us", "20"])
+    cli = CliRunner().invoke(
+        main,
+        [
+            "compensate",
+            str(rec),
+            "--levers",
+            str(lev),
+            "-o",
+            str(tmp_path / "cli.h5"),
+            "--mode",
+            "center",
+            "--centripetal-only",
+            "--accel-delay-us",
+            "20",
+        ],
+    )
     assert cli.exit_code == 0 and cli.output == res.report().replace("api.h5", "cli.h5") + "\n", cli.output
-    np.testing.assert_array_equal(read_telemetry(tmp_path / "cli.h5").accel_mps2,
-                                  read_telemetry(tmp_path / "api.h5").accel_mps2)
+    np.testing.assert_array_equal(
+        read_telemetry(tmp_path / "cli.h5").accel_mps2, read_telemetry(tmp_path / "api.h5").accel_mps2
+    )
 
 
 def test_compensate_stage_refuses_before_any_work(tmp_path):

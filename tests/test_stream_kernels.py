@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import naive
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -12,7 +13,6 @@ from hypothesis import strategies as st
 from scipy.interpolate import CubicSpline
 from scipy.signal import savgol_coeffs, savgol_filter
 
-import naive
 from sizefx.io.telemetry import Telemetry
 from sizefx.kernels.sync import MEDIAN_SAMPLE, median_step
 from sizefx.navigate.config import MARGIN  # the rows the navigation loop reads on each side of a chunk
@@ -55,9 +55,13 @@ def test_spline_matches_its_twin_and_scipy_on_jittered_stamps(n):
     x = _jittered(n, rng)
     y = rng.standard_normal((n, 3))
     t_grid = np.arange(n) * H
-    targets = {"later": t_grid + 0.3e-3, "earlier": t_grid - 0.3e-3,
-               "inside": np.sort(rng.uniform(x[0], x[-1], 3 * n)), "knots": x.copy()}
-    for name, t in targets.items():
+    targets = {
+        "later": t_grid + 0.3e-3,
+        "earlier": t_grid - 0.3e-3,
+        "inside": np.sort(rng.uniform(x[0], x[-1], 3 * n)),
+        "knots": x.copy(),
+    }
+    for t in targets.values():
         ours = resample_onto(y, x, t)
         _close(ours, naive.spline_not_a_knot(x, y, t), SPLINE_REL, np.abs(y).max())
         _close(ours, CubicSpline(x, y, bc_type="not-a-knot")(t), SPLINE_REL, np.abs(y).max())
@@ -116,8 +120,12 @@ def test_increments_match_their_twin_and_the_scipy_formulation(n):
         _close(ours, scipy_way, SPLINE_REL, cum_scale)
     # coarser targets (several source intervals per target) and a common clock (an exact copy)
     coarse = t_to[::3]
-    _close(resample_increments(incr, t_to, coarse), naive.resample_increments(incr, t_to, coarse), SPLINE_REL,
-           np.abs(np.cumsum(incr, axis=0)).max())
+    _close(
+        resample_increments(incr, t_to, coarse),
+        naive.resample_increments(incr, t_to, coarse),
+        SPLINE_REL,
+        np.abs(np.cumsum(incr, axis=0)).max(),
+    )
     _close(resample_increments(incr, t_to, t_to), incr, SPLINE_REL, np.abs(np.cumsum(incr, axis=0)).max())
 
 
@@ -138,7 +146,7 @@ def _whole_and_chunked(fn, n, bounds):
     parts = []
     for j0, j1 in bounds:
         lo, hi = max(0, j0 - MARGIN), min(n, j1 + MARGIN)
-        parts.append(fn(lo, hi)[j0 - lo:j1 - lo])
+        parts.append(fn(lo, hi)[j0 - lo : j1 - lo])
     return whole, np.concatenate(parts)
 
 
@@ -185,8 +193,11 @@ def test_sync_accelerometers_keeps_its_meaning(form):
     n = 500
     t = 10.0 + np.arange(n) * H
     g, a = rng.standard_normal((2, n, 3)) * 0.1 + [0.0, 0.0, 9.81]
-    tel = (Telemetry(time_s=t, form="rates", gyro_rad_s=g, accel_mps2=a) if form == "rates" else
-           Telemetry(time_s=t, form="increments", dtheta_rad=g * H, dvel_mps=a * H))
+    tel = (
+        Telemetry(time_s=t, form="rates", gyro_rad_s=g, accel_mps2=a)
+        if form == "rates"
+        else Telemetry(time_s=t, form="increments", dtheta_rad=g * H, dvel_mps=a * H)
+    )
     assert sync_accelerometers(tel) is tel  # nothing to do: the same record
     stamped = replace(tel, accel_time_s=t + rng.uniform(0.1, 0.3, n) * H)
     for record, tau in ((tel, 0.5e-3), (stamped, 0.0), (stamped, -0.2e-3)):
@@ -220,9 +231,13 @@ def test_resampling_refuses_times_that_do_not_increase():
 @pytest.mark.parametrize("kind", ["jittered", "uniform", "two steps", "spread", "rate change"])
 def test_median_step_is_numpys_median_of_the_steps(n, kind):
     rng = np.random.default_rng(n)
-    steps = {"jittered": H + rng.normal(0, 1e-6, n - 1), "uniform": np.full(n - 1, H),
-             "two steps": rng.choice([H, 2 * H], n - 1), "spread": rng.exponential(H, n - 1),
-             "rate change": np.linspace(H, 2 * H, n - 1)}[kind]
+    steps = {
+        "jittered": H + rng.normal(0, 1e-6, n - 1),
+        "uniform": np.full(n - 1, H),
+        "two steps": rng.choice([H, 2 * H], n - 1),
+        "spread": rng.exponential(H, n - 1),
+        "rate change": np.linspace(H, 2 * H, n - 1),
+    }[kind]
     t = np.r_[0.0, np.cumsum(steps)]
     assert median_step(t) == np.median(np.diff(t))
     t[n // 2] = np.nan
@@ -261,14 +276,22 @@ def test_savgol_of_a_50_hz_tone_and_of_a_quadratic():
     w = 2 * np.pi * 50.0
     x = np.column_stack([np.sin(w * t), np.cos(w * t), 0.3 + 2.0 * t - 5.0 * t**2])
     ours = savgol(x, H)
-    _close(ours, savgol_filter(x, SAVGOL_WINDOW, 2, deriv=1, delta=H, axis=0), SAVGOL_REL,
-           _savgol_scale(x, SAVGOL_WINDOW, 2, H))
+    _close(
+        ours,
+        savgol_filter(x, SAVGOL_WINDOW, 2, deriv=1, delta=H, axis=0),
+        SAVGOL_REL,
+        _savgol_scale(x, SAVGOL_WINDOW, 2, H),
+    )
     np.testing.assert_allclose(ours[:, 2], 2.0 - 10.0 * t, rtol=0, atol=1e-9)  # exact for a quadratic, ends too
 
 
 @settings(max_examples=40, deadline=None)
-@given(n=st.integers(SAVGOL_WINDOW, 400), cuts=st.lists(st.floats(0, 1), max_size=4), slack=st.integers(0, 5),
-       seed=st.integers(0, 2**32 - 1))
+@given(
+    n=st.integers(SAVGOL_WINDOW, 400),
+    cuts=st.lists(st.floats(0, 1), max_size=4),
+    slack=st.integers(0, 5),
+    seed=st.integers(0, 2**32 - 1),
+)
 def test_savgol_chunk_by_chunk_is_the_whole_bit_for_bit(n, cuts, slack, seed):
     x = np.random.default_rng(seed).standard_normal((n, 3))
     whole = savgol(x, H)

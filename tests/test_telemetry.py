@@ -9,12 +9,12 @@ import threading
 import h5py
 import numpy as np
 import pytest
+from support import RATE_HZ, N, write_raw
 
 from sizefx.errors import OutputError, TelemetryError
 from sizefx.io.files import HASH_CHUNK_BYTES, sha256_of
 from sizefx.io.schema import load_schema
 from sizefx.io.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
-from support import N, RATE_HZ, write_raw
 
 DEG = np.pi / 180
 
@@ -34,8 +34,15 @@ def _telemetry(form, *, accel_time=False, ref_position=True, ref_velocity=True, 
         ref.lat_rad, ref.lon_rad, ref.height_m = rng.uniform(-1, 1, m), rng.uniform(-3, 3, m), rng.uniform(0, 900, m)
     if ref_velocity:
         ref.velocity_n_mps = rng.standard_normal((m, 3))
-    tel = Telemetry(time_s=t, form=form, reference=ref, site=Site(0.5, 1.0, 10.0), description="round trip",
-                    simulation=simulation, accel_time_s=t + 1e-4 if accel_time else None)
+    tel = Telemetry(
+        time_s=t,
+        form=form,
+        reference=ref,
+        site=Site(0.5, 1.0, 10.0),
+        description="round trip",
+        simulation=simulation,
+        accel_time_s=t + 1e-4 if accel_time else None,
+    )
     if form == "rates":
         tel.gyro_rad_s, tel.accel_mps2 = a * 0.1, b
     else:
@@ -47,8 +54,13 @@ def _telemetry(form, *, accel_time=False, ref_position=True, ref_velocity=True, 
 @pytest.mark.parametrize("accel_time", [False, True])
 @pytest.mark.parametrize("ref_position,ref_velocity", [(True, True), (False, False), (True, False)])
 def test_round_trip_every_dataset_kind(tmp_path, form, accel_time, ref_position, ref_velocity):
-    tel = _telemetry(form, accel_time=accel_time, ref_position=ref_position, ref_velocity=ref_velocity,
-                     simulation={"scenario": "custom", "seed": 3, "effects": {"x": [1, 2]}})
+    tel = _telemetry(
+        form,
+        accel_time=accel_time,
+        ref_position=ref_position,
+        ref_velocity=ref_velocity,
+        simulation={"scenario": "custom", "seed": 3, "effects": {"x": [1, 2]}},
+    )
     path = write_telemetry(tmp_path / "rt.h5", tel)
     back = read_telemetry(path, check_plausibility=False)
     assert back.form == form
@@ -128,6 +140,7 @@ def _replace(name, data, units=None):
         d = h5.create_dataset(name, data=data)
         if units is not None or old_units is not None:
             d.attrs["units"] = units if units is not None else old_units
+
     return mutate
 
 
@@ -136,12 +149,14 @@ def _set_row(name, row, value):
         d = h5[name][()]
         d[row] = value
         h5[name][...] = d
+
     return mutate
 
 
 def _scale(name, factor):
     def mutate(h5):
         h5[name][...] = h5[name][()] * factor
+
     return mutate
 
 
@@ -150,6 +165,7 @@ def _time_with(change):
         t = h5["imu/time"][()]
         change(t)
         h5["imu/time"][...] = t
+
     return mutate
 
 
@@ -160,6 +176,7 @@ def _external_link(tmp_path):
             o["accel"] = np.zeros((N, 3))
         del h5["imu/accel"]
         h5["imu/accel"] = h5py.ExternalLink(str(other), "/accel")
+
     return mutate
 
 
@@ -172,12 +189,14 @@ def _virtual(tmp_path):
         layout[:] = h5py.VirtualSource(str(other), "accel", shape=(N, 3))
         del h5["imu/accel"]
         h5["imu"].create_virtual_dataset("accel", layout).attrs["units"] = "m/s^2"
+
     return mutate
 
 
 def _drop(name):
     def mutate(h5):
         del h5[name]
+
     return mutate
 
 
@@ -187,6 +206,7 @@ def _attr(name, key, value):
             del h5[name].attrs[key]
         else:
             h5[name].attrs[key] = value
+
     return mutate
 
 
@@ -197,8 +217,16 @@ BAD_CASES = {
     "missing imu group": (lambda p: _drop("imu"), "/imu", "missing"),
     "missing dataset": (lambda p: _drop("imu/accel"), "/imu/accel", "missing"),
     "no imu data": (lambda p: lambda h5: (_drop("imu/accel")(h5), _drop("imu/gyro")(h5)), "/imu", "neither"),
-    "both forms": (lambda p: lambda h5: (h5["imu"].create_dataset("dtheta", data=np.zeros((N, 3))),
-                                         h5["imu"].create_dataset("dvel", data=np.zeros((N, 3)))), "/imu", "both"),
+    "both forms": (
+        lambda p: (
+            lambda h5: (
+                h5["imu"].create_dataset("dtheta", data=np.zeros((N, 3))),
+                h5["imu"].create_dataset("dvel", data=np.zeros((N, 3))),
+            )
+        ),
+        "/imu",
+        "both",
+    ),
     "wrong rank": (lambda p: _replace("imu/gyro", np.zeros(N)), "/imu/gyro", "rank 1"),
     "wrong shape": (lambda p: _replace("imu/gyro", np.zeros((N, 4))), "/imu/gyro", "length 3"),
     "row count mismatch": (lambda p: _replace("imu/accel", np.zeros((N - 1, 3))), "/imu/accel", "rows"),
@@ -208,26 +236,53 @@ BAD_CASES = {
     "wrong time units": (lambda p: _attr("imu/time", "units", "ms"), "/imu/time", "units 'ms'"),
     "NaN": (lambda p: _set_row("imu/accel", 17, np.nan), "/imu/accel", "NaN/Inf values, the first at row 17"),
     "Inf": (lambda p: _set_row("imu/gyro", 3, np.inf), "/imu/gyro", "row 3"),
-    "time goes back": (lambda p: _time_with(lambda t: t.__setitem__(500, t[498])), "/imu/time", "not strictly increasing"),
+    "time goes back": (
+        lambda p: _time_with(lambda t: t.__setitem__(500, t[498])),
+        "/imu/time",
+        "not strictly increasing",
+    ),
     "duplicated timestamp": (lambda p: _time_with(lambda t: t.__setitem__(500, t[499])), "/imu/time", "duplicated"),
-    "gap": (lambda p: _time_with(lambda t: t.__setitem__(slice(600, None), t[600:] + 0.5)), "/imu/time",
-            "1 undeclared gap longer than 1.5"),
+    "gap": (
+        lambda p: _time_with(lambda t: t.__setitem__(slice(600, None), t[600:] + 0.5)),
+        "/imu/time",
+        "1 undeclared gap longer than 1.5",
+    ),
     "time in milliseconds": (lambda p: _time_with(lambda t: t.__imul__(1000.0)), "/imu/time", "ms or us"),
-    "accel in g labelled m/s^2": (lambda p: _scale("imu/accel", 1 / 9.80665), "/imu/accel",
-                                  "the data look like g: set the units attribute to 'g'"),
-    "accel in m/s^2 labelled g": (lambda p: _attr("imu/accel", "units", "g"), "/imu/accel",
-                                  "the data look like m/s^2: set the units attribute to 'm/s^2'"),
-    "gyro in deg/s labelled rad/s": (lambda p: _replace("imu/gyro", np.full((N, 3), 30.0)), "/imu/gyro",
-                                     "the data look like deg/s: set the units attribute to 'deg/s'"),
-    "non-unit quaternion": (lambda p: _set_row("reference/quaternion", 4, [1.0, 0.1, 0.0, 0.0]),
-                            "/reference/quaternion", "row 4 has norm"),
+    "accel in g labelled m/s^2": (
+        lambda p: _scale("imu/accel", 1 / 9.80665),
+        "/imu/accel",
+        "the data look like g: set the units attribute to 'g'",
+    ),
+    "accel in m/s^2 labelled g": (
+        lambda p: _attr("imu/accel", "units", "g"),
+        "/imu/accel",
+        "the data look like m/s^2: set the units attribute to 'm/s^2'",
+    ),
+    "gyro in deg/s labelled rad/s": (
+        lambda p: _replace("imu/gyro", np.full((N, 3), 30.0)),
+        "/imu/gyro",
+        "the data look like deg/s: set the units attribute to 'deg/s'",
+    ),
+    "non-unit quaternion": (
+        lambda p: _set_row("reference/quaternion", 4, [1.0, 0.1, 0.0, 0.0]),
+        "/reference/quaternion",
+        "row 4 has norm",
+    ),
     "reference without time": (lambda p: _drop("reference/time"), "/reference/time", "missing"),
     "external link": (_external_link, "/imu/accel", "external link"),
     "virtual dataset": (_virtual, "/imu/accel", "virtual dataset"),
     "partial site": (lambda p: _attr("/", "height_m", None), "/", "not height_m"),
     "latitude out of range": (lambda p: _attr("/", "latitude_deg", 95.0), "/", "latitude_deg = 95.0"),
-    "empty dataset": (lambda p: lambda h5: [_replace("imu/" + k, np.zeros((0, 3)) if k != "time" else np.zeros(0))(h5)
-                                            for k in ("time", "gyro", "accel")], "/imu/time", "no samples"),
+    "empty dataset": (
+        lambda p: (
+            lambda h5: [
+                _replace("imu/" + k, np.zeros((0, 3)) if k != "time" else np.zeros(0))(h5)
+                for k in ("time", "gyro", "accel")
+            ]
+        ),
+        "/imu/time",
+        "no samples",
+    ),
 }
 
 
@@ -287,8 +342,14 @@ def test_valid_raw_file_reads(raw_file):
 
 def test_source_attributes_round_trip(tmp_path):
     tel = _telemetry("rates")
-    tel.source = {"format": "csv", "file": "x.csv", "axis_map": ["y", "x", "-z"], "gyro_bias_rad_s_frd": [1e-5, 0.0, 2.0],
-                  "dropouts": 3, "approximate": True}
+    tel.source = {
+        "format": "csv",
+        "file": "x.csv",
+        "axis_map": ["y", "x", "-z"],
+        "gyro_bias_rad_s_frd": [1e-5, 0.0, 2.0],
+        "dropouts": 3,
+        "approximate": True,
+    }
     back = read_telemetry(write_telemetry(tmp_path / "s.h5", tel), check_plausibility=False)
     assert back.source == tel.source
 
@@ -297,7 +358,7 @@ def test_reference_gaps_are_reported_not_refused(tmp_path):
     def drop_reference_rows(h5):
         t = h5["reference/time"][()]
         q = h5["reference/quaternion"][()]
-        keep = np.r_[0:40, 60:t.size]
+        keep = np.r_[0:40, 60 : t.size]
         del h5["reference/time"], h5["reference/quaternion"]
         h5["reference"].create_dataset("time", data=t[keep]).attrs["units"] = "s"
         h5["reference"].create_dataset("quaternion", data=q[keep])

@@ -25,5 +25,13 @@ from .inputs import expand_inputs, output_names
 from .manifest import BATCH_SCHEMA, read_manifest
 from .runner import BatchJob, BatchResult, RecordOutcome, run_batch
 
-__all__ = ["BATCH_SCHEMA", "BatchJob", "BatchResult", "RecordOutcome", "expand_inputs", "output_names",
-           "read_manifest", "run_batch"]
+__all__ = [
+    "BATCH_SCHEMA",
+    "BatchJob",
+    "BatchResult",
+    "RecordOutcome",
+    "expand_inputs",
+    "output_names",
+    "read_manifest",
+    "run_batch",
+]

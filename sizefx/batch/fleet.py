@@ -16,8 +16,16 @@ import numpy as np
 from ..io.files import atomic_output
 from ..io.schema import as_json
 
-__all__ = ["headline", "table_figures", "recurring_findings", "combine_arms", "plot_fleet", "DISAGREE_Z",
-           "KEY_FIGURES", "FLEET_PLOT"]
+__all__ = [
+    "headline",
+    "table_figures",
+    "recurring_findings",
+    "combine_arms",
+    "plot_fleet",
+    "DISAGREE_Z",
+    "KEY_FIGURES",
+    "FLEET_PLOT",
+]
 
 #: The figure of the headline figures across the records (``sizefx batch ... --plots``).
 FLEET_PLOT = "fleet.png"
@@ -28,14 +36,15 @@ FLEET_PLOT = "fleet.png"
 DISAGREE_Z = 3.3
 
 #: The figures the batch report prints per record (the manifest keeps every headline figure).
-KEY_FIGURES = {"navigate": ("final_horizontal_error_m", "max_horizontal_error_m", "drift_nmi_per_h"),
-               "inspect": ("samples", "duration_s", "sample_rate_hz"),
-               "compensate": ("samples",),
-               "calibrate": ("accel_delay_s",),
-               "diagnose": ("effects", "warnings", "unexplained"),
-               "compare": ("a_vs_ref_final_horizontal_m", "b_vs_ref_final_horizontal_m", "a_vs_b_max_horizontal_m"),
-               "run": ("plain_final_horizontal_error_m", "compensated_final_horizontal_error_m",
-                       "a_vs_b_max_horizontal_m")}
+KEY_FIGURES = {
+    "navigate": ("final_horizontal_error_m", "max_horizontal_error_m", "drift_nmi_per_h"),
+    "inspect": ("samples", "duration_s", "sample_rate_hz"),
+    "compensate": ("samples",),
+    "calibrate": ("accel_delay_s",),
+    "diagnose": ("effects", "warnings", "unexplained"),
+    "compare": ("a_vs_ref_final_horizontal_m", "b_vs_ref_final_horizontal_m", "a_vs_b_max_horizontal_m"),
+    "run": ("plain_final_horizontal_error_m", "compensated_final_horizontal_error_m", "a_vs_b_max_horizontal_m"),
+}
 
 
 def headline(stage: str, doc: dict) -> dict:
@@ -61,11 +70,17 @@ def headline(stage: str, doc: dict) -> dict:
     elif stage == "run":  # a chain: each stage's figures, named after its run (plain, compensated)
         for step in doc.get("steps", []):
             prefix = f"{step['run']}_" if step.get("run") else ""
-            out.update({f"{prefix}{k}": v for k, v in step.get("headline", {}).items()
-                        if isinstance(v, (int, float)) and not isinstance(v, bool)})
+            out.update(
+                {
+                    f"{prefix}{k}": v
+                    for k, v in step.get("headline", {}).items()
+                    if isinstance(v, (int, float)) and not isinstance(v, bool)
+                }
+            )
     elif stage == "diagnose":
-        out["effects"] = sorted(f"{e.get('id', '?')}" + (f" {e['channel']}" if e.get("channel") else "")
-                                for e in doc.get("effects", []))  # sizefx/diagnosis/2: id and channel
+        out["effects"] = sorted(
+            f"{e.get('id', '?')}" + (f" {e['channel']}" if e.get("channel") else "") for e in doc.get("effects", [])
+        )  # sizefx/diagnosis/2: id and channel
         out["warnings"] = len(doc.get("warnings", []))
         out["unexplained"] = len(doc.get("unexplained", []))
     return as_json(out)
@@ -118,8 +133,13 @@ def combine_arms(entries: list[dict]) -> dict | None:
         z = np.abs(r[k] - m) / np.sqrt(s[k] ** 2 + sm**2)
         if z.max() > DISAGREE_Z:
             disagree.append((e["name"], float(z.max())))
-    return {"arms_m": mean.tolist(), "sigma_m": sigma.tolist(), "chi2_dof": chi2_dof.tolist(),
-            "runs": len(runs), "disagree": disagree}
+    return {
+        "arms_m": mean.tolist(),
+        "sigma_m": sigma.tolist(),
+        "chi2_dof": chi2_dof.tolist(),
+        "runs": len(runs),
+        "disagree": disagree,
+    }
 
 
 def plot_fleet(stage: str, entries: list[dict], path) -> Path | None:
@@ -136,14 +156,20 @@ def plot_fleet(stage: str, entries: list[dict], path) -> Path | None:
         combined = combine_arms(entries)
         for i, a in enumerate("xyz"):
             for j, c in enumerate("xyz"):
-                pts = [(x[e["name"]], e["headline"][f"r_{a}_m"][j] * 1e3, e["headline"][f"sigma_{a}_m"][j] * 1e3)
-                       for e in ok if "r_x_m" in e["headline"]]
+                pts = [
+                    (x[e["name"]], e["headline"][f"r_{a}_m"][j] * 1e3, e["headline"][f"sigma_{a}_m"][j] * 1e3)
+                    for e in ok
+                    if "r_x_m" in e["headline"]
+                ]
                 band = None if combined is None else (combined["arms_m"][i][j] * 1e3, combined["sigma_m"][i][j] * 1e3)
                 panels.append((f"r_{a}[{c}] [mm]", pts, band))
     else:
         for key in KEY_FIGURES.get(stage, ()):
-            pts = [(x[e["name"]], float(e["headline"][key]), 0.0) for e in ok
-                   if isinstance(e["headline"].get(key), (int, float)) and not isinstance(e["headline"][key], bool)]
+            pts = [
+                (x[e["name"]], float(e["headline"][key]), 0.0)
+                for e in ok
+                if isinstance(e["headline"].get(key), (int, float)) and not isinstance(e["headline"][key], bool)
+            ]
             if pts:
                 panels.append((key, pts, None))
     if not panels:
@@ -151,8 +177,9 @@ def plot_fleet(stage: str, entries: list[dict], path) -> Path | None:
     plt = pyplot()
     cols = 3 if len(panels) > 3 else 1
     rows = -(-len(panels) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols + 2, 2.2 * rows + 1), squeeze=False, sharex=True,
-                             constrained_layout=True)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(4.2 * cols + 2, 2.2 * rows + 1), squeeze=False, sharex=True, constrained_layout=True
+    )
     fig.suptitle(f"sizefx batch {stage}: {len(ok)} of {len(entries)} records ok")
     for ax, (label, pts, band) in zip(axes.ravel(), panels):
         k, v, s = (np.array(col, dtype=float) for col in zip(*pts))
@@ -165,7 +192,7 @@ def plot_fleet(stage: str, entries: list[dict], path) -> Path | None:
                 ax.axvline(x[e["name"]], color="tab:red", lw=0.8, ls=":")
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
-    for ax in axes.ravel()[len(panels):]:
+    for ax in axes.ravel()[len(panels) :]:
         ax.set_visible(False)
     for ax in axes[-1]:
         ax.set_xticks(range(len(names)), names, rotation=60, ha="right", fontsize=7)

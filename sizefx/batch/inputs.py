@@ -8,8 +8,15 @@ from pathlib import Path
 
 from ..errors import ConfigError
 
-__all__ = ["expand_inputs", "output_names", "check_out_dir", "record_key", "pair_inputs", "RECORD_SUFFIXES",
-           "KEY_SUFFIXES"]
+__all__ = [
+    "expand_inputs",
+    "output_names",
+    "check_out_dir",
+    "record_key",
+    "pair_inputs",
+    "RECORD_SUFFIXES",
+    "KEY_SUFFIXES",
+]
 
 #: What a folder given as an input contributes: its telemetry files (not recursively: a campaign's
 #: folder of records; give a glob such as ``runs/**/*.h5`` for a tree).
@@ -33,8 +40,9 @@ def expand_inputs(inputs) -> list[Path]:
         if _GLOB & set(text):
             matches = sorted(Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file())
             if not matches:
-                raise ConfigError(f"{text}: the pattern matches no file; check it (quote it so the shell does not "
-                                  "expand it first)")
+                raise ConfigError(
+                    f"{text}: the pattern matches no file; check it (quote it so the shell does not expand it first)"
+                )
         else:
             path = Path(text)
             if not path.exists():
@@ -44,8 +52,9 @@ def expand_inputs(inputs) -> list[Path]:
                     raise ConfigError(f"{path}: the folder cannot be read (permissions); fix them or leave it out")
                 matches = sorted(p for p in path.iterdir() if p.suffix.lower() in RECORD_SUFFIXES and p.is_file())
                 if not matches:
-                    raise ConfigError(f"{path}: the folder holds no record ({', '.join(RECORD_SUFFIXES)}); give the "
-                                      "files or a glob")
+                    raise ConfigError(
+                        f"{path}: the folder holds no record ({', '.join(RECORD_SUFFIXES)}); give the files or a glob"
+                    )
             else:
                 matches = [path]
         for match in matches:
@@ -72,8 +81,10 @@ def check_out_dir(out_dir, inputs, records) -> Path:
         if folder.is_dir():
             folder = folder.resolve()
             if out == folder or folder in out.parents:
-                raise ConfigError(f"{out_dir}: --out is inside the input folder {given}; a re-run would read the "
-                                  "outputs as records: put it elsewhere")
+                raise ConfigError(
+                    f"{out_dir}: --out is inside the input folder {given}; a re-run would read the "
+                    "outputs as records: put it elsewhere"
+                )
     if out in records:
         raise ConfigError(f"{out_dir}: --out is one of the inputs; give a new folder")
     return out
@@ -87,7 +98,7 @@ def output_names(records: list[Path]) -> dict[Path, str]:
     parts = {r: r.with_suffix("").parts[1:] for r in records}
     depth = {r: 1 for r in records}
     while True:
-        names = {r: "__".join(parts[r][-depth[r]:]) for r in records}
+        names = {r: "__".join(parts[r][-depth[r] :]) for r in records}
         seen: dict[str, list[Path]] = {}
         for r, name in names.items():
             seen.setdefault(name, []).append(r)
@@ -114,7 +125,7 @@ def record_key(path) -> str:
     name = Path(path).name
     for suffix in KEY_SUFFIXES:
         if name.lower().endswith(suffix):
-            return name[:-len(suffix)]
+            return name[: -len(suffix)]
     return Path(name).stem
 
 
@@ -140,8 +151,10 @@ def pair_inputs(records: list[Path], given, option: str) -> dict[Path, Path]:
         for r in records:
             key = record_key(r)
             if key not in by_key:
-                raise ConfigError(f"{option}: nothing for {r.name} among {len(partners)} files (looked for '{key}' "
-                                  f"with {', '.join(KEY_SUFFIXES)}); give its file or leave the record out")
+                raise ConfigError(
+                    f"{option}: nothing for {r.name} among {len(partners)} files (looked for '{key}' "
+                    f"with {', '.join(KEY_SUFFIXES)}); give its file or leave the record out"
+                )
             pairs[r] = by_key[key]
     for r, p in pairs.items():
         if p == r:

@@ -19,15 +19,19 @@ __all__ = ["BATCH_SCHEMA", "MANIFEST_NAME", "read_manifest", "write_manifest", "
 
 BATCH_SCHEMA = "sizefx/batch/1"
 MANIFEST_NAME = "manifest.json"
+
+
 def canonical_options(options: dict) -> dict:
     """The stage options as the manifest holds and compares them: JSON values (tuples as lists,
     NaN refused earlier by the options' own checks), keys sorted."""
+
     def plain(v):
         if isinstance(v, (list, tuple)):
             return [plain(x) for x in v]
         if isinstance(v, float) and not math.isfinite(v):
             return str(v)
         return v
+
     return {k: plain(options[k]) for k in sorted(options)}
 
 

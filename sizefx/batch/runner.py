@@ -40,15 +40,33 @@ from ..stage import use_helper_threads
 from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
 from .manifest import BATCH_SCHEMA, reusable, write_manifest
 
-__all__ = ["BatchJob", "RecordOutcome", "BatchResult", "run_batch", "start_workers", "local_workers",
-           "available_cores", "STAGES", "dask_client", "folder_lock", "default_memory_mib", "LOCK_NAME",
-           "MEMORY_SHARE"]
+__all__ = [
+    "BatchJob",
+    "RecordOutcome",
+    "BatchResult",
+    "run_batch",
+    "start_workers",
+    "local_workers",
+    "available_cores",
+    "STAGES",
+    "dask_client",
+    "folder_lock",
+    "default_memory_mib",
+    "LOCK_NAME",
+    "MEMORY_SHARE",
+]
 
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
 #: command calls). A job may also name a module of its own (the tests' stage that kills its worker).
-STAGES = {"navigate": "sizefx.navigate", "compensate": "sizefx.compensate", "calibrate": "sizefx.calibrate",
-          "diagnose": "sizefx.diagnose", "inspect": "sizefx.inspect", "compare": "sizefx.compare",
-          "run": "sizefx.chain"}
+STAGES = {
+    "navigate": "sizefx.navigate",
+    "compensate": "sizefx.compensate",
+    "calibrate": "sizefx.calibrate",
+    "diagnose": "sizefx.diagnose",
+    "inspect": "sizefx.inspect",
+    "compare": "sizefx.compare",
+    "run": "sizefx.chain",
+}
 
 
 @dataclass(frozen=True)
@@ -105,40 +123,58 @@ class BatchResult:
 
     def report(self) -> str:
         c = self.counts()
-        lines = [f"batch {self.stage}: {len(self.outcomes)} records in {self.wall_s:.1f} s with {self.workers} "
-                 f"worker(s): {c['ok']} ok, {c['skipped']} unchanged (skipped), {c['refused']} refused, "
-                 f"{c['failed']} failed; manifest -> {self.manifest}"]
+        lines = [
+            f"batch {self.stage}: {len(self.outcomes)} records in {self.wall_s:.1f} s with {self.workers} "
+            f"worker(s): {c['ok']} ok, {c['skipped']} unchanged (skipped), {c['refused']} refused, "
+            f"{c['failed']} failed; manifest -> {self.manifest}"
+        ]
         table = {o.entry["name"]: table_figures(self.stage, o.entry["headline"]) for o in self.outcomes}
         for o in self.outcomes:
             e = o.entry
             figures = ", ".join(f"{k} {_short(v)}" for k, v in table[e["name"]].items())
             state = "unchanged" if o.reused else e["status"]
-            lines.append(f"  {e['name']}: {state}, {e['duration_s']:.1f} s, {e['peak_memory_mib']:.0f} MiB"
-                         + (f"; {figures}" if figures and e["status"] == "ok" else "")
-                         + (f"; {e['reason']}" if e.get("reason") else ""))
+            lines.append(
+                f"  {e['name']}: {state}, {e['duration_s']:.1f} s, {e['peak_memory_mib']:.0f} MiB"
+                + (f"; {figures}" if figures and e["status"] == "ok" else "")
+                + (f"; {e['reason']}" if e.get("reason") else "")
+            )
         keys = dict.fromkeys(k for o in self.outcomes for k in table[o.entry["name"]])
         for k in keys:  # the campaign's spread of each numeric figure
-            values = [table[o.entry["name"]][k] for o in self.outcomes if o.status == "ok"
-                      and isinstance(table[o.entry["name"]].get(k), (int, float))]
+            values = [
+                table[o.entry["name"]][k]
+                for o in self.outcomes
+                if o.status == "ok" and isinstance(table[o.entry["name"]].get(k), (int, float))
+            ]
             if len(values) > 1:
-                lines.append(f"  {k} across {len(values)} records: mean {np.mean(values):.4g}, "
-                             f"std {np.std(values, ddof=1):.3g}, min {min(values):.4g}, max {max(values):.4g}")
+                lines.append(
+                    f"  {k} across {len(values)} records: mean {np.mean(values):.4g}, "
+                    f"std {np.std(values, ddof=1):.3g}, min {min(values):.4g}, max {max(values):.4g}"
+                )
         if self.stage == "diagnose":
             ok = sum(o.status == "ok" for o in self.outcomes)
             recurring = recurring_findings([o.entry for o in self.outcomes])
-            lines.append(f"  findings in more than one of {ok} records: "
-                         + (", ".join(f"{f} ({n})" for f, n in recurring) or "none"))
+            lines.append(
+                f"  findings in more than one of {ok} records: "
+                + (", ".join(f"{f} ({n})" for f, n in recurring) or "none")
+            )
         combined = self.combined()
         if combined:
             mm = np.array(combined["arms_m"]) * 1e3
-            lines.append(f"  arms of {combined['runs']} runs combined (inverse-variance) [mm], +- sigma, "
-                         "chi2/dof across runs:")
+            lines.append(
+                f"  arms of {combined['runs']} runs combined (inverse-variance) [mm], +- sigma, chi2/dof across runs:"
+            )
             for i, a in enumerate("xyz"):
-                lines.append(f"    r_{a}  " + "  ".join(
-                    f"{mm[i][j]:8.4f} +- {combined['sigma_m'][i][j] * 1e3:.4f} ({combined['chi2_dof'][i][j]:.2f})"
-                    for j in range(3)))
-            lines.append("  runs that disagree with the others (|z| > 3.3): " + (", ".join(
-                f"{name} ({z:.1f} sigma)" for name, z in combined["disagree"]) or "none"))
+                lines.append(
+                    f"    r_{a}  "
+                    + "  ".join(
+                        f"{mm[i][j]:8.4f} +- {combined['sigma_m'][i][j] * 1e3:.4f} ({combined['chi2_dof'][i][j]:.2f})"
+                        for j in range(3)
+                    )
+                )
+            lines.append(
+                "  runs that disagree with the others (|z| > 3.3): "
+                + (", ".join(f"{name} ({z:.1f} sigma)" for name, z in combined["disagree"]) or "none")
+            )
         if self.fleet_plot:
             lines.append(f"  figures across the records -> {self.fleet_plot}")
         return "\n".join(lines)
@@ -148,9 +184,15 @@ class BatchResult:
         return combine_arms([o.entry for o in self.outcomes]) if self.stage == "calibrate" else None
 
     def to_json(self) -> dict:
-        return {"stage": self.stage, "manifest": self.manifest, "wall_s": self.wall_s, "workers": self.workers,
-                "counts": self.counts(), "records": [o.entry for o in self.outcomes],
-                **({"combined_arms": self.combined()} if self.stage == "calibrate" else {})}
+        return {
+            "stage": self.stage,
+            "manifest": self.manifest,
+            "wall_s": self.wall_s,
+            "workers": self.workers,
+            "counts": self.counts(),
+            "records": [o.entry for o in self.outcomes],
+            **({"combined_arms": self.combined()} if self.stage == "calibrate" else {}),
+        }
 
 
 def _short(v) -> str:
@@ -268,8 +310,18 @@ def _work(job: BatchJob) -> RecordOutcome:
     """Run one record (in a worker process); never raises for the record's own faults."""
     t0 = time.perf_counter()
     reset = _reset_peak_memory()
-    entry = {"input": job.input, "name": job.name, "sha256": "", "options": job.options, "outputs": {},
-             "status": "ok", "reason": None, "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}}
+    entry = {
+        "input": job.input,
+        "name": job.name,
+        "sha256": "",
+        "options": job.options,
+        "outputs": {},
+        "status": "ok",
+        "reason": None,
+        "duration_s": 0.0,
+        "peak_memory_mib": 0.0,
+        "headline": {},
+    }
     may_reuse = not job.redo and job.previous is not None and job.previous.get("status") == "ok"
     if may_reuse:  # the hashes decide whether the record runs at all
         paired = _paired_hashes(job.paired)
@@ -295,9 +347,14 @@ def _work(job: BatchJob) -> RecordOutcome:
         entry["status"], entry["reason"] = "refused", _one_line(exc)
     except MemoryError as exc:  # beyond the worker's bound (or the machine's): this record only
         bound = f"the worker's bound of {_memory_limit_mib:.0f} MiB" if _memory_limit_mib else "the memory there is"
-        entry["status"], entry["reason"] = "failed", (f"MemoryError: the record needs more than {bound} "
-                                                      f"({_one_line(exc)}); give it fewer --workers or a larger "
-                                                      "--memory-per-worker-mib, or cut it")
+        entry["status"], entry["reason"] = (
+            "failed",
+            (
+                f"MemoryError: the record needs more than {bound} "
+                f"({_one_line(exc)}); give it fewer --workers or a larger "
+                "--memory-per-worker-mib, or cut it"
+            ),
+        )
     except Exception as exc:  # a bug or a library's failure on this record: the others go on
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
     if hashing is not None:
@@ -310,6 +367,7 @@ def _work(job: BatchJob) -> RecordOutcome:
 
 
 # --------------------------------------------------------------------------- in the parent
+
 
 def _start_worker(memory_mib: float | None, helpers: bool, module: str | None) -> None:
     """A worker's start: its memory bound, whether its stages may run helper threads, and the
@@ -333,9 +391,12 @@ def _pool(workers: int, memory_mib: float | None, stage: str | None = None) -> P
     (:func:`sizefx.stage.helper_threads`): each worker is given its share of the cores, and a helper
     only when that share is two or more."""
     helpers = available_cores() // workers >= 2
-    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_start_worker,
-                               initargs=(memory_mib, helpers, STAGES.get(stage, stage) if stage else None))
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_start_worker,
+        initargs=(memory_mib, helpers, STAGES.get(stage, stage) if stage else None),
+    )
 
 
 #: Seconds to wait for a stopped worker to end (SIGTERM; a worker ends at once unless the system is stuck).
@@ -412,8 +473,10 @@ def folder_lock(out_dir):
         except BlockingIOError:
             handle.seek(0)
             holder = handle.read().strip() or "another process"
-            raise ConfigError(f"{out_dir}: another sizefx batch or run is writing into this folder ({holder}); "
-                              "wait for it to finish or give another --out") from None
+            raise ConfigError(
+                f"{out_dir}: another sizefx batch or run is writing into this folder ({holder}); "
+                "wait for it to finish or give another --out"
+            ) from None
         handle.seek(0)
         handle.truncate()
         handle.write(f"pid {os.getpid()}")
@@ -424,10 +487,20 @@ def folder_lock(out_dir):
 
 
 def _died(job: BatchJob, why: str) -> RecordOutcome:
-    return RecordOutcome({"input": job.input, "name": job.name, "sha256": (job.previous or {}).get("sha256", ""),
-                          "options": job.options, "outputs": {}, "status": "failed",
-                          "reason": f"the worker process died ({why}); run it alone to see why",
-                          "duration_s": 0.0, "peak_memory_mib": 0.0, "headline": {}})
+    return RecordOutcome(
+        {
+            "input": job.input,
+            "name": job.name,
+            "sha256": (job.previous or {}).get("sha256", ""),
+            "options": job.options,
+            "outputs": {},
+            "status": "failed",
+            "reason": f"the worker process died ({why}); run it alone to see why",
+            "duration_s": 0.0,
+            "peak_memory_mib": 0.0,
+            "headline": {},
+        }
+    )
 
 
 #: Seconds to reach a Dask scheduler before the batch is refused.
@@ -441,13 +514,16 @@ def dask_client(address: str):
     try:
         from distributed import Client
     except ImportError:
-        raise ConfigError(f"--scheduler {address}: needs the 'distributed' package: pip install 'sizefx[dask]'") \
-            from None
+        raise ConfigError(
+            f"--scheduler {address}: needs the 'distributed' package: pip install 'sizefx[dask]'"
+        ) from None
     try:
         return Client(address, timeout=DASK_CONNECT_S, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
-        raise ConfigError(f"--scheduler {address}: cannot reach it ({_one_line(exc)}); start a scheduler there "
-                          "(dask scheduler) or check the address") from None
+        raise ConfigError(
+            f"--scheduler {address}: cannot reach it ({_one_line(exc)}); start a scheduler there "
+            "(dask scheduler) or check the address"
+        ) from None
 
 
 def _run_dask(client, jobs: list[BatchJob], finished) -> None:
@@ -457,8 +533,9 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
     3 by default) fails alone (``KilledWorker``)."""
     from distributed import as_completed
 
-    futures = {client.submit(_work, job, pure=False, key=f"sizefx-batch-{job.name}-{uuid.uuid4().hex}"): job
-               for job in jobs}
+    futures = {
+        client.submit(_work, job, pure=False, key=f"sizefx-batch-{job.name}-{uuid.uuid4().hex}"): job for job in jobs
+    }
     for fut in as_completed(futures, loop=client.loop):  # not the default client's loop: there may be none
         job = futures[fut]
         try:
@@ -468,10 +545,22 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
         finished(job, outcome)
 
 
-def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, workers: int | None = None,
-              previous: dict | None = None, progress=None, scheduler: str | None = None,
-              plots: bool = False, memory_mib: float | None = None, locked: bool = False,
-              pool: ProcessPoolExecutor | None = None, client=None) -> BatchResult:
+def run_batch(
+    stage: str,
+    jobs: list[BatchJob],
+    out_dir,
+    options: dict,
+    *,
+    workers: int | None = None,
+    previous: dict | None = None,
+    progress=None,
+    scheduler: str | None = None,
+    plots: bool = False,
+    memory_mib: float | None = None,
+    locked: bool = False,
+    pool: ProcessPoolExecutor | None = None,
+    client=None,
+) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
     finish. ``previous``: the folder's manifest, whose entries for other records are kept.
@@ -492,10 +581,19 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
         out_dir = Path(out_dir)
         out_dir.mkdir(exist_ok=True)
         with contextlib.nullcontext() if locked else folder_lock(out_dir):
-            return _run_locked(stage, jobs, out_dir, options, workers=workers, previous=previous,
-                               progress=progress, client=client, plots=plots,
-                               memory_mib=memory_mib or default_memory_mib(workers),
-                               pool=None if client is not None else pool)
+            return _run_locked(
+                stage,
+                jobs,
+                out_dir,
+                options,
+                workers=workers,
+                previous=previous,
+                progress=progress,
+                client=client,
+                plots=plots,
+                memory_mib=memory_mib or default_memory_mib(workers),
+                pool=None if client is not None else pool,
+            )
     finally:
         if pool is not None:  # unused (a refusal, a Dask run), or done with
             pool.shutdown(wait=False, cancel_futures=True)
@@ -503,8 +601,9 @@ def run_batch(stage: str, jobs: list[BatchJob], out_dir, options: dict, *, worke
             client.close()
 
 
-def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, client, plots,
-                memory_mib, pool=None) -> BatchResult:
+def _run_locked(
+    stage, jobs, out_dir, options, *, workers, previous, progress, client, plots, memory_mib, pool=None
+) -> BatchResult:
     kept = {e["input"]: e for e in (previous or {}).get("records", [])}
     outcomes: dict[str, RecordOutcome] = {}
     t0 = time.perf_counter()
@@ -512,17 +611,33 @@ def _run_locked(stage, jobs, out_dir, options, *, workers, previous, progress, c
     def finished(job: BatchJob, outcome: RecordOutcome):
         outcomes[job.input] = outcome
         kept[job.input] = outcome.entry
-        write_manifest(out_dir, {"schema": BATCH_SCHEMA, "stage": stage, "sizefx_version": __version__,
-                                 "options": options, "records": [kept[k] for k in sorted(kept)]})
+        write_manifest(
+            out_dir,
+            {
+                "schema": BATCH_SCHEMA,
+                "stage": stage,
+                "sizefx_version": __version__,
+                "options": options,
+                "records": [kept[k] for k in sorted(kept)],
+            },
+        )
         if progress is not None:
             done = len(outcomes)
             elapsed = time.perf_counter() - t0
             rate = done / elapsed if elapsed > 0 else 0.0
             counts = BatchResult(stage, list(outcomes.values())).counts()
-            progress({"done": done, "total": len(jobs), **counts, "record": job.name,
-                      "status": "unchanged" if outcome.reused else outcome.status,
-                      "elapsed_s": round(elapsed, 3), "records_per_s": round(rate, 4),
-                      "eta_s": round((len(jobs) - done) / rate, 1) if rate > 0 else None})
+            progress(
+                {
+                    "done": done,
+                    "total": len(jobs),
+                    **counts,
+                    "record": job.name,
+                    "status": "unchanged" if outcome.reused else outcome.status,
+                    "elapsed_s": round(elapsed, 3),
+                    "records_per_s": round(rate, 4),
+                    "eta_s": round((len(jobs) - done) / rate, 1) if rate > 0 else None,
+                }
+            )
 
     if client is not None:
         _run_dask(client, jobs, finished)

@@ -61,11 +61,34 @@ from .records import (
 )
 from .report import compensation_figure, report_lines
 
-__all__ = ["CalibrationError", "Record", "prepare", "per_rotation_fit", "joint_fit", "detect_rotations",
-           "CalibrationResult", "Excitation", "excitation", "preflight", "run", "CalibrateConfig", "CalibrateResult",
-           "format_report", "compensation_figure", "nominal_levers", "reference_attitude", "MIN_SAMPLES",
-           "ROTATING_RAD_S", "UNOBSERVABLE_EIG", "BIAS_WINDOW_S", "UNDETERMINED_SIGMA", "PARAMS_R",
-           "SPLINE_REFERENCE_STEPS", "VERTICAL_WITHIN_RAD", "PREFLIGHT_ROWS"]
+__all__ = [
+    "CalibrationError",
+    "Record",
+    "prepare",
+    "per_rotation_fit",
+    "joint_fit",
+    "detect_rotations",
+    "CalibrationResult",
+    "Excitation",
+    "excitation",
+    "preflight",
+    "run",
+    "CalibrateConfig",
+    "CalibrateResult",
+    "format_report",
+    "compensation_figure",
+    "nominal_levers",
+    "reference_attitude",
+    "MIN_SAMPLES",
+    "ROTATING_RAD_S",
+    "UNOBSERVABLE_EIG",
+    "BIAS_WINDOW_S",
+    "UNDETERMINED_SIGMA",
+    "PARAMS_R",
+    "SPLINE_REFERENCE_STEPS",
+    "VERTICAL_WITHIN_RAD",
+    "PREFLIGHT_ROWS",
+]
 
 #: ``--triad-point``: where the split r_i = r + d_i puts the triad point.
 TRIAD_POINTS = ("normals", "x-accelerometer")
@@ -123,8 +146,11 @@ class CalibrateResult:
 
     def to_json(self) -> dict:
         """The ``sizefx/levers/1`` document (with the fit's figures in its extra keys) and the files written."""
-        return {"levers": self.levers.to_json(), "figure_spans": self.figure_spans,
-                "written": {k: str(v) for k, v in self.written.items()}}
+        return {
+            "levers": self.levers.to_json(),
+            "figure_spans": self.figure_spans,
+            "written": {k: str(v) for k, v in self.written.items()},
+        }
 
 
 def format_report(out: CalibrateResult) -> str:
@@ -167,34 +193,52 @@ def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
     res = joint_fit(records, with_tilt=config.with_tilt, with_delay=config.with_delay)
     point = triad_point(res.arms, how=config.triad)
     sigma_tilt = None if res.sigma_tilt_rad is None else (res.sigma_tilt_rad / ARCSEC).tolist()
-    levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms,
-                    reference_point="rotation-center",
-                    tilt_arcsec=None if res.tilt_rad is None else (res.tilt_rad / ARCSEC).tolist(),
-                    accel_delay_s=res.delay_s,
-                    extra={"triad_point": config.triad, "sigma_tilt_arcsec": sigma_tilt,
-                           "sigma_accel_delay_s": res.sigma_delay_s,
-                           "bound_sigma": res.bound_arms.tolist(),
-                           "bound_sigma_tilt_arcsec": None if res.tilt_rad is None else
-                           (res.bound_sigma[res.names.index("tilt_north"):][:2] / ARCSEC).tolist(),
-                           "bound_sigma_accel_delay_s": float(res.bound_sigma[-1]) if res.delay_s is not None else None,
-                           "sigma_accel_bias_windows_mps2": res.bias_windows().tolist(),
-                           "bound_accel_bias_windows_mps2": res.bias_windows(res.bound_sigma).tolist(),
-                           "interval_s": res.interval_s, "noise_model": res.noise,
-                           "left_out_steps": res.left_out_steps, "left_out_s": res.left_out_s,
-                           "accel_bias_mps2": res.biases.tolist(), "condition_number": res.condition,
-                           "residual_rms_mps2": res.residual_rms.tolist(), "samples": res.samples,
-                           "nominal": config.nominal, "difference_from_nominal_m": (res.arms - nom.arms_total).tolist(),
-                           "per_rotation": per_rotation, "records": paths,
-                           "segments": [rec.name for rec in records], "segments_too_short": skipped})
-    out = CalibrateResult(levers=levers, fit=res, per_rotation=per_rotation, nominal=nom, records=records,
-                          skipped=skipped)
+    levers = Levers(
+        arms_total=res.arms,
+        offset=point,
+        arms_triad=res.arms - point,
+        sigma=res.sigma_arms,
+        reference_point="rotation-center",
+        tilt_arcsec=None if res.tilt_rad is None else (res.tilt_rad / ARCSEC).tolist(),
+        accel_delay_s=res.delay_s,
+        extra={
+            "triad_point": config.triad,
+            "sigma_tilt_arcsec": sigma_tilt,
+            "sigma_accel_delay_s": res.sigma_delay_s,
+            "bound_sigma": res.bound_arms.tolist(),
+            "bound_sigma_tilt_arcsec": None
+            if res.tilt_rad is None
+            else (res.bound_sigma[res.names.index("tilt_north") :][:2] / ARCSEC).tolist(),
+            "bound_sigma_accel_delay_s": float(res.bound_sigma[-1]) if res.delay_s is not None else None,
+            "sigma_accel_bias_windows_mps2": res.bias_windows().tolist(),
+            "bound_accel_bias_windows_mps2": res.bias_windows(res.bound_sigma).tolist(),
+            "interval_s": res.interval_s,
+            "noise_model": res.noise,
+            "left_out_steps": res.left_out_steps,
+            "left_out_s": res.left_out_s,
+            "accel_bias_mps2": res.biases.tolist(),
+            "condition_number": res.condition,
+            "residual_rms_mps2": res.residual_rms.tolist(),
+            "samples": res.samples,
+            "nominal": config.nominal,
+            "difference_from_nominal_m": (res.arms - nom.arms_total).tolist(),
+            "per_rotation": per_rotation,
+            "records": paths,
+            "segments": [rec.name for rec in records],
+            "segments_too_short": skipped,
+        },
+    )
+    out = CalibrateResult(
+        levers=levers, fit=res, per_rotation=per_rotation, nominal=nom, records=records, skipped=skipped
+    )
     if config.plot:
         with_blocks = [k for k, rec in enumerate(records) if detect_rotations(rec)]
         if not with_blocks:
             raise CalibrationError("--plot draws rotation blocks about vertical axes, and none of the records has one")
         k = with_blocks[0]
-        out.figure_spans = compensation_figure(records[k], levers, config.plot,
-                                               title=f"{Path(records[k].name).name}: size effect before and after")
+        out.figure_spans = compensation_figure(
+            records[k], levers, config.plot, title=f"{Path(records[k].name).name}: size effect before and after"
+        )
         out.written["--plot"] = str(config.plot)
     if config.json_path:
         write_levers(config.json_path, levers, inputs=paths, force=config.force)

@@ -37,9 +37,25 @@ from ..omegadot import SAVGOL_WINDOW
 from ..sensor_model import SensorParams, accel_inputs, accel_readings, jacobian, param_index
 from .records import ROTATING_RAD_S, CalibrationError, Record, motion_of
 
-__all__ = ["CalibrationResult", "joint_fit", "UNOBSERVABLE_EIG", "BIAS_WINDOW_S", "UNDETERMINED_SIGMA",
-           "PARAMS_R", "FIT_EFFECTS", "INTERVAL_S", "AR_MAX_ORDER", "cramer_rao_fisher", "information", "unobservable", "interval_samples",
-           "mean_angular_acceleration", "steps_in_angular_acceleration", "STEP_FLOOR_RAD_S2", "STEP_SIGMAS"]
+__all__ = [
+    "CalibrationResult",
+    "joint_fit",
+    "UNOBSERVABLE_EIG",
+    "BIAS_WINDOW_S",
+    "UNDETERMINED_SIGMA",
+    "PARAMS_R",
+    "FIT_EFFECTS",
+    "INTERVAL_S",
+    "AR_MAX_ORDER",
+    "cramer_rao_fisher",
+    "information",
+    "unobservable",
+    "interval_samples",
+    "mean_angular_acceleration",
+    "steps_in_angular_acceleration",
+    "STEP_FLOOR_RAD_S2",
+    "STEP_SIGMAS",
+]
 
 #: Relative eigenvalue of the scaled normal matrix below which a direction is unobservable:
 #: determined 1000 times worse than the best. Earth rate (5e-5 rad/s) against the table's
@@ -198,7 +214,7 @@ def steps_in_angular_acceleration(rec: Record) -> np.ndarray:
     over = np.any(np.abs(d3) > np.maximum(STEP_FLOOR_RAD_S2, STEP_SIGMAS * spread), axis=1)
     reach = SAVGOL_WINDOW // 2 + 1
     for j in np.flatnonzero(over):  # d3[j] spans intervals j .. j + 3
-        flagged[max(0, j * block - reach):min(n, (j + 4) * block + reach)] = True
+        flagged[max(0, j * block - reach) : min(n, (j + 4) * block + reach)] = True
     return flagged
 
 
@@ -208,8 +224,7 @@ def _runs(keep: np.ndarray):
     return zip(edges[::2], edges[1::2])
 
 
-def _design(rec: Record, sl: slice, with_tilt: bool, with_delay: bool, block: int = 1, arms=None,
-            delay_s: float = 0.0):
+def _design(rec: Record, sl: slice, with_tilt: bool, with_delay: bool, block: int = 1, arms=None, delay_s: float = 0.0):
     """Design rows of each channel i for samples ``sl`` in their active columns only:
     ``[(H_i, y_i)]`` with ``H_i = [r_i (3) | bias_i (1) | tilt (2) | delay (1)]`` and ``y_i`` the reading
     less the prediction at the linearisation point (gravity).
@@ -249,7 +264,7 @@ def _design(rec: Record, sl: slice, with_tilt: bool, with_delay: bool, block: in
         predicted = predicted + 0.5 * delay_s**2 * (-np.cross(wd, f) + np.cross(w, np.cross(w, f)))
     rows = []
     for i in range(3):
-        H, y = jac.block(3 + i, [*arms[3 * i:3 * i + 3], bias[i], *shared]), rec.accel[sl, i] - predicted[:, i]
+        H, y = jac.block(3 + i, [*arms[3 * i : 3 * i + 3], bias[i], *shared]), rec.accel[sl, i] - predicted[:, i]
         if block > 1:
             H, y = H.reshape(m, block, -1).mean(axis=1), y.reshape(m, block).mean(axis=1)
         rows.append((H, y))
@@ -301,8 +316,11 @@ def _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, arms=No
         block = interval_samples(rec, interval_s)
         pieces: dict = {}
         for window, sl in _spans(bias_index[k], chunk, block):
-            keep = (np.ones((sl.stop - sl.start) // block, dtype=bool) if left_out is None else
-                    ~left_out[k][sl].reshape(-1, block).any(axis=1))
+            keep = (
+                np.ones((sl.stop - sl.start) // block, dtype=bool)
+                if left_out is None
+                else ~left_out[k][sl].reshape(-1, block).any(axis=1)
+            )
             pieces.setdefault(window, []).append((_design(rec, sl, with_tilt, with_delay, block, arms, delay_s), keep))
         for window, parts in pieces.items():
             Hs = [np.concatenate([design[i][0] for design, _ in parts]) for i in range(3)]
@@ -360,9 +378,11 @@ def _check_observable(N, names, with_delay):
     Returns the eigenvalues of the column-scaled matrix (for the condition number)."""
     eigval, bad = unobservable(N, names)
     if bad:
-        raise CalibrationError(f"the rotations in the record(s) leave unobservable: {', '.join(bad)}; "
-                               "record rotations about at least two body axes (the paper rotates about Y, X "
-                               "and Z in turn)" + (", and about horizontal axes for the delay" if with_delay else ""))
+        raise CalibrationError(
+            f"the rotations in the record(s) leave unobservable: {', '.join(bad)}; "
+            "record rotations about at least two body axes (the paper rotates about Y, X "
+            "and Z in turn)" + (", and about horizontal axes for the delay" if with_delay else "")
+        )
     return eigval
 
 
@@ -422,9 +442,15 @@ def _layout(records, bias_window_s, with_tilt, with_delay):
     return bias_index, first, _names(labels, with_tilt, with_delay)
 
 
-def information(records: list[Record], density_mps2_per_sqrt_hz: float, *, with_tilt: bool = True,
-                with_delay: bool = False, bias_window_s: float | None = BIAS_WINDOW_S,
-                chunk: int = 1 << 16) -> tuple[list, np.ndarray]:
+def information(
+    records: list[Record],
+    density_mps2_per_sqrt_hz: float,
+    *,
+    with_tilt: bool = True,
+    with_delay: bool = False,
+    bias_window_s: float | None = BIAS_WINDOW_S,
+    chunk: int = 1 << 16,
+) -> tuple[list, np.ndarray]:
     """``(names, Fisher information)`` of the joint fit's parameters on these records' motion, the
     accelerometers' noise white with this density (per sample ``density^2 * rate``): what a
     calibration on them can reach, before any is recorded (:mod:`sizefx.plan`). The rows are the
@@ -433,14 +459,20 @@ def information(records: list[Record], density_mps2_per_sqrt_hz: float, *, with_
     segments = _rows(records, bias_index, with_tilt, with_delay, chunk, None)
     noise = []
     for rec in records:
-        var = density_mps2_per_sqrt_hz ** 2 / float(np.median(np.diff(rec.t)))
+        var = density_mps2_per_sqrt_hz**2 / float(np.median(np.diff(rec.t)))
         noise.append([ARNoise(np.zeros(0), var, var)] * 3)
     return names, _normal_equations(segments, noise, len(names), n_bias, with_tilt, with_delay)[0]
 
 
-def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool = False,
-              bias_window_s: float | None = BIAS_WINDOW_S, interval_s: float | None = INTERVAL_S,
-              chunk: int = 1 << 16) -> CalibrationResult:
+def joint_fit(
+    records: list[Record],
+    *,
+    with_tilt: bool = True,
+    with_delay: bool = False,
+    bias_window_s: float | None = BIAS_WINDOW_S,
+    interval_s: float | None = INTERVAL_S,
+    chunk: int = 1 << 16,
+) -> CalibrationResult:
     """Generalised least squares over the intervals (or samples) of all records, the noise of each
     record and channel an AR process fitted to the residuals; with the Cramer-Rao bound.
 
@@ -464,8 +496,10 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
     # which nothing rotates has nothing to say about the arms
     if not any(np.any(np.linalg.norm(rec.omega, axis=1) > ROTATING_RAD_S) for rec in records):
         listed = ", ".join(rec.name for rec in records)
-        raise CalibrationError(f"{listed}: the record never rotates (|omega| stays under 1 deg/s); "
-                               "no lever arm is observable: record rotations about at least two body axes")
+        raise CalibrationError(
+            f"{listed}: the record never rotates (|omega| stays under 1 deg/s); "
+            "no lever arm is observable: record rotations about at least two body axes"
+        )
     steps = [steps_in_angular_acceleration(rec) for rec in records]
     left_out = steps if with_delay else None
     segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, left_out=left_out)
@@ -477,8 +511,17 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
         if step == 2:
             break
         if step == 0 and with_delay:  # the delay's column with the lever terms, at the first arms and delay
-            segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, x[:9].reshape(3, 3),
-                             float(x[-1]), left_out)
+            segments = _rows(
+                records,
+                bias_index,
+                with_tilt,
+                with_delay,
+                chunk,
+                interval_s,
+                x[:9].reshape(3, 3),
+                float(x[-1]),
+                left_out,
+            )
         acov = _residual_autocovariance(segments, x, AR_MAX_ORDER, n_rec, n_bias, with_tilt, with_delay)
         noise = [[_floored(fit_ar(a)) for a in per_record] for per_record in acov]
     cov = np.linalg.inv(N)  # weights are the whitened rows' 1 / s2: the inverse is the covariance
@@ -492,31 +535,49 @@ def joint_fit(records: list[Record], *, with_tilt: bool = True, with_delay: bool
             limits[j] = UNDETERMINED_SIGMA["delay_s"]
     loose = np.flatnonzero(sig > limits)
     if loose.size:
-        listed = ", ".join(f"{names[j]} (sigma {sig[j] * (1e3 if j < 9 else 1):.3g}{' mm' if j < 9 else ''})"
-                           for j in loose)
-        raise CalibrationError(f"the rotations in the record(s) leave unobservable: {listed}; record rotations "
-                               "about at least two body axes (the paper rotates about Y, X and Z in turn)"
-                               + (", and about horizontal axes for the delay" if with_delay else ""))
+        listed = ", ".join(
+            f"{names[j]} (sigma {sig[j] * (1e3 if j < 9 else 1):.3g}{' mm' if j < 9 else ''})" for j in loose
+        )
+        raise CalibrationError(
+            f"the rotations in the record(s) leave unobservable: {listed}; record rotations "
+            "about at least two body axes (the paper rotates about Y, X and Z in turn)"
+            + (", and about horizontal axes for the delay" if with_delay else "")
+        )
     bound = np.sqrt(np.diag(np.linalg.inv(cramer_rao_fisher(segments, x, p, n_bias, with_tilt, with_delay, n_rec))))
     residual_rms = _residual_rms(records, bias_index, x, n_bias, with_tilt, with_delay, chunk, steps)
     c = 9 + 3 * n_bias
     windows = x[9:c].reshape(n_bias, 3)
     per_record = np.array([windows[np.unique(bias_index[k])].mean(axis=0) for k in range(n_rec)])
     return CalibrationResult(
-        arms=x[:9].reshape(3, 3), sigma_arms=sig[:9].reshape(3, 3), biases=per_record,
-        tilt_rad=x[c:c + 2] if with_tilt else None, sigma_tilt_rad=sig[c:c + 2] if with_tilt else None,
-        delay_s=float(x[-1]) if with_delay else None, sigma_delay_s=float(sig[-1]) if with_delay else None,
-        condition=float(eigval.max() / eigval.min()), residual_rms=residual_rms,
-        samples=int(sum(r.t.size for r in records)), names=names, covariance=cov, bound_sigma=bound,
+        arms=x[:9].reshape(3, 3),
+        sigma_arms=sig[:9].reshape(3, 3),
+        biases=per_record,
+        tilt_rad=x[c : c + 2] if with_tilt else None,
+        sigma_tilt_rad=sig[c : c + 2] if with_tilt else None,
+        delay_s=float(x[-1]) if with_delay else None,
+        sigma_delay_s=float(sig[-1]) if with_delay else None,
+        condition=float(eigval.max() / eigval.min()),
+        residual_rms=residual_rms,
+        samples=int(sum(r.t.size for r in records)),
+        names=names,
+        covariance=cov,
+        bound_sigma=bound,
         interval_s=interval_s or None,
         left_out_steps=sum(sum(1 for _ in _runs(mask)) for mask in left_out) if left_out else 0,
         left_out_s=float(sum(mask.sum() * np.median(np.diff(rec.t)) for mask, rec in zip(left_out, records)))
-        if left_out else 0.0,
-        noise=[{"record": rec.name, "channels": [_noise_summary(noise[k][i]) for i in range(3)]}
-               for k, rec in enumerate(records)])
+        if left_out
+        else 0.0,
+        noise=[
+            {"record": rec.name, "channels": [_noise_summary(noise[k][i]) for i in range(3)]}
+            for k, rec in enumerate(records)
+        ],
+    )
 
 
 def _noise_summary(model: ARNoise) -> dict:
     """What the fit took the noise of one record's channel to be (at the rows' rate), for the report and the JSON."""
-    return {"ar_order": model.order, "ar_coefficients": model.a.tolist(),
-            "long_run_variance_ratio": float(model.variance_ratio())}
+    return {
+        "ar_order": model.order,
+        "ar_coefficients": model.a.tolist(),
+        "long_run_variance_ratio": float(model.variance_ratio()),
+    }

@@ -67,9 +67,18 @@ def per_rotation_fit(rec: Record):
             coef, *_ = np.linalg.lstsq(H, rec.accel[i0:i1, i], rcond=None)
             resid = rec.accel[i0:i1, i] - H @ coef
             cov = np.linalg.inv(H.T @ H) * resid.var()
-            out.append({"axis": "xyz"[a], "channel": "xyz"[i], "t0": float(rec.t[i0]), "t1": float(rec.t[i1 - 1]),
-                        "bias": float(coef[0]), "r_own": float(-coef[1]), "r_other": float(eps * coef[2]),
-                        "other_component": "xyz"[j],
-                        "sigma_r_own": float(np.sqrt(cov[1, 1])), "sigma_r_other": float(np.sqrt(cov[2, 2]))})
+            out.append(
+                {
+                    "axis": "xyz"[a],
+                    "channel": "xyz"[i],
+                    "t0": float(rec.t[i0]),
+                    "t1": float(rec.t[i1 - 1]),
+                    "bias": float(coef[0]),
+                    "r_own": float(-coef[1]),
+                    "r_other": float(eps * coef[2]),
+                    "other_component": "xyz"[j],
+                    "sigma_r_own": float(np.sqrt(cov[1, 1])),
+                    "sigma_r_other": float(np.sqrt(cov[2, 2])),
+                }
+            )
     return out
-

@@ -47,8 +47,9 @@ def _noise_floor(accel: np.ndarray) -> np.ndarray:
     return 1.4826 * mad / np.sqrt(6.0)  # var(d2) = 6 sigma^2 for white noise
 
 
-def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WINDOW_S,
-               n_segments: int | None = None) -> Excitation:
+def excitation(
+    path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WINDOW_S, n_segments: int | None = None
+) -> Excitation:
     """One streamed pass over the IMU rows of ``path``: rates and angular accelerations per body
     axis, and the information the motion carries about each lever arm.
 
@@ -77,7 +78,7 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
         win_sum, win_outer, win_n = np.zeros((3, 3)), np.zeros((3, 3, 3)), 0
 
     # each continuous segment on its own: the angular acceleration is not estimated across a gap
-    for number in (range(1, n_segments + 1) if n_segments > 1 else [None]):
+    for number in range(1, n_segments + 1) if n_segments > 1 else [None]:
         with TelemetryStream(path, allow_gaps=allow_gaps, segment=number) as st:
             n, dt = st.n_samples, st.sample_period_s
             if n < MIN_SAMPLES:
@@ -101,8 +102,7 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
                 if acc.shape[0] > 16:
                     noise = np.minimum(noise, _noise_floor(acc))
                 h = _arm_columns(w, wd)  # [3, n, 3]
-                wid = (np.floor((t - t_first) / bias_window_s).astype(int) if bias_window_s
-                       else np.zeros(t.size, int))
+                wid = np.floor((t - t_first) / bias_window_s).astype(int) if bias_window_s else np.zeros(t.size, int)
                 for w_id in np.unique(wid):
                     if w_id != window:
                         close_window()
@@ -114,11 +114,13 @@ def excitation(path, *, allow_gaps: bool = False, bias_window_s: float = BIAS_WI
                     win_n += int(sel.sum())
     close_window()
     if n_total == 0:
-        raise CalibrationError(f"{path}: no continuous segment holds {MIN_SAMPLES} samples; calibration needs "
-                               "that many between gaps")
+        raise CalibrationError(
+            f"{path}: no continuous segment holds {MIN_SAMPLES} samples; calibration needs that many between gaps"
+        )
     n = n_total
-    return Excitation(str(path), n, t_last - t_first, np.sqrt(sum_w2 / n), np.sqrt(sum_wd2 / n),
-                      rotating * dt, info, noise)
+    return Excitation(
+        str(path), n, t_last - t_first, np.sqrt(sum_w2 / n), np.sqrt(sum_wd2 / n), rotating * dt, info, noise
+    )
 
 
 def _describe_motion(exc: list[Excitation]) -> str:
@@ -147,9 +149,11 @@ def preflight(paths, *, with_delay: bool = False, allow_gaps: bool = False) -> l
     exc = [excitation(p, allow_gaps=allow_gaps, n_segments=k) for p, k in zip(paths, segments)]
     if all(e.rotating_s == 0.0 for e in exc):
         names = ", ".join(e.path for e in exc)
-        raise CalibrationError(f"{names}: the record never rotates (|omega| stays under 1 deg/s; "
-                               f"{_describe_motion(exc)}); no lever arm is observable: record rotations about "
-                               "at least two body axes")
+        raise CalibrationError(
+            f"{names}: the record never rotates (|omega| stays under 1 deg/s; "
+            f"{_describe_motion(exc)}); no lever arm is observable: record rotations about "
+            "at least two body axes"
+        )
     weak, loose = [], []
     for i in range(3):
         info = np.zeros((3, 3))
@@ -169,17 +173,23 @@ def preflight(paths, *, with_delay: bool = False, allow_gaps: bool = False) -> l
             sigma = np.sqrt(np.diag(np.linalg.inv(info)))
             loose += [(3 * i + j, sigma[j]) for j in range(3) if sigma[j] > UNDETERMINED_SIGMA["arm_m"]]
     if weak or loose:
-        listed = ", ".join([PARAMS_R[j] for j in weak]
-                           + [f"{PARAMS_R[j]} (sigma at least {s * 1e3:.3g} mm)" for j, s in loose])
+        listed = ", ".join(
+            [PARAMS_R[j] for j in weak] + [f"{PARAMS_R[j]} (sigma at least {s * 1e3:.3g} mm)" for j, s in loose]
+        )
         names = ", ".join(Path(e.path).name for e in exc)
-        advice = ("record rotations about at least two body axes (the paper rotates about Y, X and Z in turn)"
-                  if weak else "the rotations are too small: record larger or longer rotations (an arm's sigma "
-                               "falls with the square of the rate and the square root of the time)")
-        raise CalibrationError(f"the rotations in {names} leave unobservable: {listed} ({_describe_motion(exc)}); "
-                               f"{advice}" + (", and rotations about horizontal axes for the delay" if with_delay else "")
-                               + "; found before fitting, from one pass over the gyros")
+        advice = (
+            "record rotations about at least two body axes (the paper rotates about Y, X and Z in turn)"
+            if weak
+            else "the rotations are too small: record larger or longer rotations (an arm's sigma "
+            "falls with the square of the rate and the square root of the time)"
+        )
+        raise CalibrationError(
+            f"the rotations in {names} leave unobservable: {listed} ({_describe_motion(exc)}); "
+            f"{advice}"
+            + (", and rotations about horizontal axes for the delay" if with_delay else "")
+            + "; found before fitting, from one pass over the gyros"
+        )
     return exc
-
 
 
 def _arm_columns(w, wd) -> np.ndarray:
@@ -187,4 +197,4 @@ def _arm_columns(w, wd) -> np.ndarray:
     model's lever-arm columns; they depend on the rates alone)."""
     jac = jacobian(SensorParams(), Motion(w, wd, np.zeros_like(w)), effects=["lever_arm"], sensors=("accel",))
     arms = param_index("lever_arm")
-    return np.stack([jac.block(3 + i, arms[3 * i:3 * i + 3]) for i in range(3)])
+    return np.stack([jac.block(3 + i, arms[3 * i : 3 * i + 3]) for i in range(3)])

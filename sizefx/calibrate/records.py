@@ -7,16 +7,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import earth
-from ..sync import sync_accelerometers
 from ..constants import DEG
 from ..errors import SizefxError
 from ..io.telemetry import Telemetry
 from ..omegadot import savgol
 from ..rotation import quat_interp, quat_spline, quat_to_mat
 from ..sensor_model import Motion, cross
+from ..sync import sync_accelerometers
 
-__all__ = ["CalibrationError", "Record", "prepare", "reference_attitude", "motion_of", "MIN_SAMPLES",
-           "ROTATING_RAD_S", "SPLINE_REFERENCE_STEPS"]
+__all__ = [
+    "CalibrationError",
+    "Record",
+    "prepare",
+    "reference_attitude",
+    "motion_of",
+    "MIN_SAMPLES",
+    "ROTATING_RAD_S",
+    "SPLINE_REFERENCE_STEPS",
+]
 
 #: Fewest samples a record may have: the Savitzky-Golay angular-acceleration window, with room.
 MIN_SAMPLES = 4 * 41
@@ -52,11 +60,15 @@ def _require_reference_site_samples(path, reference, site, n_samples: int):
     """What a record must hold to be calibrated: /reference attitude, a site (or reference
     position) for normal gravity, and enough samples; a one-line refusal otherwise."""
     if reference is None:
-        raise CalibrationError(f"{path}: calibration needs /reference attitude (what the table reports); "
-                               "this record has none (sizefx inspect shows what it holds)")
+        raise CalibrationError(
+            f"{path}: calibration needs /reference attitude (what the table reports); "
+            "this record has none (sizefx inspect shows what it holds)"
+        )
     if site is None and not reference.has_position:
-        raise CalibrationError(f"{path}: no site: normal gravity needs latitude and height; add the root "
-                               "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
+        raise CalibrationError(
+            f"{path}: no site: normal gravity needs latitude and height; add the root "
+            "attributes latitude_deg, longitude_deg, height_m (sizefx import --site-deg)"
+        )
     if n_samples < MIN_SAMPLES:
         raise CalibrationError(f"{path}: {n_samples} samples; calibration needs at least {MIN_SAMPLES}")
 
@@ -71,10 +83,20 @@ def prepare(tel: Telemetry, name: str = "") -> Record:
     else:  # increments -> mean rates over each interval, stamped at its midpoint
         t, omega, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
     mat_nb = quat_to_mat(reference_attitude(tel.reference.time_s, tel.reference.quat_nb, t))
-    lat, h = (tel.site.lat_rad, tel.site.height_m) if tel.site is not None else (
-        tel.reference.lat_rad[0], tel.reference.height_m[0])
-    return Record(name or str(tel.path), t, accel, omega, savgol(omega, dt), mat_nb,
-                  np.asarray(earth.gravity_n(lat, h), dtype=float))
+    lat, h = (
+        (tel.site.lat_rad, tel.site.height_m)
+        if tel.site is not None
+        else (tel.reference.lat_rad[0], tel.reference.height_m[0])
+    )
+    return Record(
+        name or str(tel.path),
+        t,
+        accel,
+        omega,
+        savgol(omega, dt),
+        mat_nb,
+        np.asarray(earth.gravity_n(lat, h), dtype=float),
+    )
 
 
 def _gravity_in_body(mat_nb, g_n):
@@ -100,7 +122,6 @@ def reference_attitude(t_ref, quat_ref, t):
     return quat_interp(t_ref, quat_ref, t)
 
 
-
 def motion_of(rec: Record, sl: slice, *, with_rate: bool = False) -> Motion:
     """The motion the calibration model assumes on samples ``sl``: the gyros' rates and their derivative,
     and gravity's specific force in the reported attitude (a table at rest on the Earth; its own
@@ -112,5 +133,5 @@ def motion_of(rec: Record, sl: slice, *, with_rate: bool = False) -> Motion:
     # the angular jerk (the delay's lever terms): central differences of the filtered derivative,
     # with a neighbour either side of the slice where the record has one
     lo, hi = max(sl.start - 1, 0), min(sl.stop + 1, rec.t.size)
-    jerk = np.gradient(rec.omegadot[lo:hi], rec.t[lo:hi], axis=0)[sl.start - lo:sl.stop - lo]
+    jerk = np.gradient(rec.omegadot[lo:hi], rec.t[lo:hi], axis=0)[sl.start - lo : sl.stop - lo]
     return Motion(w, rec.omegadot[sl], f, mat_nb=rec.mat_nb[sl], fdot_b=-cross(w, f), omegaddot_ib_b=jerk)

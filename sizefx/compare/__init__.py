@@ -141,8 +141,9 @@ def run(config: CompareConfig, *, progress=None) -> CompareResult:
     ``progress(done, total)`` is called after each file read, after the comparisons and
     after the outputs.
     """
-    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force,
-              folders={"--plots": config.plots_dir})
+    preflight(
+        inputs=config.inputs(), outputs=config.outputs(), force=config.force, folders={"--plots": config.plots_dir}
+    )
     if config.plots_dir:
         pyplot()  # fail before the work when matplotlib is missing
     with_ref = config.reference is not None
@@ -158,8 +159,11 @@ def run(config: CompareConfig, *, progress=None) -> CompareResult:
         tracks[key] = read_track(path)
         tick(k)
     if with_ref:
-        comparisons = [compare(tracks["A"], tracks["REF"], "A vs REF"), compare(tracks["B"], tracks["REF"], "B vs REF"),
-                       compare(tracks["A"], tracks["B"], "A vs B", track=tracks["REF"])]
+        comparisons = [
+            compare(tracks["A"], tracks["REF"], "A vs REF"),
+            compare(tracks["B"], tracks["REF"], "B vs REF"),
+            compare(tracks["A"], tracks["B"], "A vs B", track=tracks["REF"]),
+        ]
     else:
         comparisons = [compare(tracks["A"], tracks["B"], "A vs B")]
     tick(total - 1)

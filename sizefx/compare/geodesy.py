@@ -39,8 +39,9 @@ def surface_ecef_m(lat_rad, lon_rad) -> np.ndarray:
     lat = np.asarray(lat_rad, dtype=float)
     lon = np.asarray(lon_rad, dtype=float)
     n = WGS84_A_M / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
-    return np.stack([n * np.cos(lat) * np.cos(lon), n * np.cos(lat) * np.sin(lon),
-                     n * (1.0 - WGS84_E2) * np.sin(lat)], axis=-1)
+    return np.stack(
+        [n * np.cos(lat) * np.cos(lon), n * np.cos(lat) * np.sin(lon), n * (1.0 - WGS84_E2) * np.sin(lat)], axis=-1
+    )
 
 
 def horizontal_offset_m(lat_a_rad, lon_a_rad, lat_b_rad, lon_b_rad):
@@ -114,6 +115,10 @@ def velocity_from_position(time_s, lat_rad, lon_rad, height_m) -> np.ndarray:
     lat = np.asarray(lat_rad, dtype=float)
     h = np.asarray(height_m, dtype=float)
     r_mer, r_tr = earth.radii_m(lat)
-    return np.column_stack([np.gradient(lat, t) * (r_mer + h),
-                            np.gradient(np.unwrap(np.asarray(lon_rad, dtype=float)), t) * (r_tr + h) * np.cos(lat),
-                            -np.gradient(h, t)])
+    return np.column_stack(
+        [
+            np.gradient(lat, t) * (r_mer + h),
+            np.gradient(np.unwrap(np.asarray(lon_rad, dtype=float)), t) * (r_tr + h) * np.cos(lat),
+            -np.gradient(h, t),
+        ]
+    )

@@ -159,46 +159,63 @@ def compare(a: Track, b: Track, label: str = "A vs B", track: Track | None = Non
     lo = max(a.time_s[0], b.time_s[0]) - TIME_SLACK_S
     hi = min(a.time_s[-1], b.time_s[-1]) + TIME_SLACK_S
     sel = np.flatnonzero((a.time_s >= lo) & (a.time_s <= hi))
-    spans = (f"{a.time_s[0]:.3f}..{a.time_s[-1]:.3f} s against {b.name} {b.time_s[0]:.3f}..{b.time_s[-1]:.3f} s "
-             f"({b.time_dataset})")
+    spans = (
+        f"{a.time_s[0]:.3f}..{a.time_s[-1]:.3f} s against {b.name} {b.time_s[0]:.3f}..{b.time_s[-1]:.3f} s "
+        f"({b.time_dataset})"
+    )
     if sel.size == 0:
-        raise TelemetryError(a.name, a.time_dataset, f"no time overlap: {spans}; compare solutions of the same "
-                                                     "record on the same clock")
+        raise TelemetryError(
+            a.name, a.time_dataset, f"no time overlap: {spans}; compare solutions of the same record on the same clock"
+        )
     if sel.size < MIN_OVERLAP_SAMPLES:
-        raise TelemetryError(a.name, a.time_dataset, f"only {sel.size} sample inside the time overlap: {spans}; "
-                                                     f"need at least {MIN_OVERLAP_SAMPLES}")
+        raise TelemetryError(
+            a.name,
+            a.time_dataset,
+            f"only {sel.size} sample inside the time overlap: {spans}; need at least {MIN_OVERLAP_SAMPLES}",
+        )
     notes = [*a.notes, *b.notes]
     t = a.time_s[sel]
     derived = {"a": a.vel_n_mps is None, "b": b.vel_n_mps is None}
-    vel_a = a.vel_n_mps if a.vel_n_mps is not None else velocity_from_position(a.time_s, a.lat_rad, a.lon_rad,
-                                                                               a.height_m)
-    vel_b = b.vel_n_mps if b.vel_n_mps is not None else velocity_from_position(b.time_s, b.lat_rad, b.lon_rad,
-                                                                               b.height_m)
+    vel_a = (
+        a.vel_n_mps if a.vel_n_mps is not None else velocity_from_position(a.time_s, a.lat_rad, a.lon_rad, a.height_m)
+    )
+    vel_b = (
+        b.vel_n_mps if b.vel_n_mps is not None else velocity_from_position(b.time_s, b.lat_rad, b.lon_rad, b.height_m)
+    )
     for key, which in (("a", a), ("b", b)):
         if derived[key]:
             notes.append(f"{which.name} has no velocity: derived from its positions by central differences")
     lat_b, lon_b, h_b, v_b, q_b = _at(b, t, vel_b)
     if b.median_step_s > SPARSE_FACTOR * a.median_step_s:
-        notes.append(f"{b.name} is sampled every {b.median_step_s:.4g} s, sparser than {a.name} "
-                     f"({a.median_step_s:.4g} s): differences between its samples include its linear interpolation")
+        notes.append(
+            f"{b.name} is sampled every {b.median_step_s:.4g} s, sparser than {a.name} "
+            f"({a.median_step_s:.4g} s): differences between its samples include its linear interpolation"
+        )
 
     horiz, north, east = horizontal_offset_m(a.lat_rad[sel], a.lon_rad[sel], lat_b, lon_b)
     if track is None or track is b:
         v_track, track_name = v_b, b.name
     else:
-        vel_t = track.vel_n_mps if track.vel_n_mps is not None else velocity_from_position(
-            track.time_s, track.lat_rad, track.lon_rad, track.height_m)
+        vel_t = (
+            track.vel_n_mps
+            if track.vel_n_mps is not None
+            else velocity_from_position(track.time_s, track.lat_rad, track.lon_rad, track.height_m)
+        )
         v_track, track_name = _at(track, t, vel_t)[3], track.name
     along, cross = along_cross_track_m(north, east, v_track)
     span_a, span_b = a.time_s[-1] - a.time_s[0], b.time_s[-1] - b.time_s[0]
     covered = (t[-1] - t[0]) / max(min(span_a, span_b), 1e-300)
     if covered < 0.9:
-        notes.append(f"the compared span ({t[0]:.1f}..{t[-1]:.1f} s) covers {100 * covered:.0f} % of the shorter "
-                     "record: final figures are at its end, not at the end of either record")
+        notes.append(
+            f"the compared span ({t[0]:.1f}..{t[-1]:.1f} s) covers {100 * covered:.0f} % of the shorter "
+            "record: final figures are at its end, not at the end of either record"
+        )
     undefined = int(np.count_nonzero(np.isnan(along)))
     if undefined:
-        notes.append(f"along/cross-track undefined at {undefined} of {t.size} samples where the ground speed of "
-                     f"{track_name} is under {MIN_GROUND_SPEED_MPS:g} m/s (reported as null)")
+        notes.append(
+            f"along/cross-track undefined at {undefined} of {t.size} samples where the ground speed of "
+            f"{track_name} is under {MIN_GROUND_SPEED_MPS:g} m/s (reported as null)"
+        )
     dh = a.height_m[sel] - h_b
     v_a = vel_a[sel]
     dv = v_a - v_b
@@ -207,8 +224,14 @@ def compare(a: Track, b: Track, label: str = "A vs B", track: Track | None = Non
     if a.quat_nb is not None and q_b is not None:
         roll_a, pitch_a, head_a = mat_to_euler(quat_to_mat(a.quat_nb[sel]))
         roll_b, pitch_b, head_b = mat_to_euler(quat_to_mat(q_b))
-        att = np.column_stack([_wrap_pi(roll_a - roll_b), _wrap_pi(pitch_a - pitch_b), _wrap_pi(head_a - head_b),
-                               _rotation_angle_rad(a.quat_nb[sel], q_b)])
+        att = np.column_stack(
+            [
+                _wrap_pi(roll_a - roll_b),
+                _wrap_pi(pitch_a - pitch_b),
+                _wrap_pi(head_a - head_b),
+                _rotation_angle_rad(a.quat_nb[sel], q_b),
+            ]
+        )
     else:
         missing = a.name if a.quat_nb is None else b.name
         notes.append(f"{missing} has no attitude: attitude not compared")
@@ -217,21 +240,36 @@ def compare(a: Track, b: Track, label: str = "A vs B", track: Track | None = Non
     k_max = int(np.argmax(horiz))
     per_hour = 3600.0 / elapsed / METRES_PER_NMI if elapsed > 0.0 else float("nan")
     summary = {
-        "label": label, "a": a.name, "b": b.name, "samples": int(t.size),
-        "time_start_s": float(t[0]), "time_end_s": float(t[-1]), "elapsed_s": elapsed,
+        "label": label,
+        "a": a.name,
+        "b": b.name,
+        "samples": int(t.size),
+        "time_start_s": float(t[0]),
+        "time_end_s": float(t[-1]),
+        "elapsed_s": elapsed,
         "horizontal_m": {**_magnitude_stats(horiz), "time_of_max_s": float(t[k_max])},
         "along_track_m": _signed_stats(along),
         "cross_track_m": _signed_stats(cross),
         "track_defined_samples": int(t.size - undefined),
         "drift_nmi_per_h": {"final": _num(horiz[-1] * per_hour), "max": _num(horiz[k_max] * per_hour)},
         "height_m": _signed_stats(dh),
-        "velocity_mps": {"north": _signed_stats(dv[:, 0]), "east": _signed_stats(dv[:, 1]),
-                         "down": _signed_stats(dv[:, 2]), "ground_speed": _signed_stats(dgs)},
+        "velocity_mps": {
+            "north": _signed_stats(dv[:, 0]),
+            "east": _signed_stats(dv[:, 1]),
+            "down": _signed_stats(dv[:, 2]),
+            "ground_speed": _signed_stats(dgs),
+        },
         "velocity_derived": derived,
-        "attitude_deg": None if att is None else {
-            "roll": _signed_stats(np.degrees(att[:, 0])), "pitch": _signed_stats(np.degrees(att[:, 1])),
-            "heading": _signed_stats(np.degrees(att[:, 2])), "total": _magnitude_stats(np.degrees(att[:, 3]))},
+        "attitude_deg": None
+        if att is None
+        else {
+            "roll": _signed_stats(np.degrees(att[:, 0])),
+            "pitch": _signed_stats(np.degrees(att[:, 1])),
+            "heading": _signed_stats(np.degrees(att[:, 2])),
+            "total": _magnitude_stats(np.degrees(att[:, 3])),
+        },
         "notes": notes,
     }
-    return Comparison(label, a.name, b.name, t, horiz, north, east, along, cross, dh, dv, dgs, att, derived,
-                      summary, notes)
+    return Comparison(
+        label, a.name, b.name, t, horiz, north, east, along, cross, dh, dv, dgs, att, derived, summary, notes
+    )

@@ -102,34 +102,68 @@ def read_track(path) -> Track:
     path = Path(path)
     with open_hdf5(path, _READS) as h5:
         if "schema" not in h5.attrs:
-            raise TelemetryError(path, "/", f"root attribute 'schema' is missing; compare reads {NAVIGATION_SCHEMA} "
-                                            f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position")
+            raise TelemetryError(
+                path,
+                "/",
+                f"root attribute 'schema' is missing; compare reads {NAVIGATION_SCHEMA} "
+                f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position",
+            )
         declared = attr_str(h5.attrs["schema"])
         if declared == NAVIGATION_SCHEMA:
             sol = read_navigation_datasets(path, h5)
-            return Track(sol.time_s, sol.lat_rad, sol.lon_rad, sol.height_m, sol.v_n, sol.quat_nb, name=str(path),
-                         time_dataset="/time")
+            return Track(
+                sol.time_s,
+                sol.lat_rad,
+                sol.lon_rad,
+                sol.height_m,
+                sol.v_n,
+                sol.quat_nb,
+                name=str(path),
+                time_dataset="/time",
+            )
     if declared == TELEMETRY_SCHEMA:
         return _read_telemetry_track(path)
-    raise TelemetryError(path, "/", f"root attribute schema is '{declared}'; compare reads {NAVIGATION_SCHEMA} "
-                                    f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position")
+    raise TelemetryError(
+        path,
+        "/",
+        f"root attribute schema is '{declared}'; compare reads {NAVIGATION_SCHEMA} "
+        f"(sizefx navigate -o) or {TELEMETRY_SCHEMA} with /reference/position",
+    )
 
 
 def _read_telemetry_track(path: Path) -> Track:
     tel = read_telemetry(path, allow_gaps=True)
     ref = tel.reference
     if ref is None:
-        raise TelemetryError(path, "/reference", "group is missing; compare needs /reference/position "
-                                                 "(latitude, longitude, height) or a navigation file")
+        raise TelemetryError(
+            path,
+            "/reference",
+            "group is missing; compare needs /reference/position (latitude, longitude, height) or a navigation file",
+        )
     if not ref.has_position:
-        raise TelemetryError(path, "/reference/position", "dataset is missing; compare needs the reference "
-                                                          "position (latitude, longitude, height) of a telemetry file")
+        raise TelemetryError(
+            path,
+            "/reference/position",
+            "dataset is missing; compare needs the reference "
+            "position (latitude, longitude, height) of a telemetry file",
+        )
     notes = []
     quat = ref.quat_nb
     if tel.source and tel.source.get("reference_is_approximate"):
         # As sizefx navigate does: an importer marked the attitude as approximate (e.g. PSINS's).
         quat = None
-        notes.append(f"{path}: the reference attitude is marked approximate (/source reference_is_approximate); "
-                     "attitude not compared")
-    return Track(ref.time_s, ref.lat_rad, ref.lon_rad, ref.height_m, ref.velocity_n_mps, quat, name=str(path),
-                 time_dataset="/reference/time", notes=notes)
+        notes.append(
+            f"{path}: the reference attitude is marked approximate (/source reference_is_approximate); "
+            "attitude not compared"
+        )
+    return Track(
+        ref.time_s,
+        ref.lat_rad,
+        ref.lon_rad,
+        ref.height_m,
+        ref.velocity_n_mps,
+        quat,
+        name=str(path),
+        time_dataset="/reference/time",
+        notes=notes,
+    )

@@ -53,30 +53,121 @@ from ..stage import preflight
 from .candidates import CANDIDATES, PRIORITY, Candidate, jacobian_columns, numeric_jacobian
 from .fit import KAPPA_BLOCK_S, MAX_PASSES, Diagnosis, diagnose
 from .naming import Effect
-from .predictor import Predictor, predict_readings
-from .reference import (EDGE_REFERENCE_PERIODS, EDGE_S, MAX_SAMPLES, MIN_REFERENCE_ROWS, MIN_SAMPLES,
-                        REFERENCE_GAP_FACTOR, DiagnoseError, ReferenceMotion, crop, require_reference)
-from .report import (DIAGNOSIS_SCHEMA, DIAGNOSIS_SCHEMAS, PLOT_FILES, check_diagnosis, format_report, model_document,
-                     model_header, model_toml, plot, read_diagnosis, to_json)
 from .normal import FOLDS, MAX_ROWS, TARGET_BLOCKS
 from .plausibility import GRADES, check_grade
-from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, NP, PARAMS, TAU_A,
-                    TAU_R, TILT, UG, Param, theta_from_model)
+from .predictor import Predictor, predict_readings
+from .reference import (
+    EDGE_REFERENCE_PERIODS,
+    EDGE_S,
+    MAX_SAMPLES,
+    MIN_REFERENCE_ROWS,
+    MIN_SAMPLES,
+    REFERENCE_GAP_FACTOR,
+    DiagnoseError,
+    ReferenceMotion,
+    crop,
+    require_reference,
+)
+from .report import (
+    DIAGNOSIS_SCHEMA,
+    DIAGNOSIS_SCHEMAS,
+    PLOT_FILES,
+    check_diagnosis,
+    format_report,
+    model_document,
+    model_header,
+    model_toml,
+    plot,
+    read_diagnosis,
+    to_json,
+)
+from .theta import (
+    A_BIAS,
+    A_K2,
+    A_MIS,
+    A_SF,
+    CHANNELS,
+    DEG_PER_H,
+    G_BIAS,
+    G_G,
+    G_MIS,
+    G_SF,
+    LEVER,
+    NP,
+    PARAMS,
+    TAU_A,
+    TAU_R,
+    TILT,
+    UG,
+    Param,
+    theta_from_model,
+)
 
 __all__ = [
     # the stage
-    "DiagnoseConfig", "DiagnoseResult", "run", "start_model", "navigation_gain", "NAVIGATION_MIN_S",
+    "DiagnoseConfig",
+    "DiagnoseResult",
+    "run",
+    "start_model",
+    "navigation_gain",
+    "NAVIGATION_MIN_S",
     # the library under it
-    "diagnose", "Diagnosis", "Effect", "DiagnoseError", "crop", "ReferenceMotion", "Predictor", "predict_readings",
-    "Candidate", "CANDIDATES", "PRIORITY", "jacobian_columns", "numeric_jacobian",
-    "format_report", "to_json", "plot", "model_document", "model_toml", "DIAGNOSIS_SCHEMA", "DIAGNOSIS_SCHEMAS",
-    "PLOT_FILES", "check_diagnosis", "read_diagnosis",
+    "diagnose",
+    "Diagnosis",
+    "Effect",
+    "DiagnoseError",
+    "crop",
+    "ReferenceMotion",
+    "Predictor",
+    "predict_readings",
+    "Candidate",
+    "CANDIDATES",
+    "PRIORITY",
+    "jacobian_columns",
+    "numeric_jacobian",
+    "format_report",
+    "to_json",
+    "plot",
+    "model_document",
+    "model_toml",
+    "DIAGNOSIS_SCHEMA",
+    "DIAGNOSIS_SCHEMAS",
+    "PLOT_FILES",
+    "check_diagnosis",
+    "read_diagnosis",
     # the model vector
-    "Param", "PARAMS", "NP", "theta_from_model", "CHANNELS", "UG", "DEG_PER_H",
-    "A_BIAS", "A_SF", "A_MIS", "A_K2", "LEVER", "TAU_A", "TAU_R", "TILT", "G_BIAS", "G_SF", "G_MIS", "G_G",
+    "Param",
+    "PARAMS",
+    "NP",
+    "theta_from_model",
+    "CHANNELS",
+    "UG",
+    "DEG_PER_H",
+    "A_BIAS",
+    "A_SF",
+    "A_MIS",
+    "A_K2",
+    "LEVER",
+    "TAU_A",
+    "TAU_R",
+    "TILT",
+    "G_BIAS",
+    "G_SF",
+    "G_MIS",
+    "G_G",
     # limits
-    "MIN_SAMPLES", "MAX_SAMPLES", "MAX_ROWS", "MIN_REFERENCE_ROWS", "EDGE_S", "EDGE_REFERENCE_PERIODS",
-    "REFERENCE_GAP_FACTOR", "FOLDS", "TARGET_BLOCKS", "KAPPA_BLOCK_S", "MAX_PASSES", "GRADES",
+    "MIN_SAMPLES",
+    "MAX_SAMPLES",
+    "MAX_ROWS",
+    "MIN_REFERENCE_ROWS",
+    "EDGE_S",
+    "EDGE_REFERENCE_PERIODS",
+    "REFERENCE_GAP_FACTOR",
+    "FOLDS",
+    "TARGET_BLOCKS",
+    "KAPPA_BLOCK_S",
+    "MAX_PASSES",
+    "GRADES",
 ]
 
 #: Records at least this long, with reference position, are also navigated before and after [s].
@@ -110,15 +201,20 @@ class DiagnoseConfig:
     def __post_init__(self):
         _one_start_model(self.nominal, self.model)
         if self.segment is not None and (self.from_s is not None or self.to_s is not None):
-            raise ConfigError(f"{self.input}: --segment {self.segment} and --from-s/--to-s both choose the span; "
-                              "give one (sizefx inspect lists each segment's times)")
+            raise ConfigError(
+                f"{self.input}: --segment {self.segment} and --from-s/--to-s both choose the span; "
+                "give one (sizefx inspect lists each segment's times)"
+            )
         if self.bandwidth_hz is not None and not (math.isfinite(self.bandwidth_hz) and self.bandwidth_hz > 0.0):
-            raise ConfigError(f"--bandwidth-hz {self.bandwidth_hz:g} must be a positive frequency [Hz] (below 0.8 "
-                              "times the record's Nyquist frequency)")
+            raise ConfigError(
+                f"--bandwidth-hz {self.bandwidth_hz:g} must be a positive frequency [Hz] (below 0.8 "
+                "times the record's Nyquist frequency)"
+            )
         object.__setattr__(self, "grade", check_grade(self.grade))
         if self.from_s is not None and self.to_s is not None and not self.from_s < self.to_s:
-            raise ConfigError(f"--from-s {self.from_s:g} and --to-s {self.to_s:g}: the span is empty; give --from-s "
-                              "before --to-s")
+            raise ConfigError(
+                f"--from-s {self.from_s:g} and --to-s {self.to_s:g}: the span is empty; give --from-s before --to-s"
+            )
 
     @property
     def model_out_path(self) -> Path:
@@ -219,12 +315,17 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     path = config.input
     tel = read_telemetry(path, allow_gaps=config.allow_gaps, segment=config.segment)
     require_reference(tel)
-    d = diagnose(crop(tel, config.from_s, config.to_s), theta0, bandwidth_hz=config.bandwidth_hz,
-                 grade=config.grade, keep_series=bool(config.plots), progress=progress)
+    d = diagnose(
+        crop(tel, config.from_s, config.to_s),
+        theta0,
+        bandwidth_hz=config.bandwidth_hz,
+        grade=config.grade,
+        keep_series=bool(config.plots),
+        progress=progress,
+    )
     inputs = [p for p in config.inputs().values() if p is not None]
     model_out = config.model_out_path
-    write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs,
-               force=config.force)
+    write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs, force=config.force)
     d.model_path = str(model_out)
     if config.navigation:
         d.navigation = navigation_gain(tel, theta0, d.theta)
@@ -235,5 +336,10 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     written = plot(d, config.plots, force=config.force) if config.plots else []
     if written:
         doc["plots"] = written
-    return DiagnoseResult(diagnosis=d, start=start, document=doc,
-                          json_path=None if not config.json_path else str(config.json_path), plots=written)
+    return DiagnoseResult(
+        diagnosis=d,
+        start=start,
+        document=doc,
+        json_path=None if not config.json_path else str(config.json_path),
+        plots=written,
+    )

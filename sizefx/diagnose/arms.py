@@ -32,18 +32,22 @@ def _split_matrix(axes: np.ndarray) -> np.ndarray:
     return np.vstack([T, np.eye(9) - np.vstack([T, T, T])])
 
 
-def split_arms(arms_m: np.ndarray, cov_m2: np.ndarray, axes: np.ndarray = np.eye(3)) -> dict:
+def split_arms(arms_m: np.ndarray, cov_m2: np.ndarray, axes: np.ndarray | None = None) -> dict:
     """The triad point and the arms from it, with their standard errors.
 
     ``arms_m`` [3, 3]: rows r_x, r_y, r_z from the reference point [m], body axes; ``cov_m2`` [9, 9]:
     their covariance (rows of ``arms_m`` flattened; zero rows for arms held at a fixed value);
-    ``axes`` [3, 3]: the sensitive axes (rows).
+    ``axes`` [3, 3]: the sensitive axes (rows); None: the body axes.
 
     Returns ``{"triad_point_m": [3], "triad_point_sigma_m": [3], "d_m": [3, 3], "d_sigma_m": [3, 3]}``
     (lists, SI).
     """
-    J = _split_matrix(np.asarray(axes, dtype=float))
+    J = _split_matrix(np.eye(3) if axes is None else np.asarray(axes, dtype=float))
     value = J @ np.asarray(arms_m, dtype=float).ravel()
     sigma = np.sqrt(np.clip(np.einsum("ij,jk,ik->i", J, np.asarray(cov_m2, dtype=float), J), 0.0, None))
-    return {"triad_point_m": value[:3].tolist(), "triad_point_sigma_m": sigma[:3].tolist(),
-            "d_m": value[3:].reshape(3, 3).tolist(), "d_sigma_m": sigma[3:].reshape(3, 3).tolist()}
+    return {
+        "triad_point_m": value[:3].tolist(),
+        "triad_point_sigma_m": sigma[:3].tolist(),
+        "d_m": value[3:].reshape(3, 3).tolist(),
+        "d_sigma_m": sigma[3:].reshape(3, 3).tolist(),
+    }

@@ -24,9 +24,19 @@ import numpy as np
 
 from .theta import CHANNELS
 
-__all__ = ["BandChoice", "choose_bandwidth", "RESOLUTION_HZ", "MIN_SEGMENTS", "BANDS_PER_OCTAVE",
-           "NOISE_TO_MOTION", "PERSIST_BANDS", "MOTION_SHARE", "NUMERICAL_FLOOR",
-           "MAX_FRACTION_OF_NYQUIST", "READABLE"]
+__all__ = [
+    "BandChoice",
+    "choose_bandwidth",
+    "RESOLUTION_HZ",
+    "MIN_SEGMENTS",
+    "BANDS_PER_OCTAVE",
+    "NOISE_TO_MOTION",
+    "PERSIST_BANDS",
+    "MOTION_SHARE",
+    "NUMERICAL_FLOOR",
+    "MAX_FRACTION_OF_NYQUIST",
+    "READABLE",
+]
 
 #: Frequency resolution of the spectra [Hz]: 4 s segments, fine enough for 1/3-octave bands
 #: from 0.5 Hz up (a hand-held motion, 1-10 Hz, spans many bands); a slower motion (a table
@@ -140,7 +150,7 @@ def _spectra(measured, predicted, mask, fs_hz):
     chunk = max(1, (1 << 22) // (nperseg * 6))  # segments per batch: ~32 MB of float64 at a time
     for i in range(0, starts.size, chunk):
         first = int(starts[i])
-        idx = starts[i:i + chunk, None] - first + np.arange(nperseg)
+        idx = starts[i : i + chunk, None] - first + np.arange(nperseg)
         stop = first + int(idx[-1, -1]) + 1
         spec = []
         for x in (measured, predicted):
@@ -213,10 +223,13 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
     names = list(CHANNELS)
     spectra = _spectra(measured, predicted, mask, fs_hz)
     if spectra is None:
-        return BandChoice(None, f"the full band: the {int(mask.sum())} usable samples hold fewer than "
-                                f"{MIN_SEGMENTS} segments of {MIN_NPERSEG} samples to measure the reference's noise "
-                                "from",
-                          {c: None for c in names})
+        return BandChoice(
+            None,
+            f"the full band: the {int(mask.sum())} usable samples hold fewer than "
+            f"{MIN_SEGMENTS} segments of {MIN_NPERSEG} samples to measure the reference's noise "
+            "from",
+            {c: None for c in names},
+        )
     f, p_mm, p_pp, p_mp = spectra
     df = f[1] - f[0]
     # 1/3-octave bands from two bins up (the lowest bins hold the trend the segments lost) to
@@ -227,8 +240,12 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
     bands = [(a, b, (f >= a) & (f < b)) for a, b in zip(edges[:-1], edges[1:])]
     bands = [(a, b, sel) for a, b, sel in bands if sel.any()]
     if len(bands) < PERSIST_BANDS:
-        return BandChoice(None, f"the full band: the {fs_hz:g} Hz record leaves too few frequency bands to "
-                                "measure the reference's noise in", {c: None for c in names})
+        return BandChoice(
+            None,
+            f"the full band: the {fs_hz:g} Hz record leaves too few frequency bands to "
+            "measure the reference's noise in",
+            {c: None for c in names},
+        )
     S = np.array([np.abs(p_mp[sel]).mean(axis=0) for _, _, sel in bands])  # [nb, 6]
     n_ref = np.array([p_pp[sel].mean(axis=0) for _, _, sel in bands]) - S
     n_imu = np.array([p_mm[sel].mean(axis=0) for _, _, sel in bands]) - S
@@ -247,28 +264,46 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
             start += 1  # the first band wholly above the motion's
         per_channel[name] = None
         for b in range(start, len(bands) - PERSIST_BANDS + 1):
-            if bad[b:b + PERSIST_BANDS, c].all():
+            if bad[b : b + PERSIST_BANDS, c].all():
                 per_channel[name] = float(lower[b])
                 break
     motion_hz = float(np.median(motion)) if motion else None
     limits = {n: v for n, v in per_channel.items() if v is not None}
     span = f"{float(t_s[-1] - t_s[0]):.0f} s" if len(t_s) > 1 else "the record"
     if not limits:
-        return BandChoice(None, f"the full band: in {span} the reference's noise stays below "
-                                f"{NOISE_TO_MOTION:g} of the motion's power or below the IMU's own noise up to "
-                                f"{upper[-1]:.0f} Hz on every channel", per_channel, motion_hz)
+        return BandChoice(
+            None,
+            f"the full band: in {span} the reference's noise stays below "
+            f"{NOISE_TO_MOTION:g} of the motion's power or below the IMU's own noise up to "
+            f"{upper[-1]:.0f} Hz on every channel",
+            per_channel,
+            motion_hz,
+        )
     first = min(limits, key=limits.get)
     band = readable_floor(limits[first])
-    why = (f"below {band:g} Hz: the reference's noise (the prediction's power the IMU does not see) exceeds "
-           f"{NOISE_TO_MOTION:g} of the motion's power and the IMU's own noise from {limits[first]:.1f} Hz on "
-           f"{first}" + (f"; the motion lies below {motion_hz:.1f} Hz" if motion_hz is not None else
-                         "; no band where the motion dominates both noises"))
+    why = (
+        f"below {band:g} Hz: the reference's noise (the prediction's power the IMU does not see) exceeds "
+        f"{NOISE_TO_MOTION:g} of the motion's power and the IMU's own noise from {limits[first]:.1f} Hz on "
+        f"{first}"
+        + (
+            f"; the motion lies below {motion_hz:.1f} Hz"
+            if motion_hz is not None
+            else "; no band where the motion dominates both noises"
+        )
+    )
     if motion_hz is not None and band < motion_hz:
         band = readable_ceil(motion_hz)
-        why = (f"below {band:g} Hz, the motion's band: the reference's noise exceeds {NOISE_TO_MOTION:g} of the "
-               f"motion's power from {limits[first]:.1f} Hz on {first}, inside the motion (below {motion_hz:.1f} Hz), "
-               "so the fit keeps the motion and that noise with it")
+        why = (
+            f"below {band:g} Hz, the motion's band: the reference's noise exceeds {NOISE_TO_MOTION:g} of the "
+            f"motion's power from {limits[first]:.1f} Hz on {first}, inside the motion (below {motion_hz:.1f} Hz), "
+            "so the fit keeps the motion and that noise with it"
+        )
     if band >= MAX_FRACTION_OF_NYQUIST * nyquist_hz:
-        return BandChoice(None, f"the full band: the reference stays trustworthy up to {limits[first]:.1f} Hz, "
-                                f"beyond {MAX_FRACTION_OF_NYQUIST:g} of the Nyquist frequency", per_channel, motion_hz)
+        return BandChoice(
+            None,
+            f"the full band: the reference stays trustworthy up to {limits[first]:.1f} Hz, "
+            f"beyond {MAX_FRACTION_OF_NYQUIST:g} of the Nyquist frequency",
+            per_channel,
+            motion_hz,
+        )
     return BandChoice(band, why, per_channel, motion_hz)

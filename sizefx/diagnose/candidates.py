@@ -39,9 +39,9 @@ def _candidates():
     for i, a in enumerate("xyz"):
         c.append(Candidate("accel_bias", f"accel_{a}", (A_BIAS[i],)))
         c.append(Candidate("accel_scale_factor", f"accel_{a}", (A_SF[i],)))
-        c.append(Candidate("accel_misalignment", f"accel_{a}", tuple(A_MIS[2 * i:2 * i + 2])))
+        c.append(Candidate("accel_misalignment", f"accel_{a}", tuple(A_MIS[2 * i : 2 * i + 2])))
         c.append(Candidate("accel_quadratic", f"accel_{a}", (A_K2[i],)))
-        c.append(Candidate("lever_arm", f"accel_{a}", tuple(LEVER[3 * i:3 * i + 3])))
+        c.append(Candidate("lever_arm", f"accel_{a}", tuple(LEVER[3 * i : 3 * i + 3])))
     c.append(Candidate("accel_delay", None, (TAU_A,)))
     c.append(Candidate("reference_delay", None, (TAU_R,)))
     c.append(Candidate("level_tilt", None, tuple(TILT)))
@@ -49,8 +49,8 @@ def _candidates():
     for i, a in enumerate("xyz"):
         c.append(Candidate("gyro_bias", f"gyro_{a}", (G_BIAS[i],)))
         c.append(Candidate("gyro_scale_factor", f"gyro_{a}", (G_SF[i],)))
-        c.append(Candidate("gyro_misalignment", f"gyro_{a}", tuple(G_MIS[2 * i:2 * i + 2])))
-        c.append(Candidate("gyro_g_sensitivity", f"gyro_{a}", tuple(G_G[3 * i:3 * i + 3])))
+        c.append(Candidate("gyro_misalignment", f"gyro_{a}", tuple(G_MIS[2 * i : 2 * i + 2])))
+        c.append(Candidate("gyro_g_sensitivity", f"gyro_{a}", tuple(G_G[3 * i : 3 * i + 3])))
     return tuple(c)
 
 
@@ -61,9 +61,21 @@ CANDIDATES = _candidates()
 #: a rigid rotation of both triads against the reference is, to first order, the common
 #: antisymmetric part of the gyro and the accelerometer misalignments, and its ordinary cause is
 #: the marker body or the fixture, not two sensor triads turned alike.
-PRIORITY = ("accel_bias", "gyro_bias", "lever_arm", "accel_delay", "reference_delay", "level_tilt",
-            "reference_mount", "accel_scale_factor", "gyro_scale_factor", "accel_misalignment", "gyro_misalignment",
-            "accel_quadratic", "gyro_g_sensitivity")
+PRIORITY = (
+    "accel_bias",
+    "gyro_bias",
+    "lever_arm",
+    "accel_delay",
+    "reference_delay",
+    "level_tilt",
+    "reference_mount",
+    "accel_scale_factor",
+    "gyro_scale_factor",
+    "accel_misalignment",
+    "gyro_misalignment",
+    "accel_quadratic",
+    "gyro_g_sensitivity",
+)
 
 
 #: Every deterministic effect of the sensor model but the reference delay (whose columns
@@ -116,16 +128,21 @@ def columns_between(theta: np.ndarray, terms, t: np.ndarray):
         return x[a:b] if isinstance(x, np.ndarray) and x.ndim and x.shape[0] == n else x
 
     def sliced(a, b):
-        return {k: (replace(v, **{f.name: piece(getattr(v, f.name), a, b) for f in fields(v)})
-                    if is_dataclass(v) and not isinstance(v, type) and k != "params" else v)
-                for k, v in terms.items()}
+        return {
+            k: (
+                replace(v, **{f.name: piece(getattr(v, f.name), a, b) for f in fields(v)})
+                if is_dataclass(v) and not isinstance(v, type) and k != "params"
+                else v
+            )
+            for k, v in terms.items()
+        }
 
     terms_of = terms if callable(terms) else sliced
 
     def cols(lo, hi):
         a, b = max(0, lo - 1), min(n, hi + 1)
         full = jacobian_columns(theta, terms_of(a, b), t[a:b])
-        return {j: (ch, x[lo - a:lo - a + hi - lo]) for j, (ch, x) in full.items()}
+        return {j: (ch, x[lo - a : lo - a + hi - lo]) for j, (ch, x) in full.items()}
 
     return cols
 
@@ -133,6 +150,7 @@ def columns_between(theta: np.ndarray, terms, t: np.ndarray):
 def numeric_jacobian(predict: Callable[[np.ndarray], np.ndarray], theta: np.ndarray, mask: np.ndarray) -> dict:
     """The slow twin of :func:`jacobian_columns`: central differences of ``predict`` (theta -> [n, 6])
     with each parameter's :attr:`Param.step`; a column's channels are those it moves on ``mask``."""
+
     def column(j):
         up, dn = theta.copy(), theta.copy()
         up[j] += PARAMS[j].step

@@ -55,8 +55,9 @@ def motion_groups(nrm: Normal, t_s, stat, K: int = MOTION_PARTS) -> list:
     return [g for g in np.array_split(order, K) if g.size]
 
 
-def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict, groups=None,
-                      split: str = "time") -> tuple[int, dict]:
+def block_consistency(
+    nrm: Normal, free, offset, sigma: dict, white_sigma: dict, groups=None, split: str = "time"
+) -> tuple[int, dict]:
     """The number of parts K, and per parameter of ``free``: ``{"parameter", "effect", "split", "chi2_dof",
     "dof", "factor", "inflated"}`` (parameters fewer than two parts determine are left out).
 
@@ -87,6 +88,13 @@ def block_consistency(nrm: Normal, free, offset, sigma: dict, white_sigma: dict,
         c2 = float(np.sum(w * (xs[seen, pos] - xbar) ** 2))
         dof = int(seen.sum()) - 1
         bad = c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof)
-        out[j] = {"parameter": PARAMS[j].label, "effect": PARAMS[j].effect, "split": split, "chi2_dof": c2 / dof,
-                  "dof": dof, "factor": float(np.sqrt(c2 / dof)) if bad else 1.0, "inflated": bool(bad)}
+        out[j] = {
+            "parameter": PARAMS[j].label,
+            "effect": PARAMS[j].effect,
+            "split": split,
+            "chi2_dof": c2 / dof,
+            "dof": dof,
+            "factor": float(np.sqrt(c2 / dof)) if bad else 1.0,
+            "inflated": bool(bad),
+        }
     return K, out

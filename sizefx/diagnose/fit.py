@@ -175,19 +175,22 @@ def _residual(pred: Predictor, rows_of: Rows | None, theta, *, series: bool = Fa
     rows = None if rows_of is None else np.zeros((rows_of.t.size, 6))
     out = np.empty((n, 6), dtype=np.float32) if series else None
     sumsq = np.zeros(6)
-    spans = rows_of.spans() if rows_of is not None else [(lo, min(n, lo + CHUNK_SAMPLES))
-                                                          for lo in range(0, n, CHUNK_SAMPLES)]
+    spans = (
+        rows_of.spans()
+        if rows_of is not None
+        else [(lo, min(n, lo + CHUNK_SAMPLES)) for lo in range(0, n, CHUNK_SAMPLES)]
+    )
     L = 1 if rows_of is None else rows_of.L
     for lo, hi in spans:
         a, b = (lo, hi) if rows_of is None else rows_of.extended(lo, hi)
         res = pred.measured_span(a, b) - pred.predict_span(theta, a, b)
-        inner = res[lo - a:hi - a]
+        inner = res[lo - a : hi - a]
         sumsq += np.sum(inner[pred.mask[lo:hi]] ** 2, axis=0)
         if out is not None:
             out[lo:hi] = inner
         if rows is not None:
             r = rows_of.span_rows(res, a, lo, hi)
-            rows[lo // L:lo // L + r.shape[0]] = r
+            rows[lo // L : lo // L + r.shape[0]] = r
     return _Residual(rows, sumsq / max(1, int(pred.mask.sum())), out)
 
 
@@ -211,8 +214,7 @@ def _free(chosen):
     return np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
 
 
-def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None,
-             start=None) -> _State:
+def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None, start=None) -> _State:
     """Gauss-Newton from ``theta`` with the selection redone each pass (or ``fixed``), until the
     selection and the estimates settle. Returns the final state with the normal equations at the
     final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since).
@@ -280,11 +282,16 @@ def _errors(pred: Predictor, state: _State, theta0):
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
     parts, by_time = block_consistency(nrm, free, offset, sig, sig_white)
     cuts = [by_time]
-    for split, stat in (("rate", _per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
-                        ("translation", _per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1)
-                                                                                - STANDARD_GRAVITY_MPS2)))):
-        cuts.append(block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat),
-                                      split=split)[1])
+    for split, stat in (
+        ("rate", _per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
+        (
+            "translation",
+            _per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1) - STANDARD_GRAVITY_MPS2)),
+        ),
+    ):
+        cuts.append(
+            block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat), split=split)[1]
+        )
     factors, entries = {}, {}
     for j in free.tolist():
         mine = [c[j] for c in cuts if j in c]
@@ -388,14 +395,26 @@ def _share(rows_of, r_wo, residual, weights, chans, noise_power):
 
 
 def _entry(c: Chosen, theta, reason, **extra):
-    return {"id": c.cand.id, "channel": c.cand.channel,
-            "parameters": {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
-            "unit": PARAMS[c.cand.idx[0]].unit, "reason": reason, **extra}
+    return {
+        "id": c.cand.id,
+        "channel": c.cand.channel,
+        "parameters": {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
+        "unit": PARAMS[c.cand.idx[0]].unit,
+        "reason": reason,
+        **extra,
+    }
 
 
-def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float | None = None,
-             grade: str | None = None, auto_bandwidth: bool = True, keep_series: bool = True,
-             progress=None) -> Diagnosis:
+def diagnose(
+    tel: Telemetry,
+    theta_nominal: np.ndarray,
+    *,
+    bandwidth_hz: float | None = None,
+    grade: str | None = None,
+    auto_bandwidth: bool = True,
+    keep_series: bool = True,
+    progress=None,
+) -> Diagnosis:
     """Run the steps of the module docstring on one record; ``theta_nominal`` [NP] is the start model.
 
     ``bandwidth_hz`` fits the residual low-passed at that frequency (see
@@ -410,22 +429,37 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     warnings = list(check.warnings)
     if check.breaks_s:
         times = ", ".join(f"{b:.3f}" for b in check.breaks_s[:5]) + (" ..." if len(check.breaks_s) > 5 else "")
-        warnings.append({"kind": "segments_share_model", "time_s": float(check.breaks_s[0]),
-                         "size": float(len(check.breaks_s)), "unit": None,
-                         "message": f"the reference is split at {len(check.breaks_s)} discontinuit"
-                                    f"{'y' if len(check.breaks_s) == 1 else 'ies'} (t = {times} s) and its segments "
-                                    "are fitted with one model: if the IMU was turned or moved between them (a "
-                                    "re-mount), arms, biases and misalignments differ per segment; diagnose each "
-                                    "segment alone with --from-s/--to-s"})
+        warnings.append(
+            {
+                "kind": "segments_share_model",
+                "time_s": float(check.breaks_s[0]),
+                "size": float(len(check.breaks_s)),
+                "unit": None,
+                "message": f"the reference is split at {len(check.breaks_s)} discontinuit"
+                f"{'y' if len(check.breaks_s) == 1 else 'ies'} (t = {times} s) and its segments "
+                "are fitted with one model: if the IMU was turned or moved between them (a "
+                "re-mount), arms, biases and misalignments differ per segment; diagnose each "
+                "segment alone with --from-s/--to-s",
+            }
+        )
     pred = Predictor(without_bad_rows(tel, check), breaks_s=check.breaks_s)
     theta0 = np.asarray(theta_nominal, dtype=float).copy()
     if bandwidth_hz is not None:
         band_reason = f"given: {bandwidth_hz:g} Hz"
     elif auto_bandwidth:
-        finite = _per_sample(pred, lambda lo, hi: np.isfinite(pred.measured_span(lo, hi)).all(axis=1)
-                             & np.isfinite(pred.predict_span(theta0, lo, hi)).all(axis=1)) > 0.0
-        band = choose_bandwidth(pred.t, pred.measured_span, functools.partial(_predicted, pred, theta0),
-                                pred.mask & finite, pred.dt)
+        finite = (
+            _per_sample(
+                pred,
+                lambda lo, hi: (
+                    np.isfinite(pred.measured_span(lo, hi)).all(axis=1)
+                    & np.isfinite(pred.predict_span(theta0, lo, hi)).all(axis=1)
+                ),
+            )
+            > 0.0
+        )
+        band = choose_bandwidth(
+            pred.t, pred.measured_span, functools.partial(_predicted, pred, theta0), pred.mask & finite, pred.dt
+        )
         bandwidth_hz, band_reason = band.bandwidth_hz, band.reason
         del finite
     else:
@@ -452,8 +486,15 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
             if why:
                 drop.add(c.cand.key)
                 rejected.append(_entry(c, state.theta, why, likely=likely_cause(c.cand.id)))
-                warnings.append({"kind": "implausible_estimate", "time_s": None, "size": None, "unit": None,
-                                 "message": f"{c.cand.key}: {why}; more likely {likely_cause(c.cand.id)}"})
+                warnings.append(
+                    {
+                        "kind": "implausible_estimate",
+                        "time_s": None,
+                        "size": None,
+                        "unit": None,
+                        "message": f"{c.cand.key}: {why}; more likely {likely_cause(c.cand.id)}",
+                    }
+                )
         if not drop:
             for i, k, rho in aliased_pairs(state.nrm, state.chosen, theta0 - state.theta, level):
                 a, b = state.chosen[i], state.chosen[k]
@@ -470,9 +511,15 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                 share = shares[c.cand.key] = _share(rows_of, r_wo, state.residual, weights, chans, white_rows**2)
                 if share < MIN_SHARE:
                     drop.add(c.cand.key)
-                    rejected.append(_entry(c, state.theta, f"explains {100 * share:.2f} % of the structure on its "
-                                                           f"channels, under the {100 * MIN_SHARE:g} % a finding needs",
-                                           likely="a side effect of another effect or of the noise's colour"))
+                    rejected.append(
+                        _entry(
+                            c,
+                            state.theta,
+                            f"explains {100 * share:.2f} % of the structure on its "
+                            f"channels, under the {100 * MIN_SHARE:g} % a finding needs",
+                            likely="a side effect of another effect or of the noise's colour",
+                        )
+                    )
         if not drop:
             # stable across the record's parts: still significant with the errors widened to their scatter
             errors = _errors(pred, state, theta0)
@@ -480,9 +527,15 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
                 p = robust_p(state.nrm, state.chosen, theta0 - state.theta, which=i, factors=errors[1])
                 if p > level:
                     drop.add(c.cand.key)
-                    rejected.append(_entry(c, state.theta, f"not significant (p = {p:.2g}) once its errors are "
-                                                           "widened to the scatter of the record's parts",
-                                           likely="the noise's colour or an effect that changes along the record"))
+                    rejected.append(
+                        _entry(
+                            c,
+                            state.theta,
+                            f"not significant (p = {p:.2g}) once its errors are "
+                            "widened to the scatter of the record's parts",
+                            likely="the noise's colour or an effect that changes along the record",
+                        )
+                    )
         if not drop:
             break
         kept = [c for c in state.chosen if c.cand.key not in drop]
@@ -503,71 +556,126 @@ def diagnose(tel: Telemetry, theta_nominal: np.ndarray, *, bandwidth_hz: float |
     sys_cov, sys_bands = _band_systematic(pred, rows_of, state, theta0, cov_free, grade)
     if sys_cov is not None:
         cov[np.ix_(free, free)] += sys_cov
-    geometry = (split_arms(theta[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)],
-                           SensorParams.from_vector(theta).accel_axes())
-                if np.intersect1d(free, LEVER).size else None)
+    geometry = (
+        split_arms(theta[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)], SensorParams.from_vector(theta).accel_axes())
+        if np.intersect1d(free, LEVER).size
+        else None
+    )
     for j, entry in cons.items():
         sig[j] *= factors[j]  # widened to the parts' scatter
         if entry["inflated"]:
-            warnings.append({"kind": "inconsistent_blocks", "time_s": None, "size": entry["chi2_dof"], "unit": None,
-                             "message": f"{entry['effect']} {entry['parameter']}: the record's parts (by "
-                                        f"{entry['split']}) disagree "
-                                        f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
-                                        f"error is multiplied by {entry['factor']:.2f}"})
+            warnings.append(
+                {
+                    "kind": "inconsistent_blocks",
+                    "time_s": None,
+                    "size": entry["chi2_dof"],
+                    "unit": None,
+                    "message": f"{entry['effect']} {entry['parameter']}: the record's parts (by "
+                    f"{entry['split']}) disagree "
+                    f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
+                    f"error is multiplied by {entry['factor']:.2f}",
+                }
+            )
     systematic = None  # the band's and the selection's part (_band_systematic), in quadrature
     if sys_cov is not None:
         sys_sigma = np.sqrt(np.diag(sys_cov))
         for pos, j in enumerate(free.tolist()):
             sig[j] = float(np.hypot(sig[j], sys_sigma[pos]))
-        systematic = {"bands": sys_bands,
-                      "parameters": [{"parameter": PARAMS[j].label, "effect": PARAMS[j].effect,
-                                      "sigma_selection": float(sys_sigma[pos] / PARAMS[j].per_unit),
-                                      "unit": PARAMS[j].unit} for pos, j in enumerate(free.tolist())]}
+        systematic = {
+            "bands": sys_bands,
+            "parameters": [
+                {
+                    "parameter": PARAMS[j].label,
+                    "effect": PARAMS[j].effect,
+                    "sigma_selection": float(sys_sigma[pos] / PARAMS[j].per_unit),
+                    "unit": PARAMS[j].unit,
+                }
+                for pos, j in enumerate(free.tolist())
+            ],
+        }
     # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed
     alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
-    outside = [(chosen[i], cand, rho) for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
-               if chosen[i].cand.key not in alias_keys]
+    outside = [
+        (chosen[i], cand, rho)
+        for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
+        if chosen[i].cand.key not in alias_keys
+    ]
     alias_keys |= {c.cand.key for c, _, _ in outside}
     effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in chosen if c.cand.key not in alias_keys]
     effects.sort(key=lambda e: -e.explained_fraction)
-    unrev = [{"id": cand.id, "channel": cand.channel, "parameters": [PARAMS[j].label for j in hidden],
-              "reason": reason} for cand, hidden, reason in unrevealed.values()]
+    unrev = [
+        {"id": cand.id, "channel": cand.channel, "parameters": [PARAMS[j].label for j in hidden], "reason": reason}
+        for cand, hidden, reason in unrevealed.values()
+    ]
     for keep, gone, rho in aliased:
         for me, other in ((keep, gone), (gone, keep)):
             unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.cand.id, me.cand.channel)]
-            unrev.append({"id": me.cand.id, "channel": me.cand.channel,
-                          "parameters": [PARAMS[j].label for j in me.active],
-                          "reason": f"indistinguishable from {other.cand.key} on this motion (canonical "
-                                    f"correlation {rho:.4f}); the extended model carries their sum as "
-                                    f"{keep.cand.key}"})
+            unrev.append(
+                {
+                    "id": me.cand.id,
+                    "channel": me.cand.channel,
+                    "parameters": [PARAMS[j].label for j in me.active],
+                    "reason": f"indistinguishable from {other.cand.key} on this motion (canonical "
+                    f"correlation {rho:.4f}); the extended model carries their sum as "
+                    f"{keep.cand.key}",
+                }
+            )
     for c, cand, rho in outside:
         for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
             if any((u["id"], u["channel"]) == (me.id, me.channel) and "on this motion" in u["reason"] for u in unrev):
                 continue
             unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.id, me.channel)]
-            unrev.append({"id": me.id, "channel": me.channel, "parameters": [PARAMS[j].label for j in params],
-                          "reason": f"indistinguishable from {other} on this motion (canonical correlation "
-                                    f"{rho:.4f}); the extended model carries it as {c.cand.key}"})
+            unrev.append(
+                {
+                    "id": me.id,
+                    "channel": me.channel,
+                    "parameters": [PARAMS[j].label for j in params],
+                    "reason": f"indistinguishable from {other} on this motion (canonical correlation "
+                    f"{rho:.4f}); the extended model carries it as {c.cand.key}",
+                }
+            )
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = _residual(pred, None, theta, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = _rms(rows_of, before.rows), _rms(rows_of, residual)
     return Diagnosis(
-        path=str(tel.path), effects=effects, unrevealed=unrev,
-        rms_before=dict(zip(CHANNELS, rms_b.tolist())), rms_after=dict(zip(CHANNELS, rms_a.tolist())),
-        theta_nominal=theta0, theta=theta, sigma_theta=sig, samples=int(pred.mask.sum()), block=rows_of.L,
-        bandwidth_hz=bandwidth_hz, white_sigma=dict(zip(CHANNELS, white_rows.tolist())),
+        path=str(tel.path),
+        effects=effects,
+        unrevealed=unrev,
+        rms_before=dict(zip(CHANNELS, rms_b.tolist())),
+        rms_after=dict(zip(CHANNELS, rms_a.tolist())),
+        theta_nominal=theta0,
+        theta=theta,
+        sigma_theta=sig,
+        samples=int(pred.mask.sum()),
+        block=rows_of.L,
+        bandwidth_hz=bandwidth_hz,
+        white_sigma=dict(zip(CHANNELS, white_rows.tolist())),
         rms_full_before=dict(zip(CHANNELS, np.sqrt(before.ms_full).tolist())),
         rms_full_after=dict(zip(CHANNELS, np.sqrt(state.ms_full).tolist())),
-        weights_sigma=state.sigma_c, kappa=state.kappa, passes=state.passes, log=log,
+        weights_sigma=state.sigma_c,
+        kappa=state.kappa,
+        passes=state.passes,
+        log=log,
         wall_s=time.perf_counter() - started,
-        residual_before=before.series, residual_after=series_after,
-        t=pred.t if keep_series else None, mask=pred.mask if keep_series else None,
-        warnings=warnings, rejected=rejected, unexplained=structure,
-        consistency={"parts": parts, "block_s": nrm.block_s,
-                     "parameters": [cons[j] for j in sorted(cons)],
-                     **({"systematic": systematic} if systematic else {})},
-        grade=grade, grade_reason=grade_reason, bandwidth_reason=band_reason,
-        sigma_white=sig_white, covariance=cov, geometry=geometry,
+        residual_before=before.series,
+        residual_after=series_after,
+        t=pred.t if keep_series else None,
+        mask=pred.mask if keep_series else None,
+        warnings=warnings,
+        rejected=rejected,
+        unexplained=structure,
+        consistency={
+            "parts": parts,
+            "block_s": nrm.block_s,
+            "parameters": [cons[j] for j in sorted(cons)],
+            **({"systematic": systematic} if systematic else {}),
+        },
+        grade=grade,
+        grade_reason=grade_reason,
+        bandwidth_reason=band_reason,
+        sigma_white=sig_white,
+        covariance=cov,
+        geometry=geometry,
     )
 
 
@@ -581,8 +689,7 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     the measured gyros): the residual carries the IMU's noise, and regressed on anything that carries
     it too, it would "follow" it by construction. They are formed span by span, as rows
     (``residual``: the rows of the final residual)."""
-    names = ([f"omega_{a}" for a in "xyz"] + ["omega_sq"] + [f"omegadot_{a}" for a in "xyz"]
-             + [f"f_{a}" for a in "xyz"])
+    names = [f"omega_{a}" for a in "xyz"] + ["omega_sq"] + [f"omegadot_{a}" for a in "xyz"] + [f"f_{a}" for a in "xyz"]
     rows = np.zeros((rows_of.t.size, len(names)))
     n, L = pred.n, rows_of.L
     for lo, hi in rows_of.spans():
@@ -591,16 +698,15 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
         at = pred.terms_span(theta, ga, gb)["at_gyro"]
         w, f = at.omega_ib_b, at.f_b
         wd = np.gradient(w, pred.t[ga:gb], axis=0)
-        x = np.column_stack([w, np.sum(w**2, axis=1), wd, f])[a - ga:b - ga]
+        x = np.column_stack([w, np.sum(w**2, axis=1), wd, f])[a - ga : b - ga]
         r = rows_of.span_rows(x, a, lo, hi)
-        rows[lo // L:lo // L + r.shape[0]] = r
+        rows[lo // L : lo // L + r.shape[0]] = r
     regressors = {k: rows[:, i] for i, k in enumerate(names)}
     # with a low-pass, the reference's rising noise times the filter's falling response makes a bump
     # near the cut-off that is no line: lines are looked for only where the filter passes
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
-    return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows,
-                                 max_line_hz=max_line_hz)
+    return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
 
 
 def _predicted(pred: Predictor, theta, lo: int, hi: int) -> np.ndarray:
@@ -609,5 +715,5 @@ def _predicted(pred: Predictor, theta, lo: int, hi: int) -> np.ndarray:
     out = np.empty((hi - lo, 6))
     for a in range(lo, hi, CHUNK_SAMPLES):
         b = min(hi, a + CHUNK_SAMPLES)
-        out[a - lo:b - lo] = pred.predict_span(theta, a, b)
+        out[a - lo : b - lo] = pred.predict_span(theta, a, b)
     return out

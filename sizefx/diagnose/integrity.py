@@ -58,10 +58,24 @@ from ..io.telemetry import Telemetry
 from ..rotation import quat_conjugate, quat_multiply
 from .reference import REFERENCE_GAP_FACTOR, require_reference
 
-__all__ = ["ReferenceCheck", "check_reference", "without_bad_rows", "GLITCH_SIGMAS", "LOCAL_SIGMAS",
-           "JUMP_FLOOR_FACTOR", "SCALE_TOLERANCE", "DELAY_TOLERANCE_S", "ATTITUDE_FLOOR_RAD", "VELOCITY_FLOOR_MPS",
-           "POSITION_FLOOR_M", "MAX_GLITCH_ROWS", "LOCAL_STEPS", "RATE_CHANGE_TOLERANCE", "RATE_WINDOW_ROWS",
-           "MAX_WARNINGS_PER_KIND"]
+__all__ = [
+    "ReferenceCheck",
+    "check_reference",
+    "without_bad_rows",
+    "GLITCH_SIGMAS",
+    "LOCAL_SIGMAS",
+    "JUMP_FLOOR_FACTOR",
+    "SCALE_TOLERANCE",
+    "DELAY_TOLERANCE_S",
+    "ATTITUDE_FLOOR_RAD",
+    "VELOCITY_FLOOR_MPS",
+    "POSITION_FLOOR_M",
+    "MAX_GLITCH_ROWS",
+    "LOCAL_STEPS",
+    "RATE_CHANGE_TOLERANCE",
+    "RATE_WINDOW_ROWS",
+    "MAX_WARNINGS_PER_KIND",
+]
 
 #: A step is suspect when its mismatch exceeds this many robust sigmas of the whole record's: the
 #: mismatch is near Gaussian in its core but has heavy tails on real records (BROAD 07/09, high-passed:
@@ -141,8 +155,17 @@ def without_bad_rows(tel: Telemetry, check: ReferenceCheck) -> Telemetry:
     ref = tel.reference
     keep = np.ones(ref.time_s.size, dtype=bool)
     keep[check.bad_rows] = False
-    return replace(tel, reference=replace(ref, **{k: getattr(ref, k)[keep] for k in (
-        "time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps") if getattr(ref, k) is not None}))
+    return replace(
+        tel,
+        reference=replace(
+            ref,
+            **{
+                k: getattr(ref, k)[keep]
+                for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")
+                if getattr(ref, k) is not None
+            },
+        ),
+    )
 
 
 def check_reference(tel: Telemetry) -> ReferenceCheck:
@@ -169,8 +192,9 @@ def check_reference(tel: Telemetry) -> ReferenceCheck:
             breaks += k
     bad_rows = np.unique(np.asarray(bad, dtype=int))
     breaks_s = tuple(sorted(_merge(breaks, float(np.median(np.diff(rt))) * MAX_GLITCH_ROWS))) if breaks else ()
-    return ReferenceCheck(warnings=_capped(sorted(warnings, key=lambda w: w["time_s"])), bad_rows=bad_rows,
-                          breaks_s=breaks_s)
+    return ReferenceCheck(
+        warnings=_capped(sorted(warnings, key=lambda w: w["time_s"])), bad_rows=bad_rows, breaks_s=breaks_s
+    )
 
 
 # --------------------------------------------------------------------------- timing
@@ -184,10 +208,18 @@ def _timing(rt: np.ndarray) -> list[dict]:
     steps = np.diff(rt)
     period = float(np.median(steps))
     for k in np.flatnonzero(steps > REFERENCE_GAP_FACTOR * period):
-        out.append(_warning("reference_gap", "timing", rt[k], steps[k], "s",
-                            f"reference gap at t = {rt[k]:.3f} s: no reference for {steps[k] * 1e3:.1f} ms "
-                            f"({steps[k] / period:.0f} periods of {period * 1e3:.2f} ms); the IMU samples around "
-                            "it are masked"))
+        out.append(
+            _warning(
+                "reference_gap",
+                "timing",
+                rt[k],
+                steps[k],
+                "s",
+                f"reference gap at t = {rt[k]:.3f} s: no reference for {steps[k] * 1e3:.1f} ms "
+                f"({steps[k] / period:.0f} periods of {period * 1e3:.2f} ms); the IMU samples around "
+                "it are masked",
+            )
+        )
     if steps.size < 2 * RATE_WINDOW_ROWS:
         return out
     level = _running_median(steps, RATE_WINDOW_ROWS)
@@ -204,9 +236,17 @@ def _timing(rt: np.ndarray) -> list[dict]:
         centre = (k + run) // 2 + RATE_WINDOW_ROWS  # the step where the new rate begins
         centre = min(centre, rt.size - 1)
         p_old, p_new = float(before[k]), float(after[k])
-        out.append(_warning("reference_rate_change", "timing", rt[centre], p_new - p_old, "s",
-                            f"reference period changes from {p_old * 1e3:.2f} ms to {p_new * 1e3:.2f} ms at "
-                            f"t = {rt[centre]:.3f} s; gaps are judged against the median, {period * 1e3:.2f} ms"))
+        out.append(
+            _warning(
+                "reference_rate_change",
+                "timing",
+                rt[centre],
+                p_new - p_old,
+                "s",
+                f"reference period changes from {p_old * 1e3:.2f} ms to {p_new * 1e3:.2f} ms at "
+                f"t = {rt[centre]:.3f} s; gaps are judged against the median, {period * 1e3:.2f} ms",
+            )
+        )
         k = run + RATE_WINDOW_ROWS
     return out
 
@@ -290,8 +330,9 @@ def _attitude_mismatch(tel, rt, mat_nb, imu):
     e = _rotvec_from_quat(quat_multiply(quat_conjugate(q_gyro), q_ref))
     e[~ok] = 0.0
     rate = imu.rate_at(rt)
-    allowance = (SCALE_TOLERANCE * np.linalg.norm(dth, axis=1)
-                 + DELAY_TOLERANCE_S * np.linalg.norm(np.diff(rate, axis=0), axis=1))
+    allowance = SCALE_TOLERANCE * np.linalg.norm(dth, axis=1) + DELAY_TOLERANCE_S * np.linalg.norm(
+        np.diff(rate, axis=0), axis=1
+    )
     # step k lies between rows k and k+1
     return e, ok, np.arange(rt.size - 1), ATTITUDE_FLOOR_RAD, allowance
 
@@ -329,9 +370,13 @@ def _velocity_mismatch(tel, rt, mat_nb, imu):
     else:  # velocities at step midpoints from the positions (local NED about each step)
         rn, re = earth.radii_m(lat)
         dt_rows = np.diff(rt)
-        d_ned = np.column_stack([np.diff(lat) * (rn[:-1] + h[:-1]),
-                                 np.diff(np.unwrap(ref.lon_rad)) * (re[:-1] + h[:-1]) * np.cos(lat[:-1]),
-                                 -np.diff(h)])
+        d_ned = np.column_stack(
+            [
+                np.diff(lat) * (rn[:-1] + h[:-1]),
+                np.diff(np.unwrap(ref.lon_rad)) * (re[:-1] + h[:-1]) * np.cos(lat[:-1]),
+                -np.diff(h),
+            ]
+        )
         quantity, tau, v = "position", 0.5 * (rt[:-1] + rt[1:]), d_ned / dt_rows[:, None]
         start = mat_nb[1:-1]  # the row at the centre of each midpoint-to-midpoint interval
         period = float(np.median(dt_rows))
@@ -354,7 +399,8 @@ def _velocity_mismatch(tel, rt, mat_nb, imu):
     # accelerometer scale and misalignment, and a reference delay times the change of acceleration
     accel_n = dv_imu_n / np.maximum(dt, 1e-12)[:, None]
     allowance = SCALE_TOLERANCE * np.linalg.norm(dv_b, axis=1) + DELAY_TOLERANCE_S * np.linalg.norm(
-        np.diff(accel_n, axis=0, prepend=accel_n[:1]), axis=1)
+        np.diff(accel_n, axis=0, prepend=accel_n[:1]), axis=1
+    )
     return quantity, e, ok, row_of_step, floor, allowance
 
 
@@ -373,8 +419,9 @@ def _running_median(x: np.ndarray, window: int) -> np.ndarray:
     out = np.empty((max(0, count), *x.shape[1:]))
     for lo in range(0, count, _MEDIAN_WINDOWS):
         hi = min(count, lo + _MEDIAN_WINDOWS)
-        out[lo:hi] = np.median(np.lib.stride_tricks.sliding_window_view(x[lo:hi + window - 1], window, axis=0),
-                               axis=-1)
+        out[lo:hi] = np.median(
+            np.lib.stride_tricks.sliding_window_view(x[lo : hi + window - 1], window, axis=0), axis=-1
+        )
     return out
 
 
@@ -403,8 +450,13 @@ def _threshold(norm: np.ndarray, ok: np.ndarray, floor: float) -> np.ndarray:
     thr = np.full(norm.size, max(floor, GLITCH_SIGMAS * sigma))
     if norm.size >= LOCAL_STEPS:
         half = LOCAL_STEPS // 2
-        padded = np.concatenate([np.full(half, np.median(valid) if valid.size else 0.0), norm,
-                                 np.full(half, np.median(valid) if valid.size else 0.0)])
+        padded = np.concatenate(
+            [
+                np.full(half, np.median(valid) if valid.size else 0.0),
+                norm,
+                np.full(half, np.median(valid) if valid.size else 0.0),
+            ]
+        )
         local = _running_median(padded, LOCAL_STEPS) / CHI3_MEDIAN
         thr = np.maximum(thr, LOCAL_SIGMAS * local)
     return thr
@@ -434,7 +486,7 @@ def _classify(quantity, e, ok, rt, row_of_step, floor, allowance):
         # steps s0..s1 must come back; one step more on either side is allowed (a glitch whose other
         # edge fell below the threshold), smallest bridge first
         for lo, hi in ((s0, s1), (s0 - 1, s1), (s0, s1 + 1), (s0 - 1, s1 + 1)):
-            if lo < 0 or hi >= n or not 1 <= hi - lo <= MAX_GLITCH_ROWS or not ok[lo:hi + 1].all():
+            if lo < 0 or hi >= n or not 1 <= hi - lo <= MAX_GLITCH_ROWS or not ok[lo : hi + 1].all():
                 continue
             if np.linalg.norm(cum[hi + 1] - cum[lo]) <= max(thr[lo], thr[hi]):
                 bridge = (lo, hi)
@@ -448,7 +500,7 @@ def _classify(quantity, e, ok, rt, row_of_step, floor, allowance):
         elif bridge is not None:
             lo, hi = bridge
             rows = list(range(int(row_of_step[lo]) + 1, int(row_of_step[hi]) + 1))
-            size = float(np.linalg.norm(cum[lo + 1:hi + 1] - cum[lo], axis=1).max())
+            size = float(np.linalg.norm(cum[lo + 1 : hi + 1] - cum[lo], axis=1).max())
             # the excursion, not the steps, is the glitch's size: a held frame during fast rotation makes
             # two large steps but leaves the row only one step's rotation off
             w = _glitch(quantity, rt[rows[0]], size, rows) if size >= floor else None
@@ -459,7 +511,7 @@ def _classify(quantity, e, ok, rt, row_of_step, floor, allowance):
                 # not come back (BROAD 21 at 400 deg/s: 0.4-1.1 deg on each of 3-5 steps): no clean jump
                 # to split at; for the robust fit
                 continue
-            k = s0 + int(np.argmax(norm[s0:s1 + 1]))  # the jump: the largest step of the group
+            k = s0 + int(np.argmax(norm[s0 : s1 + 1]))  # the jump: the largest step of the group
             r = int(row_of_step[k])
             t_break = 0.5 * float(rt[r] + rt[r + 1])
             breaks.append(t_break)
@@ -501,17 +553,29 @@ def _position(bridge, cum, rt, row_of_step, thr, breaks):
 def _glitch(quantity, time_s, size, rows) -> dict:
     kind, _, unit, user_unit, to_user = _QUANTITY[quantity]
     n = len(rows)
-    return _warning(kind, quantity, time_s, size, unit,
-                    f"reference {quantity} glitch at t = {float(time_s):.3f} s: {size * to_user:.3g} {user_unit} "
-                    f"away from what the IMU measured for {n} row{'s' if n > 1 else ''} and back; masked")
+    return _warning(
+        kind,
+        quantity,
+        time_s,
+        size,
+        unit,
+        f"reference {quantity} glitch at t = {float(time_s):.3f} s: {size * to_user:.3g} {user_unit} "
+        f"away from what the IMU measured for {n} row{'s' if n > 1 else ''} and back; masked",
+    )
 
 
 def _jump(quantity, time_s, size) -> dict:
     _, kind, unit, user_unit, to_user = _QUANTITY[quantity]
-    return _warning(kind, quantity, time_s, size, unit,
-                    f"reference {quantity} discontinuity at t = {float(time_s):.3f} s: a {size * to_user:.3g} "
-                    f"{user_unit} jump that the IMU did not measure (a re-mount or a change of frame); the motion "
-                    "is split into segments there")
+    return _warning(
+        kind,
+        quantity,
+        time_s,
+        size,
+        unit,
+        f"reference {quantity} discontinuity at t = {float(time_s):.3f} s: a {size * to_user:.3g} "
+        f"{user_unit} jump that the IMU did not measure (a re-mount or a change of frame); the motion "
+        "is split into segments there",
+    )
 
 
 def _merge(times, within_s):
@@ -525,8 +589,14 @@ def _merge(times, within_s):
 
 
 def _warning(kind, quantity, time_s, size, unit, message) -> dict:
-    return {"kind": kind, "quantity": quantity, "time_s": float(time_s), "size": float(size), "unit": unit,
-            "message": message}
+    return {
+        "kind": kind,
+        "quantity": quantity,
+        "time_s": float(time_s),
+        "size": float(size),
+        "unit": unit,
+        "message": message,
+    }
 
 
 def _capped(warnings: list[dict]) -> list[dict]:
@@ -539,8 +609,16 @@ def _capped(warnings: list[dict]) -> list[dict]:
     for kind, count in seen.items():
         if count > MAX_WARNINGS_PER_KIND:
             rest = [w for w in warnings if w["kind"] == kind][MAX_WARNINGS_PER_KIND:]
-            out.append(_warning(kind, rest[0]["quantity"], rest[0]["time_s"], max(w["size"] for w in rest),
-                                rest[0]["unit"], f"{count - MAX_WARNINGS_PER_KIND} more {kind.replace('_', ' ')}s "
-                                f"from t = {rest[0]['time_s']:.3f} s on, not listed one by one (largest "
-                                f"{max(w['size'] for w in rest):.3g} {rest[0]['unit']}); all acted on"))
+            out.append(
+                _warning(
+                    kind,
+                    rest[0]["quantity"],
+                    rest[0]["time_s"],
+                    max(w["size"] for w in rest),
+                    rest[0]["unit"],
+                    f"{count - MAX_WARNINGS_PER_KIND} more {kind.replace('_', ' ')}s "
+                    f"from t = {rest[0]['time_s']:.3f} s on, not listed one by one (largest "
+                    f"{max(w['size'] for w in rest):.3g} {rest[0]['unit']}); all acted on",
+                )
+            )
     return out

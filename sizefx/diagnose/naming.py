@@ -66,8 +66,11 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
             v, s, n0 = user(k)
             comp.append(f"{a} = {_fmt(v, s, 'mm')} (nominal {n0:.3f} mm, {v - n0:+.3f} mm)")
         moved = float(np.linalg.norm(np.subtract(val, nom))) * 1e3
-        sentence = (f"accelerometer {axis} sits {moved:.2f} mm from where the nominal geometry puts it: "
-                    + "; ".join(comp) + " from the reference point of the motion")
+        sentence = (
+            f"accelerometer {axis} sits {moved:.2f} mm from where the nominal geometry puts it: "
+            + "; ".join(comp)
+            + " from the reference point of the motion"
+        )
         if hidden:
             sentence += f" ({', '.join(hidden)} not revealed by this record: kept at nominal)"
     elif eid in ("accel_delay", "reference_delay"):
@@ -78,8 +81,10 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
             sentence = f"the accelerometers {word} the gyros by {_fmt(abs(v), s, 'microseconds')}"
         else:
             word, sign = ("lags", "-") if v >= 0 else ("leads", "+")
-            sentence = (f"the reference {word} the IMU by {_fmt(abs(v), s, 'microseconds')} (its rows stamped t "
-                        f"hold the motion at t {sign} {abs(v):.1f} us)")
+            sentence = (
+                f"the reference {word} the IMU by {_fmt(abs(v), s, 'microseconds')} (its rows stamped t "
+                f"hold the motion at t {sign} {abs(v):.1f} us)"
+            )
         if n0:
             sentence += f" (nominal {n0:.1f} us)"
     elif eid == "level_tilt":
@@ -87,15 +92,20 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
         params = {"north_arcsec": vn, "east_arcsec": ve}
         sigma = {"north_arcsec": sn, "east_arcsec": se}
         nominal = {"north_arcsec": nn, "east_arcsec": ne}
-        sentence = (f"the table (or the reference) is tilted off the local level: {_fmt(vn, sn, 'arcsec')} about "
-                    f"north and {_fmt(ve, se, 'arcsec')} about east")
+        sentence = (
+            f"the table (or the reference) is tilted off the local level: {_fmt(vn, sn, 'arcsec')} about "
+            f"north and {_fmt(ve, se, 'arcsec')} about east"
+        )
     elif eid == "reference_mount":
         params = {"arcsec": [user(k)[0] for k in range(3)]}
         sigma = {"arcsec": [user(k)[1] if sg[k] is not None else None for k in range(3)]}
         nominal = {"arcsec": [user(k)[2] for k in range(3)]}
         parts = [f"{_fmt(user(k)[0], user(k)[1], 'arcsec')} about {'xyz'[k]}" for k in range(3) if sg[k] is not None]
-        sentence = ("the IMU sits rotated against the reference's body frame by " + ", ".join(parts)
-                    + " (marker body or fixture alignment)")
+        sentence = (
+            "the IMU sits rotated against the reference's body frame by "
+            + ", ".join(parts)
+            + " (marker body or fixture alignment)"
+        )
         if hidden:
             sentence += f" ({', '.join(hidden)} not revealed by this record: kept at nominal)"
     elif eid in ("accel_bias", "gyro_bias"):
@@ -108,15 +118,19 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
         v, s, n0 = user(0)
         params, sigma, nominal = {"ppm": v}, {"ppm": s}, {"ppm": n0}
         what = "accelerometer" if eid.startswith("accel") else "gyro"
-        sentence = (f"{what} {axis} reads {_fmt(abs(v), s, 'ppm')} {'too much' if v >= 0 else 'too little'} "
-                    "(scale factor)")
+        sentence = (
+            f"{what} {axis} reads {_fmt(abs(v), s, 'ppm')} {'too much' if v >= 0 else 'too little'} (scale factor)"
+        )
     elif eid in ("accel_misalignment", "gyro_misalignment"):
         params = {"arcsec": {ps[k].label: user(k)[0] for k in range(len(ps)) if sg[k] is not None}}
         sigma = {"arcsec": {ps[k].label: user(k)[1] for k in range(len(ps)) if sg[k] is not None}}
         nominal = {"arcsec": {ps[k].label: user(k)[2] for k in range(len(ps))}}
         what = "accelerometer" if eid.startswith("accel") else "gyro"
-        parts = [f"{_fmt(user(k)[0], user(k)[1], 'arcsec')} towards {ps[k].label[-1]}"
-                 for k in range(len(ps)) if sg[k] is not None]
+        parts = [
+            f"{_fmt(user(k)[0], user(k)[1], 'arcsec')} towards {ps[k].label[-1]}"
+            for k in range(len(ps))
+            if sg[k] is not None
+        ]
         sentence = f"the {what} {axis} axis is misaligned: " + " and ".join(parts)
     elif eid == "accel_quadratic":
         v, s, n0 = user(0)
@@ -126,8 +140,9 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
         params = {"deg_per_h_per_g": [user(k)[0] for k in range(3)]}
         sigma = {"deg_per_h_per_g": [user(k)[1] if sg[k] is not None else None for k in range(3)]}
         nominal = {"deg_per_h_per_g": [user(k)[2] for k in range(3)]}
-        parts = [f"{_fmt(user(k)[0], user(k)[1], 'deg/h/g')} per g along {'xyz'[k]}" for k in range(3)
-                 if sg[k] is not None]
+        parts = [
+            f"{_fmt(user(k)[0], user(k)[1], 'deg/h/g')} per g along {'xyz'[k]}" for k in range(3) if sg[k] is not None
+        ]
         sentence = f"gyro {axis} responds to specific force: " + ", ".join(parts)
     else:  # pragma: no cover - every candidate id is handled above
         raise AssertionError(eid)

@@ -30,9 +30,27 @@ import numpy as np
 from ..errors import ConfigError
 from .theta import NP, PARAMS
 
-__all__ = ["Normal", "Rows", "block_length_s", "block_means", "canonical_correlation", "covariance", "cv_error",
-           "excitation", "huber_weights", "normal_equations", "solve", "wald",
-           "CHUNK_SAMPLES", "FILTER_SETTLE", "FOLDS", "MAX_ROWS", "TARGET_BLOCKS", "MIN_BLOCK_S", "HUBER_K"]
+__all__ = [
+    "Normal",
+    "Rows",
+    "block_length_s",
+    "block_means",
+    "canonical_correlation",
+    "covariance",
+    "cv_error",
+    "excitation",
+    "huber_weights",
+    "normal_equations",
+    "solve",
+    "wald",
+    "CHUNK_SAMPLES",
+    "FILTER_SETTLE",
+    "FOLDS",
+    "MAX_ROWS",
+    "TARGET_BLOCKS",
+    "MIN_BLOCK_S",
+    "HUBER_K",
+]
 
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
 #: by sample; longer records are averaged in blocks (y and regressors alike, so the model stays exact).
@@ -97,8 +115,10 @@ class Rows:
 
             nyquist = 0.5 / dt
             if not 0.0 < bandwidth_hz < 0.8 * nyquist:
-                raise ConfigError(f"--bandwidth-hz {bandwidth_hz:g} must lie between 0 and {0.8 * nyquist:g} Hz "
-                                  f"(0.8 times the Nyquist frequency of this {1 / dt:g} Hz record)")
+                raise ConfigError(
+                    f"--bandwidth-hz {bandwidth_hz:g} must lie between 0 and {0.8 * nyquist:g} Hz "
+                    f"(0.8 times the Nyquist frequency of this {1 / dt:g} Hz record)"
+                )
             self.sos = butter(4, bandwidth_hz / nyquist, output="sos")
             self.L = max(1, math.floor(1.0 / (2.5 * bandwidth_hz * dt)), math.ceil(n / MAX_ROWS))
             pad = max(1, round(3.0 / (bandwidth_hz * dt)))
@@ -108,7 +128,7 @@ class Rows:
             bad = unusable[np.minimum(n, at + pad + 1)] - unusable[np.maximum(0, at - pad)] > 0
             self.mask = mask
             keep = ~bad
-            self.t = t[::self.L]
+            self.t = t[:: self.L]
             radius = float(np.max(np.abs(sos2zpk(self.sos)[1])))
             self.margin = min(n, math.ceil(math.log(FILTER_SETTLE) / math.log(radius)))
         else:
@@ -135,12 +155,12 @@ class Rows:
         """Rows of the samples ``lo:hi`` (starting at a multiple of ``L``) from ``x`` [b - a, ...], the
         samples :meth:`extended` gives; they are the rows ``lo // L`` on of the whole series."""
         if self.bandwidth_hz is None:
-            return block_means(x[lo - a:hi - a], self.L) if self.L > 1 else x[lo - a:hi - a]
+            return block_means(x[lo - a : hi - a], self.L) if self.L > 1 else x[lo - a : hi - a]
         from scipy.signal import sosfiltfilt
 
         b = a + x.shape[0]
         x = np.where(self.mask[a:b].reshape(-1, *([1] * (x.ndim - 1))), x, 0.0)
-        return sosfiltfilt(self.sos, x, axis=0)[lo - a:hi - a:self.L]
+        return sosfiltfilt(self.sos, x, axis=0)[lo - a : hi - a : self.L]
 
     def __call__(self, x):
         """Rows ``[m, ...]`` of a per-sample series ``x [n, ...]`` (all rows; index with ``keep``)."""
@@ -148,7 +168,7 @@ class Rows:
             from scipy.signal import sosfiltfilt
 
             x = np.where(self.mask.reshape(-1, *([1] * (x.ndim - 1))), x, 0.0)
-            return sosfiltfilt(self.sos, x, axis=0)[::self.L]
+            return sosfiltfilt(self.sos, x, axis=0)[:: self.L]
         return block_means(x, self.L) if self.L > 1 else x
 
 
@@ -230,8 +250,9 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
             js = [j for j in range(NP) if c in cc[j][0]]
             if not js:
                 continue
-            H = rows_of.span_rows(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]),
-                                  ea, lo, hi)[local]
+            H = rows_of.span_rows(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]), ea, lo, hi)[
+                local
+            ]
             for k, j in enumerate(js):
                 if not PARAMS[j].primary or c in PARAMS[j].primary:
                     sumsq[j] += H[:, k] @ H[:, k]
@@ -243,11 +264,18 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
                 sl = slice(le[i], le[i + 1])
                 G[i] = Hw[sl].T @ H[sl]
             N[np.ix_(ks, js, js)] += G
-            b[np.ix_(ks, js)] += np.add.reduceat(Hw * yb[a:z, c:c + 1], le[:-1], axis=0)
+            b[np.ix_(ks, js)] += np.add.reduceat(Hw * yb[a:z, c : c + 1], le[:-1], axis=0)
             yy[ks] += np.add.reduceat(w * yb[a:z, c] ** 2, le[:-1])
         del cc
-    return Normal(N, b, yy, int(rows.size) * 6, np.sqrt(sumsq / np.maximum(count, 1)), block_s,
-                  t[edges[:-1]] if t.size else np.zeros(B))
+    return Normal(
+        N,
+        b,
+        yy,
+        int(rows.size) * 6,
+        np.sqrt(sumsq / np.maximum(count, 1)),
+        block_s,
+        t[edges[:-1]] if t.size else np.zeros(B),
+    )
 
 
 def _pinned(free, offset):
@@ -292,8 +320,11 @@ def covariance(nrm: Normal, free, offset, blocks=None):
     if free.size == 0:
         return x, inv, inv
     pinned, c = _pinned(free, offset)
-    s = bb[:, free] - np.einsum("bij,j->bi", Nb[:, free][:, :, pinned], c) - np.einsum("bij,j->bi",
-                                                                                      Nb[:, free][:, :, free], x)
+    s = (
+        bb[:, free]
+        - np.einsum("bij,j->bi", Nb[:, free][:, :, pinned], c)
+        - np.einsum("bij,j->bi", Nb[:, free][:, :, free], x)
+    )
     B = s.shape[0]
     meat = s.T @ s * (B / max(B - 1, 1))
     return x, inv, inv @ meat @ inv

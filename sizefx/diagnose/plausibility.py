@@ -100,7 +100,14 @@ def noise_density(measured, mask, dt_s: float) -> np.ndarray:
     ``lo:hi`` (then only a bounded piece of the longest usable stretch is held at a time).
     """
     ok = np.asarray(mask, dtype=bool)
-    get = measured if callable(measured) else (lambda lo, hi, x=np.asarray(measured): x[lo:hi])
+    if callable(measured):
+        get = measured
+    else:
+        readings = np.asarray(measured)
+
+        def get(lo, hi):
+            return readings[lo:hi]
+
     edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
     starts, stops = edges[::2], edges[1::2]
     k = int(np.argmax(stops - starts)) if starts.size else 0
@@ -153,8 +160,10 @@ def infer_grade(density) -> tuple[str, str]:
     g = sum(arw > lim for lim in ARW_LIMITS_DEG_SQRT_H)
     a = sum(vrw > lim for lim in VRW_LIMITS_UG_SQRT_HZ)
     grade = GRADES[max(g, a)]
-    return grade, (f"grade {grade}, inferred from the IMU's own noise (the plateau of its spectrum above the "
-                   f"motion): gyro {arw:.3g} deg/sqrt(h), accelerometer {vrw:.3g} ug/sqrt(Hz)")
+    return grade, (
+        f"grade {grade}, inferred from the IMU's own noise (the plateau of its spectrum above the "
+        f"motion): gyro {arw:.3g} deg/sqrt(h), accelerometer {vrw:.3g} ug/sqrt(Hz)"
+    )
 
 
 def judge(effect: str, values_si, grade: str) -> str | None:
@@ -174,8 +183,10 @@ def judge(effect: str, values_si, grade: str) -> str | None:
 def likely_cause(effect: str) -> str:
     """What an implausible estimate of ``effect`` more likely is, in one phrase."""
     if effect in ("accel_scale_factor", "gyro_scale_factor", "accel_quadratic"):
-        return ("a reference or unit problem (the reference scaled, filtered or in other units than the IMU), "
-                "or noise in a reference differentiated beyond its bandwidth")
+        return (
+            "a reference or unit problem (the reference scaled, filtered or in other units than the IMU), "
+            "or noise in a reference differentiated beyond its bandwidth"
+        )
     if effect in ("accel_bias", "level_tilt", "accel_misalignment", "gyro_misalignment", "reference_mount"):
         return "a reference attitude error (jumps, a wrong frame or mounting) or the IMU in other units"
     if effect == "gyro_bias":

@@ -49,8 +49,9 @@ _KIN_BYTES_PER_SAMPLE = 18 * 8
 _SPLINE_MARGIN = 64
 
 
-def predict_readings(theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b: np.ndarray,
-                     gyro_dot_b: np.ndarray) -> tuple[np.ndarray, dict]:
+def predict_readings(
+    theta: np.ndarray, kin_gyro: dict, kin_accel: dict, gyro_b: np.ndarray, gyro_dot_b: np.ndarray
+) -> tuple[np.ndarray, dict]:
     """The sensor model's readings under the model vector ``theta``, on the reference motion.
 
     Parameters
@@ -136,8 +137,10 @@ class Predictor:
         self.motion = ReferenceMotion(tel, breaks_s=breaks_s)
         self.mask = usable_mask(self.t, tel, window=window, dt=dt, breaks_s=breaks_s)
         if self.mask.sum() < MIN_SAMPLES:
-            raise DiagnoseError(f"{tel.path}: only {int(self.mask.sum())} IMU samples lie inside the reference's "
-                                f"span (minus {EDGE_S * 1e3:.0f} ms at ends and gaps); diagnose needs {MIN_SAMPLES}")
+            raise DiagnoseError(
+                f"{tel.path}: only {int(self.mask.sum())} IMU samples lie inside the reference's "
+                f"span (minus {EDGE_S * 1e3:.0f} ms at ends and gaps); diagnose needs {MIN_SAMPLES}"
+            )
         # the whole record's motion is cached per shift only while three shifts fit in _CACHE_BYTES;
         # a longer record evaluates the splines span by span (nothing cached, nothing per sample)
         fits = _CACHE_BYTES // (_KIN_BYTES_PER_SAMPLE * max(1, self.n))
@@ -188,7 +191,7 @@ class Predictor:
         out = self._evaluate(th, a, b)[0]
         t = self.t[a:b]
         out += self.dt**2 / 24.0 * np.gradient(np.gradient(out, t, axis=0), t, axis=0)
-        return out[lo - a:hi - a]
+        return out[lo - a : hi - a]
 
     def _kin_span(self, shift: float, lo: int, hi: int) -> dict:
         key = round(shift, 12)
@@ -230,5 +233,6 @@ class Predictor:
 
     def _evaluate(self, th: np.ndarray, lo: int, hi: int):
         w_meas, wd_meas = self.gyro_at(-th[TAU_A], lo, hi)
-        return predict_readings(th, self._kin_span(th[TAU_R], lo, hi), self._kin_span(th[TAU_R] - th[TAU_A], lo, hi),
-                                w_meas, wd_meas)
+        return predict_readings(
+            th, self._kin_span(th[TAU_R], lo, hi), self._kin_span(th[TAU_R] - th[TAU_A], lo, hi), w_meas, wd_meas
+        )

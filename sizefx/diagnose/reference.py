@@ -21,10 +21,21 @@ from .. import earth
 from ..errors import SizefxError
 from ..io.telemetry import Telemetry
 
-__all__ = ["DiagnoseError", "ReferenceMotion", "check_record", "crop", "reference_segments", "require_reference",
-           "usable_mask",
-           "MIN_SAMPLES", "MIN_REFERENCE_ROWS", "MAX_SAMPLES", "EDGE_S", "EDGE_REFERENCE_PERIODS",
-           "REFERENCE_GAP_FACTOR"]
+__all__ = [
+    "DiagnoseError",
+    "ReferenceMotion",
+    "check_record",
+    "crop",
+    "reference_segments",
+    "require_reference",
+    "usable_mask",
+    "MIN_SAMPLES",
+    "MIN_REFERENCE_ROWS",
+    "MAX_SAMPLES",
+    "EDGE_S",
+    "EDGE_REFERENCE_PERIODS",
+    "REFERENCE_GAP_FACTOR",
+]
 
 #: Fewest usable samples: the gyro derivative window with room, and enough blocks for the folds.
 MIN_SAMPLES = 400
@@ -60,24 +71,32 @@ class DiagnoseError(SizefxError):
 def require_reference(tel: Telemetry) -> None:
     """Refuse a record without ``/reference``: there is nothing to predict the IMU from."""
     if tel.reference is None:
-        raise DiagnoseError(f"{tel.path}: diagnose needs /reference motion (attitude at least) to predict the IMU "
-                            "from; record it, or import it with sizefx import")
+        raise DiagnoseError(
+            f"{tel.path}: diagnose needs /reference motion (attitude at least) to predict the IMU "
+            "from; record it, or import it with sizefx import"
+        )
 
 
 def check_record(tel: Telemetry) -> None:
     """Everything the prediction needs of a (cropped) record: a reference, a site, enough rows, not too many."""
     require_reference(tel)
     if tel.site is None and not tel.reference.has_position:
-        raise DiagnoseError(f"{tel.path}: no site: gravity needs latitude and height; add the root attributes "
-                            "latitude_deg, longitude_deg, height_m (sizefx import --site-deg)")
+        raise DiagnoseError(
+            f"{tel.path}: no site: gravity needs latitude and height; add the root attributes "
+            "latitude_deg, longitude_deg, height_m (sizefx import --site-deg)"
+        )
     if tel.reference.time_s.size < MIN_REFERENCE_ROWS:
-        raise DiagnoseError(f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
-                            f"least {MIN_REFERENCE_ROWS} to interpolate the motion from")
+        raise DiagnoseError(
+            f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
+            f"least {MIN_REFERENCE_ROWS} to interpolate the motion from"
+        )
     if tel.n_samples > MAX_SAMPLES:
-        raise DiagnoseError(f"{tel.path}: {tel.n_samples} IMU samples; diagnose holds the record and the "
-                            "reference's splines in memory (up to 0.8 kB per sample) and takes at most "
-                            f"{MAX_SAMPLES}: give a part of the record with --from-s/--to-s (e.g. 2 hours at "
-                            "1600 Hz)")
+        raise DiagnoseError(
+            f"{tel.path}: {tel.n_samples} IMU samples; diagnose holds the record and the "
+            "reference's splines in memory (up to 0.8 kB per sample) and takes at most "
+            f"{MAX_SAMPLES}: give a part of the record with --from-s/--to-s (e.g. 2 hours at "
+            "1600 Hz)"
+        )
 
 
 class ReferenceMotion:
@@ -101,13 +120,18 @@ class ReferenceMotion:
         self.breaks_s = tuple(float(b) for b in breaks_s)
         rows = [(lo, hi) for lo, hi in reference_segments(ref.time_s, self.breaks_s) if hi - lo >= MIN_REFERENCE_ROWS]
         if not rows:
-            raise DiagnoseError(f"{tel.path}: /reference split at {len(self.breaks_s)} discontinuities leaves no "
-                                f"segment of {MIN_REFERENCE_ROWS} rows or more; diagnose a part without them "
-                                "(--from-s/--to-s)")
+            raise DiagnoseError(
+                f"{tel.path}: /reference split at {len(self.breaks_s)} discontinuities leaves no "
+                f"segment of {MIN_REFERENCE_ROWS} rows or more; diagnose a part without them "
+                "(--from-s/--to-s)"
+            )
         self._pieces = [_Piece(tel, lo, hi) for lo, hi in rows]
         # times at which evaluate() passes from one piece to the next: midway between their spans
-        self._edges_s = (np.array([0.5 * (a.t1 + b.t0) for a, b in zip(self._pieces[:-1], self._pieces[1:])])
-                         if len(self._pieces) > 1 else None)
+        self._edges_s = (
+            np.array([0.5 * (a.t1 + b.t0) for a, b in zip(self._pieces[:-1], self._pieces[1:])])
+            if len(self._pieces) > 1
+            else None
+        )
         # today's attributes, kept for callers of the unsplit motion
         first = self._pieces[0]
         self.rot, self.static = first.rot, first.static
@@ -126,8 +150,12 @@ class ReferenceMotion:
         if self._edges_s is None:
             return self._pieces[0].evaluate(t)
         which = np.searchsorted(self._edges_s, t, side="right")
-        out = {"C_bn": np.empty((t.size, 3, 3)), "w_nb": np.empty((t.size, 3)), "w_in": np.empty((t.size, 3)),
-               "f_n": np.empty((t.size, 3))}
+        out = {
+            "C_bn": np.empty((t.size, 3, 3)),
+            "w_nb": np.empty((t.size, 3)),
+            "w_in": np.empty((t.size, 3)),
+            "f_n": np.empty((t.size, 3)),
+        }
         for j, piece in enumerate(self._pieces):
             sel = np.flatnonzero(which == j)
             if sel.size:
@@ -154,8 +182,9 @@ class _Piece:
             else:  # from the position spline's derivative
                 rn, re = earth.radii_m(lat)
                 lon_spline = CubicSpline(t, np.unwrap(lon))
-                v = np.column_stack([(rn + h) * self.lat(t, 1), (re + h) * np.cos(lat) * lon_spline(t, 1),
-                                     -self.h(t, 1)])
+                v = np.column_stack(
+                    [(rn + h) * self.lat(t, 1), (re + h) * np.cos(lat) * lon_spline(t, 1), -self.h(t, 1)]
+                )
             self.v = CubicSpline(t, v, axis=0)
             self.static = None
         else:
@@ -247,7 +276,7 @@ def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float, breaks
         ok &= ~((t > rt[k] - edge) & (t < rt[k + 1] + edge))
     if len(breaks_s):
         segments = reference_segments(rt, breaks_s)
-        for (lo, hi), (lo_next, _) in zip(segments[:-1], segments[1:]):
+        for (_, hi), (lo_next, _) in zip(segments[:-1], segments[1:]):
             ok &= ~((t > rt[hi - 1] - edge) & (t < rt[lo_next] + edge))
         for lo, hi in segments:
             if hi - lo < MIN_REFERENCE_ROWS:
@@ -258,8 +287,8 @@ def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float, breaks
         if gap.dataset.startswith("/imu"):
             ok &= ~((t > gap.time_s - margin) & (t < gap.time_s + gap.duration_s + margin))
     half = (window - 1) // 2
-    ok[:half + 2] = False  # the gyro derivative's end fits, and the shifts' spline ends
-    ok[-half - 2:] = False
+    ok[: half + 2] = False  # the gyro derivative's end fits, and the shifts' spline ends
+    ok[-half - 2 :] = False
     return ok
 
 
@@ -271,13 +300,22 @@ def crop(tel: Telemetry, from_s: float | None, to_s: float | None) -> Telemetry:
     hi = np.inf if to_s is None else to_s
     keep = (tel.time_s >= lo) & (tel.time_s <= hi)
     if keep.sum() < MIN_SAMPLES:
-        raise DiagnoseError(f"{tel.path}: --from-s/--to-s keep {int(keep.sum())} IMU samples; diagnose needs "
-                            f"{MIN_SAMPLES}")
-    fields = {k: (getattr(tel, k)[keep] if getattr(tel, k) is not None else None)
-              for k in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")}
+        raise DiagnoseError(
+            f"{tel.path}: --from-s/--to-s keep {int(keep.sum())} IMU samples; diagnose needs {MIN_SAMPLES}"
+        )
+    fields = {
+        k: (getattr(tel, k)[keep] if getattr(tel, k) is not None else None)
+        for k in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")
+    }
     ref = tel.reference
     rk = (ref.time_s >= lo - 1.0) & (ref.time_s <= hi + 1.0)  # a second more of reference for the splines
-    ref = replace(ref, **{k: getattr(ref, k)[rk] for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m",
-                                                           "velocity_n_mps") if getattr(ref, k) is not None})
+    ref = replace(
+        ref,
+        **{
+            k: getattr(ref, k)[rk]
+            for k in ("time_s", "quat_nb", "lat_rad", "lon_rad", "height_m", "velocity_n_mps")
+            if getattr(ref, k) is not None
+        },
+    )
     gaps = [g for g in tel.gaps if lo <= g.time_s <= hi]
     return replace(tel, reference=ref, gaps=gaps, **fields)

@@ -28,11 +28,39 @@ from ..sensor_model import SensorParams
 from .fit import Diagnosis
 from .normal import block_means
 from .selection import FAMILY_ALPHA
-from .theta import (A_BIAS, A_K2, A_MIS, A_SF, CHANNELS, DEG_PER_H, G_BIAS, G_G, G_MIS, G_SF, LEVER, MOUNT, OFFDIAG,
-                    PARAMS, TAU_A, TAU_R, TILT, UG)
+from .theta import (
+    A_BIAS,
+    A_K2,
+    A_MIS,
+    A_SF,
+    CHANNELS,
+    DEG_PER_H,
+    G_BIAS,
+    G_G,
+    G_MIS,
+    G_SF,
+    LEVER,
+    MOUNT,
+    OFFDIAG,
+    PARAMS,
+    TAU_A,
+    TAU_R,
+    TILT,
+    UG,
+)
 
-__all__ = ["DIAGNOSIS_SCHEMA", "DIAGNOSIS_SCHEMAS", "PLOT_FILES", "check_diagnosis", "format_report", "model_document",
-           "model_toml", "plot", "read_diagnosis", "to_json"]
+__all__ = [
+    "DIAGNOSIS_SCHEMA",
+    "DIAGNOSIS_SCHEMAS",
+    "PLOT_FILES",
+    "check_diagnosis",
+    "format_report",
+    "model_document",
+    "model_toml",
+    "plot",
+    "read_diagnosis",
+    "to_json",
+]
 
 DIAGNOSIS_SCHEMA = "sizefx/diagnosis/2"
 #: Every report version a reader accepts (version 1: before warnings, rejected, unexplained and
@@ -67,22 +95,42 @@ def model_document(theta: np.ndarray) -> dict:
     arms = theta[LEVER].reshape(3, 3)
     offset = triad_point(arms, SensorParams.from_vector(theta).accel_axes()) if np.any(arms) else np.zeros(3)
     d_arms = arms - offset
-    on = {name: bool(np.any(theta[idx] != 0.0)) for name, idx in
-          (("accel_bias", A_BIAS), ("accel_scale_factor", A_SF), ("accel_misalignment", A_MIS),
-           ("accel_quadratic", A_K2), ("accel_delay", [TAU_A]), ("reference_delay", [TAU_R]),
-           ("level_tilt", TILT), ("gyro_bias", G_BIAS), ("gyro_scale_factor", G_SF),
-           ("gyro_misalignment", G_MIS), ("gyro_g_sensitivity", G_G), ("reference_mount", MOUNT))}
+    on = {
+        name: bool(np.any(theta[idx] != 0.0))
+        for name, idx in (
+            ("accel_bias", A_BIAS),
+            ("accel_scale_factor", A_SF),
+            ("accel_misalignment", A_MIS),
+            ("accel_quadratic", A_K2),
+            ("accel_delay", [TAU_A]),
+            ("reference_delay", [TAU_R]),
+            ("level_tilt", TILT),
+            ("gyro_bias", G_BIAS),
+            ("gyro_scale_factor", G_SF),
+            ("gyro_misalignment", G_MIS),
+            ("gyro_g_sensitivity", G_G),
+            ("reference_mount", MOUNT),
+        )
+    }
     k2_unit = UG / STANDARD_GRAVITY_MPS2**2
     g_unit = DEG_PER_H / STANDARD_GRAVITY_MPS2
     return {
         "schema": EFFECTS_SCHEMA,
-        "lever_arm": {"enabled": True, "preset": "none",
-                      **{f"d_{a}_m": d_arms[i].tolist() for i, a in enumerate("xyz")},
-                      "r0_m": [0.0, 0.0, 0.0], "r_plate_m": [0.0, 0.0, 0.0], "r_vehicle_m": offset.tolist()},
+        "lever_arm": {
+            "enabled": True,
+            "preset": "none",
+            **{f"d_{a}_m": d_arms[i].tolist() for i, a in enumerate("xyz")},
+            "r0_m": [0.0, 0.0, 0.0],
+            "r_plate_m": [0.0, 0.0, 0.0],
+            "r_vehicle_m": offset.tolist(),
+        },
         "accel_delay": {"enabled": on["accel_delay"], "tau_s": float(theta[TAU_A])},
         "reference_delay": {"enabled": on["reference_delay"], "tau_s": float(theta[TAU_R])},
-        "level_tilt": {"enabled": on["level_tilt"], "north_arcsec": float(theta[TILT[0]] / ARCSEC),
-                       "east_arcsec": float(theta[TILT[1]] / ARCSEC)},
+        "level_tilt": {
+            "enabled": on["level_tilt"],
+            "north_arcsec": float(theta[TILT[0]] / ARCSEC),
+            "east_arcsec": float(theta[TILT[1]] / ARCSEC),
+        },
         "reference_mount": {"enabled": on["reference_mount"], "arcsec": (theta[MOUNT] / ARCSEC).tolist()},
         "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / UG).tolist()},
         "accel_scale_factor": {"enabled": on["accel_scale_factor"], "ppm": (theta[A_SF] * 1e6).tolist()},
@@ -91,8 +139,10 @@ def model_document(theta: np.ndarray) -> dict:
         "gyro_bias": {"enabled": on["gyro_bias"], "deg_per_h": (theta[G_BIAS] / DEG_PER_H).tolist()},
         "gyro_scale_factor": {"enabled": on["gyro_scale_factor"], "ppm": (theta[G_SF] * 1e6).tolist()},
         "gyro_misalignment": {"enabled": on["gyro_misalignment"], "arcsec": _matrix(offdiag=theta[G_MIS] / ARCSEC)},
-        "gyro_g_sensitivity": {"enabled": on["gyro_g_sensitivity"],
-                               "deg_per_h_per_g": _matrix(full=theta[G_G].reshape(3, 3) / g_unit)},
+        "gyro_g_sensitivity": {
+            "enabled": on["gyro_g_sensitivity"],
+            "deg_per_h_per_g": _matrix(full=theta[G_G].reshape(3, 3) / g_unit),
+        },
         "accel_noise": {"enabled": False},
         "gyro_noise": {"enabled": False},
         "quantisation": {"enabled": False},
@@ -101,10 +151,14 @@ def model_document(theta: np.ndarray) -> dict:
 
 def model_header(source: str = "") -> str:
     """The comment lines above the extended model's TOML."""
-    return "\n".join([f"sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
-                      "Arms r_i from the reference point of the motion (body axes x forward, y right, z down):",
-                      "[lever_arm] d_i from the triad point to accelerometer i, r_vehicle_m from the reference "
-                      "point to the triad point."])
+    return "\n".join(
+        [
+            f"sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
+            "Arms r_i from the reference point of the motion (body axes x forward, y right, z down):",
+            "[lever_arm] d_i from the triad point to accelerometer i, r_vehicle_m from the reference "
+            "point to the triad point.",
+        ]
+    )
 
 
 def model_toml(theta: np.ndarray, source: str = "") -> str:
@@ -116,8 +170,13 @@ def model_toml(theta: np.ndarray, source: str = "") -> str:
 
 
 def _sigma_entry(d: Diagnosis, j: int) -> dict:
-    return {"parameter": PARAMS[j].label, "effect": PARAMS[j].effect, "unit": PARAMS[j].unit,
-            "sigma": d.sigma_theta[j] / PARAMS[j].per_unit, "sigma_white": d.sigma_white.get(j, 0.0) / PARAMS[j].per_unit}
+    return {
+        "parameter": PARAMS[j].label,
+        "effect": PARAMS[j].effect,
+        "unit": PARAMS[j].unit,
+        "sigma": d.sigma_theta[j] / PARAMS[j].per_unit,
+        "sigma_white": d.sigma_white.get(j, 0.0) / PARAMS[j].per_unit,
+    }
 
 
 def to_json(d: Diagnosis, start: str) -> dict:
@@ -131,9 +190,19 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "start_model": start,
         "warnings": d.warnings,
         "unexplained": d.unexplained,
-        "effects": [{"id": e.id, "channel": e.channel, "parameters": e.params, "sigma": e.sigma,
-                     "nominal": e.nominal, "explained_fraction": e.explained_fraction, "sentence": e.sentence,
-                     "not_revealed": e.hidden} for e in d.effects],
+        "effects": [
+            {
+                "id": e.id,
+                "channel": e.channel,
+                "parameters": e.params,
+                "sigma": e.sigma,
+                "nominal": e.nominal,
+                "explained_fraction": e.explained_fraction,
+                "sentence": e.sentence,
+                "not_revealed": e.hidden,
+            }
+            for e in d.effects
+        ],
         "rejected": d.rejected,
         "not_revealed": d.unrevealed,
         "consistency": cons,
@@ -146,8 +215,14 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "residual_rms_after": d.rms_after,
         "residual_rms_full_band_before": d.rms_full_before,
         "residual_rms_full_band_after": d.rms_full_after,
-        "units": {"gyro": "rad/s", "accel": "m/s^2", "lever_arm": "m", "tau_s": "s", "bias_mps2": "m/s^2",
-                  "bias_rad_s": "rad/s"},
+        "units": {
+            "gyro": "rad/s",
+            "accel": "m/s^2",
+            "lever_arm": "m",
+            "tau_s": "s",
+            "bias_mps2": "m/s^2",
+            "bias_rad_s": "rad/s",
+        },
         "model": d.model_path,
         "samples": d.samples,
         "block_samples": d.block,
@@ -166,8 +241,9 @@ def check_diagnosis(doc: dict, source: str = "report") -> dict:
     """Validate a diagnosis report of any version in :data:`DIAGNOSIS_SCHEMAS` against its schema."""
     version = doc.get("schema") if isinstance(doc, dict) else None
     if version not in DIAGNOSIS_SCHEMAS:
-        raise ConfigError(f"{source}: schema {version!r} is not a diagnosis report (expected one of "
-                          f"{', '.join(DIAGNOSIS_SCHEMAS)})")
+        raise ConfigError(
+            f"{source}: schema {version!r} is not a diagnosis report (expected one of {', '.join(DIAGNOSIS_SCHEMAS)})"
+        )
     validate_input(doc, version, source)
     return doc
 
@@ -197,11 +273,15 @@ def _gain(before, after):
 
 def _geometry_lines(g: dict) -> list[str]:
     """The arms split at the triad point (:mod:`.arms`), in mm."""
+
     def mm(v, s):
         return "(" + ", ".join(f"{1e3 * a:.3f}" for a in v) + ") +- (" + ", ".join(f"{1e3 * b:.3f}" for b in s) + ")"
-    lines = ["arms split at the triad point C [mm, body axes]:",
-             f"  C from the reference point {mm(g['triad_point_m'], g['triad_point_sigma_m'])}: the set-up's offset, "
-             "as repeatable as the set-up"]
+
+    lines = [
+        "arms split at the triad point C [mm, body axes]:",
+        f"  C from the reference point {mm(g['triad_point_m'], g['triad_point_sigma_m'])}: the set-up's offset, "
+        "as repeatable as the set-up",
+    ]
     lines += [f"  d_{a} (C to accelerometer {a}) {mm(v, s)}" for a, v, s in zip("xyz", g["d_m"], g["d_sigma_m"])]
     lines[-1] += ": the IMU's own size effect"
     return lines
@@ -212,8 +292,13 @@ def format_report(d: Diagnosis, start: str) -> str:
     warnings), then what the model cannot explain; then the effects found, those rejected and what the
     record cannot reveal; the band, grade and error checks; the residual RMS per channel before and
     after, the navigation gain and where the model went."""
-    how = (f", low-passed at {d.bandwidth_hz:g} Hz (every {d.block} samples)" if d.bandwidth_hz
-           else f" in blocks of {d.block}" if d.block > 1 else "")
+    how = (
+        f", low-passed at {d.bandwidth_hz:g} Hz (every {d.block} samples)"
+        if d.bandwidth_hz
+        else f" in blocks of {d.block}"
+        if d.block > 1
+        else ""
+    )
     lines = [f"sizefx diagnose {d.path}: {d.samples} samples{how}; start: {start}"]
     if d.warnings:
         lines.append(f"WARNINGS ({len(d.warnings)}):")
@@ -222,25 +307,38 @@ def format_report(d: Diagnosis, start: str) -> str:
         lines.append(f"UNEXPLAINED by the extended model ({len(d.unexplained)}):")
         lines += [f"  ? {u['channel']} {u['kind']}: {u['sentence']}" for u in d.unexplained]
     if d.effects:
-        lines.append(f"found {len(d.effects)} effect(s) (forward selection: information criterion, robust Wald test at "
-                     f"a family-wise {100 * FAMILY_ALPHA:g} %, cross-validation; {d.passes} Gauss-Newton passes):")
+        lines.append(
+            f"found {len(d.effects)} effect(s) (forward selection: information criterion, robust Wald test at "
+            f"a family-wise {100 * FAMILY_ALPHA:g} %, cross-validation; {d.passes} Gauss-Newton passes):"
+        )
         for k, e in enumerate(d.effects, 1):
             where = f"{e.id}" + (f", {e.channel}" if e.channel else "")
-            lines.append(f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
-                         "structure in its channels]")
+            lines.append(
+                f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
+                "structure in its channels]"
+            )
     else:
         loud = [c for c in CHANNELS if d.white_sigma and d.rms_after[c] > 1.5 * d.white_sigma[c]]
         channels_flagged = sorted({u["channel"] for u in d.unexplained})
         if loud or channels_flagged or d.warnings:
             parts = [f"{c} ({d.rms_after[c] / d.white_sigma[c]:.1f} times its sample-to-sample noise)" for c in loud]
             parts += [f"{c} (structure above)" for c in channels_flagged if c not in loud]
-            lines.append("found nothing the data supports beyond the start model; but "
-                         + (("the residual on " + ", ".join(parts) + " is more than noise: an effect outside the "
-                             "candidates, or too little motion or data") if parts else
-                            "the warnings above say the record itself may be at fault"))
+            lines.append(
+                "found nothing the data supports beyond the start model; but "
+                + (
+                    (
+                        "the residual on " + ", ".join(parts) + " is more than noise: an effect outside the "
+                        "candidates, or too little motion or data"
+                    )
+                    if parts
+                    else "the warnings above say the record itself may be at fault"
+                )
+            )
         else:
-            lines.append("found nothing beyond the start model: the residual is consistent with sensor noise "
-                         "(no line, trend, step or correlation with the motion left in any channel)")
+            lines.append(
+                "found nothing beyond the start model: the residual is consistent with sensor noise "
+                "(no line, trend, step or correlation with the motion left in any channel)"
+            )
     if d.rejected:
         lines.append("rejected (selected, but not a finding):")
         for r in d.rejected:
@@ -258,19 +356,32 @@ def format_report(d: Diagnosis, start: str) -> str:
     flagged = [p for p in cons.get("parameters", []) if p["inflated"]]
     if cons.get("parameters"):
         worst = max(cons["parameters"], key=lambda p: p["chi2_dof"])
-        lines.append(f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks, checked on {cons['parts']} "
-                     f"parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
-                     f"{worst['parameter']})" + (f"; {len(flagged)} disagree beyond chance, their errors widened "
-                                                 "to the parts' scatter (see the warnings)" if flagged else ""))
+        lines.append(
+            f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks, checked on {cons['parts']} "
+            f"parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
+            f"{worst['parameter']})"
+            + (
+                f"; {len(flagged)} disagree beyond chance, their errors widened "
+                "to the parts' scatter (see the warnings)"
+                if flagged
+                else ""
+            )
+        )
     systematic = cons.get("systematic")
     if systematic:  # the parameter whose error the band's and the selection's part takes most of
         index = {(p.effect, p.label): j for j, p in enumerate(PARAMS)}
-        share = {(q["effect"], q["parameter"]): q["sigma_selection"] * PARAMS[index[q["effect"], q["parameter"]]].per_unit
-                 / d.sigma_theta[index[q["effect"], q["parameter"]]] for q in systematic["parameters"]}
+        share = {
+            (q["effect"], q["parameter"]): q["sigma_selection"]
+            * PARAMS[index[q["effect"], q["parameter"]]].per_unit
+            / d.sigma_theta[index[q["effect"], q["parameter"]]]
+            for q in systematic["parameters"]
+        }
         (effect, label), most = max(share.items(), key=lambda kv: kv[1])
-        lines.append("standard errors include the band's and the selection's part, refitted at "
-                     + " and ".join(f"{b['bandwidth_hz']:.3g} Hz" for b in systematic["bands"])
-                     + f" (most: {effect} {label}, {100 * most:.0f} % of its error)")
+        lines.append(
+            "standard errors include the band's and the selection's part, refitted at "
+            + " and ".join(f"{b['bandwidth_hz']:.3g} Hz" for b in systematic["bands"])
+            + f" (most: {effect} {label}, {100 * most:.0f} % of its error)"
+        )
     band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
     lines.append(f"residual RMS per channel{band}, start model -> extended model:")
     for name in CHANNELS:
@@ -281,9 +392,11 @@ def format_report(d: Diagnosis, start: str) -> str:
             lines.append(_rms_line(name, d.rms_full_before[name], d.rms_full_after[name]))
     if d.navigation:
         nav = d.navigation
-        lines.append(f"navigation over {nav['duration_s']:.0f} s (free inertial, against /reference): final "
-                     f"horizontal error {nav['before']['final_m']:.2f} m -> {nav['after']['final_m']:.2f} m, "
-                     f"maximum {nav['before']['max_m']:.2f} m -> {nav['after']['max_m']:.2f} m")
+        lines.append(
+            f"navigation over {nav['duration_s']:.0f} s (free inertial, against /reference): final "
+            f"horizontal error {nav['before']['final_m']:.2f} m -> {nav['after']['final_m']:.2f} m, "
+            f"maximum {nav['before']['max_m']:.2f} m -> {nav['after']['max_m']:.2f} m"
+        )
     if d.model_path:
         lines.append(f"extended model -> {d.model_path} (sizefx navigate/compensate/diagnose --model accept it)")
     return "\n".join(lines)
@@ -320,8 +433,13 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
         ax.set_ylabel(f"{CHANNELS[c]} [{units[c]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title("\n".join(notes + [f"{Path(d.path).name}: measured minus predicted (0.1 s means); "
-                                          "red lines: reference warnings"]), fontsize=8, loc="left")
+    axes[0].set_title(
+        "\n".join(
+            notes + [f"{Path(d.path).name}: measured minus predicted (0.1 s means); red lines: reference warnings"]
+        ),
+        fontsize=8,
+        loc="left",
+    )
     axes[-1].set_xlabel("time [s]")
     written.append(_save(fig, folder / PLOT_FILES[0], force))
     plt.close(fig)
@@ -334,10 +452,18 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
         for u in d.unexplained:  # lines the model leaves, where they are
             if u["channel"] == CHANNELS[c] and u.get("frequency_hz"):
                 ax.axvline(u["frequency_hz"], color="red", lw=0.8, ls="--")
-        ax.set_title(CHANNELS[c] + ("  (unexplained: " + ", ".join(sorted({u["kind"] for u in d.unexplained
-                                                                          if u["channel"] == CHANNELS[c]})) + ")"
-                                    if any(u["channel"] == CHANNELS[c] for u in d.unexplained) else ""),
-                     fontsize=9, color="red" if any(u["channel"] == CHANNELS[c] for u in d.unexplained) else "black")
+        ax.set_title(
+            CHANNELS[c]
+            + (
+                "  (unexplained: "
+                + ", ".join(sorted({u["kind"] for u in d.unexplained if u["channel"] == CHANNELS[c]}))
+                + ")"
+                if any(u["channel"] == CHANNELS[c] for u in d.unexplained)
+                else ""
+            ),
+            fontsize=9,
+            color="red" if any(u["channel"] == CHANNELS[c] for u in d.unexplained) else "black",
+        )
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel(f"[{units[c]}/sqrt(Hz)]")
         ax.grid(alpha=0.3, which="both")
@@ -353,7 +479,7 @@ def _plot_notes(d: Diagnosis, most: int = 8) -> list[str]:
     notes = [f"WARNING {w['kind']}: {w['message']}" for w in d.warnings]
     notes += [f"UNEXPLAINED {u['channel']}: {u['sentence']}" for u in d.unexplained]
     if len(notes) > most:
-        notes = notes[:most - 1] + [f"... and {len(notes) - most + 1} more (see the report)"]
+        notes = notes[: most - 1] + [f"... and {len(notes) - most + 1} more (see the report)"]
     return [n if len(n) <= 150 else n[:147] + "..." for n in notes]
 
 
@@ -361,4 +487,3 @@ def _save(fig, path: Path, force: bool) -> str:
     with atomic_output(path, force=force) as tmp:  # run()'s pre-flight checked each file against the inputs
         fig.savefig(tmp, dpi=100, format="png")
     return str(path)
-

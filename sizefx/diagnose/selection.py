@@ -36,8 +36,18 @@ from .candidates import CANDIDATES, PRIORITY, Candidate
 from .normal import Normal, canonical_correlation, covariance, cv_error, excitation, solve, wald
 from .theta import PARAMS
 
-__all__ = ["Chosen", "aliased_pairs", "aliases_outside", "honest", "revealed", "robust_p", "select", "why_hidden", "ALIAS_CORRELATION",
-           "FAMILY_ALPHA"]
+__all__ = [
+    "Chosen",
+    "aliased_pairs",
+    "aliases_outside",
+    "honest",
+    "revealed",
+    "robust_p",
+    "select",
+    "why_hidden",
+    "ALIAS_CORRELATION",
+    "FAMILY_ALPHA",
+]
 
 #: Family-wise false-alarm level of the robust Wald gate, over every candidate of a step.
 FAMILY_ALPHA = 0.01
@@ -120,8 +130,9 @@ def select(nrm: Normal, offset, penalty, alpha: float = FAMILY_ALPHA):
             key = trial[-1].cand.key
             p = robust_p(nrm, trial, offset)
             if p > level:
-                log.append(f"{key}: passes the information criterion but not the robust test "
-                           f"(p = {p:.2g} > {level:.2g})")
+                log.append(
+                    f"{key}: passes the information criterion but not the robust test (p = {p:.2g} > {level:.2g})"
+                )
                 continue
             cv_new = cv_error(nrm, _free(trial), offset)
             if cv_new >= cv:
@@ -132,8 +143,10 @@ def select(nrm: Normal, offset, penalty, alpha: float = FAMILY_ALPHA):
         if entered is None:
             break
         chosen, rss, cv = entered[0], entered[1], entered[2]
-        log.append(f"{chosen[-1].cand.key}: chi2 gain {entered[3]:.1f} (threshold "
-                   f"{penalty * len(chosen[-1].active):.1f}), robust p = {entered[4]:.2g}")
+        log.append(
+            f"{chosen[-1].cand.key}: chi2 gain {entered[3]:.1f} (threshold "
+            f"{penalty * len(chosen[-1].active):.1f}), robust p = {entered[4]:.2g}"
+        )
     unrevealed = {}
     free = _free(chosen)
     for cand in CANDIDATES:
@@ -167,8 +180,9 @@ def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
         for cand in CANDIDATES:
             if cand in taken:
                 continue
-            seen = [j for j in cand.idx if j not in rest
-                    and excitation(nrm, np.array([j]))[j] >= PARAMS[j].min_excitation]
+            seen = [
+                j for j in cand.idx if j not in rest and excitation(nrm, np.array([j]))[j] >= PARAMS[j].min_excitation
+            ]
             if not seen:
                 continue
             rho = canonical_correlation(N, c.active, seen, rest)
@@ -235,4 +249,3 @@ def why_hidden(nrm: Normal, cand, hidden, chosen):
     if not [c for c in chosen if c.cand != cand]:
         return "its components cannot be told apart from each other in this record"
     return "indistinguishable in this record from the effects found together"
-

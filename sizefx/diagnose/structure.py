@@ -93,9 +93,28 @@ import numpy as np
 from .reference import DiagnoseError
 from .theta import CHANNELS, DEG_PER_H, UG
 
-__all__ = ["unexplained", "KINDS", "ALPHA_SHARE", "SIZE_FLOOR", "MIN_BLOCK_S", "MAX_BLOCKS", "MIN_BLOCKS",
-           "WELCH_MIN_SEGMENTS", "WELCH_MAX_NPERSEG", "WELCH_MIN_NPERSEG", "FLOOR_HALF_BINS", "GUARD_BINS",
-           "MIN_FLOOR_BINS", "SIDELOBE_FRACTION", "MAX_LINES", "MAX_CORRELATIONS", "CORRELATION_BATCHES", "MAX_NOISE_SLOPE", "EXTRAPOLATION_Z", "GAP_FACTOR"]
+__all__ = [
+    "unexplained",
+    "KINDS",
+    "ALPHA_SHARE",
+    "SIZE_FLOOR",
+    "MIN_BLOCK_S",
+    "MAX_BLOCKS",
+    "MIN_BLOCKS",
+    "WELCH_MIN_SEGMENTS",
+    "WELCH_MAX_NPERSEG",
+    "WELCH_MIN_NPERSEG",
+    "FLOOR_HALF_BINS",
+    "GUARD_BINS",
+    "MIN_FLOOR_BINS",
+    "SIDELOBE_FRACTION",
+    "MAX_LINES",
+    "MAX_CORRELATIONS",
+    "CORRELATION_BATCHES",
+    "MAX_NOISE_SLOPE",
+    "EXTRAPOLATION_Z",
+    "GAP_FACTOR",
+]
 
 #: The kinds of structure, in the order they are tested.
 KINDS = ("correlation", "step", "trend", "spectral_line")
@@ -213,8 +232,24 @@ def unexplained(t_s, residual, keep, regressors, noise_sigma, *, alpha=0.01, max
             f["unit"] = _unit(c)
             f["sentence"] = _sentence(c, f, t, keep)
         out += sorted(found, key=lambda f: KINDS.index(f["kind"]))
-    return [{k: f.get(k) for k in ("channel", "kind", "frequency_hz", "regressor", "time_s", "size", "unit",
-                                   "statistic", "p_value", "sentence")} for f in out]
+    return [
+        {
+            k: f.get(k)
+            for k in (
+                "channel",
+                "kind",
+                "frequency_hz",
+                "regressor",
+                "time_s",
+                "size",
+                "unit",
+                "statistic",
+                "p_value",
+                "sentence",
+            )
+        }
+        for f in out
+    ]
 
 
 def _checked(t_s, residual, keep, regressors, noise_sigma, alpha):
@@ -224,8 +259,10 @@ def _checked(t_s, residual, keep, regressors, noise_sigma, alpha):
     sigma = np.asarray(noise_sigma, dtype=float)
     m = t.size
     if t.ndim != 1 or y.shape != (m, len(CHANNELS)) or keep.shape != (m,) or keep.dtype != bool:
-        raise ValueError(f"unexplained: t_s [m], residual [m, 6], keep [m] bool expected; got {t.shape}, "
-                         f"{y.shape}, {keep.shape} {keep.dtype}")
+        raise ValueError(
+            f"unexplained: t_s [m], residual [m, 6], keep [m] bool expected; got {t.shape}, "
+            f"{y.shape}, {keep.shape} {keep.dtype}"
+        )
     if sigma.shape != (len(CHANNELS),) or not np.all(np.isfinite(sigma) & (sigma > 0.0)):
         raise ValueError(f"unexplained: noise_sigma must be 6 positive finite sigmas, got {sigma}")
     if not 0.0 < alpha < 1.0:
@@ -242,8 +279,10 @@ def _checked(t_s, residual, keep, regressors, noise_sigma, alpha):
     bad = ~np.all(np.isfinite(y[keep]), axis=1) | ~np.all(np.isfinite(X[keep]), axis=1) | ~np.isfinite(t[keep])
     if bad.any():
         k = int(np.flatnonzero(keep)[np.argmax(bad)])
-        raise DiagnoseError(f"the residual or a regressor is not finite at t = {t[k]:g} s (row {k}) of a row marked "
-                            "usable; mask such rows (a reference dropout) before the structure tests")
+        raise DiagnoseError(
+            f"the residual or a regressor is not finite at t = {t[k]:g} s (row {k}) of a row marked "
+            "usable; mask such rows (a reference dropout) before the structure tests"
+        )
     return t, np.where(keep[:, None], y, 0.0), keep, names, np.where(keep[:, None], X, 0.0), sigma
 
 
@@ -275,7 +314,7 @@ def _blocks(t, keep, runs):
     idx = np.flatnonzero(keep)
     which = np.searchsorted(edges, t[idx], side="right") - 1
     bounds = np.searchsorted(which, np.arange(n_blocks + 1))
-    blocks = [idx[bounds[b]:bounds[b + 1]] for b in range(n_blocks)]
+    blocks = [idx[bounds[b] : bounds[b + 1]] for b in range(n_blocks)]
     full = np.median([b.size for b in blocks])
     blocks = [b for b in blocks if b.size >= 0.5 * full]  # mostly gap: its mean is another quantity
     return blocks if len(blocks) >= MIN_BLOCKS else None
@@ -350,8 +389,16 @@ def _correlations(y, names, design, sigma, level):
             break
         i = min(candidates, key=lambda i: (p_adj[i], -tstat[i]))
         chosen.append(free[i])
-        found.append({"kind": "correlation", "frequency_hz": None, "regressor": names[free[i]],
-                      "size": float(size[i]), "statistic": float(tstat[i]), "p_value": float(p_adj[i])})
+        found.append(
+            {
+                "kind": "correlation",
+                "frequency_hz": None,
+                "regressor": names[free[i]],
+                "size": float(size[i]),
+                "statistic": float(tstat[i]),
+                "p_value": float(p_adj[i]),
+            }
+        )
         basis = np.column_stack((basis, xt[:, i] / math.sqrt(sxx[i])))
     if not chosen:
         return found, y
@@ -448,8 +495,18 @@ def _steps_and_trends(t, y, keep, blocks, sigma, level):
         height = float(coef[3])
         if p_adj <= level["step"] and abs(height) * math.sqrt(share * (1.0 - share)) >= SIZE_FLOOR * sigma:
             step_col = (tb >= t_step).astype(float)
-            found.append({"kind": "step", "frequency_hz": None, "regressor": None, "size": abs(height),
-                          "signed": height, "time_s": t_step, "statistic": float(F), "p_value": p_adj})
+            found.append(
+                {
+                    "kind": "step",
+                    "frequency_hz": None,
+                    "regressor": None,
+                    "size": abs(height),
+                    "signed": height,
+                    "time_s": t_step,
+                    "statistic": float(F),
+                    "p_value": p_adj,
+                }
+            )
     # trend: a quadratic in time against a constant, the step (if found) in both
     base = np.ones((n_blocks, 1)) if step_col is None else np.column_stack((np.ones(n_blocks), step_col))
     F, dof, coef = _f_test(yb, base, Z[:, 1:])
@@ -458,9 +515,18 @@ def _steps_and_trends(t, y, keep, blocks, sigma, level):
     drift = _time_poly(tt, t0, t1)[:, 1:] @ coef[-2:]
     drift_blocks = Z[:, 1:] @ coef[-2:]
     if p_adj <= level["trend"] and float(np.std(drift_blocks)) >= SIZE_FLOOR * sigma:
-        found.append({"kind": "trend", "frequency_hz": None, "regressor": None, "size": float(np.ptp(drift)),
-                      "signed": float(drift[-1] - drift[0]), "span_s": float(t1 - t0), "statistic": float(F),
-                      "p_value": p_adj})
+        found.append(
+            {
+                "kind": "trend",
+                "frequency_hz": None,
+                "regressor": None,
+                "size": float(np.ptp(drift)),
+                "signed": float(drift[-1] - drift[0]),
+                "span_s": float(t1 - t0),
+                "statistic": float(F),
+                "p_value": p_adj,
+            }
+        )
     return found
 
 
@@ -544,8 +610,16 @@ def _lines(y, runs, dt, sigma, level, max_hz=None):
         amplitude = math.sqrt(2.0 * max(0.0, float(np.sum(power[lo:hi] - floor[k]))) * df)
         if amplitude / math.sqrt(2.0) < SIZE_FLOOR * sigma:
             continue
-        found.append({"kind": "spectral_line", "frequency_hz": _peak_hz(power, k, df), "regressor": None,
-                      "size": amplitude, "statistic": float(ratio[k]), "p_value": float(p_adj[k])})
+        found.append(
+            {
+                "kind": "spectral_line",
+                "frequency_hz": _peak_hz(power, k, df),
+                "regressor": None,
+                "size": amplitude,
+                "statistic": float(ratio[k]),
+                "p_value": float(p_adj[k]),
+            }
+        )
     return sorted(found, key=lambda f: -f["size"])[:MAX_LINES]
 
 
@@ -569,8 +643,8 @@ def _floor(power):
 
 def _peak_hz(power, k, df):
     """The peak's frequency, by a parabola through the log power of bins k-1, k, k+1."""
-    if 1 <= k < power.size - 1 and np.all(power[k - 1:k + 2] > 0.0):
-        a, b, c = np.log(power[k - 1:k + 2])
+    if 1 <= k < power.size - 1 and np.all(power[k - 1 : k + 2] > 0.0):
+        a, b, c = np.log(power[k - 1 : k + 2])
         den = a - 2.0 * b + c
         shift = 0.5 * (a - c) / den if den < 0.0 else 0.0
         return float((k + max(-0.5, min(0.5, shift))) * df)
@@ -595,8 +669,9 @@ def _regressor_cause(name, channel):
     if name in ("omega_sq", "omega2", "omega_squared"):
         return f"an effect proportional to omega^2 on {channel} that no candidate explains"
     if name.startswith("omegadot"):
-        return (f"an effect proportional to angular acceleration on {channel} (an arm or a delay the model "
-                "does not hold)")
+        return (
+            f"an effect proportional to angular acceleration on {channel} (an arm or a delay the model does not hold)"
+        )
     if name.startswith("omega"):
         return f"a rate-dependent effect on {channel} (scale-factor nonlinearity, a rate-dependent misalignment)"
     if name.startswith("f_"):
@@ -608,12 +683,14 @@ def _sentence(c, f, t, keep):
     channel = CHANNELS[c]
     kind = f["kind"]
     if kind == "spectral_line":
-        return (f"{channel}: a line at {f['frequency_hz']:.2f} Hz, amplitude {_report(c, f['size'])}: "
-                f"{_CAUSE[kind]}")
+        return f"{channel}: a line at {f['frequency_hz']:.2f} Hz, amplitude {_report(c, f['size'])}: {_CAUSE[kind]}"
     if kind == "trend":
-        return (f"{channel}: a drift of {_report(c, f['signed'])} over {f['span_s']:.0f} s (peak to peak "
-                f"{_report(c, f['size'])}): {_CAUSE[kind]}")
+        return (
+            f"{channel}: a drift of {_report(c, f['signed'])} over {f['span_s']:.0f} s (peak to peak "
+            f"{_report(c, f['size'])}): {_CAUSE[kind]}"
+        )
     if kind == "step":
         return f"{channel}: a step of {_report(c, f['signed'])} at t = {f['time_s']:.3f} s: {_CAUSE[kind]}"
-    return (f"{channel}: follows {f['regressor']}, {_report(c, f['size'])} RMS: "
-            f"{_regressor_cause(f['regressor'], channel)}")
+    return (
+        f"{channel}: follows {f['regressor']}, {_report(c, f['size'])} RMS: {_regressor_cause(f['regressor'], channel)}"
+    )

@@ -32,8 +32,29 @@ from .. import sensor_model as sm
 from ..constants import ARCSEC, DEG, STANDARD_GRAVITY_MPS2
 from ..effects import EffectModel
 
-__all__ = ["A_BIAS", "A_K2", "A_MIS", "A_SF", "CHANNELS", "DEG_PER_H", "G_BIAS", "G_G", "G_MIS", "G_SF", "LEVER",
-           "MOUNT", "NP", "OFFDIAG", "PARAMS", "TAU_A", "TAU_R", "TILT", "UG", "Param", "theta_from_model"]
+__all__ = [
+    "A_BIAS",
+    "A_K2",
+    "A_MIS",
+    "A_SF",
+    "CHANNELS",
+    "DEG_PER_H",
+    "G_BIAS",
+    "G_G",
+    "G_MIS",
+    "G_SF",
+    "LEVER",
+    "MOUNT",
+    "NP",
+    "OFFDIAG",
+    "PARAMS",
+    "TAU_A",
+    "TAU_R",
+    "TILT",
+    "UG",
+    "Param",
+    "theta_from_model",
+]
 
 #: The six channels of a prediction or residual, in column order (the sensor model's).
 CHANNELS = sm.CHANNELS
@@ -88,13 +109,15 @@ _TREATMENT = {
 #: The sensor model's ``theta`` (:data:`sizefx.sensor_model.PARAMS`), each scalar with diagnose's treatment.
 PARAMS = tuple(Param(q.effect, q.label, *_TREATMENT[q.effect]) for q in sm.PARAMS)
 NP = len(PARAMS)
-A_BIAS, A_SF, A_MIS, A_K2, LEVER = (sm.param_index(k) for k in
-                                    ("accel_bias", "accel_scale_factor", "accel_misalignment", "accel_quadratic",
-                                     "lever_arm"))
+A_BIAS, A_SF, A_MIS, A_K2, LEVER = (
+    sm.param_index(k)
+    for k in ("accel_bias", "accel_scale_factor", "accel_misalignment", "accel_quadratic", "lever_arm")
+)
 TAU_A, TAU_R = int(sm.param_index("accel_delay")[0]), int(sm.param_index("reference_delay")[0])
 TILT = sm.param_index("level_tilt")
-G_BIAS, G_SF, G_MIS, G_G = (sm.param_index(k) for k in
-                            ("gyro_bias", "gyro_scale_factor", "gyro_misalignment", "gyro_g_sensitivity"))
+G_BIAS, G_SF, G_MIS, G_G = (
+    sm.param_index(k) for k in ("gyro_bias", "gyro_scale_factor", "gyro_misalignment", "gyro_g_sensitivity")
+)
 MOUNT = sm.param_index("reference_mount")
 
 

@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 from .. import diagnose, scenarios
-from .paper import SIZES, format_results, run_all
 from ..simulate import SimulateConfig, run
+from .paper import SIZES, format_results, run_all
 
 __all__ = ["run_demo"]
 
@@ -39,14 +39,30 @@ def run_demo(out_dir: Path, *, seed: int = 0, size: str = "reduced"):
     # The heart of sizefx: hide effects in a record and find them.
     path = out_dir / "tumble.h5"
     # The demo owns its folder: it replaces its own files from an earlier run.
-    run(SimulateConfig("tumble", path, plan=scenarios.TumblePlan(duration_s=120.0), rate_hz=400.0, seed=seed,
-        overrides=DIAGNOSIS_HIDDEN, force=True))
-    found = diagnose.run(diagnose.DiagnoseConfig(path, json_path=out_dir / "diagnosis.json",
-                                                 plots=out_dir / "diagnosis", model_out=out_dir / "tumble.model.toml",
-                                                 force=True))
+    run(
+        SimulateConfig(
+            "tumble",
+            path,
+            plan=scenarios.TumblePlan(duration_s=120.0),
+            rate_hz=400.0,
+            seed=seed,
+            overrides=DIAGNOSIS_HIDDEN,
+            force=True,
+        )
+    )
+    found = diagnose.run(
+        diagnose.DiagnoseConfig(
+            path,
+            json_path=out_dir / "diagnosis.json",
+            plots=out_dir / "diagnosis",
+            model_out=out_dir / "tumble.model.toml",
+            force=True,
+        )
+    )
     yield "diagnose: accelerometer y placed 2.5 mm out and 1.0 mm up from the drawing, accelerometers 0.5 ms late:"
     yield diagnose.format_report(found.diagnosis, found.start)  # the demo lists the plots itself, below
-    figures = sorted(p.name for p in out_dir.glob("*.png")) + [f"diagnosis/{p.name}"
-                                                               for p in sorted((out_dir / "diagnosis").glob("*.png"))]
+    figures = sorted(p.name for p in out_dir.glob("*.png")) + [
+        f"diagnosis/{p.name}" for p in sorted((out_dir / "diagnosis").glob("*.png"))
+    ]
     yield f"plots in {out_dir}/: {', '.join(figures)}"
     yield f"demo finished in {time.perf_counter() - started:.0f} s"

@@ -45,11 +45,11 @@ from ..constants import ARCSEC, METRES_PER_NMI
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
 from ..geometry import preset_arms_m, triad_point
+from ..io.telemetry import read_telemetry
 from ..levers import Levers, write_levers
 from ..navigate import NavConfig, navigate
-from ..simulate import SimulateConfig, run as simulate_run
-from ..simulate import simulate_in_memory
-from ..io.telemetry import read_telemetry
+from ..simulate import SimulateConfig, simulate_in_memory
+from ..simulate import run as simulate_run
 from .closed_form import schuler_response
 from .paper_report import flight_figures, format_results, sway_figures
 
@@ -68,11 +68,15 @@ __all__ = [
 
 #: The paper's figures, as printed.
 PAPER = {
-    "turntable": {"diff_mean_mm": 0.5, "diff_max_mm": 1.6, "sigma_mean_mm": 0.04, "sigma_max_mm": 0.12,
-                  # Delta r_x, Delta r_y, Delta r_z [m], rows: the paper's estimate minus nominal
-                  "delta_m": [[0.0007, 0.0000, -0.0009], [-0.0016, 0.0000, -0.0011], [-0.0005, 0.0000, -0.0008]],
-                  "sigma_m": [[0.000118, 0.000011, 0.000059], [0.000014, 0.000025, 0.000035],
-                              [0.000047, 0.000047, 0.000011]]},  # sigma(r_z) prints a 4th value, 0.000071: left out
+    "turntable": {
+        "diff_mean_mm": 0.5,
+        "diff_max_mm": 1.6,
+        "sigma_mean_mm": 0.04,
+        "sigma_max_mm": 0.12,
+        # Delta r_x, Delta r_y, Delta r_z [m], rows: the paper's estimate minus nominal
+        "delta_m": [[0.0007, 0.0000, -0.0009], [-0.0016, 0.0000, -0.0011], [-0.0005, 0.0000, -0.0008]],
+        "sigma_m": [[0.000118, 0.000011, 0.000059], [0.000014, 0.000025, 0.000035], [0.000047, 0.000047, 0.000011]],
+    },  # sigma(r_z) prints a 4th value, 0.000071: left out
     "sway": {"divergence_km": 3.0},
     "flight": {"gain_km": 1.1, "gain_nmi_per_h": 0.3, "ground_speed_change_mps": 0.828, "duration_h": 1.8},
 }
@@ -131,10 +135,17 @@ def turntable_experiment(out_dir: Path, size: Size, *, seed0: int = 0, log=print
     started = time.perf_counter()
     traj, _ = scenarios.turntable(scenarios.TurntablePlan())
     d_true = _true_arms_d()
-    fx = load_effects(overrides={"lever_arm": {"preset": "high-precision", "d_x_m": d_true[0].tolist(),
-                                               "d_y_m": d_true[1].tolist(), "d_z_m": d_true[2].tolist()},
-                                 "level_tilt": {"enabled": True, "north_arcsec": TILT_ARCSEC[0],
-                                                "east_arcsec": TILT_ARCSEC[1]}})
+    fx = load_effects(
+        overrides={
+            "lever_arm": {
+                "preset": "high-precision",
+                "d_x_m": d_true[0].tolist(),
+                "d_y_m": d_true[1].tolist(),
+                "d_z_m": d_true[2].tolist(),
+            },
+            "level_tilt": {"enabled": True, "north_arcsec": TILT_ARCSEC[0], "east_arcsec": TILT_ARCSEC[1]},
+        }
+    )
     nominal = preset_arms_m("high-precision")
     joint, sig, per_rot, first = [], [], [], None
     for k in range(size.turntable_repeats):
@@ -146,8 +157,10 @@ def turntable_experiment(out_dir: Path, size: Size, *, seed0: int = 0, log=print
         per_rot.append(_per_rotation_matrix(per_rotation_fit(rec)))
         if first is None:
             first = (rec, res)
-        log(f"  turntable repeat {k + 1}/{size.turntable_repeats}: joint fit sigma mean "
-            f"{res.sigma_arms.mean() * 1e3:.3f} mm, tilt {res.tilt_rad[0] / ARCSEC:.2f}/{res.tilt_rad[1] / ARCSEC:.2f} arcsec")
+        log(
+            f"  turntable repeat {k + 1}/{size.turntable_repeats}: joint fit sigma mean "
+            f"{res.sigma_arms.mean() * 1e3:.3f} mm, tilt {res.tilt_rad[0] / ARCSEC:.2f}/{res.tilt_rad[1] / ARCSEC:.2f} arcsec"
+        )
     joint, sig, per_rot = np.array(joint), np.array(sig), np.array(per_rot)
     delta_joint = joint.mean(0) - nominal
     delta_per_rot = np.nanmean(per_rot, axis=0) - nominal
@@ -156,17 +169,20 @@ def turntable_experiment(out_dir: Path, size: Size, *, seed0: int = 0, log=print
     point = triad_point(res.arms)
     levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms)
     fig6 = out_dir / "fig6_turntable_compensation.png"
-    spans = compensation_figure(rec, levers, fig6, title="Fig. 6 (simulated): horizontal accelerometers, "
-                                                         "raw and compensated")
+    spans = compensation_figure(
+        rec, levers, fig6, title="Fig. 6 (simulated): horizontal accelerometers, raw and compensated"
+    )
     paper = PAPER["turntable"]
     paper_delta = np.asarray(paper["delta_m"])
     out = {
-        "repeats": size.turntable_repeats, "rate_hz": size.turntable_rate_hz,
+        "repeats": size.turntable_repeats,
+        "rate_hz": size.turntable_rate_hz,
         "true_minus_nominal_mm": (paper_delta * 1e3).tolist(),
         "joint_minus_nominal_mm": (delta_joint * 1e3).tolist(),
         "joint_error_mm": ((joint.mean(0) - (nominal + paper_delta)) * 1e3).tolist(),
         "per_rotation_minus_nominal_mm": (delta_per_rot * 1e3).tolist(),
-        "spread_over_repeats_mm": (spread * 1e3).tolist(), "formal_sigma_mm": (sig.mean(0) * 1e3).tolist(),
+        "spread_over_repeats_mm": (spread * 1e3).tolist(),
+        "formal_sigma_mm": (sig.mean(0) * 1e3).tolist(),
         # the paper's "mean 0.5 mm" matches the mean of its nine signed differences (-0.47 mm);
         # the mean of their magnitudes is 0.62 mm
         "diff_mean_mm": float(abs(delta_joint.mean()) * 1e3),
@@ -176,10 +192,14 @@ def turntable_experiment(out_dir: Path, size: Size, *, seed0: int = 0, log=print
         "per_rotation_diff_mean_abs_mm": float(np.nanmean(np.abs(delta_per_rot)) * 1e3),
         "per_rotation_diff_signed_mean_mm": float(abs(np.nanmean(delta_per_rot)) * 1e3),
         "per_rotation_diff_max_mm": float(np.nanmax(np.abs(delta_per_rot)) * 1e3),
-        "sigma_mean_mm": float(spread.mean() * 1e3), "sigma_max_mm": float(spread.max() * 1e3),
-        "formal_sigma_mean_mm": float(sig.mean() * 1e3), "formal_sigma_max_mm": float(sig.max() * 1e3),
+        "sigma_mean_mm": float(spread.mean() * 1e3),
+        "sigma_max_mm": float(spread.max() * 1e3),
+        "formal_sigma_mean_mm": float(sig.mean() * 1e3),
+        "formal_sigma_max_mm": float(sig.max() * 1e3),
         "tilt_arcsec": (res.tilt_rad / ARCSEC).tolist(),
-        "fig6_spans_ug": spans, "figures": [str(fig6)], "wall_s": time.perf_counter() - started,
+        "fig6_spans_ug": spans,
+        "figures": [str(fig6)],
+        "wall_s": time.perf_counter() - started,
     }
     return out
 
@@ -202,10 +222,18 @@ def _period_mean_error_n(traj, d_arms, t0, freq_hz, nodes: int = 4096):
 
     t = t0 + (np.arange(nodes) + 0.5) / (nodes * freq_hz)
     st = traj.evaluate(t)
-    with_arms = load_effects(base=IDEAL, overrides={"lever_arm": {"enabled": True, "preset": "none",
-                                                                  "d_x_m": d_arms[0].tolist(),
-                                                                  "d_y_m": d_arms[1].tolist(),
-                                                                  "d_z_m": d_arms[2].tolist()}})
+    with_arms = load_effects(
+        base=IDEAL,
+        overrides={
+            "lever_arm": {
+                "enabled": True,
+                "preset": "none",
+                "d_x_m": d_arms[0].tolist(),
+                "d_y_m": d_arms[1].tolist(),
+                "d_z_m": d_arms[2].tolist(),
+            }
+        },
+    )
     point = load_effects(base=IDEAL)
     err_b = kinematics(traj, t, with_arms).accel_input - kinematics(traj, t, point).accel_input
     err_n = np.einsum("nij,nj->ni", st.mat_nb, err_b)
@@ -213,8 +241,12 @@ def _period_mean_error_n(traj, d_arms, t0, freq_hz, nodes: int = 4096):
 
 
 def _levers_file(fx, path):
-    levers = Levers(arms_total=fx.arms_total_m(), offset=fx.offset_m(), arms_triad=fx.arms_d_m(),
-                    extra={"source": "the simulation's true arms (a perfect calibration)"})
+    levers = Levers(
+        arms_total=fx.arms_total_m(),
+        offset=fx.offset_m(),
+        arms_triad=fx.arms_d_m(),
+        extra={"source": "the simulation's true arms (a perfect calibration)"},
+    )
     write_levers(path, levers, force=True)
 
 
@@ -222,7 +254,9 @@ def _simulate_and_navigate(out_dir, scenario, plan, overrides, rate_hz, seed, lo
     """Simulate ``scenario`` into ``out_dir``, then navigate it in the three modes with the true arms."""
     path = out_dir / f"{scenario}.h5"
     # the experiments own their folder: they replace their own records from an earlier run
-    summary = simulate_run(SimulateConfig(scenario, path, plan=plan, overrides=overrides, rate_hz=rate_hz, seed=seed, force=True))
+    summary = simulate_run(
+        SimulateConfig(scenario, path, plan=plan, overrides=overrides, rate_hz=rate_hz, seed=seed, force=True)
+    )
     log(f"  simulated {scenario} -> {path} ({summary.samples} samples, {summary.wall_s:.1f} s)")
     fx = load_effects(overrides=overrides)
     tel = read_telemetry(path)
@@ -249,14 +283,27 @@ def _distance_m(a, b):
 def sway_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) -> dict:
     """Heading sway at 10, 20, 30 deg/s after alignment: three navigations, closed forms, Figs. 8 and 9."""
     started = time.perf_counter()
-    plan = scenarios.SwayPlan(axis="heading", amplitudes_dps=(10.0, 20.0, 30.0), frequency_hz=1.0,
-                              static_s=size.sway_static_s, segment_s=size.sway_segment_s)
+    plan = scenarios.SwayPlan(
+        axis="heading",
+        amplitudes_dps=(10.0, 20.0, 30.0),
+        frequency_hz=1.0,
+        static_s=size.sway_static_s,
+        segment_s=size.sway_segment_s,
+    )
     d_true = _true_arms_d()
     # The unit sits off the table's axis, further along north (x) than east, as the paper's does.
-    overrides = {"lever_arm": {"preset": "high-precision", "d_x_m": d_true[0].tolist(), "d_y_m": d_true[1].tolist(),
-                               "d_z_m": d_true[2].tolist(), "r_vehicle_m": [0.15, 0.05, -0.10]}}
-    fx, tel, navs = _simulate_and_navigate(out_dir, "sway", plan, overrides, size.sway_rate_hz, seed, log,
-                                           init="align", align_s=plan.static_s)
+    overrides = {
+        "lever_arm": {
+            "preset": "high-precision",
+            "d_x_m": d_true[0].tolist(),
+            "d_y_m": d_true[1].tolist(),
+            "d_z_m": d_true[2].tolist(),
+            "r_vehicle_m": [0.15, 0.05, -0.10],
+        }
+    }
+    fx, tel, navs = _simulate_and_navigate(
+        out_dir, "sway", plan, overrides, size.sway_rate_hz, seed, log, init="align", align_s=plan.static_s
+    )
     # Closed form: during a segment the size effect of the spread d_i, rotated into NED and averaged
     # over a sway period, is a constant north/east accelerometer error b (to first order
     # -d_x[x] A^2 / 2 north and -d_y[y] A^2 / 2 east: the paper's r A^2 / 2 with r = d); its double
@@ -278,9 +325,11 @@ def sway_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) -> d
             closed["b_north"], closed["omega_s"] = float(b[-1]), float(omega_s)
     # the paper's closed form with the total arm r = offset + d (its a^k): the same law, r for d
     r_ratio = fx.arms_total_m()[0, 0] / d[0, 0]
-    total_t2 = schuler_response(t, [(t0, r_ratio * s_) for t0, s_ in
-                                    [(starts[k], b_ne[k, 0] - (b_ne[k - 1, 0] if k else 0.0)) for k in range(3)]],
-                                omega_s)[0]
+    total_t2 = schuler_response(
+        t,
+        [(t0, r_ratio * s_) for t0, s_ in [(starts[k], b_ne[k, 0] - (b_ne[k - 1, 0] if k else 0.0)) for k in range(3)]],
+        omega_s,
+    )[0]
     div_triad = _distance_m(navs["none"], navs["triad"])
     div_modes = _distance_m(navs["triad"], navs["center"])
     rows = []
@@ -309,19 +358,25 @@ def sway_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) -> d
         rows.append(row)
     figures = sway_figures(out_dir, navs, closed, t, starts, plan)
     return {
-        "rate_hz": size.sway_rate_hz, "static_s": plan.static_s, "segment_s": plan.segment_s,
-        "arms_d_mm": (d * 1e3).tolist(), "offset_mm": (fx.offset_m() * 1e3).tolist(),
+        "rate_hz": size.sway_rate_hz,
+        "static_s": plan.static_s,
+        "segment_s": plan.segment_s,
+        "arms_d_mm": (d * 1e3).tolist(),
+        "offset_mm": (fx.offset_m() * 1e3).tolist(),
         "segments": rows,
         "final_horizontal_m": {m: float(r.errors["horizontal_m"][-1]) for m, r in navs.items()},
         "max_horizontal_m": {m: float(r.errors["horizontal_m"].max()) for m, r in navs.items()},
-        "divergence_final_km": float(div_triad[-1] / 1e3), "divergence_max_km": float(div_triad.max() / 1e3),
+        "divergence_final_km": float(div_triad[-1] / 1e3),
+        "divergence_max_km": float(div_triad.max() / 1e3),
         "triad_vs_center_max_m": float(div_modes.max()),
         "schuler_period_min": float(2 * np.pi / omega_s / 60.0),
         "schuler_bound_north_km_at_last_amplitude": float(2 * abs(closed["b_north"]) / omega_s**2 / 1e3),
         # (1 - cos x) / (x^2 / 2) = 0.9: where the Schuler response falls 10 % short of the t^2 law
-        "t2_law_within_10_percent_min": float(brentq(lambda x: (1 - np.cos(x)) / (x * x / 2) - 0.9, 0.1, 3.0)
-                                              / omega_s / 60.0),
-        "figures": figures, "wall_s": time.perf_counter() - started,
+        "t2_law_within_10_percent_min": float(
+            brentq(lambda x: (1 - np.cos(x)) / (x * x / 2) - 0.9, 0.1, 3.0) / omega_s / 60.0
+        ),
+        "figures": figures,
+        "wall_s": time.perf_counter() - started,
     }
 
 
@@ -343,30 +398,47 @@ def flight_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) ->
     started = time.perf_counter()
     plan = scenarios.FlightPlan(duration_s=size.flight_duration_h * 3600.0, vib_rate_dps=FLIGHT_VIBRATION_DPS)
     d_true = _true_arms_d()
-    overrides = {"lever_arm": {"preset": "high-precision", "d_x_m": d_true[0].tolist(), "d_y_m": d_true[1].tolist(),
-                               "d_z_m": d_true[2].tolist(), "r_vehicle_m": list(FLIGHT_OFFSET_M)},
-                 "accel_bias": {"enabled": True}, "gyro_bias": {"enabled": True}}
+    overrides = {
+        "lever_arm": {
+            "preset": "high-precision",
+            "d_x_m": d_true[0].tolist(),
+            "d_y_m": d_true[1].tolist(),
+            "d_z_m": d_true[2].tolist(),
+            "r_vehicle_m": list(FLIGHT_OFFSET_M),
+        },
+        "accel_bias": {"enabled": True},
+        "gyro_bias": {"enabled": True},
+    }
     _, tel, navs = _simulate_and_navigate(out_dir, "flight", plan, overrides, size.flight_rate_hz, seed, log)
     del tel
     hours = size.flight_duration_h
-    out = {"rate_hz": size.flight_rate_hz, "duration_h": hours, "vibration_dps": list(FLIGHT_VIBRATION_DPS),
-           "offset_m": list(FLIGHT_OFFSET_M), "modes": {}}
+    out = {
+        "rate_hz": size.flight_rate_hz,
+        "duration_h": hours,
+        "vibration_dps": list(FLIGHT_VIBRATION_DPS),
+        "offset_m": list(FLIGHT_OFFSET_M),
+        "modes": {},
+    }
     ground_speed_error = {}
     for mode, res in navs.items():
         e = res.errors
         dn, de, dgs = _ground_speed_error(res)
         ground_speed_error[mode] = dgs
-        out["modes"][mode] = {"final_m": float(e["horizontal_m"][-1]), "max_m": float(e["horizontal_m"].max()),
-                              "drift_nmi_per_h": float(e["horizontal_m"][-1] / METRES_PER_NMI / hours),
-                              "ground_speed_error_rms_mps": float(np.sqrt(np.mean(dgs**2))),
-                              "ground_speed_error_final_mps": float(dgs[-1]),
-                              "velocity_error_rms_mps": float(np.sqrt(np.mean(dn**2 + de**2)))}
+        out["modes"][mode] = {
+            "final_m": float(e["horizontal_m"][-1]),
+            "max_m": float(e["horizontal_m"].max()),
+            "drift_nmi_per_h": float(e["horizontal_m"][-1] / METRES_PER_NMI / hours),
+            "ground_speed_error_rms_mps": float(np.sqrt(np.mean(dgs**2))),
+            "ground_speed_error_final_mps": float(dgs[-1]),
+            "velocity_error_rms_mps": float(np.sqrt(np.mean(dn**2 + de**2))),
+        }
     for mode in ("triad", "center"):
         gain = out["modes"]["none"]["final_m"] - out["modes"][mode]["final_m"]
         out[f"gain_{mode}_km"] = gain / 1e3
         out[f"gain_{mode}_nmi_per_h"] = gain / METRES_PER_NMI / hours
-        out[f"ground_speed_error_final_change_{mode}_mps"] = (out["modes"][mode]["ground_speed_error_final_mps"]
-                                                              - out["modes"]["none"]["ground_speed_error_final_mps"])
+        out[f"ground_speed_error_final_change_{mode}_mps"] = (
+            out["modes"][mode]["ground_speed_error_final_mps"] - out["modes"]["none"]["ground_speed_error_final_mps"]
+        )
     out["divergence_final_km"] = float(_distance_m(navs["none"], navs["triad"])[-1] / 1e3)
     out["figures"] = flight_figures(out_dir, navs, ground_speed_error)
     out["wall_s"] = time.perf_counter() - started
@@ -403,8 +475,15 @@ class Results:
     wall_s: dict = field(default_factory=dict)
 
 
-def run_all(out_dir: Path, size: Size, *, which=("turntable", "sway", "flight"), seed: int = 0, log=print,
-            keep_records: bool = True) -> Results:
+def run_all(
+    out_dir: Path,
+    size: Size,
+    *,
+    which=("turntable", "sway", "flight"),
+    seed: int = 0,
+    log=print,
+    keep_records: bool = True,
+) -> Results:
     """Run the experiments named in ``which`` into ``out_dir`` (records, lever-arm files, figures).
 
     ``keep_records=False`` deletes the simulated HDF5 records afterwards (the full flight is 611 MiB).
@@ -423,5 +502,4 @@ def run_all(out_dir: Path, size: Size, *, which=("turntable", "sway", "flight"),
 
 
 def to_json(res: Results) -> dict:
-    return {"size": res.size.name, "paper": PAPER, "turntable": res.turntable, "sway": res.sway,
-            "flight": res.flight}
+    return {"size": res.size.name, "paper": PAPER, "turntable": res.turntable, "sway": res.sway, "flight": res.flight}

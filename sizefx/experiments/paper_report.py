@@ -43,8 +43,10 @@ def sway_figures(out_dir, navs, closed, t, starts, plan):
         for t0 in starts:
             ax.axvline(t0 / 60.0, color="k", lw=0.5, alpha=0.4)
     axes[0].legend(fontsize=8)
-    axes[0].set_title(f"Fig. 8 (simulated): velocity errors under heading sway "
-                      f"{', '.join(f'{a:g}' for a in plan.amplitudes_dps)} deg/s at {plan.frequency_hz:g} Hz")
+    axes[0].set_title(
+        f"Fig. 8 (simulated): velocity errors under heading sway "
+        f"{', '.join(f'{a:g}' for a in plan.amplitudes_dps)} deg/s at {plan.frequency_hz:g} Hz"
+    )
     axes[-1].set_xlabel("time [min]")
     f8 = out_dir / "fig8_sway_velocity.png"
     fig.savefig(f8, dpi=100)
@@ -126,51 +128,103 @@ def format_results(res) -> str:
     ``res``: the :class:`sizefx.experiments.paper.Results` of a run (not imported here: the
     experiments import this module, never the other way round).
     """
-    lines = [f"the paper's experiments in simulation ({res.size.name} size)",
-             f"  {'figure':58s} {'paper':>12s} {'sizefx':>12s}  why they differ"]
+    lines = [
+        f"the paper's experiments in simulation ({res.size.name} size)",
+        f"  {'figure':58s} {'paper':>12s} {'sizefx':>12s}  why they differ",
+    ]
 
     def row(what, paper, ours, why):
         lines.append(f"  {what:58s} {paper:>12s} {ours:>12s}  {why}")
 
     if res.turntable:
         tt = res.turntable
-        row(f"turntable, {tt['repeats']} repeats at {tt['rate_hz']:g} Hz: arm - nominal, |signed mean| [mm]",
-            "0.5", f"{tt['diff_mean_mm']:.2f}", "the unit carries the paper's Delta r; the joint fit recovers them")
-        row("  mean of magnitudes [mm]", f"{tt['paper_diff_mean_abs_mm']:.2f}", f"{tt['diff_mean_abs_mm']:.2f}",
-            "the paper's own table")
+        row(
+            f"turntable, {tt['repeats']} repeats at {tt['rate_hz']:g} Hz: arm - nominal, |signed mean| [mm]",
+            "0.5",
+            f"{tt['diff_mean_mm']:.2f}",
+            "the unit carries the paper's Delta r; the joint fit recovers them",
+        )
+        row(
+            "  mean of magnitudes [mm]",
+            f"{tt['paper_diff_mean_abs_mm']:.2f}",
+            f"{tt['diff_mean_abs_mm']:.2f}",
+            "the paper's own table",
+        )
         row("  max [mm]", "1.6", f"{tt['diff_max_mm']:.2f}", "the paper's own table")
-        row("  per-rotation fit (the paper's method), mean |dev| [mm]", "0.5",
+        row(
+            "  per-rotation fit (the paper's method), mean |dev| [mm]",
+            "0.5",
             f"{tt['per_rotation_diff_mean_abs_mm']:.2f}",
-            f"(signed mean {tt['per_rotation_diff_signed_mean_mm']:.2f}) hypothesis: it ignores the table tilt")
-        row("  spread over repeats, mean [mm]", "0.04", f"{tt['sigma_mean_mm']:.3f}",
-            "white sensor noise only: no table wobble or drift between repeats")
+            f"(signed mean {tt['per_rotation_diff_signed_mean_mm']:.2f}) hypothesis: it ignores the table tilt",
+        )
+        row(
+            "  spread over repeats, mean [mm]",
+            "0.04",
+            f"{tt['sigma_mean_mm']:.3f}",
+            "white sensor noise only: no table wobble or drift between repeats",
+        )
         row("  spread over repeats, max [mm]", "0.12", f"{tt['sigma_max_mm']:.3f}", "the same")
     if res.sway:
         sw = res.sway
-        row(f"heading sway at {sw['rate_hz']:g} Hz: compensated vs uncompensated [km]", "3.0",
-            f"{sw['divergence_final_km']:.2f}", "d A^2 sets it: 3.0 km needs 1.45x ours (A 20 % higher)")
+        row(
+            f"heading sway at {sw['rate_hz']:g} Hz: compensated vs uncompensated [km]",
+            "3.0",
+            f"{sw['divergence_final_km']:.2f}",
+            "d A^2 sets it: 3.0 km needs 1.45x ours (A 20 % higher)",
+        )
         last = sw["segments"][-1]
-        row("  uncompensated north error at 40 min [km]", "-", f"{last['none_north_m'] / 1e3:.2f}",
-            f"closed form: t^2 law {last['t2_law_north_m'] / 1e3:.2f}, with Schuler {last['schuler_north_m'] / 1e3:.2f}")
-        row("  t^2 law within 10 % for the first [min]", "-", f"{sw['t2_law_within_10_percent_min']:.1f}",
-            f"then the Schuler loop bounds it at {sw['schuler_bound_north_km_at_last_amplitude']:.1f} km (30 deg/s)")
-        row("  the paper's r A^2 t^2/4 with the total arm, north [km]", "-",
-            f"{last['paper_t2_law_total_arm_north_m'] / 1e3:.1f}", "the offset to the table centre cancels: only d")
+        row(
+            "  uncompensated north error at 40 min [km]",
+            "-",
+            f"{last['none_north_m'] / 1e3:.2f}",
+            f"closed form: t^2 law {last['t2_law_north_m'] / 1e3:.2f}, with Schuler {last['schuler_north_m'] / 1e3:.2f}",
+        )
+        row(
+            "  t^2 law within 10 % for the first [min]",
+            "-",
+            f"{sw['t2_law_within_10_percent_min']:.1f}",
+            f"then the Schuler loop bounds it at {sw['schuler_bound_north_km_at_last_amplitude']:.1f} km (30 deg/s)",
+        )
+        row(
+            "  the paper's r A^2 t^2/4 with the total arm, north [km]",
+            "-",
+            f"{last['paper_t2_law_total_arm_north_m'] / 1e3:.1f}",
+            "the offset to the table centre cancels: only d",
+        )
         ptp = [s["center_velocity_ptp_mps"] for s in sw["segments"]]
         ptp_none = [s["none_velocity_ptp_mps"] for s in sw["segments"]]
-        row("  compensated velocity swing per segment (10 s means) [m/s]", "Schuler",
-            "/".join(f"{p:.3f}" for p in ptp), "uncompensated: " + "/".join(f"{p:.2f}" for p in ptp_none))
-        row("  triad vs rotation-centre solutions, max [m]", "coincide", f"{sw['triad_vs_center_max_m']:.3f}",
-            "the triad point itself moves by +-omega r around the centre")
+        row(
+            "  compensated velocity swing per segment (10 s means) [m/s]",
+            "Schuler",
+            "/".join(f"{p:.3f}" for p in ptp),
+            "uncompensated: " + "/".join(f"{p:.2f}" for p in ptp_none),
+        )
+        row(
+            "  triad vs rotation-centre solutions, max [m]",
+            "coincide",
+            f"{sw['triad_vs_center_max_m']:.3f}",
+            "the triad point itself moves by +-omega r around the centre",
+        )
     if res.flight:
         fl = res.flight
-        row(f"flight {fl['duration_h']:g} h at {fl['rate_hz']:g} Hz: final error removed [km]", "1.1",
-            f"{fl['gain_triad_km']:.2f}", "the vibration (8.2 deg/s) is chosen to match at 1600 Hz")
+        row(
+            f"flight {fl['duration_h']:g} h at {fl['rate_hz']:g} Hz: final error removed [km]",
+            "1.1",
+            f"{fl['gain_triad_km']:.2f}",
+            "the vibration (8.2 deg/s) is chosen to match at 1600 Hz",
+        )
         row("  as a drift rate [nmi/h]", "0.3", f"{fl['gain_triad_nmi_per_h']:.2f}", "the gain over 1.8 h")
-        row("  final ground-speed error, without -> with [m/s]", "-0.828",
+        row(
+            "  final ground-speed error, without -> with [m/s]",
+            "-0.828",
             f"{fl['modes']['none']['ground_speed_error_final_mps']:.2f}->"
             f"{fl['modes']['triad']['ground_speed_error_final_mps']:.2f}",
-            "the paper does not say at what instant; it swings with the Schuler loop")
-        row("  rotation-centre mode: final error removed [km]", "~ triad", f"{fl['gain_center_km']:.2f}",
-            "both modes bring the masses to one point")
+            "the paper does not say at what instant; it swings with the Schuler loop",
+        )
+        row(
+            "  rotation-centre mode: final error removed [km]",
+            "~ triad",
+            f"{fl['gain_center_km']:.2f}",
+            "both modes bring the masses to one point",
+        )
     return "\n".join(lines)

@@ -23,8 +23,8 @@ import numpy as np
 
 from .. import __version__
 from ..errors import OutputError, SourceError, TelemetryError
-from ..io.files import atomic_output, sha256_of
 from ..io.contract import invalid_rows, limit_problem
+from ..io.files import atomic_output, sha256_of
 from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
@@ -88,8 +88,10 @@ def _units_context(fmt: str, tel):
 
     src = tel.source or {}
     names = dict(zip(("gyro", "accel"), FORM_QUANTITIES[tel.form]))
-    datasets = {"gyro": "/imu/gyro" if tel.form == "rates" else "/imu/dtheta",
-                "accel": "/imu/accel" if tel.form == "rates" else "/imu/dvel"}
+    datasets = {
+        "gyro": "/imu/gyro" if tel.form == "rates" else "/imu/dtheta",
+        "accel": "/imu/accel" if tel.form == "rates" else "/imu/dvel",
+    }
     declared, where = {}, {}
     for what, dataset in datasets.items():
         if src.get(f"{what}_units"):
@@ -105,10 +107,14 @@ def _units_context(fmt: str, tel):
                 return f"import with {option} {check.looks_like}"
             outside = UNITS_OUTSIDE_CONTRACT.get(names[check.what], {})
             if check.looks_like in outside:
-                return f"multiply the columns by {outside[check.looks_like]:g} to make them {check.declared} " \
-                       f"({option} takes {', '.join(allowed_units(names[check.what]))})"
-            return f"convert the columns to {check.declared} before importing ({option} takes " \
-                   f"{', '.join(allowed_units(names[check.what]))})"
+                return (
+                    f"multiply the columns by {outside[check.looks_like]:g} to make them {check.declared} "
+                    f"({option} takes {', '.join(allowed_units(names[check.what]))})"
+                )
+            return (
+                f"convert the columns to {check.declared} before importing ({option} takes "
+                f"{', '.join(allowed_units(names[check.what]))})"
+            )
         return f"the {fmt} format stores {check.declared}; check that the source is a genuine {fmt} file"
 
     return declared, where, fix
@@ -176,21 +182,29 @@ class ImportResult:
         from ..sanity import report_lines
 
         gaps = self.imu_gaps
-        lines = [f"wrote {self.path}: {self.samples} {self.form} samples at {self.rate_hz:.6g} Hz, "
-                 f"{self.duration_s:.2f} s; reference rows: {self.reference_rows}"
-                 + (f" ({self.reference_gaps} dropouts)" if self.reference_gaps else "")]
+        lines = [
+            f"wrote {self.path}: {self.samples} {self.form} samples at {self.rate_hz:.6g} Hz, "
+            f"{self.duration_s:.2f} s; reference rows: {self.reference_rows}"
+            + (f" ({self.reference_gaps} dropouts)" if self.reference_gaps else "")
+        ]
         if gaps:
-            lines.append(f"gaps: {gaps} in the IMU time stamps, {self.declared_gaps} declared in /imu/gaps (the first "
-                         f"at t = {self.first_imu_gap_s:.6f} s, the longest {self.longest_imu_gap_s * 1e3:.4g} ms): "
-                         f"{self.segments} continuous segments (sizefx inspect lists them); navigate and "
-                         "compensate take --segment K")
+            lines.append(
+                f"gaps: {gaps} in the IMU time stamps, {self.declared_gaps} declared in /imu/gaps (the first "
+                f"at t = {self.first_imu_gap_s:.6f} s, the longest {self.longest_imu_gap_s * 1e3:.4g} ms): "
+                f"{self.segments} continuous segments (sizefx inspect lists them); navigate and "
+                "compensate take --segment K"
+            )
             if self.declared_gaps < gaps:
-                lines.append(f"note: {gaps - self.declared_gaps} gaps only the accelerometer stamps show cannot be "
-                             "declared; pass --allow-gaps to the commands that read this file")
+                lines.append(
+                    f"note: {gaps - self.declared_gaps} gaps only the accelerometer stamps show cannot be "
+                    "declared; pass --allow-gaps to the commands that read this file"
+                )
         if self.dropped_rows:
             d = self.dropped_rows
-            lines.append(f"dropped {d['rows']} IMU rows holding NaN, inf or values beyond the physical limits (the "
-                         f"first: source row {d['first_row']}, after t = {d['after_time_s']:.6f} s); they are gaps now")
+            lines.append(
+                f"dropped {d['rows']} IMU rows holding NaN, inf or values beyond the physical limits (the "
+                f"first: source row {d['first_row']}, after t = {d['after_time_s']:.6f} s); they are gaps now"
+            )
         checked = report_lines(self.units_check)
         lines.append(f"units: {checked[0]}")
         lines.extend(f"       {line}" for line in checked[1:])
@@ -210,7 +224,8 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
     ``progress`` is accepted for the shape every stage shares and not called: the converters
     read a source whole, and the import of the longest real recording takes seconds.
     """
-    from ..sanity import check_units as units_of, refuse_wrong_units
+    from ..sanity import check_units as units_of
+    from ..sanity import refuse_wrong_units
     from ..stage import preflight
 
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
@@ -224,8 +239,9 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         try:
             write_telemetry(tmp, tel, force=True)
         except OSError as exc:  # disk full, quota: name the output the user asked for
-            raise OutputError(f"{out}: cannot be written ({exc.strerror or exc}); check the space and "
-                              "permissions of its folder") from None
+            raise OutputError(
+                f"{out}: cannot be written ({exc.strerror or exc}); check the space and permissions of its folder"
+            ) from None
         except OutputError as exc:  # the writer's own refusal (no room) names its file: ours is temporary
             raise OutputError(str(exc).replace(str(tmp), str(out))) from None
         # gaps only the accelerometer stamps show cannot be declared: allowed here, reported below;
@@ -233,8 +249,9 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         try:
             back = read_telemetry(tmp, allow_gaps=True, check_plausibility=False, check_limits=False)
         except TelemetryError as exc:  # name the user's file, never the temporary one
-            raise SourceError(source, f"converts to a record that breaks sizefx/telemetry/1: {exc.dataset}: "
-                                      f"{exc.problem}") from None
+            raise SourceError(
+                source, f"converts to a record that breaks sizefx/telemetry/1: {exc.dataset}: {exc.problem}"
+            ) from None
         if config.check_units:
             declared, where, fix = _units_context(fmt, back)
             with np.errstate(over="ignore", invalid="ignore"):  # a 1e300 sample: refused by the limits below
@@ -249,14 +266,23 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
     imu_gaps = [g for g in back.gaps if g.dataset.startswith("/imu")]
     ref_gaps = [g for g in back.gaps if g.dataset.startswith("/reference")]
     return ImportResult(
-        path=str(out), format=fmt, samples=back.n_samples, form=back.form, rate_hz=back.sample_rate_hz,
-        duration_s=back.duration_s, imu_gaps=len(imu_gaps), declared_gaps=sum(g.declared for g in imu_gaps),
+        path=str(out),
+        format=fmt,
+        samples=back.n_samples,
+        form=back.form,
+        rate_hz=back.sample_rate_hz,
+        duration_s=back.duration_s,
+        imu_gaps=len(imu_gaps),
+        declared_gaps=sum(g.declared for g in imu_gaps),
         first_imu_gap_s=imu_gaps[0].time_s if imu_gaps else None,
         longest_imu_gap_s=max((g.duration_s for g in imu_gaps), default=None),
         segments=len(imu_gaps) + 1,
         reference_rows=0 if back.reference is None else int(back.reference.time_s.shape[0]),
-        reference_gaps=len(ref_gaps), accel_time=back.accel_time_s is not None, site=back.site is not None,
-        units_check=None if report is None else report.as_dict(), dropped_rows=dropped,
+        reference_gaps=len(ref_gaps),
+        accel_time=back.accel_time_s is not None,
+        site=back.site is not None,
+        units_check=None if report is None else report.as_dict(),
+        dropped_rows=dropped,
     )
 
 
@@ -274,8 +300,11 @@ def _drop_invalid_rows(tel, source) -> dict | None:
     first = int(np.flatnonzero(bad)[0])
     keep = ~bad
     if keep.sum() < 2:
-        raise SourceError(source, f"every IMU row but {int(keep.sum())} is invalid (NaN, inf or "
-                                                "beyond the physical limits); nothing is left to import")
+        raise SourceError(
+            source,
+            f"every IMU row but {int(keep.sum())} is invalid (NaN, inf or "
+            "beyond the physical limits); nothing is left to import",
+        )
     for field_name in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s"):
         data = getattr(tel, field_name)
         if data is not None:

@@ -27,8 +27,10 @@ from ..frames import MAT_FRD_FLU, enu_to_ned, geodetic_from_local_ned, quat_nb_f
 from ..io.telemetry import Reference, Site, Telemetry
 from . import as_array, load_mat, provenance
 
-CREDITS = ("D. Laidig, M. Caruso, A. Cereatti, T. Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "
-           "Estimation', Data 6(7):72, 2021; licence CC BY 4.0")
+CREDITS = (
+    "D. Laidig, M. Caruso, A. Cereatti, T. Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "
+    "Estimation', Data 6(7):72, 2021; licence CC BY 4.0"
+)
 
 #: Where BROAD was recorded (:data:`sizefx.constants.BROAD_SITE_DEG`).
 DEFAULT_SITE_DEG = BROAD_SITE_DEG
@@ -62,14 +64,28 @@ def load(path: Path, *, site_deg=DEFAULT_SITE_DEG) -> Telemetry:
     info = str(np.asarray(mat.get("info", [""])).ravel()[0]) if "info" in mat else ""
     trial = info.split("Trial:")[1].splitlines()[0].strip() if "Trial:" in info else Path(path).stem
     dropped = int(n - valid.sum())
-    description = (f"BROAD trial {trial}: IMU axes FLU converted to body FRD; motion-capture attitude ENU lab "
-                   f"frame converted to NED (lab heading not tied to north); position = tracked marker origin, "
-                   f"placed about an assumed site {site_deg[0]:.4f} N {site_deg[1]:.4f} E {h0:.0f} m; "
-                   f"{dropped} reference rows with NaN left out. Credit: {CREDITS}")
+    description = (
+        f"BROAD trial {trial}: IMU axes FLU converted to body FRD; motion-capture attitude ENU lab "
+        f"frame converted to NED (lab heading not tied to north); position = tracked marker origin, "
+        f"placed about an assumed site {site_deg[0]:.4f} N {site_deg[1]:.4f} E {h0:.0f} m; "
+        f"{dropped} reference rows with NaN left out. Credit: {CREDITS}"
+    )
     return Telemetry(
-        time_s=t, form="rates", gyro_rad_s=gyr @ mat_b_imu.T, accel_mps2=acc @ mat_b_imu.T,
+        time_s=t,
+        form="rates",
+        gyro_rad_s=gyr @ mat_b_imu.T,
+        accel_mps2=acc @ mat_b_imu.T,
         reference=Reference(time_s=t[valid], quat_nb=q_nb, lat_rad=lat, lon_rad=lon, height_m=h),
-        site=Site(lat0, lon0, h0), description=description,
-        source=provenance(path, "broad", CREDITS, trial=trial, imu_axes="FLU", reference_dropout_rows=dropped,
-                          site_assumed_deg=list(site_deg), info=info),
+        site=Site(lat0, lon0, h0),
+        description=description,
+        source=provenance(
+            path,
+            "broad",
+            CREDITS,
+            trial=trial,
+            imu_axes="FLU",
+            reference_dropout_rows=dropped,
+            site_assumed_deg=list(site_deg),
+            info=info,
+        ),
     )

@@ -37,9 +37,9 @@ import numpy as np
 from ..constants import DEG, QUATERNION_NORM_TOLERANCE
 from ..errors import SourceError
 from ..frames import enu_to_ned, quat_nb_from_enu_body
-from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
 from ..io.schema import allowed_units, unit_factor
 from ..io.telemetry import Reference, Site, Telemetry
+from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
 from . import provenance
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -100,8 +100,11 @@ class _Table:
         """Every column of ``names`` is in the header, or an error naming the first missing one and its option."""
         missing = [c for c in names if c not in self.header]
         if missing:
-            raise SourceError(self.path, f"column '{missing[0]}' is not in the header ({option_of[missing[0]]}); "
-                                         f"columns are: {', '.join(self.header)}")
+            raise SourceError(
+                self.path,
+                f"column '{missing[0]}' is not in the header ({option_of[missing[0]]}); "
+                f"columns are: {', '.join(self.header)}",
+            )
 
     @staticmethod
     def is_data(line: str) -> bool:
@@ -129,8 +132,7 @@ class _Table:
         if empty_is_nan:
             converters = {i: (lambda s: float(s) if s.strip() else np.nan) for i in set(idx)}
         try:
-            return np.loadtxt(io.StringIO(body), delimiter=self.delimiter, ndmin=2, usecols=idx,
-                              converters=converters)
+            return np.loadtxt(io.StringIO(body), delimiter=self.delimiter, ndmin=2, usecols=idx, converters=converters)
         except ValueError as exc:
             self._raise_bad_cell(names, idx, option_of, empty_is_nan)
             detail = " ".join(str(exc).split())[:100]
@@ -143,22 +145,31 @@ class _Table:
                 continue
             fields = line.split("#", 1)[0].split(self.delimiter)
             if len(fields) < need:
-                raise SourceError(self.path, f"line {number} has {len(fields)} fields, the header {len(self.header)}; "
-                                             f"column '{names[idx.index(max(idx))]}' is missing there (write empty "
-                                             "cells with their delimiters)")
+                raise SourceError(
+                    self.path,
+                    f"line {number} has {len(fields)} fields, the header {len(self.header)}; "
+                    f"column '{names[idx.index(max(idx))]}' is missing there (write empty "
+                    "cells with their delimiters)",
+                )
             for name, i in zip(names, idx):
                 cell = fields[i].strip()
                 if not cell:
                     if empty_is_nan:
                         continue
-                    raise SourceError(self.path, f"column '{name}' ({option_of[name]}) is empty on line {number}; "
-                                                 "IMU cells must all be filled (give a reference with rows of its "
-                                                 "own in --reference-file)")
+                    raise SourceError(
+                        self.path,
+                        f"column '{name}' ({option_of[name]}) is empty on line {number}; "
+                        "IMU cells must all be filled (give a reference with rows of its "
+                        "own in --reference-file)",
+                    )
                 try:
                     float(cell)
                 except ValueError:
-                    raise SourceError(self.path, f"column '{name}' ({option_of[name]}) on line {number} holds "
-                                                 f"'{cell[:20]}', which is not numeric") from None
+                    raise SourceError(
+                        self.path,
+                        f"column '{name}' ({option_of[name]}) on line {number} holds "
+                        f"'{cell[:20]}', which is not numeric",
+                    ) from None
 
 
 # --------------------------------------------------------------------------- options
@@ -167,8 +178,10 @@ class _Table:
 def _columns(path, cols, option: str, n: int, names: str):
     cols = tuple(c.strip() for c in cols)
     if len(cols) != n:
-        raise SourceError(path, f"{option} names {len(cols)} columns ({', '.join(cols)}); give exactly "
-                                f"{('three', 'four')[n - 3]}, {names}")
+        raise SourceError(
+            path,
+            f"{option} names {len(cols)} columns ({', '.join(cols)}); give exactly {('three', 'four')[n - 3]}, {names}",
+        )
     return cols
 
 
@@ -197,8 +210,12 @@ class _ReferenceColumns:
     def options(self) -> dict:
         """Column name -> the option that named it (for messages)."""
         out = {} if self.time is None else {self.time: "--reference-time"}
-        for option, cols in (("--reference-quaternion", self.quaternion), ("--reference-euler", self.euler),
-                             ("--reference-velocity", self.velocity), ("--reference-position", self.position)):
+        for option, cols in (
+            ("--reference-quaternion", self.quaternion),
+            ("--reference-euler", self.euler),
+            ("--reference-velocity", self.velocity),
+            ("--reference-position", self.position),
+        ):
             out.update(dict.fromkeys(cols or (), option))
         return out
 
@@ -206,16 +223,36 @@ class _ReferenceColumns:
         return [c for cols in (self.quaternion, self.euler, self.velocity, self.position) if cols for c in cols]
 
 
-def _reference_columns(path, *, time, time_units, reference_file, reference_time, reference_time_units,
-                       reference_quaternion, reference_euler, reference_euler_units, reference_velocity,
-                       reference_position, reference_position_units, reference_frame):
-    given = {"--reference-file": reference_file, "--reference-time": reference_time,
-             "--reference-velocity": reference_velocity, "--reference-position": reference_position}
+def _reference_columns(
+    path,
+    *,
+    time,
+    time_units,
+    reference_file,
+    reference_time,
+    reference_time_units,
+    reference_quaternion,
+    reference_euler,
+    reference_euler_units,
+    reference_velocity,
+    reference_position,
+    reference_position_units,
+    reference_frame,
+):
+    given = {
+        "--reference-file": reference_file,
+        "--reference-time": reference_time,
+        "--reference-velocity": reference_velocity,
+        "--reference-position": reference_position,
+    }
     if reference_quaternion is None and reference_euler is None:
         extra = [k for k, v in given.items() if v is not None]
         if extra:
-            raise SourceError(path, f"{extra[0]} needs a reference attitude (--reference-quaternion or "
-                                    "--reference-euler): /reference always holds one")
+            raise SourceError(
+                path,
+                f"{extra[0]} needs a reference attitude (--reference-quaternion or "
+                "--reference-euler): /reference always holds one",
+            )
         return None
     if reference_file is not None:
         ref_path = Path(reference_file)
@@ -230,38 +267,53 @@ def _reference_columns(path, *, time, time_units, reference_file, reference_time
     if frame not in REFERENCE_FRAMES:
         raise SourceError(ref_path, f"--reference-frame '{reference_frame}' is not known; use ned or enu")
     if reference_euler is not None and frame != "ned":
-        raise SourceError(ref_path, "--reference-euler: roll, pitch and heading are defined in NED only; give an "
-                                    "ENU attitude as a quaternion (--reference-quaternion)")
+        raise SourceError(
+            ref_path,
+            "--reference-euler: roll, pitch and heading are defined in NED only; give an "
+            "ENU attitude as a quaternion (--reference-quaternion)",
+        )
     _angle_factor(ref_path, reference_euler_units, "--reference-euler-units")
     _angle_factor(ref_path, reference_position_units, "--reference-position-units")
     # an own time column: always in a separate file, and in the IMU file when named (and not the IMU's own)
     if reference_file is not None and reference_time is None:
         reference_time = time
-    own_time = reference_time is not None and (reference_file is not None or reference_time != time
-                                               or reference_time_units is not None)
+    own_time = reference_time is not None and (
+        reference_file is not None or reference_time != time or reference_time_units is not None
+    )
     if own_time:
         if reference_time_units is None:
             if time_units not in TIME_UNITS:
-                raise SourceError(ref_path, f"the IMU time is in {time_units}; give the reference's time units "
-                                            f"(--reference-time-units {', '.join(TIME_UNITS)})")
+                raise SourceError(
+                    ref_path,
+                    f"the IMU time is in {time_units}; give the reference's time units "
+                    f"(--reference-time-units {', '.join(TIME_UNITS)})",
+                )
             reference_time_units = time_units
         if reference_time_units not in TIME_UNITS:
-            raise SourceError(ref_path, f"--reference-time-units '{reference_time_units}' are not known; use "
-                                        f"{', '.join(TIME_UNITS)}")
+            raise SourceError(
+                ref_path, f"--reference-time-units '{reference_time_units}' are not known; use {', '.join(TIME_UNITS)}"
+            )
     return _ReferenceColumns(
-        path=ref_path, separate=reference_file is not None,
-        time=reference_time.strip() if own_time else None, time_units=reference_time_units if own_time else None,
-        quaternion=None if reference_quaternion is None else _columns(
-            ref_path, reference_quaternion, "--reference-quaternion", 4, "W,X,Y,Z (scalar first)"),
-        euler=None if reference_euler is None else _columns(
-            ref_path, reference_euler, "--reference-euler", 3, "ROLL,PITCH,HEADING"),
+        path=ref_path,
+        separate=reference_file is not None,
+        time=reference_time.strip() if own_time else None,
+        time_units=reference_time_units if own_time else None,
+        quaternion=None
+        if reference_quaternion is None
+        else _columns(ref_path, reference_quaternion, "--reference-quaternion", 4, "W,X,Y,Z (scalar first)"),
+        euler=None
+        if reference_euler is None
+        else _columns(ref_path, reference_euler, "--reference-euler", 3, "ROLL,PITCH,HEADING"),
         euler_units=reference_euler_units,
-        velocity=None if reference_velocity is None else _columns(
-            ref_path, reference_velocity, "--reference-velocity", 3,
-            "north,east,down (ENU: east,north,up)"),
-        position=None if reference_position is None else _columns(
-            ref_path, reference_position, "--reference-position", 3, "LAT,LON,HEIGHT"),
-        position_units=reference_position_units, frame=frame)
+        velocity=None
+        if reference_velocity is None
+        else _columns(ref_path, reference_velocity, "--reference-velocity", 3, "north,east,down (ENU: east,north,up)"),
+        position=None
+        if reference_position is None
+        else _columns(ref_path, reference_position, "--reference-position", 3, "LAT,LON,HEIGHT"),
+        position_units=reference_position_units,
+        frame=frame,
+    )
 
 
 # --------------------------------------------------------------------------- the reference
@@ -291,19 +343,28 @@ def _check_reference_time(spec: _ReferenceColumns, table: _Table, t, rows, imu_t
     path = spec.path
     time_label = f"column '{spec.time}' (--reference-time)" if spec.time else "the IMU time (reference rows)"
     if t.shape[0] < 2:
-        raise SourceError(path, f"the reference has {t.shape[0]} row(s) with every column filled "
-                                f"({', '.join(spec.value_columns())}); at least 2 are needed")
+        raise SourceError(
+            path,
+            f"the reference has {t.shape[0]} row(s) with every column filled "
+            f"({', '.join(spec.value_columns())}); at least 2 are needed",
+        )
     step = np.diff(t)
     if np.any(step <= 0.0):
         k = int(np.flatnonzero(step <= 0.0)[0]) + 1
         what = "repeats" if step[k - 1] == 0.0 else "goes back"
-        raise SourceError(path, f"reference time {time_label} {what} on line {table.line_number(int(rows[k]))} "
-                                f"({t[k - 1]:.6f} s -> {t[k]:.6f} s); sort it and drop repeated rows")
+        raise SourceError(
+            path,
+            f"reference time {time_label} {what} on line {table.line_number(int(rows[k]))} "
+            f"({t[k - 1]:.6f} s -> {t[k]:.6f} s); sort it and drop repeated rows",
+        )
     if t[-1] < imu_t[0] or t[0] > imu_t[-1]:
         column = f"'{spec.time}' [{spec.time_units}]" if spec.time else "(the IMU time)"
-        raise SourceError(path, f"reference time {column} spans {t[0]:.6g} .. {t[-1]:.6g} s and the IMU "
-                                f"time '{time}' in {imu_path.name} spans {imu_t[0]:.6g} .. {imu_t[-1]:.6g} s: "
-                                "they do not overlap; both must be on the IMU clock (check --reference-time-units)")
+        raise SourceError(
+            path,
+            f"reference time {column} spans {t[0]:.6g} .. {t[-1]:.6g} s and the IMU "
+            f"time '{time}' in {imu_path.name} spans {imu_t[0]:.6g} .. {imu_t[-1]:.6g} s: "
+            "they do not overlap; both must be on the IMU clock (check --reference-time-units)",
+        )
 
 
 def _build_reference(spec: _ReferenceColumns, table: _Table, t, values, rows, mat_b_s) -> Reference:
@@ -314,17 +375,20 @@ def _build_reference(spec: _ReferenceColumns, table: _Table, t, values, rows, ma
     for key in ("quaternion", "euler", "velocity", "position"):
         names = getattr(spec, key)
         if names:
-            cols[key] = values[:, k:k + len(names)]
+            cols[key] = values[:, k : k + len(names)]
             k += len(names)
     if spec.quaternion:
         q = cols["quaternion"]
         err = np.abs(np.linalg.norm(q, axis=1) - 1.0)
         if err.max() > QUATERNION_NORM_TOLERANCE:
             j = int(np.argmax(err))
-            raise SourceError(path, f"columns {','.join(spec.quaternion)} (--reference-quaternion) on line "
-                                    f"{table.line_number(int(rows[j]))} have |q| = {np.linalg.norm(q[j]):.9g}; a unit "
-                                    f"quaternion is needed (|q| - 1 within {QUATERNION_NORM_TOLERANCE:g}): check the "
-                                    "columns are named in scalar-first order W,X,Y,Z, and normalise them")
+            raise SourceError(
+                path,
+                f"columns {','.join(spec.quaternion)} (--reference-quaternion) on line "
+                f"{table.line_number(int(rows[j]))} have |q| = {np.linalg.norm(q[j]):.9g}; a unit "
+                f"quaternion is needed (|q| - 1 within {QUATERNION_NORM_TOLERANCE:g}): check the "
+                "columns are named in scalar-first order W,X,Y,Z, and normalise them",
+            )
         q = q / np.linalg.norm(q, axis=1, keepdims=True)
         if spec.frame == "enu":
             quat_nb = quat_nb_from_enu_body(q, mat_b_s.T)
@@ -343,10 +407,13 @@ def _build_reference(spec: _ReferenceColumns, table: _Table, t, values, rows, ma
         bad = np.flatnonzero(np.abs(pos[:, 0] * factor) > np.pi / 2)
         if bad.size:
             j = int(bad[0])
-            raise SourceError(path, f"column '{spec.position[0]}' (--reference-position) on line "
-                                    f"{table.line_number(int(rows[j]))} holds latitude {pos[j, 0]:g} "
-                                    f"{spec.position_units}, outside +-90 deg; is it latitude, in "
-                                    "--reference-position-units?")
+            raise SourceError(
+                path,
+                f"column '{spec.position[0]}' (--reference-position) on line "
+                f"{table.line_number(int(rows[j]))} holds latitude {pos[j, 0]:g} "
+                f"{spec.position_units}, outside +-90 deg; is it latitude, in "
+                "--reference-position-units?",
+            )
         ref.lat_rad, ref.lon_rad, ref.height_m = pos[:, 0] * factor, pos[:, 1] * factor, pos[:, 2].copy()
     return ref
 
@@ -367,22 +434,44 @@ def _check_gravity(spec: _ReferenceColumns, ref: Reference, t, accel_like, perio
     angle_deg = float(np.median(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))))
     if angle_deg > REFERENCE_GRAVITY_ANGLE_MAX_DEG:
         attitude = "--reference-quaternion (order W,X,Y,Z)" if spec.quaternion else "--reference-euler"
-        raise SourceError(spec.path, f"the reference attitude puts 'up' {angle_deg:.0f} deg (median) from the "
-                                     "specific force the accelerometers read; at rest they agree. Check --axes (the "
-                                     f"reference describes the sensor axes too), --reference-frame ({spec.frame}) "
-                                     f"and {attitude}")
+        raise SourceError(
+            spec.path,
+            f"the reference attitude puts 'up' {angle_deg:.0f} deg (median) from the "
+            "specific force the accelerometers read; at rest they agree. Check --axes (the "
+            f"reference describes the sensor axes too), --reference-frame ({spec.frame}) "
+            f"and {attitude}",
+        )
 
 
 # --------------------------------------------------------------------------- the importer
 
 
-def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units: str = "rad/s",
-         accel_units: str = "m/s^2", time_units: str = "s", rate_hz: float | None = None,
-         axes=("x", "y", "z"), delimiter: str = ",", site_deg=None,
-         reference_file=None, reference_time: str | None = None, reference_time_units: str | None = None,
-         reference_quaternion=None, reference_euler=None, reference_euler_units: str = "deg",
-         reference_velocity=None, reference_position=None, reference_position_units: str = "deg",
-         reference_frame: str = "ned", keep_invalid: bool = False) -> Telemetry:
+def load(
+    path: Path,
+    *,
+    time: str,
+    gyro,
+    accel,
+    form: str = "rates",
+    gyro_units: str = "rad/s",
+    accel_units: str = "m/s^2",
+    time_units: str = "s",
+    rate_hz: float | None = None,
+    axes=("x", "y", "z"),
+    delimiter: str = ",",
+    site_deg=None,
+    reference_file=None,
+    reference_time: str | None = None,
+    reference_time_units: str | None = None,
+    reference_quaternion=None,
+    reference_euler=None,
+    reference_euler_units: str = "deg",
+    reference_velocity=None,
+    reference_position=None,
+    reference_position_units: str = "deg",
+    reference_frame: str = "ned",
+    keep_invalid: bool = False,
+) -> Telemetry:
     """A CSV record (and its reference) as :class:`~sizefx.io.telemetry.Telemetry` in SI, body FRD, NED.
 
     ``keep_invalid``: keep IMU cells holding NaN or inf (for a caller that drops those rows,
@@ -403,8 +492,10 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
     for label, quantity, units in (("gyro", q_gyro, gyro_units), ("accel", q_accel, accel_units)):
         factor = unit_factor(quantity, units)
         if factor is None:
-            raise SourceError(path, f"{label} units '{units}' are not known for {form}; use one of "
-                                    f"{', '.join(allowed_units(quantity))}")
+            raise SourceError(
+                path,
+                f"{label} units '{units}' are not known for {form}; use one of {', '.join(allowed_units(quantity))}",
+            )
         factors[label] = factor
     if time_units != "samples" and time_units not in TIME_UNITS:
         raise SourceError(path, f"time units '{time_units}': use s, ms, us, ns or samples")
@@ -415,11 +506,20 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
     except ValueError as exc:
         raise SourceError(path, str(exc)) from None
     spec = _reference_columns(
-        path, time=time, time_units=time_units, reference_file=reference_file, reference_time=reference_time,
-        reference_time_units=reference_time_units, reference_quaternion=reference_quaternion,
-        reference_euler=reference_euler, reference_euler_units=reference_euler_units,
-        reference_velocity=reference_velocity, reference_position=reference_position,
-        reference_position_units=reference_position_units, reference_frame=reference_frame)
+        path,
+        time=time,
+        time_units=time_units,
+        reference_file=reference_file,
+        reference_time=reference_time,
+        reference_time_units=reference_time_units,
+        reference_quaternion=reference_quaternion,
+        reference_euler=reference_euler,
+        reference_euler_units=reference_euler_units,
+        reference_velocity=reference_velocity,
+        reference_position=reference_position,
+        reference_position_units=reference_position_units,
+        reference_frame=reference_frame,
+    )
 
     table = _Table.read(path, delimiter)
     wanted = [time, *gyro, *accel]
@@ -433,19 +533,32 @@ def load(path: Path, *, time: str, gyro, accel, form: str = "rates", gyro_units:
     bad = ~np.isfinite(data)
     if bad.any() and not keep_invalid:
         row, col = (int(v) for v in np.argwhere(bad)[0])
-        raise SourceError(path, f"column '{wanted[col]}' ({option_of[wanted[col]]}) holds NaN/Inf on line "
-                                f"{table.line_number(row)}; IMU samples must be finite (cut the record there)")
+        raise SourceError(
+            path,
+            f"column '{wanted[col]}' ({option_of[wanted[col]]}) holds NaN/Inf on line "
+            f"{table.line_number(row)}; IMU samples must be finite (cut the record there)",
+        )
     t = data[:, 0] / rate_hz if time_units == "samples" else data[:, 0] * TIME_UNITS[time_units]
     g = data[:, 1:4] * np.asarray(factors["gyro"]) @ mat_b_s.T
     a = data[:, 4:7] * np.asarray(factors["accel"]) @ mat_b_s.T
     site = None
     if site_deg is not None:
         site = Site(site_deg[0] * DEG, site_deg[1] * DEG, float(site_deg[2]))
-    description = (f"imported from CSV {path.name}: time '{time}' [{time_units}], {form} columns {', '.join(gyro)} "
-                   f"[{gyro_units}] and {', '.join(accel)} [{accel_units}], body axes = sensor ({', '.join(axes)})")
-    source = provenance(path, "csv", time_column=time, time_units=time_units, gyro_columns=list(gyro),
-                        accel_columns=list(accel), gyro_units=gyro_units, accel_units=accel_units,
-                        axis_map=list(axes))
+    description = (
+        f"imported from CSV {path.name}: time '{time}' [{time_units}], {form} columns {', '.join(gyro)} "
+        f"[{gyro_units}] and {', '.join(accel)} [{accel_units}], body axes = sensor ({', '.join(axes)})"
+    )
+    source = provenance(
+        path,
+        "csv",
+        time_column=time,
+        time_units=time_units,
+        gyro_columns=list(gyro),
+        accel_columns=list(accel),
+        gyro_units=gyro_units,
+        accel_units=accel_units,
+        axis_map=list(axes),
+    )
     tel = Telemetry(time_s=t, form=form, site=site)
     if form == "rates":
         tel.gyro_rad_s, tel.accel_mps2 = g, a
@@ -483,8 +596,12 @@ def _describe_reference(spec: _ReferenceColumns, n_rows: int, dropouts: int) -> 
 
 
 def _reference_provenance(spec: _ReferenceColumns, n_rows: int, dropouts: int) -> dict:
-    out = {"reference_frame": spec.frame, "reference_rows": n_rows, "reference_dropout_rows": dropouts,
-           "reference_time_column": spec.time or "(IMU time)"}
+    out = {
+        "reference_frame": spec.frame,
+        "reference_rows": n_rows,
+        "reference_dropout_rows": dropouts,
+        "reference_time_column": spec.time or "(IMU time)",
+    }
     if spec.separate:
         out["reference_file"] = spec.path.name
         out["reference_sha256"] = provenance(spec.path, "csv")["sha256"]

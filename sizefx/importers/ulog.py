@@ -41,8 +41,9 @@ def load(path: Path, *, site_deg=None) -> Telemetry:
         raise SourceError(path, f"is not a readable PX4 ULog ({detail or type(exc).__name__})") from None
     topics = [d for d in log.data_list if d.name == TOPIC]
     if not topics:
-        raise SourceError(path, f"has no '{TOPIC}' topic; it holds: "
-                                f"{', '.join(sorted({d.name for d in log.data_list})) or 'nothing'}")
+        raise SourceError(
+            path, f"has no '{TOPIC}' topic; it holds: {', '.join(sorted({d.name for d in log.data_list})) or 'nothing'}"
+        )
     data = topics[0].data
     need = ["timestamp"] + [f"gyro_rad[{i}]" for i in range(3)] + [f"accelerometer_m_s2[{i}]" for i in range(3)]
     missing = [k for k in need if k not in data]
@@ -62,8 +63,15 @@ def load(path: Path, *, site_deg=None) -> Telemetry:
     gaps = len(find_imu_gaps(t, accel_time))  # the reader's count: one per dropout
     site = None if site_deg is None else Site(site_deg[0] * DEG, site_deg[1] * DEG, float(site_deg[2]))
     return Telemetry(
-        time_s=t, form="rates", gyro_rad_s=gyro, accel_mps2=accel, accel_time_s=accel_time, site=site,
-        description=(f"PX4 ULog {Path(path).name}, topic {TOPIC}: {t.size} samples at {1 / nominal:g} Hz, "
-                     f"body FRD, {gaps} logging dropouts (gaps); no reference (the autopilot's estimate is not truth)"),
+        time_s=t,
+        form="rates",
+        gyro_rad_s=gyro,
+        accel_mps2=accel,
+        accel_time_s=accel_time,
+        site=site,
+        description=(
+            f"PX4 ULog {Path(path).name}, topic {TOPIC}: {t.size} samples at {1 / nominal:g} Hz, "
+            f"body FRD, {gaps} logging dropouts (gaps); no reference (the autopilot's estimate is not truth)"
+        ),
         source=provenance(path, "ulog", topic=TOPIC, dropouts=gaps, px4_start_timestamp_us=int(t_us[0])),
     )

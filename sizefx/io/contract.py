@@ -39,8 +39,17 @@ MAX_GAPS = 100_000
 #: sizefx writes 1.5 MiB chunks; h5py's automatic chunking stays under 1 MiB.
 MAX_CHUNK_BYTES = 64 * 2**20
 
-__all__ = ["ContractReader", "open_hdf5", "open_structure", "check_magnitudes", "side_groups", "site_from_attrs",
-           "invalid_rows", "limit_problem", "storage_problem"]
+__all__ = [
+    "ContractReader",
+    "open_hdf5",
+    "open_structure",
+    "check_magnitudes",
+    "side_groups",
+    "site_from_attrs",
+    "invalid_rows",
+    "limit_problem",
+    "storage_problem",
+]
 
 
 def attr_value(value):
@@ -68,14 +77,18 @@ def storage_problem(dset: h5py.Dataset) -> str | None:
     size), or chunks so large that reading one row decompresses more than :data:`MAX_CHUNK_BYTES`.
     None when it is safe."""
     if dset.size and dset.id.get_storage_size() == 0:
-        return (f"declares shape {dset.shape} but stores no data (never written); the file is incomplete: write the "
-                "samples, or re-import the source")
+        return (
+            f"declares shape {dset.shape} but stores no data (never written); the file is incomplete: write the "
+            "samples, or re-import the source"
+        )
     if dset.chunks is not None:
         chunk_bytes = int(np.prod(dset.chunks, dtype=np.int64)) * dset.dtype.itemsize
         if chunk_bytes > MAX_CHUNK_BYTES:
-            return (f"is stored in chunks of {chunk_bytes / 2**20:.0f} MiB (chunk shape {dset.chunks}); at most "
-                    f"{MAX_CHUNK_BYTES // 2**20} MiB can be read at a time (rewrite it with h5py chunks=True, or with "
-                    "sizefx import)")
+            return (
+                f"is stored in chunks of {chunk_bytes / 2**20:.0f} MiB (chunk shape {dset.chunks}); at most "
+                f"{MAX_CHUNK_BYTES // 2**20} MiB can be read at a time (rewrite it with h5py chunks=True, or with "
+                "sizefx import)"
+            )
     return None
 
 
@@ -86,8 +99,10 @@ def _bounds(schema: dict, name: str, columns: int):
     if limit is None:
         return None
     per_column = limit if isinstance(limit, list) else [limit] * columns
-    return (np.array([b[0] if isinstance(b, list) else -b for b in per_column]),
-            np.array([b[1] if isinstance(b, list) else b for b in per_column]))
+    return (
+        np.array([b[0] if isinstance(b, list) else -b for b in per_column]),
+        np.array([b[1] if isinstance(b, list) else b for b in per_column]),
+    )
 
 
 def invalid_rows(schema: dict, name: str, data: np.ndarray) -> np.ndarray:
@@ -114,9 +129,11 @@ def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0)
     low, high = _bounds(schema, name, values.shape[1])
     row, col = (int(v) for v in np.argwhere(bad)[0])
     column = f", column {col}" if values.shape[1] > 1 else ""
-    return (f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
-            f"physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} rows in this read); check "
-            "the units attribute, or remove or interpolate those samples (sizefx import --drop-invalid-rows)")
+    return (
+        f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
+        f"physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} rows in this read); check "
+        "the units attribute, or remove or interpolate those samples (sizefx import --drop-invalid-rows)"
+    )
 
 
 class ContractReader:
@@ -157,21 +174,30 @@ class ContractReader:
             for name in group:
                 count += 1
                 if count > MAX_OBJECTS:
-                    self.fail(prefix, f"the file holds more than {MAX_OBJECTS} HDF5 objects; a telemetry file "
-                                      "needs a few dozen (copy /imu and /reference into a new file)")
+                    self.fail(
+                        prefix,
+                        f"the file holds more than {MAX_OBJECTS} HDF5 objects; a telemetry file "
+                        "needs a few dozen (copy /imu and /reference into a new file)",
+                    )
                 full = f"{prefix}/{name}" if prefix != "/" else f"/{name}"
                 link = group.get(name, getlink=True)
                 if isinstance(link, h5py.ExternalLink):
-                    self.fail(full, f"is an HDF5 external link to {link.filename}:{link.path}; "
-                                    "telemetry files must be self-contained (copy the data in with h5copy or h5py)")
+                    self.fail(
+                        full,
+                        f"is an HDF5 external link to {link.filename}:{link.path}; "
+                        "telemetry files must be self-contained (copy the data in with h5copy or h5py)",
+                    )
                 if isinstance(link, h5py.SoftLink):
                     # not followed (its target is visited under its own name); but one that loops
                     # (a -> b -> a) is refused here, once, rather than where a dataset is looked up
                     try:
                         group.get(name)
                     except (RuntimeError, KeyError, OSError):
-                        self.fail(full, f"is a soft link to {link.path} that cannot be resolved (links that point "
-                                        "at each other); store the dataset itself")
+                        self.fail(
+                            full,
+                            f"is a soft link to {link.path} that cannot be resolved (links that point "
+                            "at each other); store the dataset itself",
+                        )
                     continue
                 try:
                     obj = group[name]
@@ -182,13 +208,18 @@ class ContractReader:
                 seen.add(obj.id)
                 if isinstance(obj, h5py.Group):
                     if depth + 1 > MAX_GROUP_DEPTH:
-                        self.fail(full, f"groups nest deeper than {MAX_GROUP_DEPTH} levels; a telemetry file "
-                                        "needs two (copy /imu and /reference into a new file)")
+                        self.fail(
+                            full,
+                            f"groups nest deeper than {MAX_GROUP_DEPTH} levels; a telemetry file "
+                            "needs two (copy /imu and /reference into a new file)",
+                        )
                     stack.append((obj, full, depth + 1))
                 elif isinstance(obj, h5py.Dataset):
                     if obj.is_virtual:
-                        self.fail(full, "is an HDF5 virtual dataset (its data lives in other files); "
-                                        "store the data in this file")
+                        self.fail(
+                            full,
+                            "is an HDF5 virtual dataset (its data lives in other files); store the data in this file",
+                        )
                     if obj.external:
                         self.fail(full, "stores its raw data in external files; store the data in this file")
 
@@ -196,8 +227,11 @@ class ContractReader:
         spec = self.schema["root_attributes"]
         attrs = self.h5.attrs
         if "schema" not in attrs:
-            self.fail("/", f"root attribute 'schema' is missing; a telemetry file declares "
-                           f"schema = \"{TELEMETRY_SCHEMA}\" (sizefx import converts other formats)")
+            self.fail(
+                "/",
+                f"root attribute 'schema' is missing; a telemetry file declares "
+                f'schema = "{TELEMETRY_SCHEMA}" (sizefx import converts other formats)',
+            )
         declared = attr_str(attrs["schema"])
         if declared != spec["schema"]["value"]:
             self.fail("/", f"root attribute schema is '{declared}', expected '{TELEMETRY_SCHEMA}'")
@@ -220,8 +254,11 @@ class ContractReader:
         present = [k for k in site_keys if k in values]
         if present and len(present) != 3:
             missing = [k for k in site_keys if k not in values]
-            self.fail("/", f"root attributes give {', '.join(present)} but not {', '.join(missing)}; "
-                           "give all three site attributes or none")
+            self.fail(
+                "/",
+                f"root attributes give {', '.join(present)} but not {', '.join(missing)}; "
+                "give all three site attributes or none",
+            )
         return values
 
     # -- datasets -------------------------------------------------------------------
@@ -252,8 +289,11 @@ class ContractReader:
         factors = np.broadcast_to(np.asarray(factor, dtype=np.float64), (columns,)).copy()
         first_not_finite, first_beyond = scale_and_check(values, factors, low, high)
         if first_not_finite >= 0:
-            self.fail(name, f"holds NaN/Inf values, the first at row {first_not_finite // columns + first_row}; "
-                            "remove or interpolate them (or cut the record) before processing")
+            self.fail(
+                name,
+                f"holds NaN/Inf values, the first at row {first_not_finite // columns + first_row}; "
+                "remove or interpolate them (or cut the record) before processing",
+            )
         if limited and first_beyond >= 0:  # the message (and its count of rows) from the NumPy twin
             self.check_limits(name, data, first_row)
         return data
@@ -264,8 +304,9 @@ class ContractReader:
         key = (name, columns)
         if key not in self._limits:
             bounds = _bounds(self.schema, name, columns)
-            self._limits[key] = None if bounds is None else tuple(np.ascontiguousarray(b, dtype=np.float64)
-                                                                  for b in bounds)
+            self._limits[key] = (
+                None if bounds is None else tuple(np.ascontiguousarray(b, dtype=np.float64) for b in bounds)
+            )
         return self._limits[key]
 
     def check_limits(self, name: str, data: np.ndarray, first_row: int):
@@ -293,8 +334,7 @@ class ContractReader:
             self.fail(name, f"is a {type(dset).__name__}, expected a dataset")
         shape = spec["shape"]
         if dset.ndim != len(shape):
-            self.fail(name, f"has rank {dset.ndim} (shape {dset.shape}); expected shape "
-                            f"[{', '.join(map(str, shape))}]")
+            self.fail(name, f"has rank {dset.ndim} (shape {dset.shape}); expected shape [{', '.join(map(str, shape))}]")
         for axis, (want, got) in enumerate(zip(shape, dset.shape)):
             if isinstance(want, int):
                 if got != want:
@@ -302,12 +342,17 @@ class ContractReader:
             else:
                 bound = self.sizes.setdefault(want, got)
                 if got != bound:
-                    self.fail(name, f"has {got} rows but its companions have {bound}; "
-                                    "all datasets of a group share the time axis")
+                    self.fail(
+                        name,
+                        f"has {got} rows but its companions have {bound}; all datasets of a group share the time axis",
+                    )
         self.check_storage(name, dset)
         if dset.dtype.name not in self.schema["dtypes"]:
-            self.fail(name, f"has dtype {dset.dtype}; expected one of {', '.join(self.schema['dtypes'])} "
-                            "(convert with numpy .astype(float))")
+            self.fail(
+                name,
+                f"has dtype {dset.dtype}; expected one of {', '.join(self.schema['dtypes'])} "
+                "(convert with numpy .astype(float))",
+            )
         quantity = spec["quantity"]
         units = dset.attrs.get("units")
         if units is None:
@@ -352,27 +397,39 @@ class ContractReader:
         dup = np.flatnonzero(dt == 0.0)
         if dup.size:
             k = int(dup[0]) + 1
-            self.fail(name, f"has {dup.size} duplicated time stamps, the first at row {k + first_row} "
-                            f"(t = {t[k]:.6f} s); drop the repeated samples")
+            self.fail(
+                name,
+                f"has {dup.size} duplicated time stamps, the first at row {k + first_row} "
+                f"(t = {t[k]:.6f} s); drop the repeated samples",
+            )
         back = np.flatnonzero(dt < 0.0)
         if back.size:
             k = int(back[0]) + 1
-            self.fail(name, f"is not strictly increasing: time goes back at row {k + first_row} "
-                            f"({t[k - 1]:.6f} s -> {t[k]:.6f} s), {back.size} times in all; sort or split the record")
+            self.fail(
+                name,
+                f"is not strictly increasing: time goes back at row {k + first_row} "
+                f"({t[k - 1]:.6f} s -> {t[k]:.6f} s), {back.size} times in all; sort or split the record",
+            )
         spec = self.schema["datasets"][name]
         if first_row == 0:
             own = nominal_period_s(t)
             lo, hi = self.schema["plausibility"]["sample_rate_hz"]
             if self.check_plausibility and spec["rate_check"] and not lo <= 1.0 / own <= hi:
-                self.fail(name, f"median time step is {own:g} s ({1.0 / own:g} Hz), outside "
-                                f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)")
+                self.fail(
+                    name,
+                    f"median time step is {own:g} s ({1.0 / own:g} Hz), outside "
+                    f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)",
+                )
             nominal = own if nominal is None else nominal
         rows = gap_rows(t, nominal)
         self.n_gaps[name] = self.n_gaps.get(name, 0) + rows.size
         if self.n_gaps[name] > MAX_GAPS:
-            self.fail(name, f"has more than {MAX_GAPS} gaps longer than {GAP_FACTOR} sample periods (the "
-                            f"{MAX_GAPS + 1}th at row {int(rows[MAX_GAPS - self.n_gaps[name]]) + first_row}); is "
-                            "the time axis in the units it declares, and the record one recording?")
+            self.fail(
+                name,
+                f"has more than {MAX_GAPS} gaps longer than {GAP_FACTOR} sample periods (the "
+                f"{MAX_GAPS + 1}th at row {int(rows[MAX_GAPS - self.n_gaps[name]]) + first_row}); is "
+                "the time axis in the units it declares, and the record one recording?",
+            )
         gaps = [Gap(name, int(k) + first_row, float(t[k - 1]), float(t[k] - t[k - 1])) for k in rows]
         if spec["gaps"] == "report":
             self.gaps.extend(gaps)
@@ -387,11 +444,14 @@ class ContractReader:
         bad = np.flatnonzero(np.abs(offset) > MAX_ACCEL_TIME_OFFSET_PERIODS * nominal)
         if bad.size:
             k = int(bad[0])
-            self.fail("/imu/accel_time", f"is {offset[k]:.6g} s from /imu/time at row {k + first_row} "
-                                         f"({bad.size} rows in this read), more than {MAX_ACCEL_TIME_OFFSET_PERIODS} "
-                                         f"sample periods ({MAX_ACCEL_TIME_OFFSET_PERIODS * nominal:.4g} s); both "
-                                         "must count the same clock in seconds (subtract the offset, or drop "
-                                         "/imu/accel_time if the accelerometers sample with the gyros)")
+            self.fail(
+                "/imu/accel_time",
+                f"is {offset[k]:.6g} s from /imu/time at row {k + first_row} "
+                f"({bad.size} rows in this read), more than {MAX_ACCEL_TIME_OFFSET_PERIODS} "
+                f"sample periods ({MAX_ACCEL_TIME_OFFSET_PERIODS * nominal:.4g} s); both "
+                "must count the same clock in seconds (subtract the offset, or drop "
+                "/imu/accel_time if the accelerometers sample with the gyros)",
+            )
 
     def declared_gaps(self, n_samples: int):
         """``/imu/gaps`` as ``[G, 2]`` seconds (time before the gap, length), or None when absent."""
@@ -402,8 +462,11 @@ class ContractReader:
         if rows == 0:
             return np.zeros((0, 2))
         if rows > n_samples - 1:
-            self.fail("/imu/gaps", f"declares {rows} gaps in a record of {n_samples} samples; there can be at "
-                                   f"most {n_samples - 1} (one per step)")
+            self.fail(
+                "/imu/gaps",
+                f"declares {rows} gaps in a record of {n_samples} samples; there can be at "
+                f"most {n_samples - 1} (one per step)",
+            )
         return self.rows("/imu/gaps", handle, slice(None))
 
     def settle_imu_gaps(self, found: list, nominal: float, declared):
@@ -425,9 +488,12 @@ class ContractReader:
             g = loose[0]
             noun = "gap" if len(loose) == 1 else "gaps"
             which = f"undeclared {noun}" if declared is None else f"{noun} that /imu/gaps does not declare"
-            self.fail(g.dataset, f"has {len(loose)} {which} longer than {GAP_FACTOR} sample periods "
-                                 f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
-                                 f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway")
+            self.fail(
+                g.dataset,
+                f"has {len(loose)} {which} longer than {GAP_FACTOR} sample periods "
+                f"({nominal * 1e3:.4g} ms); the first at row {g.index} (t = {g.time_s:.6f} s, "
+                f"{g.duration_s * 1e3:.4g} ms); pass --allow-gaps to proceed anyway",
+            )
         self.gaps[:0] = gaps
 
     def match_declared_gaps(self, gaps: list, declared: np.ndarray, nominal: float):
@@ -435,16 +501,21 @@ class ContractReader:
         tol = GAP_MATCH_TOLERANCE * nominal
         on_time = [g for g in gaps if g.dataset == "/imu/time"]
         t_found = np.array([g.time_s for g in on_time])
-        fix = ("re-import the source (sizefx import writes /imu/gaps from the data it finds), or delete /imu/gaps "
-               "and pass --allow-gaps")
+        fix = (
+            "re-import the source (sizefx import writes /imu/gaps from the data it finds), or delete /imu/gaps "
+            "and pass --allow-gaps"
+        )
         for i, (t_d, length_d) in enumerate(declared):
             said = f"row {i} declares a gap after t = {t_d:.6f} s lasting {length_d * 1e3:.4g} ms"
             if not length_d > 0.0:
-                self.fail("/imu/gaps", f"{said}; gap lengths are positive (columns: time before the gap [s], "
-                                       "length [s])")
+                self.fail(
+                    "/imu/gaps", f"{said}; gap lengths are positive (columns: time before the gap [s], length [s])"
+                )
             if i and not t_d > declared[i - 1, 0]:
-                self.fail("/imu/gaps", f"{said}, not after row {i - 1} (t = {declared[i - 1, 0]:.6f} s); "
-                                       "rows are in time order")
+                self.fail(
+                    "/imu/gaps",
+                    f"{said}, not after row {i - 1} (t = {declared[i - 1, 0]:.6f} s); rows are in time order",
+                )
             k = int(np.argmin(np.abs(t_found - t_d))) if t_found.size else -1
             if k < 0 or abs(t_found[k] - t_d) > tol:
                 self.fail("/imu/gaps", f"{said}, but /imu/time has no gap there (its gaps: {t_found.size}); {fix}")
@@ -452,23 +523,31 @@ class ContractReader:
             if g.declared:
                 self.fail("/imu/gaps", f"{said}, the same gap as row {i - 1}; declare each gap once")
             if abs(g.duration_s - length_d) > tol:
-                self.fail("/imu/gaps", f"{said}, but the gap of /imu/time there (row {g.index}) lasts "
-                                       f"{g.duration_s * 1e3:.4g} ms; {fix}")
+                self.fail(
+                    "/imu/gaps",
+                    f"{said}, but the gap of /imu/time there (row {g.index}) lasts {g.duration_s * 1e3:.4g} ms; {fix}",
+                )
             g.declared = True
         missing = [g for g in on_time if not g.declared]
         if missing:
             g = missing[0]
-            self.fail("/imu/gaps", f"declares {declared.shape[0]} gaps but /imu/time has {len(on_time)}: the gap "
-                                   f"at row {g.index} (t = {g.time_s:.6f} s, {g.duration_s * 1e3:.4g} ms) is not "
-                                   f"declared; {fix}")
+            self.fail(
+                "/imu/gaps",
+                f"declares {declared.shape[0]} gaps but /imu/time has {len(on_time)}: the gap "
+                f"at row {g.index} (t = {g.time_s:.6f} s, {g.duration_s * 1e3:.4g} ms) is not "
+                f"declared; {fix}",
+            )
 
     def check_unit_quaternions(self, name: str, q: np.ndarray):
         err = np.abs(np.linalg.norm(q, axis=1) - 1.0)
         k = int(np.argmax(err))
         if err[k] > QUATERNION_NORM_TOLERANCE:
-            self.fail(name, f"row {k} has norm {np.linalg.norm(q[k]):.9g}; quaternions must be unit "
-                            f"(|q| - 1 within {QUATERNION_NORM_TOLERANCE:g}); normalise them, and check "
-                            "the order is scalar-first [w, x, y, z]")
+            self.fail(
+                name,
+                f"row {k} has norm {np.linalg.norm(q[k]):.9g}; quaternions must be unit "
+                f"(|q| - 1 within {QUATERNION_NORM_TOLERANCE:g}); normalise them, and check "
+                "the order is scalar-first [w, x, y, z]",
+            )
         return q / np.linalg.norm(q, axis=1, keepdims=True)
 
     def check_plausible(self, name: str, values: np.ndarray, key: str, what: str, units: str):
@@ -478,12 +557,21 @@ class ContractReader:
             quantity = self.schema["datasets"][name]["quantity"]
             base = unit_factor(quantity, units)
             # the units under which the same numbers would be plausible: the data look like those
-            fits = [u for u, factor in self.schema["units"][quantity].items()
-                    if u != units and lo <= med / base * factor <= hi]
-            hint = (f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'" if len(fits) == 1
-                    else "the units attribute is probably wrong")
-            self.fail(name, f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
-                            f"plausible {lo:g}..{hi:g}; {hint}")
+            fits = [
+                u
+                for u, factor in self.schema["units"][quantity].items()
+                if u != units and lo <= med / base * factor <= hi
+            ]
+            hint = (
+                f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'"
+                if len(fits) == 1
+                else "the units attribute is probably wrong"
+            )
+            self.fail(
+                name,
+                f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
+                f"plausible {lo:g}..{hi:g}; {hint}",
+            )
 
 
 def open_hdf5(path: Path, hint: str) -> h5py.File:
@@ -507,8 +595,9 @@ def open_hdf5(path: Path, hint: str) -> h5py.File:
     try:
         return h5py.File(path, "r")
     except OSError as exc:
-        raise TelemetryError(path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); "
-                                        "the file is truncated or corrupt") from None
+        raise TelemetryError(
+            path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); the file is truncated or corrupt"
+        ) from None
 
 
 def open_structure(path, h5, allow_gaps, check_plausibility):
@@ -571,8 +660,10 @@ def side_groups(r, h5, reference: bool = True):
         except json.JSONDecodeError as exc:
             r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
         except (RecursionError, ValueError) as exc:  # nesting past the parser, a 5000-digit integer
-            r.fail("/simulation", f"attribute truth_json cannot be read ({type(exc).__name__}); it is not one "
-                                  "sizefx simulate wrote")
+            r.fail(
+                "/simulation",
+                f"attribute truth_json cannot be read ({type(exc).__name__}); it is not one sizefx simulate wrote",
+            )
     return reference, source, simulation
 
 

@@ -36,8 +36,10 @@ def _text(path: Path, what: str, limit: int = MAX_DOCUMENT_BYTES) -> str:
             raise ConfigError(f"{path}: {what} is not a regular file (a pipe or a device); give a file")
         size = info.st_size
         if size > limit:
-            raise ConfigError(f"{path}: {what} of {size / 2**20:.2f} MiB; at most {limit / 2**20:g} MiB is read (is "
-                              "it the right file?)")
+            raise ConfigError(
+                f"{path}: {what} of {size / 2**20:.2f} MiB; at most {limit / 2**20:g} MiB is read (is "
+                "it the right file?)"
+            )
         with open(path, "rb") as fh:
             raw = fh.read(limit + 1)  # a file that grows while read (a FIFO, /dev/zero) is cut, not followed
     except FileNotFoundError:
@@ -66,8 +68,10 @@ def parse_toml(text: str, where: str) -> dict:
     ``where`` starts each error."""
     for number, line in enumerate(text.splitlines(), 1):
         if len(line) > MAX_TOML_LINE_CHARS:
-            raise ConfigError(f"{where}: line {number} has {len(line)} characters; at most {MAX_TOML_LINE_CHARS} "
-                              "(is it the right file?)")
+            raise ConfigError(
+                f"{where}: line {number} has {len(line)} characters; at most {MAX_TOML_LINE_CHARS} "
+                "(is it the right file?)"
+            )
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -24,8 +24,17 @@ from pathlib import Path
 
 from ..errors import Interrupted, OutputError
 
-__all__ = ["atomic_output", "check_output_path", "check_outputs", "check_output_folder", "check_room", "interrupt",
-           "INTERRUPTED", "sha256_of", "remove_stale_temporaries"]
+__all__ = [
+    "atomic_output",
+    "check_output_path",
+    "check_outputs",
+    "check_output_folder",
+    "check_room",
+    "interrupt",
+    "INTERRUPTED",
+    "sha256_of",
+    "remove_stale_temporaries",
+]
 
 #: Bytes of a file mapped (or read) and hashed at a time: a multiple of the page size.
 HASH_CHUNK_BYTES = 1 << 24
@@ -119,8 +128,9 @@ def check_output_folder(folder, *, option: str, inputs=()) -> Path:
     if out.exists():
         if not out.is_dir():
             is_input = any(inp is not None and Path(inp).exists() and os.path.samefile(out, inp) for inp in inputs)
-            raise OutputError(f"{out}: {option} needs a directory, and this is {'an input' if is_input else 'a'} "
-                              "file; give a folder")
+            raise OutputError(
+                f"{out}: {option} needs a directory, and this is {'an input' if is_input else 'a'} file; give a folder"
+            )
         if not os.access(out, os.W_OK | os.X_OK):
             raise OutputError(f"{out}: {option}: the folder is not writable; choose another folder")
         return out
@@ -160,8 +170,10 @@ def check_room(out: Path, n_bytes: int, *, already: int = 0) -> None:
     need = max(int(n_bytes), MIN_OUTPUT_BYTES)
     soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
     if soft != resource.RLIM_INFINITY and already + need > soft:
-        raise OutputError(f"{out}: needs about {(already + need) / 2**20:.1f} MiB, but the file-size limit "
-                          f"(ulimit -f) is {soft / 2**20:.1f} MiB; raise the limit or write a shorter record")
+        raise OutputError(
+            f"{out}: needs about {(already + need) / 2**20:.1f} MiB, but the file-size limit "
+            f"(ulimit -f) is {soft / 2**20:.1f} MiB; raise the limit or write a shorter record"
+        )
     parent = out.parent if str(out.parent) else Path(".")
     try:
         st = os.statvfs(parent)
@@ -169,8 +181,10 @@ def check_room(out: Path, n_bytes: int, *, already: int = 0) -> None:
         return  # a file system without statvfs: the write itself reports a full disk
     free = st.f_bavail * st.f_frsize
     if need > free:
-        raise OutputError(f"{out}: needs about {need / 2**20:.1f} MiB, but {parent} has {free / 2**20:.1f} MiB free; "
-                          "free some space or write elsewhere")
+        raise OutputError(
+            f"{out}: needs about {need / 2**20:.1f} MiB, but {parent} has {free / 2**20:.1f} MiB free; "
+            "free some space or write elsewhere"
+        )
 
 
 #: Largest process id Linux hands out (pid_max's ceiling): a longer number in a name is not a pid.
@@ -183,7 +197,7 @@ def remove_stale_temporaries(out) -> None:
     out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
     for tmp in parent.glob(f".{out.name}.*.tmp"):
-        parts = tmp.name[len(out.name) + 2:].split(".")
+        parts = tmp.name[len(out.name) + 2 :].split(".")
         if not parts or not parts[0].isdigit() or int(parts[0]) > MAX_PID:
             continue  # another program's file, or a name from before the pid was written into it
         pid = int(parts[0])
@@ -221,8 +235,9 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp",
     check_room(out, expected_bytes)
     remove_stale_temporaries(out)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.{os.getpid()}.", suffix=suffix,
-                                   dir=out.parent if str(out.parent) else ".")
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{out.name}.{os.getpid()}.", suffix=suffix, dir=out.parent if str(out.parent) else "."
+        )
     except OSError as exc:
         raise _write_failed(out, exc) from None
     os.close(fd)

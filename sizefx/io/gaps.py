@@ -15,8 +15,16 @@ import numpy as np
 from ..constants import GAP_FACTOR
 from ..errors import ConfigError, TelemetryError
 
-__all__ = ["Gap", "Segment", "nominal_period_s", "find_imu_gaps", "imu_segments", "refuse_gaps",
-           "NOMINAL_ROWS", "GAP_MATCH_TOLERANCE"]
+__all__ = [
+    "Gap",
+    "Segment",
+    "nominal_period_s",
+    "find_imu_gaps",
+    "imu_segments",
+    "refuse_gaps",
+    "NOMINAL_ROWS",
+    "GAP_MATCH_TOLERANCE",
+]
 
 #: The nominal sample period is the median step of the first this many rows: one definition for a
 #: whole read and a streamed one (which must know it before it has read the record), and for the
@@ -92,8 +100,9 @@ def find_imu_gaps(time_s, accel_time_s=None, *, declared: bool = False) -> list[
         t = np.asarray(t, dtype=float)
         for k in gap_rows(t, nominal):
             if int(k) not in out:
-                out[int(k)] = Gap(name, int(k), float(t[k - 1]), float(t[k] - t[k - 1]),
-                                  declared=declared and name == "/imu/time")
+                out[int(k)] = Gap(
+                    name, int(k), float(t[k - 1]), float(t[k] - t[k - 1]), declared=declared and name == "/imu/time"
+                )
     return [out[k] for k in sorted(out)]
 
 
@@ -108,8 +117,9 @@ def imu_segments(n_samples: int, gaps, time_at) -> list[Segment]:
     ``time_at(row)`` returns the time of a row (an array lookup, or a dataset read).
     """
     bounds = segment_bounds(n_samples, gaps)
-    return [Segment(k + 1, a, b, float(time_at(a)), float(time_at(b - 1)), len(bounds))
-            for k, (a, b) in enumerate(bounds)]
+    return [
+        Segment(k + 1, a, b, float(time_at(a)), float(time_at(b - 1)), len(bounds)) for k, (a, b) in enumerate(bounds)
+    ]
 
 
 def choose_segment(path, n_samples: int, gaps, number: int, time_at) -> Segment:
@@ -120,15 +130,20 @@ def choose_segment(path, n_samples: int, gaps, number: int, time_at) -> Segment:
     bounds = segment_bounds(n_samples, gaps)
     n = len(bounds)
     if not 1 <= number <= n:
-        listing = "it has no gaps: one segment, the whole record" if n == 1 else \
-            f"its {n} continuous segments are numbered 1..{n} (sizefx inspect lists them)"
+        listing = (
+            "it has no gaps: one segment, the whole record"
+            if n == 1
+            else f"its {n} continuous segments are numbered 1..{n} (sizefx inspect lists them)"
+        )
         raise ConfigError(f"--segment {number}: {path}: {listing}; give one of them")
     a, b = bounds[number - 1]
     seg = Segment(number, a, b, float(time_at(a)), float(time_at(b - 1)), n)
     if seg.samples < 2:
-        raise ConfigError(f"--segment {number}: segment {number} of {path} holds {seg.samples} sample (row "
-                          f"{seg.first_row}, t = {seg.start_s:.6f} s) between two gaps; choose a longer one "
-                          "(sizefx inspect lists them)")
+        raise ConfigError(
+            f"--segment {number}: segment {number} of {path} holds {seg.samples} sample (row "
+            f"{seg.first_row}, t = {seg.start_s:.6f} s) between two gaps; choose a longer one "
+            "(sizefx inspect lists them)"
+        )
     return seg
 
 
@@ -142,11 +157,17 @@ def refuse_gaps(path, gaps, *, command: str, why: str, bridge: bool):
     if not imu:
         return
     declared = sum(g.declared for g in imu)
-    what = "declared in /imu/gaps" if declared == len(imu) else \
-        ("undeclared" if declared == 0 else f"{declared} of them declared in /imu/gaps")
+    what = (
+        "declared in /imu/gaps"
+        if declared == len(imu)
+        else ("undeclared" if declared == 0 else f"{declared} of them declared in /imu/gaps")
+    )
     first = imu[0]
     offer = ", or pass --allow-gaps to bridge the gaps" if bridge else ""
-    raise TelemetryError(path, first.dataset,
-                         f"has {count_noun(len(imu), 'gap')} ({what}; the first at row {first.index}, "
-                         f"t = {first.time_s:.6f} s); {command} {why}: process one continuous segment with "
-                         f"--segment K (1..{len(imu) + 1}, as sizefx inspect numbers them){offer}")
+    raise TelemetryError(
+        path,
+        first.dataset,
+        f"has {count_noun(len(imu), 'gap')} ({what}; the first at row {first.index}, "
+        f"t = {first.time_s:.6f} s); {command} {why}: process one continuous segment with "
+        f"--segment K (1..{len(imu) + 1}, as sizefx inspect numbers them){offer}",
+    )

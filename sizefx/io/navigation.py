@@ -29,16 +29,26 @@ from .contract import attr_str, open_hdf5, storage_problem
 from .files import atomic_output, check_room
 from .schema import load_schema, normalise_units, unit_factor
 
-__all__ = ["NAVIGATION_SCHEMA", "Solution", "read_navigation", "read_navigation_datasets", "write_navigation",
-           "NavigationWriter"]
+__all__ = [
+    "NAVIGATION_SCHEMA",
+    "Solution",
+    "read_navigation",
+    "read_navigation_datasets",
+    "write_navigation",
+    "NavigationWriter",
+]
 
 NAVIGATION_SCHEMA = "sizefx/navigation/1"
 
 #: The quantity of each dataset of the navigation contract, the key of the units table of
 #: ``data-schemas/telemetry-1.json`` that converts it to SI (navigation-1.json states its units
 #: but, unlike telemetry-1.json, not its quantities; its conventions are telemetry's).
-NAVIGATION_QUANTITIES = {"/time": "time", "/position": "geodetic", "/velocity": "velocity",
-                         "/quaternion": "dimensionless"}
+NAVIGATION_QUANTITIES = {
+    "/time": "time",
+    "/position": "geodetic",
+    "/velocity": "velocity",
+    "/quaternion": "dimensionless",
+}
 
 
 @dataclass
@@ -60,8 +70,9 @@ def read_navigation(path) -> Solution:
         declared = h5.attrs.get("schema")
         declared = declared.decode() if isinstance(declared, bytes) else declared
         if declared != NAVIGATION_SCHEMA:
-            raise TelemetryError(path, "/", f"root attribute schema is {declared!r}; expected {NAVIGATION_SCHEMA!r} "
-                                            "(sizefx navigate -o)")
+            raise TelemetryError(
+                path, "/", f"root attribute schema is {declared!r}; expected {NAVIGATION_SCHEMA!r} (sizefx navigate -o)"
+            )
         return read_navigation_datasets(path, h5)
 
 
@@ -76,8 +87,11 @@ def _dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
         raise TelemetryError(path, name, "dataset is missing; sizefx navigate -o writes it")
     link = h5.get(name, getlink=True)
     if isinstance(link, h5py.ExternalLink):
-        raise TelemetryError(path, name, f"is an HDF5 external link to {link.filename}:{link.path}; "
-                                         "navigation files must be self-contained")
+        raise TelemetryError(
+            path,
+            name,
+            f"is an HDF5 external link to {link.filename}:{link.path}; navigation files must be self-contained",
+        )
     dset = h5[name]
     if not isinstance(dset, h5py.Dataset):
         raise TelemetryError(path, name, f"is a {type(dset).__name__}, expected a dataset")
@@ -88,8 +102,9 @@ def _dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
         raise TelemetryError(path, name, f"has shape {dset.shape}; expected [{', '.join(map(str, shape))}]")
     bound = rows.setdefault(shape[0], dset.shape[0])
     if dset.shape[0] != bound:
-        raise TelemetryError(path, name, f"has {dset.shape[0]} rows but /time has {bound}; "
-                                         "all datasets share the time axis")
+        raise TelemetryError(
+            path, name, f"has {dset.shape[0]} rows but /time has {bound}; all datasets share the time axis"
+        )
     if dset.dtype.kind not in "fiu":
         raise TelemetryError(path, name, f"has dtype {dset.dtype}; expected numbers (float64)")
     problem = storage_problem(dset)
@@ -101,8 +116,7 @@ def _dataset(path: Path, h5: h5py.File, name: str, rows: dict) -> np.ndarray:
     # telemetry contract's units table converts them to SI.
     units = dset.attrs.get("units")
     if units is not None and normalise_units(attr_str(units)) != normalise_units(spec["units"]):
-        raise TelemetryError(path, name, f"has units '{attr_str(units)}'; {NAVIGATION_SCHEMA} stores "
-                                         f"'{spec['units']}'")
+        raise TelemetryError(path, name, f"has units '{attr_str(units)}'; {NAVIGATION_SCHEMA} stores '{spec['units']}'")
     factor = unit_factor(NAVIGATION_QUANTITIES[name], spec["units"])
     try:
         data = np.asarray(dset[()], dtype=np.float64)
@@ -123,23 +137,26 @@ def read_navigation_datasets(path: Path, h5: h5py.File) -> Solution:
     step = np.diff(t)
     if np.any(step <= 0.0):
         k = int(np.flatnonzero(step <= 0.0)[0]) + 1
-        raise TelemetryError(path, "/time", f"is not strictly increasing at row {k} ({t[k - 1]:.6f} s -> "
-                                            f"{t[k]:.6f} s)")
+        raise TelemetryError(path, "/time", f"is not strictly increasing at row {k} ({t[k - 1]:.6f} s -> {t[k]:.6f} s)")
     pos = _dataset(path, h5, "/position", rows)  # latitude [rad], longitude [rad], height [m]
     outside = np.abs(pos[:, 0]) > 0.5 * np.pi
     if outside.any():
         k = int(np.flatnonzero(outside)[0])
-        raise TelemetryError(path, "/position", f"latitude {np.degrees(pos[k, 0]):g} deg at row {k} is outside "
-                                                "[-90, 90]; columns are latitude [deg], longitude [deg], height [m]")
+        raise TelemetryError(
+            path,
+            "/position",
+            f"latitude {np.degrees(pos[k, 0]):g} deg at row {k} is outside "
+            "[-90, 90]; columns are latitude [deg], longitude [deg], height [m]",
+        )
     vel = _dataset(path, h5, "/velocity", rows)
     quat = _dataset(path, h5, "/quaternion", rows)
     norm = np.linalg.norm(quat, axis=1)
     k = int(np.argmax(np.abs(norm - 1.0)))
     if abs(norm[k] - 1.0) > QUATERNION_NORM_TOLERANCE:
-        raise TelemetryError(path, "/quaternion", f"row {k} has norm {norm[k]:.9g}; q_nb must be unit "
-                                                  "(scalar-first [w, x, y, z])")
+        raise TelemetryError(
+            path, "/quaternion", f"row {k} has norm {norm[k]:.9g}; q_nb must be unit (scalar-first [w, x, y, z])"
+        )
     return Solution(t, pos[:, 0], pos[:, 1], pos[:, 2], vel, quat / norm[:, None])
-
 
 
 def write_navigation(path, res, *, input_file, force: bool = False):
@@ -157,12 +174,15 @@ def write_navigation(path, res, *, input_file, force: bool = False):
         h5.attrs["summary_json"] = json.dumps(res.summary, default=float)
         h5.attrs["sizefx_version"] = __version__
         h5.create_dataset("time", data=res.time_s[sel]).attrs["units"] = "s"
-        h5.create_dataset("position", data=np.column_stack([np.degrees(res.lat_rad[sel]), np.degrees(res.lon_rad[sel]),
-                                                            res.height_m[sel]])).attrs["units"] = "deg,deg,m"
+        h5.create_dataset(
+            "position",
+            data=np.column_stack([np.degrees(res.lat_rad[sel]), np.degrees(res.lon_rad[sel]), res.height_m[sel]]),
+        ).attrs["units"] = "deg,deg,m"
         h5.create_dataset("velocity", data=res.v_n[sel]).attrs["units"] = "m/s"
         h5.create_dataset("quaternion", data=res.quat_nb[sel]).attrs["units"] = "1"
-        h5.create_dataset("euler", data=np.column_stack([np.degrees(roll), np.degrees(pitch),
-                                                         np.degrees(heading) % 360.0])).attrs["units"] = "deg"
+        h5.create_dataset(
+            "euler", data=np.column_stack([np.degrees(roll), np.degrees(pitch), np.degrees(heading) % 360.0])
+        ).attrs["units"] = "deg"
 
 
 class NavigationWriter:
@@ -182,8 +202,13 @@ class NavigationWriter:
             self.h5.attrs["input_file"] = str(input_file)
             self.h5.attrs["sizefx_version"] = __version__
             self._sets = {}
-            for name, width, units in (("time", None, "s"), ("position", 3, "deg,deg,m"), ("velocity", 3, "m/s"),
-                                       ("quaternion", 4, "1"), ("euler", 3, "deg")):
+            for name, width, units in (
+                ("time", None, "s"),
+                ("position", 3, "deg,deg,m"),
+                ("velocity", 3, "m/s"),
+                ("quaternion", 4, "1"),
+                ("euler", 3, "deg"),
+            ):
                 shape, maxshape = ((0,), (None,)) if width is None else ((0, width), (None, width))
                 chunks = (1 << 14,) if width is None else (1 << 14, width)
                 dset = self.h5.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8")
@@ -198,15 +223,19 @@ class NavigationWriter:
         if len(time_s) == 0:
             return
         roll, pitch, heading = mat_to_euler(quat_to_mat(quat_nb))
-        block = {"time": time_s,
-                 "position": np.column_stack([np.degrees(lat_rad), np.degrees(lon_rad), height_m]),
-                 "velocity": v_n, "quaternion": quat_nb,
-                 "euler": np.column_stack([np.degrees(roll), np.degrees(pitch), np.degrees(heading) % 360.0])}
+        block = {
+            "time": time_s,
+            "position": np.column_stack([np.degrees(lat_rad), np.degrees(lon_rad), height_m]),
+            "velocity": v_n,
+            "quaternion": quat_nb,
+            "euler": np.column_stack([np.degrees(roll), np.degrees(pitch), np.degrees(heading) % 360.0]),
+        }
         n0, n1 = self.rows, self.rows + len(time_s)
         # room for the block (and 1 MiB of metadata at close) before HDF5 writes a byte of it: a write
         # HDF5 sees fail leaves the file in a state it may crash closing
-        check_room(self.path, sum(np.asarray(d).nbytes for d in block.values()) + (1 << 20),
-                   already=os.path.getsize(self._tmp))
+        check_room(
+            self.path, sum(np.asarray(d).nbytes for d in block.values()) + (1 << 20), already=os.path.getsize(self._tmp)
+        )
         for name, data in block.items():
             dset = self._sets[name]
             dset.resize(n1, axis=0)

@@ -36,17 +36,23 @@ def read_plan_document(path) -> dict:
 def _within(plan: dict, table: dict, path) -> None:
     """Refuse a plan its own table cannot run: a rate or acceleration above the limits, an axis it cannot reach."""
     if plan["peak_rate_dps"] > table["max_rate_dps"]:
-        raise ConfigError(f"{path}: [turntable] peak_rate_dps = {plan['peak_rate_dps']:g} is above the table's "
-                          f"max_rate_dps = {table['max_rate_dps']:g}; lower the rate or design the plan again "
-                          "(sizefx plan)")
+        raise ConfigError(
+            f"{path}: [turntable] peak_rate_dps = {plan['peak_rate_dps']:g} is above the table's "
+            f"max_rate_dps = {table['max_rate_dps']:g}; lower the rate or design the plan again "
+            "(sizefx plan)"
+        )
     if plan["accel_dps2"] > table["max_accel_dps2"]:
-        raise ConfigError(f"{path}: [turntable] accel_dps2 = {plan['accel_dps2']:g} is above the table's "
-                          f"max_accel_dps2 = {table['max_accel_dps2']:g}; lower it or design the plan again "
-                          "(sizefx plan)")
+        raise ConfigError(
+            f"{path}: [turntable] accel_dps2 = {plan['accel_dps2']:g} is above the table's "
+            f"max_accel_dps2 = {table['max_accel_dps2']:g}; lower it or design the plan again "
+            "(sizefx plan)"
+        )
     missing = sorted(set(plan["axes"]) - set(table["axes"].upper()))
     if missing:
-        raise ConfigError(f"{path}: [turntable] axes = '{plan['axes']}' needs {', '.join(missing)} vertical, which "
-                          f"the table (axes = '{table['axes']}') cannot reach")
+        raise ConfigError(
+            f"{path}: [turntable] axes = '{plan['axes']}' needs {', '.join(missing)} vertical, which "
+            f"the table (axes = '{table['axes']}') cannot reach"
+        )
 
 
 def _sway_within(sway: dict, table: dict, path) -> None:
@@ -54,13 +60,19 @@ def _sway_within(sway: dict, table: dict, path) -> None:
     it cannot swing about."""
     accel = 2 * math.pi * sway["frequency_hz"] * sway["amplitude_dps"]
     if sway["amplitude_dps"] > table["max_rate_dps"]:
-        raise ConfigError(f"{path}: [sway] amplitude_dps = {sway['amplitude_dps']:g} is above the table's "
-                          f"max_rate_dps = {table['max_rate_dps']:g}; lower it or design the plan again (sizefx plan)")
+        raise ConfigError(
+            f"{path}: [sway] amplitude_dps = {sway['amplitude_dps']:g} is above the table's "
+            f"max_rate_dps = {table['max_rate_dps']:g}; lower it or design the plan again (sizefx plan)"
+        )
     if accel > table["max_accel_dps2"] * (1 + 1e-9):
-        raise ConfigError(f"{path}: [sway] needs {accel:.4g} deg/s^2 (2 pi frequency_hz amplitude_dps), above the "
-                          f"table's max_accel_dps2 = {table['max_accel_dps2']:g}; lower the amplitude or the frequency "
-                          "or design the plan again (sizefx plan)")
+        raise ConfigError(
+            f"{path}: [sway] needs {accel:.4g} deg/s^2 (2 pi frequency_hz amplitude_dps), above the "
+            f"table's max_accel_dps2 = {table['max_accel_dps2']:g}; lower the amplitude or the frequency "
+            "or design the plan again (sizefx plan)"
+        )
     letter = {"roll": "X", "pitch": "Y"}[sway["axis"]]
     if letter not in table.get("sway_axes", "").upper():
-        raise ConfigError(f"{path}: [sway] axis = '{sway['axis']}' swings body {letter}, which the table "
-                          f"(sway_axes = '{table.get('sway_axes', '')}') cannot swing about")
+        raise ConfigError(
+            f"{path}: [sway] axis = '{sway['axis']}' swings body {letter}, which the table "
+            f"(sway_axes = '{table.get('sway_axes', '')}') cannot swing about"
+        )

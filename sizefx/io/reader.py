@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..constants import GAP_FACTOR, MAX_WHOLE_READ_ROWS
-from .contract import (ContractReader, check_magnitudes, open_hdf5, open_structure, side_groups,
-                       site_from_attrs)
+from .contract import ContractReader, check_magnitudes, open_hdf5, open_structure, side_groups, site_from_attrs
 from .gaps import NOMINAL_ROWS, choose_segment, segment_bounds
 from .records import Reference, Telemetry
 
@@ -19,12 +18,20 @@ __all__ = ["read_telemetry", "TelemetryStream", "ReferenceStream", "SCAN_ROWS", 
 #: Rows read at a time when a stream scans /imu/time for gaps at open (8 MiB of float64).
 SCAN_ROWS = 1 << 20
 #: Why a whole read refuses a file over :data:`~sizefx.constants.MAX_WHOLE_READ_ROWS` (the message's tail).
-WHOLE_READ_WHY = ("commands that load the whole record (inspect, calibrate, compensate, diagnose, compare) take at "
-                  "most {limit} rows (2 h at 1600 Hz): cut the record, or use sizefx navigate, which streams")
+WHOLE_READ_WHY = (
+    "commands that load the whole record (inspect, calibrate, compensate, diagnose, compare) take at "
+    "most {limit} rows (2 h at 1600 Hz): cut the record, or use sizefx navigate, which streams"
+)
 
 
-def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool = True,
-                   segment: int | None = None, check_limits: bool = True) -> Telemetry:
+def read_telemetry(
+    path,
+    *,
+    allow_gaps: bool = False,
+    check_plausibility: bool = True,
+    segment: int | None = None,
+    check_limits: bool = True,
+) -> Telemetry:
     """Read and validate a ``sizefx/telemetry/1`` file; return SI arrays.
 
     Parameters
@@ -82,9 +89,19 @@ def read_telemetry(path, *, allow_gaps: bool = False, check_plausibility: bool =
             check_magnitudes(r, form, nominal, gyro, accel)
         reference, source, simulation = side_groups(r, h5)
     tel = Telemetry(
-        time_s=time_s, form=form, accel_time_s=accel_time, reference=reference, site=site_from_attrs(attrs),
-        description=attrs.get("description", ""), simulation=simulation, source=source, path=str(path),
-        stored_units=r.units, stored_dtypes=r.dtypes, gaps=gaps, segment=seg,
+        time_s=time_s,
+        form=form,
+        accel_time_s=accel_time,
+        reference=reference,
+        site=site_from_attrs(attrs),
+        description=attrs.get("description", ""),
+        simulation=simulation,
+        source=source,
+        path=str(path),
+        stored_units=r.units,
+        stored_dtypes=r.dtypes,
+        gaps=gaps,
+        segment=seg,
     )
     if form == "rates":
         tel.gyro_rad_s, tel.accel_mps2 = gyro, accel
@@ -166,8 +183,9 @@ class ReferenceStream:
         and the position extremes (so ``ptp`` of each position column is the whole record's)."""
         ref = Reference(time_s=np.array([self.first_s, self.last_s]), quat_nb=np.tile([1.0, 0.0, 0.0, 0.0], (2, 1)))
         if self.has_position:
-            ref.lat_rad, ref.lon_rad, ref.height_m = (np.array([self.position_min[c], self.position_max[c]])
-                                                      for c in range(3))
+            ref.lat_rad, ref.lon_rad, ref.height_m = (
+                np.array([self.position_min[c], self.position_max[c]]) for c in range(3)
+            )
         if self.has_velocity:
             ref.velocity_n_mps = np.zeros((2, 3))
         return ref
@@ -189,8 +207,7 @@ class TelemetryStream:
 
     PROBE_ROWS = 1 << 16
 
-    def __init__(self, path, *, allow_gaps: bool = False, check_plausibility: bool = True,
-                 segment: int | None = None):
+    def __init__(self, path, *, allow_gaps: bool = False, check_plausibility: bool = True, segment: int | None = None):
         self.path = Path(path)
         self.h5 = open_hdf5(self.path, "convert it with sizefx import")
         try:
@@ -224,8 +241,13 @@ class TelemetryStream:
             self.sample_period_s = nominal
             if check_plausibility:
                 probe = slice(self.first_row, self.first_row + min(self.n_samples, self.PROBE_ROWS))
-                check_magnitudes(r, form, nominal, r.rows(gyro_name, self._handles[1], probe, self.first_row),
-                                  r.rows(accel_name, self._handles[2], probe, self.first_row))
+                check_magnitudes(
+                    r,
+                    form,
+                    nominal,
+                    r.rows(gyro_name, self._handles[1], probe, self.first_row),
+                    r.rows(accel_name, self._handles[2], probe, self.first_row),
+                )
             self.reference = ReferenceStream(r, self.h5) if "/reference" in self.h5 else None
             _, self.source, self.simulation = side_groups(r, self.h5, reference=False)
             self.site = site_from_attrs(attrs)
@@ -277,8 +299,11 @@ class TelemetryStream:
             gap = np.flatnonzero(dt > GAP_FACTOR * self.sample_period_s)
             if gap.size:  # the callers refuse gaps at open (refuse_gaps); this guards a reader that did not
                 k = int(gap[0]) + a0 + (0 if before is not None else 1)
-                r.fail("/imu/time", f"has a gap at row {k} ({dt[gap[0]] * 1e3:.4g} ms); this needs continuous "
-                                    "samples: process one segment (--segment K)")
+                r.fail(
+                    "/imu/time",
+                    f"has a gap at row {k} ({dt[gap[0]] * 1e3:.4g} ms); this needs continuous "
+                    "samples: process one segment (--segment K)",
+                )
         if k1 > k0:
             self._last_t = (k1 - 1, float(t[-1]))
         g = r.rows(self.names[1], self._handles[1], rows, a0)

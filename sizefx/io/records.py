@@ -40,7 +40,6 @@ class Reference:
         return self.lat_rad is not None
 
 
-
 @dataclass
 class Telemetry:
     """One IMU record in SI units, as read from (or to be written to) a file.
@@ -93,7 +92,7 @@ class Telemetry:
             return self.gyro_rad_s, self.accel_mps2
         return self.dtheta_rad, self.dvel_mps
 
-    def continuous_pieces(self) -> list[tuple[Segment, "Telemetry"]]:
+    def continuous_pieces(self) -> list[tuple[Segment, Telemetry]]:
         """The record cut at its IMU gaps: each continuous segment with a record of its IMU rows
         (views, not copies; ``/reference``, site and provenance shared). One piece, the record
         itself, when it has no IMU gap."""
@@ -103,6 +102,15 @@ class Telemetry:
             return [(segments[0], self)]
         names = ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")
         others = [g for g in self.gaps if not g.dataset.startswith("/imu")]
-        return [(s, replace(self, gaps=others, segment=s,
-                            **{k: getattr(self, k)[s.first_row:s.stop_row] for k in names if getattr(self, k) is not None}))
-                for s in segments]
+        return [
+            (
+                s,
+                replace(
+                    self,
+                    gaps=others,
+                    segment=s,
+                    **{k: getattr(self, k)[s.first_row : s.stop_row] for k in names if getattr(self, k) is not None},
+                ),
+            )
+            for s in segments
+        ]

@@ -20,8 +20,17 @@ from importlib import resources
 
 from ..errors import ConfigError
 
-__all__ = ["load_schema", "TELEMETRY_SCHEMA", "unit_factor", "allowed_units", "normalise_units",
-           "check_document", "validate_input", "schema_errors", "as_json"]
+__all__ = [
+    "load_schema",
+    "TELEMETRY_SCHEMA",
+    "unit_factor",
+    "allowed_units",
+    "normalise_units",
+    "check_document",
+    "validate_input",
+    "schema_errors",
+    "as_json",
+]
 
 TELEMETRY_SCHEMA = "sizefx/telemetry/1"
 
@@ -111,8 +120,14 @@ def _describe(node: dict, root: dict) -> str | None:
     types = node.get("type")
     if types is None:
         return None
-    words = {"number": "a number", "integer": "an integer", "string": "a string", "boolean": "true or false",
-             "object": "an object", "null": "null"}
+    words = {
+        "number": "a number",
+        "integer": "an integer",
+        "string": "a string",
+        "boolean": "true or false",
+        "object": "an object",
+        "null": "null",
+    }
     out = []
     for t in [types] if isinstance(types, str) else types:
         if t == "array":
@@ -121,7 +136,7 @@ def _describe(node: dict, root: dict) -> str | None:
             item = _describe(node.get("items", {}), root) if isinstance(node.get("items"), dict) else None
             noun = {"a number": "numbers", "an integer": "integers", "a string": "strings"}.get(item or "", "items")
             if noun == "items" and item and item.startswith("a list of "):
-                noun = "lists of " + item[len("a list of "):]
+                noun = "lists of " + item[len("a list of ") :]
             out.append(f"a list of {count}{noun}")
         else:
             out.append(words.get(t, t))
@@ -175,5 +190,6 @@ def validate_input(doc, name: str, path) -> None:
     if best is None:
         return
     _, kind, version = name.split("/")
-    raise ConfigError(f"{path}: {_problems(best, load_schema(name))[0]} (the {name} contract: "
-                      f"data-schemas/{kind}-{version}.json)")
+    raise ConfigError(
+        f"{path}: {_problems(best, load_schema(name))[0]} (the {name} contract: data-schemas/{kind}-{version}.json)"
+    )

@@ -19,8 +19,16 @@ each (none of them imports this one):
 from __future__ import annotations
 
 from .contract import open_hdf5
-from .gaps import (GAP_MATCH_TOLERANCE, NOMINAL_ROWS, Gap, Segment, find_imu_gaps, imu_segments,
-                   nominal_period_s, refuse_gaps)
+from .gaps import (
+    GAP_MATCH_TOLERANCE,
+    NOMINAL_ROWS,
+    Gap,
+    Segment,
+    find_imu_gaps,
+    imu_segments,
+    nominal_period_s,
+    refuse_gaps,
+)
 from .reader import SCAN_ROWS, ReferenceStream, TelemetryStream, read_telemetry
 from .records import Reference, Site, Telemetry
 from .writer import WRITE_CHUNK_ROWS, TelemetryWriter, write_telemetry

@@ -22,8 +22,11 @@ def _plain(value):
     if isinstance(value, dict):
         return {k: _plain(v) for k, v in value.items() if v is not None}
     if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in np.asarray(value, dtype=object).tolist()] if isinstance(value, np.ndarray) \
+        return (
+            [_plain(v) for v in np.asarray(value, dtype=object).tolist()]
+            if isinstance(value, np.ndarray)
             else [_plain(v) for v in value]
+        )
     if isinstance(value, np.generic):
         return value.item()
     return value

@@ -34,11 +34,25 @@ class TelemetryWriter:
     schema) as float64 unless ``dtype`` says otherwise.
     """
 
-    def __init__(self, path, *, n_samples: int, form: str, n_reference: int = 0,
-                 reference_position: bool = False, reference_velocity: bool = False,
-                 accel_time: bool = False, site: Site | None = None, description: str = "",
-                 simulation: dict | None = None, source: dict | None = None, inputs=(), force: bool = False,
-                 dtype=np.float64, gaps=None):
+    def __init__(
+        self,
+        path,
+        *,
+        n_samples: int,
+        form: str,
+        n_reference: int = 0,
+        reference_position: bool = False,
+        reference_velocity: bool = False,
+        accel_time: bool = False,
+        site: Site | None = None,
+        description: str = "",
+        simulation: dict | None = None,
+        source: dict | None = None,
+        inputs=(),
+        force: bool = False,
+        dtype=np.float64,
+        gaps=None,
+    ):
         self.schema = load_schema(TELEMETRY_SCHEMA)
         self.source = source
         if form not in self.schema["forms"]:
@@ -171,12 +185,20 @@ def write_telemetry(path, tel: Telemetry, *, inputs=(), force: bool = False, dty
     """Write a whole :class:`Telemetry` in one call (atomically)."""
     ref = tel.reference
     writer = TelemetryWriter(
-        path, n_samples=tel.n_samples, form=tel.form,
+        path,
+        n_samples=tel.n_samples,
+        form=tel.form,
         n_reference=0 if ref is None else ref.time_s.shape[0],
         reference_position=bool(ref is not None and ref.has_position),
         reference_velocity=bool(ref is not None and ref.velocity_n_mps is not None),
-        accel_time=tel.accel_time_s is not None, site=tel.site, description=tel.description,
-        simulation=tel.simulation, source=tel.source, inputs=inputs, force=force, dtype=dtype,
+        accel_time=tel.accel_time_s is not None,
+        site=tel.site,
+        description=tel.description,
+        simulation=tel.simulation,
+        source=tel.source,
+        inputs=inputs,
+        force=force,
+        dtype=dtype,
         gaps=[(g.time_s, g.duration_s) for g in tel.gaps if g.declared and g.dataset == "/imu/time"],
     )
     with writer as w:

@@ -16,7 +16,6 @@ import numpy as np
 
 from .jit import kernel
 
-
 #: Rows :func:`scale_and_check` judges at a time without branching; a block that holds a bad sample
 #: is scanned again sample by sample from its first row (1024 rows of 3 columns: 24 KiB, still in
 #: the cache for that second look).

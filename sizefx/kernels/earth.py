@@ -33,7 +33,8 @@ def gravity_ned(lat_rad, h_m):
     s = math.sin(lat_rad)
     s2 = s * s
     gamma0 = GAMMA_EQUATOR_MPS2 * (1.0 + SOMIGLIANA_K * s2) / math.sqrt(1.0 - WGS84_E2 * s2)
-    g_down = gamma0 * (1.0 - 2.0 / WGS84_A_M * (1.0 + WGS84_F + _M - 2.0 * WGS84_F * s2) * h_m
-                       + 3.0 / WGS84_A_M**2 * h_m * h_m)
+    g_down = gamma0 * (
+        1.0 - 2.0 / WGS84_A_M * (1.0 + WGS84_F + _M - 2.0 * WGS84_F * s2) * h_m + 3.0 / WGS84_A_M**2 * h_m * h_m
+    )
     g_north = -8.08e-9 * h_m * math.sin(2.0 * lat_rad)
     return g_north, g_down

@@ -59,8 +59,9 @@ def _slerp_angle(q0, q1, u, q_nav):
 
 
 @kernel
-def navigation_errors(t, quat_nb, v_n, lat, lon, ref_t, ref_q, ref_lat, ref_lon, ref_h, ref_v,
-                      position, velocity, attitude, out):
+def navigation_errors(
+    t, quat_nb, v_n, lat, lon, ref_t, ref_q, ref_lat, ref_lon, ref_h, ref_v, position, velocity, attitude, out
+):
     """Fill ``out [N, 7]`` (:data:`ERROR_COLUMNS`) at the increasing times ``t [N]``.
 
     ``ref_*``: the reference rows (at least 2); ``position``, ``velocity``, ``attitude``: which
@@ -89,4 +90,3 @@ def navigation_errors(t, quat_nb, v_n, lat, lon, ref_t, ref_q, ref_lat, ref_lon,
                 out[i, 3 + j] = v_n[i, j] - (ref_v[k, j] + (ref_v[k + 1, j] - ref_v[k, j]) * u)
         if attitude:
             out[i, 6] = _slerp_angle(ref_q[k], ref_q[k + 1], u, quat_nb[i])
-

@@ -59,7 +59,7 @@ def savgol_weights(window: int, order: int, dt: float):
         return d @ pinv / dt
 
     centre = at(np.zeros(1))[0]
-    taps = 0.5 * (centre[m + 1:] - centre[m - 1::-1])  # exactly antisymmetric
+    taps = 0.5 * (centre[m + 1 :] - centre[m - 1 :: -1])  # exactly antisymmetric
     if order <= 2:  # closed form: c_j = j / (dt sum i^2); the least-squares one agrees to 1e-16
         taps = np.arange(1, m + 1) / (dt * (m * (m + 1) * (2 * m + 1) / 3.0))
     head = at(np.arange(-m, 0, dtype=float))
@@ -111,24 +111,25 @@ def savgol_derivative(x, row0, n_record, j0, j1, taps, head, tail, out):
         stop = min(b, blk + BLOCK_ROWS)
         i0 = (blk - row0) * n_ch
         i1 = (stop - row0) * n_ch
-        acc = of[(blk - j0) * n_ch:(stop - j0) * n_ch]
+        acc = of[(blk - j0) * n_ch : (stop - j0) * n_ch]
         for q in range(i1 - i0):
             acc[q] = 0.0
         j = 1
         while j + 3 <= m:
             c1, c2, c3, c4 = taps[j - 1], taps[j], taps[j + 1], taps[j + 2]
             s1, s2, s3, s4 = j * n_ch, (j + 1) * n_ch, (j + 2) * n_ch, (j + 3) * n_ch
-            p1, n1 = xf[i0 + s1:i1 + s1], xf[i0 - s1:i1 - s1]
-            p2, n2 = xf[i0 + s2:i1 + s2], xf[i0 - s2:i1 - s2]
-            p3, n3 = xf[i0 + s3:i1 + s3], xf[i0 - s3:i1 - s3]
-            p4, n4 = xf[i0 + s4:i1 + s4], xf[i0 - s4:i1 - s4]
+            p1, n1 = xf[i0 + s1 : i1 + s1], xf[i0 - s1 : i1 - s1]
+            p2, n2 = xf[i0 + s2 : i1 + s2], xf[i0 - s2 : i1 - s2]
+            p3, n3 = xf[i0 + s3 : i1 + s3], xf[i0 - s3 : i1 - s3]
+            p4, n4 = xf[i0 + s4 : i1 + s4], xf[i0 - s4 : i1 - s4]
             for q in range(i1 - i0):
-                acc[q] = (((acc[q] + c1 * (p1[q] - n1[q])) + c2 * (p2[q] - n2[q])) + c3 * (p3[q] - n3[q])) \
-                    + c4 * (p4[q] - n4[q])
+                acc[q] = (((acc[q] + c1 * (p1[q] - n1[q])) + c2 * (p2[q] - n2[q])) + c3 * (p3[q] - n3[q])) + c4 * (
+                    p4[q] - n4[q]
+                )
             j += 4
         while j <= m:
             cj, sj = taps[j - 1], j * n_ch
-            pj, nj = xf[i0 + sj:i1 + sj], xf[i0 - sj:i1 - sj]
+            pj, nj = xf[i0 + sj : i1 + sj], xf[i0 - sj : i1 - sj]
             for q in range(i1 - i0):
                 acc[q] += cj * (pj[q] - nj[q])
             j += 1

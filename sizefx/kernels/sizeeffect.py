@@ -39,9 +39,22 @@ def compensate_rates(accel, omega, omegadot, arms, axes, centripetal, tangential
     for k in range(accel.shape[0]):
         for i in range(3):
             out[k, i] = accel[k, i] - _lever_along(
-                axes[i, 0], axes[i, 1], axes[i, 2], arms[i, 0], arms[i, 1], arms[i, 2],
-                omega[k, 0], omega[k, 1], omega[k, 2], omegadot[k, 0], omegadot[k, 1], omegadot[k, 2],
-                1.0, centripetal, tangential)
+                axes[i, 0],
+                axes[i, 1],
+                axes[i, 2],
+                arms[i, 0],
+                arms[i, 1],
+                arms[i, 2],
+                omega[k, 0],
+                omega[k, 1],
+                omega[k, 2],
+                omegadot[k, 0],
+                omegadot[k, 1],
+                omegadot[k, 2],
+                1.0,
+                centripetal,
+                tangential,
+            )
 
 
 @kernel
@@ -57,10 +70,22 @@ def compensate_increments(dvel, dtheta, omega_edges, dt, arms, axes, centripetal
     for k in range(dvel.shape[0]):
         for i in range(3):
             out[k, i] = dvel[k, i] - _lever_along(
-                axes[i, 0], axes[i, 1], axes[i, 2], arms[i, 0], arms[i, 1], arms[i, 2],
-                dtheta[k, 0] / dt, dtheta[k, 1] / dt, dtheta[k, 2] / dt,
-                omega_edges[k + 1, 0] - omega_edges[k, 0], omega_edges[k + 1, 1] - omega_edges[k, 1],
-                omega_edges[k + 1, 2] - omega_edges[k, 2], dt, centripetal, tangential)
+                axes[i, 0],
+                axes[i, 1],
+                axes[i, 2],
+                arms[i, 0],
+                arms[i, 1],
+                arms[i, 2],
+                dtheta[k, 0] / dt,
+                dtheta[k, 1] / dt,
+                dtheta[k, 2] / dt,
+                omega_edges[k + 1, 0] - omega_edges[k, 0],
+                omega_edges[k + 1, 1] - omega_edges[k, 1],
+                omega_edges[k + 1, 2] - omega_edges[k, 2],
+                dt,
+                centripetal,
+                tangential,
+            )
 
 
 @kernel
@@ -88,6 +113,20 @@ def compensate_increments_edges(dvel, dtheta, dt, arms, axes, centripetal, tange
         tx, ty, tz = nx - ex, ny - ey, nz - ez
         for i in range(3):
             out[k, i] = dvel[k, i] - _lever_along(
-                axes[i, 0], axes[i, 1], axes[i, 2], arms[i, 0], arms[i, 1], arms[i, 2],
-                wx, wy, wz, tx, ty, tz, dt, centripetal, tangential)
+                axes[i, 0],
+                axes[i, 1],
+                axes[i, 2],
+                arms[i, 0],
+                arms[i, 1],
+                arms[i, 2],
+                wx,
+                wy,
+                wz,
+                tx,
+                ty,
+                tz,
+                dt,
+                centripetal,
+                tangential,
+            )
         ex, ey, ez = nx, ny, nz

@@ -44,8 +44,15 @@ from ..constants import OMEGA_EARTH_RAD_S
 from .earth import gravity_ned, radii_m
 from .jit import kernel
 
-__all__ = ["coning_coefficients", "STATE_SIZE", "VERTICAL_FREE", "VERTICAL_HELD", "VERTICAL_REFERENCE",
-           "strapdown", "pack_state"]
+__all__ = [
+    "coning_coefficients",
+    "STATE_SIZE",
+    "VERTICAL_FREE",
+    "VERTICAL_HELD",
+    "VERTICAL_REFERENCE",
+    "strapdown",
+    "pack_state",
+]
 
 #: layout of the state vector carried between calls (chunks)
 #: q[0:4], v_n[4:7], lat, lon, h [7:10], lat_prev, h_prev [10:12], v_prev [12:15], have_prev [15],
@@ -62,8 +69,14 @@ _CONING = {
     1: {},
     2: {(0, 1): 2.0 / 3.0},
     3: {(0, 2): 33.0 / 80.0, (0, 1): 57.0 / 80.0, (1, 2): 57.0 / 80.0},
-    4: {(0, 1): 736.0 / 945.0, (2, 3): 736.0 / 945.0, (0, 2): 334.0 / 945.0, (1, 3): 334.0 / 945.0,
-        (0, 3): 526.0 / 945.0, (1, 2): 654.0 / 945.0},
+    4: {
+        (0, 1): 736.0 / 945.0,
+        (2, 3): 736.0 / 945.0,
+        (0, 2): 334.0 / 945.0,
+        (1, 3): 334.0 / 945.0,
+        (0, 3): 526.0 / 945.0,
+        (1, 2): 654.0 / 945.0,
+    },
 }
 
 
@@ -101,8 +114,23 @@ def _quat_of_rotvec(x, y, z):
 
 
 @kernel
-def strapdown(dtheta, dvel, n_sub, coeffs, dt_nav, state, vertical_mode, h_hold, h_ref, vd_ref,
-              out_quat, out_v, out_lat, out_lon, out_h):
+def strapdown(
+    dtheta,
+    dvel,
+    n_sub,
+    coeffs,
+    dt_nav,
+    state,
+    vertical_mode,
+    h_hold,
+    h_ref,
+    vd_ref,
+    out_quat,
+    out_v,
+    out_lat,
+    out_lon,
+    out_h,
+):
     """Integrate ``n_steps = len(out_lat)`` navigation intervals; update ``state`` in place.
 
     Parameters

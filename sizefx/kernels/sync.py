@@ -339,7 +339,7 @@ def median_step(t):
             i = b * stride + j
             sample[b * run + j] = t[i + 1] - t[i]
     hi = _select(sample, MEDIAN_SAMPLE // 2 + MEDIAN_BRACKET)
-    lo = _select(sample[:MEDIAN_SAMPLE // 2 + MEDIAN_BRACKET], MEDIAN_SAMPLE // 2 - MEDIAN_BRACKET)
+    lo = _select(sample[: MEDIAN_SAMPLE // 2 + MEDIAN_BRACKET], MEDIAN_SAMPLE // 2 - MEDIAN_BRACKET)
     # One pass: count the steps below the bracket and keep those inside. A step falls either
     # side of the bracket's middle at random, so that count adds a comparison instead of
     # branching on it; the one branch (inside or not: one comparison) is taken for few steps.
@@ -374,8 +374,7 @@ def median_step(t):
         b = _select(d[:inside], r2 - below)
         if r1 == r2:
             return b
-        return (_largest(d[:r2 - below]) + b) / 2.0  # r2 - below >= 1: the other middle step is inside too
+        return (_largest(d[: r2 - below]) + b) / 2.0  # r2 - below >= 1: the other middle step is inside too
     for i in range(m):  # the bracket missed: select from all the steps
         d[i] = t[i + 1] - t[i]
     return _median_of(d[:m])
-

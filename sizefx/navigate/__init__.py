@@ -20,18 +20,30 @@ from pathlib import Path
 
 from ..errors import ConfigError
 from ..io.files import atomic_output
+from ..io.navigation import NavigationWriter, write_navigation
 from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
 from .initial import coarse_alignment
 from .loop import navigate, navigate_file, navigate_source
-from ..io.navigation import NavigationWriter, write_navigation
 from .output import plot_errors
 from .result import NavResult, format_summary
 from .steps import increments_of
 
-__all__ = ["NavConfig", "NavResult", "NavigateConfig", "navigate", "navigate_file", "navigate_source", "run",
-           "coarse_alignment", "increments_of", "format_summary",
-           "plot_errors", "CHUNK_SAMPLES", "GAPS_WHY"]
+__all__ = [
+    "NavConfig",
+    "NavResult",
+    "NavigateConfig",
+    "navigate",
+    "navigate_file",
+    "navigate_source",
+    "run",
+    "coarse_alignment",
+    "increments_of",
+    "format_summary",
+    "plot_errors",
+    "CHUNK_SAMPLES",
+    "GAPS_WHY",
+]
 
 
 @dataclass(frozen=True)
@@ -68,8 +80,9 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
     """
     cfg = config.options
     if cfg.levers and (config.model is not None or cfg.model is not None):  # the options first, then the files
-        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
-                          "([lever_arm]); give one of them")
+        raise ConfigError(
+            "--levers and --model both given: the effect model has its own lever arms ([lever_arm]); give one of them"
+        )
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     if config.model is not None:
         from ..correct import load_model
@@ -84,8 +97,7 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
         if config.output:
             write_navigation(config.output, res, input_file=path, force=config.force)
     else:
-        writer = (NavigationWriter(config.output, input_file=path, force=config.force)
-                  if config.output else None)
+        writer = NavigationWriter(config.output, input_file=path, force=config.force) if config.output else None
         try:
             res = navigate_file(path, cfg, chunk_samples=config.chunk_samples, progress=progress, writer=writer)
         except BaseException as exc:

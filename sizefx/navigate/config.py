@@ -10,8 +10,17 @@ from dataclasses import dataclass
 from ..effects import EffectModel
 from ..kernels.strapdown import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
 
-__all__ = ["NavConfig", "VERTICAL_MODES", "GAPS_WHY", "GRID_TOLERANCE", "JITTER_REPORTED",
-           "STATIONARY_SPAN_M", "CHUNK_SAMPLES", "MARGIN", "MIN_ROWS"]
+__all__ = [
+    "NavConfig",
+    "VERTICAL_MODES",
+    "GAPS_WHY",
+    "GRID_TOLERANCE",
+    "JITTER_REPORTED",
+    "STATIONARY_SPAN_M",
+    "CHUNK_SAMPLES",
+    "MARGIN",
+    "MIN_ROWS",
+]
 
 VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
 #: A reference whose position spans less than this [m] is a stationary site: vertical channel held.

@@ -40,14 +40,17 @@ def choose(path, ref, approximate: bool, cfg: NavConfig, t_start: float):
     if init == "auto":
         init = "reference" if covers else "align"
     if init == "reference" and not covers:
-        raise ConfigError(f"{path}: --init reference needs a /reference that covers the start "
-                          f"(t = {t_start:.3f} s) and is not approximate; use --init align")
+        raise ConfigError(
+            f"{path}: --init reference needs a /reference that covers the start "
+            f"(t = {t_start:.3f} s) and is not approximate; use --init align"
+        )
     vertical = cfg.vertical
     stationary = True
     if ref is not None and ref.has_position:
         r_mer, r_tr = earth.radii_m(ref.lat_rad[0])
-        span = max(np.ptp(ref.lat_rad) * r_mer, np.ptp(ref.lon_rad) * r_tr * np.cos(ref.lat_rad[0]),
-                   np.ptp(ref.height_m))
+        span = max(
+            np.ptp(ref.lat_rad) * r_mer, np.ptp(ref.lon_rad) * r_tr * np.cos(ref.lat_rad[0]), np.ptp(ref.height_m)
+        )
         stationary = span < STATIONARY_SPAN_M
     if vertical == "auto":
         if stationary:
@@ -73,7 +76,6 @@ def coarse_alignment(f_b, omega_b, lat_rad, h_m) -> np.ndarray:
         return np.column_stack([v1, v2, np.cross(v1, v2)])
 
     return triad(f_n, w_n) @ triad(np.asarray(f_b), np.asarray(omega_b)).T
-
 
 
 def fine_alignment(dtheta, dvel, dt, mat_nb0, lat, lon, h, n_sub, iterations: int = 2):
@@ -109,9 +111,9 @@ def fine_alignment(dtheta, dvel, dt, mat_nb0, lat, lon, h, n_sub, iterations: in
     return mat, drift
 
 
-
-def initial_state(path, cfg: NavConfig, init: str, ref0, site, dt: float, n_sub: int, n_increments: int,
-                  alignment_window):
+def initial_state(
+    path, cfg: NavConfig, init: str, ref0, site, dt: float, n_sub: int, n_increments: int, alignment_window
+):
     """Start attitude, velocity and position, and the alignment details for the configuration.
 
     ``ref0``: the reference at the start (:func:`sizefx.navigate.reference.reference_at`) or None; ``alignment_window(n)``
@@ -123,16 +125,20 @@ def initial_state(path, cfg: NavConfig, init: str, ref0, site, dt: float, n_sub:
     elif site is not None:
         lat0, lon0, h0 = float(site.lat_rad), float(site.lon_rad), float(site.height_m)
     else:
-        raise ConfigError(f"{path}: no start position: the file has neither root latitude/longitude/height "
-                          "nor /reference/position; add the site attributes (sizefx import --site-deg)")
+        raise ConfigError(
+            f"{path}: no start position: the file has neither root latitude/longitude/height "
+            "nor /reference/position; add the site attributes (sizefx import --site-deg)"
+        )
     if init == "reference":
         v0 = ref0["v_n"][0] if "v_n" in ref0 else np.zeros(3)
         return ref0["quat_nb"][0], v0, (lat0, lon0, h0), {}
     n_align = int(round(cfg.align_s / dt))
     n_align -= n_align % n_sub
     if n_align < n_sub * 10 or n_align > n_increments:
-        raise ConfigError(f"{path}: alignment window of {cfg.align_s} s does not fit a record of "
-                          f"{n_increments * dt:.1f} s; choose --align-s")
+        raise ConfigError(
+            f"{path}: alignment window of {cfg.align_s} s does not fit a record of "
+            f"{n_increments * dt:.1f} s; choose --align-s"
+        )
     dtheta, dvel = alignment_window(n_align)
     f_b = dvel.sum(axis=0) / (n_align * dt)
     w_b = dtheta.sum(axis=0) / (n_align * dt)
@@ -140,9 +146,11 @@ def initial_state(path, cfg: NavConfig, init: str, ref0, site, dt: float, n_sub:
     mat_f, drift_n = fine_alignment(dtheta, dvel, dt, mat_c, lat0, lon0, h0, n_sub)
     roll_c, pitch_c, heading_c = mat_to_euler(mat_c)
     roll, pitch, heading = mat_to_euler(mat_f)
-    details = {"align_window_s": n_align * dt,
-               "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll_c, pitch_c, heading_c % (2 * np.pi))],
-               "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll, pitch, heading % (2 * np.pi))],
-               "mean_specific_force_mps2": f_b.tolist(),
-               "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0)}
+    details = {
+        "align_window_s": n_align * dt,
+        "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll_c, pitch_c, heading_c % (2 * np.pi))],
+        "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll, pitch, heading % (2 * np.pi))],
+        "mean_specific_force_mps2": f_b.tolist(),
+        "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0),
+    }
     return mat_to_quat(mat_f), np.zeros(3), (lat0, lon0, h0), details

@@ -33,17 +33,17 @@ from dataclasses import asdict, replace
 import numpy as np
 
 from ..compensate import compensate_arrays_increments
-from ..sync import sync_accelerometers
 from ..correct import correct_imu
 from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
 from ..stage import helper_threads
+from ..sync import sync_accelerometers
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig
-from .result import NavResult
 from .initial import choose, initial_state
 from .reference import Errors, MemoryReference, reference_at, vertical_reference_at
+from .result import NavResult
 from .steps import increments_of, integrate, uniform_period_s
 
 __all__ = ["MemorySource", "navigate", "navigate_file", "navigate_source"]
@@ -87,8 +87,14 @@ class _Prepared:
         hi = min(src.n_samples, j1 + extra + MARGIN)
         lo = max(0, min(j0 - MARGIN, hi - MIN_ROWS))  # a short last chunk reads more history, not less
         t, g, a, ta = src.read(lo, hi)
-        tel = Telemetry(time_s=t, form=src.form, accel_time_s=ta, site=src.site,
-                        path=None if src.path is None else str(src.path), source=src.source)
+        tel = Telemetry(
+            time_s=t,
+            form=src.form,
+            accel_time_s=ta,
+            site=src.site,
+            path=None if src.path is None else str(src.path),
+            source=src.source,
+        )
         if self.rates:
             tel.gyro_rad_s, tel.accel_mps2 = g, a
         else:
@@ -100,8 +106,9 @@ class _Prepared:
                 del self.correction["effects"]  # in the model file; the configuration names it
         else:
             tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
-        t_end, dtheta, dvel, _, jitter = increments_of(tel, dt=dt, first_row=lo, t_first=self.t_first,
-                                                       row0=src.first_row)
+        t_end, dtheta, dvel, _, jitter = increments_of(
+            tel, dt=dt, first_row=lo, t_first=self.t_first, row0=src.first_row
+        )
         self.jitter = max(self.jitter, jitter)
         if self.levers:
             dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
@@ -109,8 +116,16 @@ class _Prepared:
         return t_end[keep], np.ascontiguousarray(dtheta[keep]), np.ascontiguousarray(dvel[keep])
 
 
-def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
-                    threads: bool = True, writer=None, decimate: bool = True) -> NavResult:
+def navigate_source(
+    src,
+    cfg: NavConfig,
+    *,
+    chunk_samples: int = CHUNK_SAMPLES,
+    progress=None,
+    threads: bool = True,
+    writer=None,
+    decimate: bool = True,
+) -> NavResult:
     """Navigate ``src`` (a :class:`TelemetryStream` or a :class:`MemorySource`) chunk by chunk.
 
     ``decimate``: keep only the rows at ``cfg.output_rate_hz`` (a file's run) or every
@@ -121,8 +136,9 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
     """
     started = _time.perf_counter()
     if cfg.levers and cfg.model is not None:
-        raise ConfigError("--levers and --model both given: the effect model has its own lever arms "
-                          "([lever_arm]); give one of them")
+        raise ConfigError(
+            "--levers and --model both given: the effect model has its own lever arms ([lever_arm]); give one of them"
+        )
     levers = read_levers(cfg.levers) if cfg.levers else None
     n_sub = int(cfg.subsamples)
     coning_coefficients(n_sub)  # validates
@@ -142,7 +158,8 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
     init, vertical, stationary = choose(src.path, ref.summary() if ref is not None else None, approximate, cfg, t0)
     ref0 = reference_at(ref.window(t0, t0), np.array([t0])) if ref is not None else None
     quat0, v0, (lat0, lon0, h0), details = initial_state(
-        src.path, cfg, init, ref0, src.site, dt, n_sub, prep.n_increments, lambda n: prep.increments(0, n)[1:])
+        src.path, cfg, init, ref0, src.site, dt, n_sub, prep.n_increments, lambda n: prep.increments(0, n)[1:]
+    )
     state = pack_state(quat0, v0, lat0, lon0, h0)
     mode = VERTICAL_MODES[vertical]
     T = n_sub * dt
@@ -163,7 +180,7 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
             if pool and c + 1 < len(bounds):
                 pending = pool.submit(prep.increments, *bounds[c + 1])
             steps = (j1 - j0) // n_sub
-            t_nav = t_end[n_sub - 1:steps * n_sub:n_sub]  # the file's own stamps: no accumulated rounding
+            t_nav = t_end[n_sub - 1 : steps * n_sub : n_sub]  # the file's own stamps: no accumulated rounding
             # the rows of /reference this chunk spans, read once for the vertical channel and the errors
             window = ref.window(float(t_nav[0]), float(t_nav[-1])) if ref is not None else None
             h_ref = vd_ref = np.zeros(0)
@@ -173,8 +190,9 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
             k_started = _time.perf_counter()
             q, v, lat, lon, h = integrate(dtheta, dvel, n_sub, dt, state, mode, h0, h_ref, vd_ref)
             kernel_s += _time.perf_counter() - k_started
-            rows = (np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0) if stride > 1
-                    else np.arange(steps))
+            rows = (
+                np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0) if stride > 1 else np.arange(steps)
+            )
             if writer is not None:
                 writer.append(t_nav[rows], lat[rows], lon[rows], h[rows], v[rows], q[rows])
             for key, x in zip(("t", "q", "v", "lat", "lon", "h"), (t_nav, q, v, lat, lon, h)):
@@ -192,20 +210,44 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
     finally:
         if pool:
             pool.shutdown(wait=True, cancel_futures=True)
-    config = {**asdict(replace(cfg, model=None)), "model": cfg.model.source if cfg.model is not None else None,
-              "correction": prep.correction, "init": init, "vertical": vertical, "stationary_reference": stationary,
-              "input_form": src.form, "sample_rate_hz": 1.0 / dt, "nav_rate_hz": 1.0 / T,
-              "dropped_trailing_samples": int(prep.n_increments - n_steps * n_sub), "streamed": decimate,
-              "chunk_samples": chunk, "output_stride": stride, "time_jitter_periods": prep.jitter, **details,
-              **(segment_config(src.segment) if src.segment is not None else {})}
-    res = NavResult(*(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")), config, {},
-                    path=None if src.path is None else str(src.path))
+    config = {
+        **asdict(replace(cfg, model=None)),
+        "model": cfg.model.source if cfg.model is not None else None,
+        "correction": prep.correction,
+        "init": init,
+        "vertical": vertical,
+        "stationary_reference": stationary,
+        "input_form": src.form,
+        "sample_rate_hz": 1.0 / dt,
+        "nav_rate_hz": 1.0 / T,
+        "dropped_trailing_samples": int(prep.n_increments - n_steps * n_sub),
+        "streamed": decimate,
+        "chunk_samples": chunk,
+        "output_stride": stride,
+        "time_jitter_periods": prep.jitter,
+        **details,
+        **(segment_config(src.segment) if src.segment is not None else {}),
+    }
+    res = NavResult(
+        *(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")),
+        config,
+        {},
+        path=None if src.path is None else str(src.path),
+    )
     duration = last[0] - t_first_nav + T
-    summary = {"samples": int(n_steps * n_sub), "duration_s": duration, "final_horizontal_error_m": None,
-               "max_horizontal_error_m": None, "drift_nmi_per_h": None, "final_velocity_error_mps": None,
-               "final_attitude_error_deg": None, "max_attitude_error_deg": None,
-               "final_latitude_deg": float(np.degrees(last[1])), "final_longitude_deg": float(np.degrees(last[2])),
-               "final_height_m": last[3]}
+    summary = {
+        "samples": int(n_steps * n_sub),
+        "duration_s": duration,
+        "final_horizontal_error_m": None,
+        "max_horizontal_error_m": None,
+        "drift_nmi_per_h": None,
+        "final_velocity_error_mps": None,
+        "final_attitude_error_deg": None,
+        "max_attitude_error_deg": None,
+        "final_latitude_deg": float(np.degrees(last[1])),
+        "final_longitude_deg": float(np.degrees(last[2])),
+        "final_height_m": last[3],
+    }
     res.summary = errors.into(summary, duration)
     res.summary["kernel_s"] = kernel_s
     res.summary["wall_s"] = _time.perf_counter() - started
@@ -215,19 +257,28 @@ def navigate_source(src, cfg: NavConfig, *, chunk_samples: int = CHUNK_SAMPLES, 
 
 def segment_config(seg) -> dict:
     """What the configuration records of the segment navigated."""
-    return {"segment_of": seg.of, "segment_rows": [seg.first_row, seg.stop_row],
-            "segment_time_s": [seg.start_s, seg.end_s]}
+    return {
+        "segment_of": seg.of,
+        "segment_rows": [seg.first_row, seg.stop_row],
+        "segment_time_s": [seg.start_s, seg.end_s],
+    }
 
 
 def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
     """Navigate a record in memory: the loop with one chunk; the result keeps every navigation step."""
     src = MemorySource(tel)
-    return navigate_source(src, cfg or NavConfig(), chunk_samples=max(src.n_samples, 1), threads=False,
-                           decimate=False)
+    return navigate_source(src, cfg or NavConfig(), chunk_samples=max(src.n_samples, 1), threads=False, decimate=False)
 
 
-def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CHUNK_SAMPLES, progress=None,
-                  threads: bool | None = None, writer=None) -> NavResult:
+def navigate_file(
+    path,
+    cfg: NavConfig | None = None,
+    *,
+    chunk_samples: int = CHUNK_SAMPLES,
+    progress=None,
+    threads: bool | None = None,
+    writer=None,
+) -> NavResult:
     """Navigate a telemetry file chunk by chunk; the result holds the output rows only.
 
     ``threads``: prepare the next chunk in a helper thread while the kernel runs (default: unless
@@ -238,5 +289,4 @@ def navigate_file(path, cfg: NavConfig | None = None, *, chunk_samples: int = CH
     if chunk_samples < 1000:
         raise ConfigError(f"--chunk-samples {chunk_samples}: use at least 1000")
     with TelemetryStream(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment) as st:
-        return navigate_source(st, cfg, chunk_samples=chunk_samples, progress=progress, threads=threads,
-                               writer=writer)
+        return navigate_source(st, cfg, chunk_samples=chunk_samples, progress=progress, threads=threads, writer=writer)

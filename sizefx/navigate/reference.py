@@ -47,16 +47,28 @@ class MemoryReference:
         self.first_s, self.last_s = float(ref.time_s[0]), float(ref.time_s[-1])
         self.has_position = ref.has_position
         self.has_velocity = ref.velocity_n_mps is not None
-        self.median_step_s = float(np.median(np.diff(ref.time_s[:self.HEAD_ROWS])))
+        self.median_step_s = float(np.median(np.diff(ref.time_s[: self.HEAD_ROWS])))
 
     def window(self, t_lo: float, t_hi: float) -> Reference:
         """The rows that bracket ``[t_lo, t_hi]``, one more on each side (as the stream's)."""
-        last_at_or_before = lambda t: max(0, int(np.searchsorted(self.ref.time_s, t, side="right")) - 1)  # noqa: E731
+
+        def last_at_or_before(t):
+            return max(0, int(np.searchsorted(self.ref.time_s, t, side="right")) - 1)
+
         rows = slice(max(0, last_at_or_before(t_lo) - 1), min(self.n, last_at_or_before(t_hi) + 3))
         r = self.ref
-        pick = lambda x: None if x is None else x[rows]  # noqa: E731
-        return Reference(time_s=r.time_s[rows], quat_nb=r.quat_nb[rows], lat_rad=pick(r.lat_rad),
-                         lon_rad=pick(r.lon_rad), height_m=pick(r.height_m), velocity_n_mps=pick(r.velocity_n_mps))
+
+        def pick(x):
+            return None if x is None else x[rows]
+
+        return Reference(
+            time_s=r.time_s[rows],
+            quat_nb=r.quat_nb[rows],
+            lat_rad=pick(r.lat_rad),
+            lon_rad=pick(r.lon_rad),
+            height_m=pick(r.height_m),
+            velocity_n_mps=pick(r.velocity_n_mps),
+        )
 
     def summary(self) -> Reference:
         return self.ref
@@ -78,8 +90,7 @@ class Errors:
         self.res_dt = res_dt
         self.final = {}
         self.max = {"horizontal": None, "attitude": None}
-        self.history = {k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps",
-                                        "attitude_rad")}
+        self.history = {k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps", "attitude_rad")}
 
     def add(self, t, q, v, lat, lon, out_rows, window):
         """One chunk: navigation steps ``t``, the indices ``out_rows`` of the output rows among them,
@@ -103,11 +114,21 @@ class Errors:
         none1, none3 = np.zeros(2), np.zeros((2, 3))
         has_pos, has_vel = window.has_position, window.velocity_n_mps is not None
         out = np.empty((idx.size, 7))
-        navigation_errors(t[idx], np.ascontiguousarray(q[idx]), np.ascontiguousarray(v[idx]), lat[idx], lon[idx],
-                          window.time_s, np.ascontiguousarray(window.quat_nb),
-                          *((window.lat_rad, window.lon_rad, window.height_m) if has_pos else (none1,) * 3),
-                          np.ascontiguousarray(window.velocity_n_mps) if has_vel else none3,
-                          has_pos, has_vel, not self.approximate, out)
+        navigation_errors(
+            t[idx],
+            np.ascontiguousarray(q[idx]),
+            np.ascontiguousarray(v[idx]),
+            lat[idx],
+            lon[idx],
+            window.time_s,
+            np.ascontiguousarray(window.quat_nb),
+            *((window.lat_rad, window.lon_rad, window.height_m) if has_pos else (none1,) * 3),
+            np.ascontiguousarray(window.velocity_n_mps) if has_vel else none3,
+            has_pos,
+            has_vel,
+            not self.approximate,
+            out,
+        )
         is_output = np.zeros(t.size, dtype=bool)
         is_output[out_rows] = True
         hist = is_output[idx]
@@ -150,7 +171,15 @@ class Errors:
 
 def _doubled(ref: Reference) -> Reference:
     """A one-row reference as two equal rows one second apart (the same value at every time)."""
-    two = lambda x: None if x is None else np.concatenate([x, x])  # noqa: E731
-    return Reference(time_s=np.array([ref.time_s[0], ref.time_s[0] + 1.0]), quat_nb=two(ref.quat_nb),
-                     lat_rad=two(ref.lat_rad), lon_rad=two(ref.lon_rad), height_m=two(ref.height_m),
-                     velocity_n_mps=two(ref.velocity_n_mps))
+
+    def two(x):
+        return None if x is None else np.concatenate([x, x])
+
+    return Reference(
+        time_s=np.array([ref.time_s[0], ref.time_s[0] + 1.0]),
+        quat_nb=two(ref.quat_nb),
+        lat_rad=two(ref.lat_rad),
+        lon_rad=two(ref.lon_rad),
+        height_m=two(ref.height_m),
+        velocity_n_mps=two(ref.velocity_n_mps),
+    )

@@ -44,33 +44,46 @@ class NavResult:
 
 def format_summary(path, res: NavResult) -> str:
     s, c = res.summary, res.config
-    lines = [f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / 3600:.3f} h), "
-             f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s"]
+    lines = [
+        f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / 3600:.3f} h), "
+        f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s"
+    ]
     if c.get("segment"):
         a, b = c["segment_rows"]
         t0, t1 = c["segment_time_s"]
         lines.append(f"  segment {c['segment']} of {c['segment_of']}: rows {a}..{b - 1}, t = {t0:.6f} .. {t1:.6f} s")
     lines.append(f"  initial state from {c['init']}; vertical channel {c['vertical']}")
     if c.get("time_jitter_periods", 0.0) > JITTER_REPORTED:
-        lines.append(f"  time stamps up to {c['time_jitter_periods']:.2f} periods off the uniform grid of "
-                     f"{1e3 / c['sample_rate_hz']:.4g} ms (logging jitter): each sample was integrated at its "
-                     "grid point")
+        lines.append(
+            f"  time stamps up to {c['time_jitter_periods']:.2f} periods off the uniform grid of "
+            f"{1e3 / c['sample_rate_hz']:.4g} ms (logging jitter): each sample was integrated at its "
+            "grid point"
+        )
     if c.get("correction"):
         corr = c["correction"]
-        lines.append(f"  IMU corrected with the effect model {corr['model']} ({corr['mode']}): "
-                     f"{', '.join(corr['corrected']) or 'nothing enabled'}")
+        lines.append(
+            f"  IMU corrected with the effect model {corr['model']} ({corr['mode']}): "
+            f"{', '.join(corr['corrected']) or 'nothing enabled'}"
+        )
     if "fine_roll_pitch_heading_deg" in c:
         r, p, h = c["fine_roll_pitch_heading_deg"]
-        lines.append(f"  alignment over {c['align_window_s']:.1f} s: roll {r:.4f} deg, pitch {p:.4f} deg, "
-                     f"heading {h:.4f} deg")
-    lines.append(f"  final position {s['final_latitude_deg']:.7f} deg N, {s['final_longitude_deg']:.7f} deg E, "
-                 f"{s['final_height_m']:.2f} m")
+        lines.append(
+            f"  alignment over {c['align_window_s']:.1f} s: roll {r:.4f} deg, pitch {p:.4f} deg, heading {h:.4f} deg"
+        )
+    lines.append(
+        f"  final position {s['final_latitude_deg']:.7f} deg N, {s['final_longitude_deg']:.7f} deg E, "
+        f"{s['final_height_m']:.2f} m"
+    )
     if s["final_horizontal_error_m"] is not None:
-        lines.append(f"  horizontal error: final {s['final_horizontal_error_m']:.4g} m, max "
-                     f"{s['max_horizontal_error_m']:.4g} m, drift {s['drift_nmi_per_h']:.4g} nmi/h")
+        lines.append(
+            f"  horizontal error: final {s['final_horizontal_error_m']:.4g} m, max "
+            f"{s['max_horizontal_error_m']:.4g} m, drift {s['drift_nmi_per_h']:.4g} nmi/h"
+        )
     if s["final_velocity_error_mps"] is not None:
         lines.append(f"  final velocity error {s['final_velocity_error_mps']:.4g} m/s")
     if s["final_attitude_error_deg"] is not None:
-        lines.append(f"  attitude error: final {s['final_attitude_error_deg']:.3g} deg, "
-                     f"max {s['max_attitude_error_deg']:.3g} deg")
+        lines.append(
+            f"  attitude error: final {s['final_attitude_error_deg']:.3g} deg, "
+            f"max {s['max_attitude_error_deg']:.3g} deg"
+        )
     return "\n".join(lines)

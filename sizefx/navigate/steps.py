@@ -31,8 +31,9 @@ def grid_offsets_periods(time_s, t_first: float, dt: float, first_row: int = 0) 
     return (np.asarray(time_s) - (t_first + (first_row + np.arange(len(time_s))) * dt)) / dt
 
 
-def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None,
-                  row0: int = 0):
+def increments_of(
+    tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None, row0: int = 0
+):
     """``(t_end [N'], dtheta [N',3], dvel [N',3], dt, jitter)`` for a record of either form.
 
     ``dt``: the record's period when ``tel`` is a chunk of it (default: ``tel``'s own span);
@@ -45,15 +46,20 @@ def increments_of(tel: Telemetry, dt: float | None = None, first_row: int = 0, *
         dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
     if t_first is None:
         t_first = float(tel.time_s[0]) - first_row * dt
-    worst, offset = worst_grid_offset(np.ascontiguousarray(tel.time_s, dtype=np.float64), float(t_first), float(dt),
-                                      int(first_row))
+    worst, offset = worst_grid_offset(
+        np.ascontiguousarray(tel.time_s, dtype=np.float64), float(t_first), float(dt), int(first_row)
+    )
     jitter = float(abs(offset))
     if jitter > GRID_TOLERANCE:
-        raise TelemetryError(tel.path, "/imu/time", f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
-                                                    f"is {offset:+.3g} periods off the uniform grid of "
-                                                    f"{dt:.6g} s; navigation integrates on that grid and accepts "
-                                                    f"jitter up to {GRID_TOLERANCE} period (resample the record, "
-                                                    "or cut it where the rate changes)")
+        raise TelemetryError(
+            tel.path,
+            "/imu/time",
+            f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
+            f"is {offset:+.3g} periods off the uniform grid of "
+            f"{dt:.6g} s; navigation integrates on that grid and accepts "
+            f"jitter up to {GRID_TOLERANCE} period (resample the record, "
+            "or cut it where the rate changes)",
+        )
     if tel.form == "increments":
         return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt, jitter
     n = tel.n_samples
@@ -76,6 +82,21 @@ def integrate(dtheta, dvel, n_sub, dt, state, mode, h_hold, h_ref, vd_ref):
     out_lat = np.empty(n_steps)
     out_lon = np.empty(n_steps)
     out_h = np.empty(n_steps)
-    strapdown(dtheta, dvel, n_sub, coning_coefficients(n_sub), n_sub * dt, state, mode, h_hold,
-              h_ref, vd_ref, out_q, out_v, out_lat, out_lon, out_h)
+    strapdown(
+        dtheta,
+        dvel,
+        n_sub,
+        coning_coefficients(n_sub),
+        n_sub * dt,
+        state,
+        mode,
+        h_hold,
+        h_ref,
+        vd_ref,
+        out_q,
+        out_v,
+        out_lat,
+        out_lon,
+        out_h,
+    )
     return out_q, out_v, out_lat, out_lon, out_h

@@ -53,4 +53,3 @@ def sample(p: SensorParams, motion_at: Callable[[np.ndarray], Motion], t: np.nda
     at_gyro = motion_at(t)
     at_accel = at_gyro if p.accel_delay == 0.0 else motion_at(t - p.accel_delay)
     return forward(p, at_gyro, at_accel)
-

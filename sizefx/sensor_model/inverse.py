@@ -18,12 +18,16 @@ def check_invertible(p: SensorParams):
     for sensor, axes in (("accel", p.accel_axes()), ("gyro", p.gyro_axes())):
         one_plus_s = 1.0 + getattr(p, f"{sensor}_scale_factor")
         if np.any(one_plus_s <= 0.0):
-            raise ConfigError(f"{p.source}: [{sensor}_scale_factor] gives 1 + scale factor = {one_plus_s.tolist()}; "
-                              "every channel needs a positive gain (scale factors are in ppm)")
+            raise ConfigError(
+                f"{p.source}: [{sensor}_scale_factor] gives 1 + scale factor = {one_plus_s.tolist()}; "
+                "every channel needs a positive gain (scale factors are in ppm)"
+            )
         cond = np.linalg.cond(axes)
         if not cond < MAX_AXES_CONDITION:
-            raise ConfigError(f"{p.source}: [{sensor}_misalignment] makes the sensor axes nearly dependent (condition "
-                              f"{cond:.3g}, limit {MAX_AXES_CONDITION:g}); misalignments are in arcsec")
+            raise ConfigError(
+                f"{p.source}: [{sensor}_misalignment] makes the sensor axes nearly dependent (condition "
+                f"{cond:.3g}, limit {MAX_AXES_CONDITION:g}); misalignments are in arcsec"
+            )
         gains.append(one_plus_s)
     return gains[0], gains[1]
 
@@ -37,9 +41,11 @@ def _invert_accel_channels(rate_mps2, one_plus_s, k2, bias, time_s):
     if np.any(disc < 0.0):
         k, i = np.argwhere(disc < 0.0)[0]
         at = f" at t = {time_s[k]:.6f} s" if time_s is not None else f" in sample {k}"
-        raise ConfigError(f"accelerometer {'xyz'[i]} reads {rate_mps2[k, i]:.6g} m/s^2{at}, "
-                          f"where (1 + s) a + K2 a^2 + b with K2 = {k2[i]:.6g} s^2/m has no real inverse; "
-                          "check [accel_quadratic] (ug_per_g2) of the model")
+        raise ConfigError(
+            f"accelerometer {'xyz'[i]} reads {rate_mps2[k, i]:.6g} m/s^2{at}, "
+            f"where (1 + s) a + K2 a^2 + b with K2 = {k2[i]:.6g} s^2/m has no real inverse; "
+            "check [accel_quadratic] (ug_per_g2) of the model"
+        )
     return 2.0 * x / (one_plus_s + np.sqrt(disc))
 
 
@@ -53,8 +59,18 @@ def check_estimator(form: str, estimator: str):
         raise ConfigError("rate data take --estimator central or savgol")
 
 
-def remove_lever_terms(accel_like, omega_like, arms, axes, *, form: str, dt: float, estimator: str,
-                       centripetal: bool = True, tangential: bool = True):
+def remove_lever_terms(
+    accel_like,
+    omega_like,
+    arms,
+    axes,
+    *,
+    form: str,
+    dt: float,
+    estimator: str,
+    centripetal: bool = True,
+    tangential: bool = True,
+):
     """``a_i - u_i . (omegadot x r_i + omega x (omega x r_i))`` [N, 3], in the record's own domain.
 
     Rates: ``omegadot`` from ``omega`` by the estimator (:mod:`sizefx.omegadot`). Increments: the
@@ -73,18 +89,29 @@ def remove_lever_terms(accel_like, omega_like, arms, axes, *, form: str, dt: flo
     out = np.empty_like(accel_like)
     if form == "rates":
         omegadot = central(omega_like, dt) if estimator == "central" else savgol(omega_like, dt)
-        compensate_rates(accel_like, omega_like, np.ascontiguousarray(omegadot), arms, axes, centripetal, tangential,
-                         out)
+        compensate_rates(
+            accel_like, omega_like, np.ascontiguousarray(omegadot), arms, axes, centripetal, tangential, out
+        )
     elif accel_like.shape[0] < 2:
-        compensate_increments(accel_like, omega_like, edges_from_increments(omega_like, dt), dt, arms, axes,
-                              centripetal, tangential, out)
+        compensate_increments(
+            accel_like, omega_like, edges_from_increments(omega_like, dt), dt, arms, axes, centripetal, tangential, out
+        )
     else:
         compensate_increments_edges(accel_like, omega_like, dt, arms, axes, centripetal, tangential, out)
     return out
 
 
-def inverse(p: SensorParams, gyro_like, accel_like, *, form: str, dt: float, mode: str = "center",
-            estimator: str | None = None, time_s=None):
+def inverse(
+    p: SensorParams,
+    gyro_like,
+    accel_like,
+    *,
+    form: str,
+    dt: float,
+    mode: str = "center",
+    estimator: str | None = None,
+    time_s=None,
+):
     """``(omega_like, f_like)`` [N, 3]: readings with the deterministic errors and the lever arms undone.
 
     Parameters
@@ -120,8 +147,10 @@ def inverse(p: SensorParams, gyro_like, accel_like, *, form: str, dt: float, mod
     accel_axes_inv = np.linalg.inv(accel_axes)  # U^-1: f = U^-1 a
     # per sample: 1 for rates, dt for increments (a rate bias b adds b dt to each increment)
     per_sample = 1.0 if form == "rates" else dt
-    a = _invert_accel_channels(accel_like / per_sample, accel_gain, p.accel_quadratic, p.accel_bias,
-                               time_s) * per_sample  # step 2
+    a = (
+        _invert_accel_channels(accel_like / per_sample, accel_gain, p.accel_quadratic, p.accel_bias, time_s)
+        * per_sample
+    )  # step 2
 
     def gyro_from(f_like):  # omega = M^-1 (g - b_g - G f), per sample: b_g dt and G dv for increments
         return (gyro_like - p.gyro_bias * per_sample - f_like @ p.gyro_g_sensitivity.T) @ mat_gyro_inv.T
@@ -134,4 +163,3 @@ def inverse(p: SensorParams, gyro_like, accel_like, *, form: str, dt: float, mod
     omega_like = gyro_from(f_reference)  # step 5
     f_like = without_lever_terms(omega_like, arms) @ accel_axes_inv.T  # step 6
     return omega_like, f_like
-

@@ -91,8 +91,15 @@ def _mount_axes(p: SensorParams) -> np.ndarray:
     return _left_jacobian(-np.asarray(p.reference_mount, dtype=float)).T
 
 
-def jacobian(p: SensorParams, at_gyro: Motion, at_accel: Motion | None = None, *, effects=None,
-             sensors=("gyro", "accel"), measured_lever_rates: bool = False) -> Jacobian:
+def jacobian(
+    p: SensorParams,
+    at_gyro: Motion,
+    at_accel: Motion | None = None,
+    *,
+    effects=None,
+    sensors=("gyro", "accel"),
+    measured_lever_rates: bool = False,
+) -> Jacobian:
     """Partial derivatives of :func:`forward`'s readings with respect to ``theta``, at ``p``.
 
     Parameters
@@ -163,8 +170,9 @@ def _gyro_columns(p: SensorParams, m: Motion, wanted, put):
             for j in range(3):
                 put("gyro_g_sensitivity", 3 * i + j, i, m.f_b[:, j])
     if "gyro_misalignment" in wanted:
-        _misalignment_columns(1.0 + p.gyro_scale_factor, [w] * 3, proj, u_g, p.gyro_misalignment, put,
-                              "gyro_misalignment", 0)
+        _misalignment_columns(
+            1.0 + p.gyro_scale_factor, [w] * 3, proj, u_g, p.gyro_misalignment, put, "gyro_misalignment", 0
+        )
     m_g, g_sens = p.gyro_matrix(), p.gyro_g_sensitivity
     if "level_tilt" in wanted:
         mat = _need(m, "mat_nb", "level_tilt")
@@ -188,8 +196,9 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put, measured_lever_rates
     u = p.accel_axes()
     w, wd = m.omega_ib_b, m.omegadot_ib_b
     n = w.shape[0]
-    needs_inputs = bool(wanted & {"accel_scale_factor", "accel_quadratic", "accel_misalignment"}) or \
-        bool(np.any(p.accel_quadratic != 0.0))
+    needs_inputs = bool(wanted & {"accel_scale_factor", "accel_quadratic", "accel_misalignment"}) or bool(
+        np.any(p.accel_quadratic != 0.0)
+    )
     f_i = [specific_force_at(m, p.lever_arm[i]) for i in range(3)] if needs_inputs else None
     a = np.column_stack([f_i[i] @ u[i] for i in range(3)]) if needs_inputs else None
     if np.any(p.accel_quadratic != 0.0):
