@@ -61,11 +61,56 @@ def _installed_matches_source():
                 )
 
 
+def pytest_addoption(parser):
+    parser.addoption(
+        "--full",
+        action="store_true",
+        help="run both tiers: the fast tier and the long one (the tests marked slow; pytest -m slow runs those alone)",
+    )
+
+
 def pytest_configure(config):
     _installed_matches_source()
 
 
-from support import write_raw  # noqa: E402  (numpy and h5py only: no sizefx before the check)
+def pytest_collection_modifyitems(config, items):
+    """The fast tier by default: tests marked ``slow`` are left out unless ``--full`` or a ``-m``
+    expression asks for them, or the test is named by its id on the command line."""
+    if long_tier_selected(config):
+        return
+    named = [arg for arg in config.args if "::" in arg]
+    keep, slow = [], []
+    for item in items:
+        if item.get_closest_marker("slow") is None or any(_names(arg, item) for arg in named):
+            keep.append(item)
+        else:
+            slow.append(item)
+    if slow:
+        config.hook.pytest_deselected(items=slow)
+        items[:] = keep
+        config._sizefx_slow_left_out = len(slow)
+
+
+def _names(arg: str, item) -> bool:
+    path, _, rest = arg.partition("::")
+    return Path(path).resolve() == Path(item.path).resolve() and item.nodeid.split("::", 1)[1].startswith(rest)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    left_out = getattr(config, "_sizefx_slow_left_out", 0)
+    if left_out:
+        terminalreporter.write_line(
+            f"fast tier: {left_out} tests of the long tier left out; pytest -m slow runs them, pytest --full both tiers"
+        )
+
+
+from support import long_tier_selected, real_data, write_raw  # noqa: E402  (numpy and h5py only: no sizefx before the check)
+
+
+@pytest.fixture
+def real_data_folder():
+    """The real recordings' folder (tests/support.py's real_data: skip, or fail under .ci/run)."""
+    return real_data()
 
 
 @pytest.fixture

@@ -7,11 +7,39 @@ so this folder, not the repository root, is on ``sys.path``: ``import support``,
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import h5py
 import numpy as np
+import pytest
+
+#: The real recordings by others (../shared/data/real beside the checkout; read there, never
+#: copied): ``SIZEFX_REAL_DATA`` points elsewhere.
+REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
+#: Set by .ci/run: a missing real data set fails the test instead of skipping it.
+REQUIRE_REAL = os.environ.get("SIZEFX_REQUIRE_REAL_DATA") == "1"
 
 RATE_HZ = 100.0
 N = 1000
+
+
+def real_data(rel: str = "") -> Path:
+    """A real data set (a file or folder under :data:`REAL`). Run by hand, a missing one skips the
+    test with the reason; under .ci/run (``SIZEFX_REQUIRE_REAL_DATA=1``) it fails the test."""
+    path = REAL / rel
+    if not path.exists():
+        why = f"real data {path} not found: put shared/ beside the checkout or set SIZEFX_REAL_DATA"
+        if REQUIRE_REAL:
+            pytest.fail(why)
+        pytest.skip(why)
+    return path
+
+
+def long_tier_selected(config) -> bool:
+    """Whether this run includes the long tier (``--full``, or any ``-m`` expression such as
+    ``-m slow``); a plain ``pytest`` runs the fast tier alone (tests/conftest.py)."""
+    return bool(config.getoption("--full") or config.getoption("markexpr"))
 
 
 def write_root_attributes(h5):

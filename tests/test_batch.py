@@ -172,6 +172,8 @@ def test_a_worker_that_dies_early_in_a_long_batch_loses_no_record(tmp_path):
     assert len(_manifest(tmp_path / "out")["records"]) == len(names)
 
 
+# long tier: signals to a running pool (4 s); fast twin: test_a_worker_that_dies_takes_only_its_record
+@pytest.mark.slow
 def test_a_stopped_batch_stops_its_workers(tmp_path):
     """Ctrl-C (here: raised by the progress callback after the first record): the record still
     running is stopped rather than run to its end, the queued ones never start, and no temporary
@@ -258,6 +260,8 @@ def test_compensate_batch_writes_each_record_compensated(campaign, tmp_path):
         assert np.array_equal(a[key], b[key]) if isinstance(a[key], np.ndarray) else a[key] == b[key], key
 
 
+# long tier: three diagnoses (4 s); fast twin: test_compensate_batch_writes_each_record_compensated
+@pytest.mark.slow
 def test_diagnose_batch_finds_what_the_single_command_finds_and_what_recurs(tmp_path):
     """batch diagnose over three records, an accelerometer bias hidden in two: a report and a model
     per record, each record's findings those of 'sizefx diagnose' on it, and the bias on each axis
@@ -416,6 +420,8 @@ def test_bad_batch_input_is_one_line_and_writes_nothing(campaign, tmp_path, case
     assert case == "out-is-file" or not out.exists()
 
 
+# long tier: navigates and compares three records twice (4 s); fast twin: test_compare_without_a_partner_is_one_line
+@pytest.mark.slow
 def test_compare_pairs_each_solution_with_its_partner_and_reference(campaign, tmp_path):
     """batch compare: each record's solution A with its B (--against, paired by name) and the record's
     own telemetry as truth (--reference, a folder); the paired files hashed into the manifest, so that
@@ -575,13 +581,17 @@ def test_dask_worker_killed_mid_record_is_retried(tmp_path, cluster):
     assert [e["name"] for e in _manifest(out)["records"]] == ["a", "b", "killonce"]
 
 
-def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(campaign, tmp_path):
+def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(campaign, tmp_path, monkeypatch):
     pytest.importorskip("distributed")
+    # nothing listens on port 9: the wait for it is not what is tested (5 s by default)
+    monkeypatch.setattr("sizefx.batch.runner.DASK_CONNECT_S", 0.5)
     out = tmp_path / "out"
     _one_line_refusal(_batch("inspect", campaign, "--out", out, "--scheduler", "tcp://127.0.0.1:9"), "cannot reach it")
     assert not out.exists()
 
 
+# long tier: calibrates three turntable records and draws (5 s); fast twin: test_compare.py's and test_diagnose.py's plots
+@pytest.mark.slow
 def test_plots_draw_the_figures_across_the_records(campaign, tmp_path):
     """--plots: fleet.png with calibrate's nine arm components (and each run's own figure); for a stage
     without figures of its own, --plots does not make the records run again."""

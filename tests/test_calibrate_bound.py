@@ -249,6 +249,8 @@ def test_steps_in_angular_acceleration_are_found_where_they_are():
     assert not steps_in_angular_acceleration(plan).any()
 
 
+# long tier: a long sway record (10 s); fast twin: test_delay_with_a_large_offset_is_unbiased
+@pytest.mark.slow
 def test_delay_is_unbiased_across_a_sway_switched_on_at_once(monkeypatch):
     """Paired seeds, a sway switched on at rest: the delay with 0.5 ms in the data less the delay
     without, on the same noise, is 0.5 ms to 0.05 us (0.03 sigma: the pairing cancels the noise;

@@ -127,6 +127,8 @@ def test_inspect_valid_file(runner, raw_file):
     assert "valid sizefx/telemetry/1" in result.output and "100 Hz" in result.output
 
 
+# long tier: the demo end to end (6 s); CI's install command runs the real one; fast twin: tests/test_paper.py's experiments
+@pytest.mark.slow
 def test_demo_smoke(tmp_path):
     """The README's first command, every step at the smallest size: the three experiments, the
     table, the diagnosis, the plots. CI runs the real demo (reduced size) from a fresh clone and

@@ -9,12 +9,11 @@ as for motion capture); and BROAD trial 07 (a hand-held IMU tracked by motion ca
 from __future__ import annotations
 
 import dataclasses
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from support import real_data
 
 from sizefx import diagnose as D
 from sizefx import scenarios
@@ -144,22 +143,16 @@ def test_readable_values(f_hz, down, up):
     assert readable_ceil(f_hz) == pytest.approx(up, rel=1e-12)
 
 
-REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
-if os.environ.get("CI") and not REAL.is_dir():
-    raise RuntimeError(f"CI: real data folder {REAL} not found")  # a broken run, not a reason to skip
-
-
 def test_broad_trial_07_band_lies_where_the_hand_chosen_one_does(tmp_path):
     """The hand-held rotation of BROAD trial 07 under motion capture: tests/test_diagnose.py fits it below
     a hand-chosen 10 Hz; the automatic band must lie in 5-20 Hz (measured: 10 Hz, the specific force's
     reference noise crossing at 10.1 Hz on accel_z; trials 09, 16, 21: 10, 12, 6 Hz)."""
-    if not REAL.is_dir():
-        pytest.skip(f"real data folder {REAL} not found (set SIZEFX_REAL_DATA)")
+    trial = real_data("broad/07_undisturbed_fast_rotation_B.mat")
     from sizefx.importers import run_import
     from sizefx.io.telemetry import read_telemetry
 
     h5 = tmp_path / "broad07.h5"
-    run_import("broad", REAL / "broad" / "07_undisturbed_fast_rotation_B.mat", h5)
+    run_import("broad", trial, h5)
     theta0, _ = D.start_model("none")
     choice = choose(read_telemetry(h5), theta0)
     assert choice.bandwidth_hz is not None and 5.0 <= choice.bandwidth_hz <= 20.0, choice.reason

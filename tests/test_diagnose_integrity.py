@@ -7,13 +7,12 @@ memory the way motion capture and re-mounted fixtures corrupt it.
 
 from __future__ import annotations
 
-import os
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from support import real_data
 
 from sizefx import scenarios
 from sizefx.constants import DEG
@@ -197,19 +196,14 @@ def test_without_breaks_the_motion_is_the_single_spline():
 
 # --------------------------------------------------------------------------- real data: BROAD
 
-REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
-if os.environ.get("CI") and not REAL.is_dir():
-    raise RuntimeError(f"CI: real data folder {REAL} not found")  # a broken run, not a reason to skip
-
 
 def test_broad_07_has_no_glitch_or_discontinuity(tmp_path):
-    if not REAL.is_dir():
-        pytest.skip(f"real data folder {REAL} not found (set SIZEFX_REAL_DATA)")
+    trial = real_data("broad/07_undisturbed_fast_rotation_B.mat")
     from sizefx.importers import run_import
     from sizefx.io.telemetry import read_telemetry
 
     h5 = tmp_path / "broad07.h5"
-    run_import("broad", REAL / "broad" / "07_undisturbed_fast_rotation_B.mat", h5)
+    run_import("broad", trial, h5)
     check = I.check_reference(read_telemetry(h5, allow_gaps=True))
     bad = [w for w in check.warnings if "glitch" in w["kind"] or "discontinuity" in w["kind"]]
     assert bad == [] and check.breaks_s == (), bad

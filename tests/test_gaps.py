@@ -7,13 +7,11 @@ and the real PX4 log goes import -> inspect -> navigate end to end.
 
 from __future__ import annotations
 
-import os
-
 import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from support import RATE_HZ, write_raw
+from support import RATE_HZ, real_data, write_raw
 
 from sizefx.errors import ConfigError, TelemetryError
 from sizefx.io.telemetry import TelemetryStream, find_imu_gaps, read_telemetry, write_telemetry
@@ -158,13 +156,7 @@ def test_diagnose_segment_and_a_time_span_conflict(gapped):
 
 @pytest.fixture(scope="module")
 def px4(tmp_path_factory):
-    from test_importers import REAL
-
-    src = REAL / "px4/sample.ulg"
-    if not src.is_file():
-        if os.environ.get("CI"):  # CI always has ../shared beside the clone: a missing file is a broken run
-            pytest.fail(f"CI: {src} not found")
-        pytest.skip(f"{src} not found")
+    src = real_data("px4/sample.ulg")
     out = tmp_path_factory.mktemp("px4") / "px4.h5"
     result = _run("import", "ulog", src, "-o", out, "--site-deg", "47.4,8.5,500")
     assert result.exit_code == 0, result.output

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import json
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from support import REAL, real_data
 
 from sizefx import earth
 from sizefx.constants import DEG, OMEGA_EARTH_RAD_S
@@ -20,11 +19,8 @@ from sizefx.io.telemetry import read_telemetry
 from sizefx.rotation import mat_to_euler, quat_multiply, quat_to_mat
 from sizefx_cli.main import main
 
-REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
-if os.environ.get("CI") and not REAL.is_dir():
-    # CI always has ../shared beside the clone: a missing folder is a broken run, not a reason to skip
-    raise RuntimeError(f"CI: real data folder {REAL} not found")
-needs_real = pytest.mark.skipif(not REAL.is_dir(), reason=f"real data folder {REAL} not found (set SIZEFX_REAL_DATA)")
+#: a test that reads the real recordings: skipped with the reason when they are missing (failed under .ci/run)
+needs_real = pytest.mark.usefixtures("real_data_folder")
 
 IMUCAL = dict(
     time="n_samples",
@@ -50,8 +46,7 @@ REAL_FILES = {
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory):
     """Each real file imported once: name -> (summary, Telemetry read back)."""
-    if not REAL.is_dir():
-        pytest.skip(f"real data folder {REAL} not found")
+    real_data()
     out = {}
     folder = tmp_path_factory.mktemp("imported")
     for name, (fmt, rel, opts) in REAL_FILES.items():

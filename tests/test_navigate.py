@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import os
-from pathlib import Path
 
 import naive
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from support import real_data
 
 from sizefx import scenarios
 from sizefx.constants import DEG, MICRO_G
@@ -162,6 +161,8 @@ def test_chunked_kernel_equals_whole(short_flight):
 # --------------------------------------------------------------------------- closed forms
 
 
+# long tier: 10.4 M samples (3 s); fast twin: test_schuler_oscillation_of_an_accelerometer_bias and the coning and sculling closed forms
+@pytest.mark.slow
 def test_static_18_hours_stays_put(tmp_path):
     """Ideal static data, 1.8 h at 1600 Hz at the paper's airfield (issue 4: < 0.01 m, < 1e-6 deg).
 
@@ -318,15 +319,11 @@ def test_schuler_oscillation_of_an_accelerometer_bias():
 # --------------------------------------------------------------------------- real data and the command
 
 
-REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
-
-
-@pytest.mark.skipif(not REAL.is_dir() and not os.environ.get("CI"), reason="real data folder not found")
 def test_ring_laser_log_aligns_to_the_header_heading(tmp_path):
     from sizefx.importers import run_import
 
     h5 = tmp_path / "laser.h5"
-    run_import("psins-imu", REAL / "psins/lasergyro.imu", h5)
+    run_import("psins-imu", real_data("psins/lasergyro.imu"), h5)
     out = tmp_path / "nav.h5"
     summary, png = tmp_path / "nav.json", tmp_path / "err.png"
     result = CliRunner().invoke(

@@ -41,6 +41,8 @@ def test_prediction_is_what_the_fit_states():
     assert pred.duration_s == pytest.approx(scenarios.turntable(SHORT_PLAN)[0].duration_s)
 
 
+# long tier: a budget search (4 s); fast twin: test_least_time_search_is_minimal
+@pytest.mark.slow
 def test_budget_search_beats_the_paper_in_its_time():
     paper = scenarios.TurntablePlan()
     design = design_plan(PlanRequest(NOISE_UG, TableLimits(), budget_s=paper.duration_s))
@@ -104,7 +106,8 @@ def test_noise_must_be_positive_and_finite(noise):
         (["--budget-s", "300", "--axes", "XQ"], "table axes"),
         (["--budget-s", "300", "--axes", "XX"], "table axes"),
         (["--budget-s", "40"], "--budget-s 40"),
-        (["--target-sigma-mm", "1e-7"], "--target-sigma-mm"),
+        # long tier: the search runs to its limit before it refuses (4 s); fast twin: budget-too-short
+        pytest.param(["--target-sigma-mm", "1e-7"], "--target-sigma-mm", marks=pytest.mark.slow),
     ],
     ids=["both", "neither", "bad-axis", "axis-twice", "budget-too-short", "unreachable-sigma"],
 )
@@ -210,6 +213,8 @@ def test_sway_stays_within_the_table(delay_design):
     assert delay_design.prediction.duration_s <= DELAY_REQUEST.budget_s + 1e-6
 
 
+# long tier: simulates and fits a sway (5 s); fast twin: test_prediction_is_what_the_fit_states
+@pytest.mark.slow
 def test_delay_prediction_is_what_the_fit_states(delay_design):
     """The designed turntable plan and sway simulated with white noise of the request's density:
     the fit's delay sigma (and arms) within 5 % of the prediction, and the delay found within 4 sigma."""
@@ -240,9 +245,10 @@ def test_least_sway_is_minimal(delay_design):
     assert predict(delay_design.plan, NOISE_UG, fewer).sigma_delay_s > DELAY_REQUEST.target_delay_sigma_us * 1e-6
 
 
-@pytest.fixture
-def delay_plan_file(tmp_path):
-    path = tmp_path / "plan.toml"
+@pytest.fixture(scope="module")
+def delay_plan_text(tmp_path_factory):
+    """The delay plan as ``sizefx plan`` writes it: designed once for this module (1.8 s)."""
+    path = tmp_path_factory.mktemp("delay-plan") / "plan.toml"
     result = CliRunner().invoke(
         main,
         [
@@ -263,6 +269,14 @@ def delay_plan_file(tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert "delay sway" in result.output and "simulate sway --plan" in path.read_text()
+    return path.read_text()
+
+
+@pytest.fixture
+def delay_plan_file(delay_plan_text, tmp_path):
+    """A copy of the delay plan each test may edit."""
+    path = tmp_path / "plan.toml"
+    path.write_text(delay_plan_text)
     return path
 
 

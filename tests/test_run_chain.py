@@ -182,6 +182,8 @@ def _batch_run(*args):
     return CliRunner().invoke(main, ["batch", "run", *map(str, args)])
 
 
+# long tier: the chain over several flights with workers (8 s); fast twin: test_calibrate_navigate_compare
+@pytest.mark.slow
 def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp_path):
     """calibrate once into DIR; each flight navigated plain and compensated and compared, in DIR/NAME/,
     the same as a single chain on it; the manifest lists the flights with the lever arms' hash; a
@@ -302,9 +304,11 @@ def test_batch_chains_that_cannot_work_are_one_line(records, flights, tmp_path, 
     assert not out.exists()
 
 
-def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, flights, tmp_path):
+def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, flights, tmp_path, monkeypatch):
     """The scheduler is reached before calibrate runs or the folder is made: one line, exit 2."""
     pytest.importorskip("distributed")
+    # nothing listens on port 9: the wait for it is not what is tested (5 s by default)
+    monkeypatch.setattr("sizefx.batch.runner.DASK_CONNECT_S", 0.5)
     turntable, _ = records
     out = tmp_path / "out"
     result = _batch_run(

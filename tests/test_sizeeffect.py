@@ -217,6 +217,8 @@ def _fx(preset="high-precision", **more):
     return load_effects(overrides={"lever_arm": {"preset": preset, "r_vehicle_m": OFFSET_M}, **more})
 
 
+# long tier: four seeds of the paper's plan (5 s); fast twin: tests/test_calibrate.py and test_calibrate_bound.py's single records
+@pytest.mark.slow
 def test_calibration_is_unbiased_with_honest_sigma_over_four_seeds(paper_plan):
     """Issue 5, in small: all nine components within 3.5 sigma, the scatter matches sigma, no bias.
 
