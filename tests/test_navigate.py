@@ -385,3 +385,17 @@ def test_navigate_without_position_is_a_clear_error(tmp_path):
     p = write_raw(tmp_path / "nosite.h5", mutate=drop_site, reference=False)
     result = CliRunner().invoke(main, ["navigate", str(p), "--align-s", "5"])
     assert result.exit_code == 2 and "no start position" in result.output
+
+
+def test_an_output_rate_slower_than_the_record_is_one_line(tmp_path):
+    """One output row every 20 s from a 10 s record would write no row at all: refused before
+    anything is written, with the rate that would write one."""
+    from support import write_raw
+
+    p = write_raw(tmp_path / "short.h5")
+    out = tmp_path / "nav.h5"
+    result = CliRunner().invoke(main, ["navigate", str(p), "-o", str(out), "-q", "--output-rate-hz", "0.05"])
+    assert result.exit_code == 2, result.output
+    assert len(result.output.strip().splitlines()) == 1 and "--output-rate-hz 0.05" in result.output, result.output
+    assert "give at least" in result.output and not out.exists()
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["short.h5"]

@@ -29,6 +29,7 @@ import json
 import time as _time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -166,6 +167,12 @@ def navigate_source(
     stride = 1
     if decimate and cfg.output_rate_hz:
         stride = max(1, int(round(1.0 / (T * cfg.output_rate_hz))))
+        if stride > n_steps:
+            where = "the record" if src.path is None else Path(src.path).name
+            raise ConfigError(
+                f"--output-rate-hz {cfg.output_rate_hz:g}: one row every {stride * T:.6g} s, but {where} "
+                f"navigates {n_steps * T:.6g} s; give at least {1.0 / (n_steps * T):.3g} Hz to write a row"
+            )
     chunk = max(n_sub, (int(chunk_samples) // (n_sub * stride)) * n_sub * stride)
     bounds = [(j0, min(j0 + chunk, n_steps * n_sub)) for j0 in range(0, n_steps * n_sub, chunk)]
     out = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
