@@ -12,9 +12,11 @@ stops the run with the command that fixes it.
 from __future__ import annotations
 
 import importlib
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 ROOT = Path(__file__).resolve().parents[1]
 REINSTALL = '.venv/bin/pip install -e ".[test]" (the development loop) or README command 2'
@@ -59,6 +61,13 @@ def _installed_matches_source():
                     f"reinstall with {REINSTALL}",
                     returncode=2,
                 )
+
+
+# Hypothesis draws new examples on every run by hand (that is how a property finds what nobody
+# thought of); CI draws the same ones each time (SIZEFX_HYPOTHESIS_PROFILE=ci, set by .ci/run),
+# so that a red CI is the code's doing, never the draw's. benchmarks/fuzz_hostile.py explores.
+settings.register_profile("ci", derandomize=True, database=None)
+settings.load_profile(os.environ.get("SIZEFX_HYPOTHESIS_PROFILE", "default"))
 
 
 def pytest_addoption(parser):

@@ -81,17 +81,34 @@ def corpus(request):
     return request.config._hostile_root, request.config._hostile_cases
 
 
+class _CaseByCase(dict):
+    """Outcomes run one case at a time, when a test first asks for it."""
+
+    def __init__(self, cases, scratch):
+        super().__init__()
+        self.cases, self.scratch = cases, scratch
+
+    def __missing__(self, name):
+        self.update(hc.run_cases([self.cases[name]], self.scratch, workers=1))
+        return self[name]
+
+
 @pytest.fixture(scope="session")
 def outcomes(request, corpus, tmp_path_factory):
-    """Run every selected case once (two at a time) and keep the outcomes by name."""
+    """Every selected case's outcome by name: all run once, two at a time, in one process; under
+    pytest-xdist each worker runs only the cases it is given, one at a time (the workers are the
+    parallelism there)."""
     root, cases = corpus
+    hc.warm_imports()
+    scratch = tmp_path_factory.mktemp("hostile-runs")
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        return _CaseByCase(cases, scratch)
     selected = {
         item.callspec.params["case_name"]
         for item in request.session.items
         if hasattr(item, "callspec") and "case_name" in item.callspec.params
     }
-    hc.warm_imports()
-    return hc.run_cases([cases[n] for n in cases if n in selected], tmp_path_factory.mktemp("hostile-runs"))
+    return hc.run_cases([cases[n] for n in cases if n in selected], scratch)
 
 
 def test_hostile_case(case_name, corpus, outcomes):
