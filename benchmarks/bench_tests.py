@@ -1,0 +1,117 @@
+"""Benchmark: the test suite's two tiers, as a newcomer and CI run them.
+
+    python benchmarks/bench_tests.py [--tier fast|slow|both] [--workers N] [--json out.json]
+
+Each tier runs in a fresh ``git clone`` of this checkout's HEAD (so the figures are those of
+what is committed, never of uncommitted edits), into which sizefx is installed without ``-e``
+(``pip install --no-deps .``) into a new virtual environment that sees this environment's
+packages: the package's files, and so its Numba cache, are new, as on a fresh machine (the
+README's test command; only the download of the dependencies is left out of the time).
+
+- fast: ``pytest`` (the default tier), one process, as README command 2 runs it. Targets:
+  150 s and 1 GiB on 2 quiet cores.
+- slow: ``pytest -m slow -n WORKERS`` (the long tier on every core, as .ci/run runs it).
+
+Figures: wall time of the pytest command, the peak resident memory of its largest process
+(``ru_maxrss`` of the children, as ``/usr/bin/time -v`` reports it), pytest's closing line,
+and the load average before and after (a figure taken on a loaded machine says so).
+Printed as JSON, never asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+from datetime import UTC, datetime
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+#: the wrapper that runs a command and reports its wall time and its largest child's peak RSS
+_PROBE = (
+    "import resource, subprocess, sys, time; t0 = time.perf_counter(); "
+    "rc = subprocess.run(sys.argv[2:], cwd=sys.argv[1]).returncode; "
+    "print('PROBE', rc, time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
+)
+
+
+def _clone_and_install(work: Path) -> tuple[Path, Path]:
+    """A fresh clone of HEAD and a venv (this environment's packages visible) with sizefx installed in it."""
+    clone = work / "sizefx"
+    subprocess.run(["git", "clone", "--quiet", str(ROOT), str(clone)], check=True)
+    shared = ROOT.parent / "shared"
+    if shared.is_dir():  # the real recordings at the same relative place as beside the checkout
+        os.symlink(shared, work / "shared")
+    venv = work / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    # this environment's site-packages, seen from the new venv (a venv's --system-site-packages
+    # reaches only the base interpreter's): a .pth file names it, after the venv's own
+    site = subprocess.run(
+        [str(venv / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    ours = [p for p in sys.path if p.endswith("site-packages")]
+    Path(site, "zz_parent_env.pth").write_text("\n".join(ours) + "\n")
+    subprocess.run(
+        [str(venv / "bin" / "python"), "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", str(clone)],
+        check=True,
+    )
+    return clone, venv
+
+
+def _run_tier(clone: Path, venv: Path, args: list[str]) -> dict:
+    load_before = os.getloadavg()[0]
+    cmd = [str(venv / "bin" / "pytest"), "-p", "no:cacheprovider", *args]
+    proc = subprocess.run([sys.executable, "-c", _PROBE, str(clone), *cmd], capture_output=True, text=True)
+    probe = next(line for line in proc.stdout.splitlines() if line.startswith("PROBE"))
+    _, rc, wall_s, peak_kib = probe.split()
+    closing = [line for line in proc.stdout.splitlines() if re.search(r"\d+ (passed|failed)", line)]
+    return {
+        "command": " ".join(["pytest", *args]),
+        "exit_code": int(rc),
+        "wall_s": round(float(wall_s), 1),
+        "peak_mib": round(int(peak_kib) / 1024.0),
+        "pytest_summary": closing[-1].strip("= ") if closing else None,
+        "load_1min_before": round(load_before, 2),
+        "load_1min_after": round(os.getloadavg()[0], 2),
+    }
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--tier", choices=("fast", "slow", "both"), default="both")
+    ap.add_argument("--workers", default="auto", help="pytest-xdist workers of the long tier (default: auto)")
+    ap.add_argument("--json", type=Path, help="also write the figures here")
+    args = ap.parse_args(argv)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
+    result = {
+        "benchmark": "bench_tests",
+        "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "command": " ".join(["python", "benchmarks/bench_tests.py", *(argv if argv is not None else sys.argv[1:])]),
+        "commit": commit.stdout.strip(),
+        "machine": {"cores": os.cpu_count(), "processor": platform.processor() or platform.machine()},
+        "tiers": {},
+    }
+    with tempfile.TemporaryDirectory(prefix="sizefx-bench-tests-") as tmp:
+        for tier in ("fast", "slow") if args.tier == "both" else (args.tier,):
+            work = Path(tmp) / tier
+            work.mkdir()
+            clone, venv = _clone_and_install(work)  # a new install per tier: each starts with a cold Numba cache
+            tier_args = [] if tier == "fast" else ["-m", "slow", "-n", str(args.workers)]
+            result["tiers"][tier] = _run_tier(clone, venv, tier_args)
+    text = json.dumps(result, indent=2)
+    print(text)
+    if args.json:
+        args.json.write_text(text + "\n")
+    return 0 if all(t["exit_code"] == 0 for t in result["tiers"].values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
