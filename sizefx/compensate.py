@@ -242,6 +242,7 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
     tel = read_continuous(config.input, allow_gaps=config.allow_gaps, segment=config.segment, command="compensate")
     if progress is not None:
         progress(1, 3)
+    extra: str | None  # the model or the levers file: an input of the output
     if config.model:
         new = correct_imu(tel, load_model(config.model), mode=config.mode, estimator=config.estimator)
         key, extra = "correction_json", config.model
@@ -256,6 +257,7 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
             accel_delay_s=config.accel_delay_s,
         )
         key, extra = "compensation_json", config.levers
+    assert new.source is not None  # correct_imu and compensate record what they did in the copy's source
     if tel.segment is not None:
         new.source[key] = json.dumps({**json.loads(new.source[key]), **segment_note(tel)})
     if progress is not None:

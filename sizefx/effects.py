@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -102,7 +103,7 @@ class EffectModel:
 
     def truth(self) -> dict:
         """Every effect in SI (JSON-ready), plus the derived arms: for ``/simulation``."""
-        out = {}
+        out: dict[str, Any] = {}  # a JSON document: sections (dicts) and a note (str)
         for name, keys in self.sections.items():
             out[name] = {k: _jsonable(v) for k, v in keys.items()}
         out["lever_arm"]["d_m"] = self.arms_d_m().tolist()

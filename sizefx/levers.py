@@ -54,7 +54,7 @@ class Levers:
         def vec(a):
             return None if a is None else [float(x) for x in a]
 
-        out = {"schema": LEVERS_SCHEMA, "reference_point": self.reference_point}
+        out: dict[str, object] = {"schema": LEVERS_SCHEMA, "reference_point": self.reference_point}
         for i, axis in enumerate("xyz"):
             out[f"r_{axis}"] = vec(self.arms_total[i])
             out[f"sigma_{axis}"] = None if self.sigma is None else vec(self.sigma[i])

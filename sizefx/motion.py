@@ -26,6 +26,7 @@ Attitude
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -33,6 +34,7 @@ from . import earth
 from .rotation import axis_angle_mat
 
 __all__ = [
+    "Profile",
     "ProfileBuilder",
     "SmoothProfile",
     "Sinusoids",
@@ -50,6 +52,13 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- scalar profiles
+
+
+class Profile(Protocol):
+    """What every scalar profile below offers (:class:`RotationChain` takes any of them)."""
+
+    def evaluate(self, t):
+        """``(value, rate, acceleration)`` at the times ``t``, each shaped like ``t``."""
 
 
 class ConstantProfile:

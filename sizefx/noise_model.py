@@ -92,6 +92,8 @@ def fit_ar(
     if isinstance(acov, Autocovariance):
         r, n = acov.values(), acov.n
     else:
+        if n is None:
+            raise TypeError("fit_ar: values of an autocovariance need their count n")
         r = np.asarray(acov, dtype=float)
     penalty = CRITERIA[criterion](max(n, 2))
     top = r.size - 1 if max_order is None else min(int(max_order), r.size - 1)

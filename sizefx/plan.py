@@ -210,6 +210,7 @@ def _motion_record(traj, name: str) -> Record:
     t = np.arange(0.0, traj.duration_s, 1.0 / PLAN_RATE_HZ)
     site = traj.evaluate(t[:1])
     motion = true_motion(traj, t, load_effects(base=IDEAL).sensor_params())
+    assert motion.mat_nb is not None  # true_motion carries the attitude
     g_n = np.asarray(earth.gravity_n(site.lat_rad[0], site.height_m[0]), dtype=float)
     return Record(name, t, np.zeros((t.size, 3)), motion.omega_ib_b, motion.omegadot_ib_b, motion.mat_nb, g_n)
 
@@ -315,6 +316,7 @@ def _least_sway(req: PlanRequest, plan: scenarios.TurntablePlan):
     As :func:`_least_cycles`: with one bias per record the information is ``A + k B`` in the
     periods k, so two evaluations and a bisection find the least k; the fit's bias windows are
     then checked and the sway lengthened until it reaches the sigma."""
+    assert req.target_delay_sigma_us is not None  # asked for a sway (design_plan)
     target = req.target_delay_sigma_us * 1e-6
     amplitude, period = sway_shape(req.table)
     turntable = _plan_record(plan)
@@ -507,6 +509,7 @@ def _least_cycles(req: PlanRequest, shape: tuple, half_s: float):
     with them and lengthened until it reaches the wanted sigma.
     """
     target = req.target_sigma_mm
+    assert target is not None  # the shortest plan is searched for a wanted sigma (design_plan)
     plans = [_shape(req, shape, 2 * half_s * c, c) for c in (1, 2)]
     if plans[0] is None:
         return None, None, 0
@@ -599,6 +602,7 @@ def report_lines(design: PlanDesign) -> list[str]:
     )
     if design.sway is not None:
         w = design.sway
+        assert pred.sigma_delay_s is not None  # predicted with the sway (design_plan)
         lines.append(
             f"  delay sway, a record of its own: {w.axis} at {w.amplitudes_dps[0]:g} deg/s, {w.frequency_hz:.4g} Hz "
             f"(+-{w.amplitudes_dps[0] / (2 * math.pi * w.frequency_hz):.1f} deg) for {w.segment_s:g} s after "
@@ -606,6 +610,7 @@ def report_lines(design: PlanDesign) -> list[str]:
             f"(wanted {req.target_delay_sigma_us:g}); {w.duration_s:.0f} s of the {pred.duration_s:.0f} s"
         )
     if design.paper is not None:
+        assert design.paper_plan is not None  # given with the paper's prediction (design_plan)
         lines.append(
             f"  the paper's plan ({design.paper_plan.axes}, {design.paper_plan.cycles} cycles, "
             f"{design.paper_plan.seconds_per_axis:g} s per axis): {design.paper.duration_s:.0f} s, largest "

@@ -16,6 +16,7 @@ from .errors import ConfigError
 from .motion import (
     ConstantProfile,
     FlightPath,
+    Profile,
     ProfileBuilder,
     RateOf,
     RotationChain,
@@ -218,9 +219,9 @@ def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, d
     n = len(plan.amplitudes_dps)
     starts = plan.static_s + plan.segment_s * np.arange(n)
     prof = SwayProfile(starts, [plan.segment_s] * n, np.asarray(plan.amplitudes_dps) * DEG, plan.frequency_hz)
-    heading = ConstantProfile(plan.heading_deg * DEG)
-    pitch = ConstantProfile(0.0)
-    roll = ConstantProfile(0.0)
+    heading: Profile = ConstantProfile(plan.heading_deg * DEG)
+    pitch: Profile = ConstantProfile(0.0)
+    roll: Profile = ConstantProfile(0.0)
     if plan.axis == "heading":
         heading = SumProfile(heading, prof)
     elif plan.axis == "pitch":

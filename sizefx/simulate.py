@@ -32,7 +32,7 @@ simulate`` calls it::
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -156,7 +156,8 @@ class ImuSynthesizer:
             name: np.random.default_rng(s)
             for name, s in zip(("gyro_white", "accel_white", "gyro_rw", "accel_rw", "accel_markov"), streams)
         }
-        self._accel_markov = None  # the coloured part's last value, drawn from its stationary law at the start
+        # the coloured part's last value, drawn from its stationary law at the start
+        self._accel_markov: np.ndarray | None = None
         self._gyro_rw = np.zeros(3)
         self._accel_rw = np.zeros(3)
         self._carry = {"gyro": np.zeros(3), "accel": np.zeros(3)}
@@ -392,7 +393,8 @@ def simulate_to_file(
 NAVIGATION_REFERENCE_RATE_HZ = 100.0
 
 #: scenario -> (builder, its plan's class): the motions ``sizefx simulate`` knows.
-SCENARIOS = {
+#: scenario -> (its builder, taking a plan and a site; its plan class, whose defaults make the plan)
+SCENARIOS: dict[str, tuple[Callable[..., tuple[Trajectory, dict]], type]] = {
     "turntable": (scenarios.turntable, scenarios.TurntablePlan),
     "sway": (scenarios.sway, scenarios.SwayPlan),
     "flight": (scenarios.flight, scenarios.FlightPlan),
@@ -414,7 +416,7 @@ class SimulateConfig:
     """
 
     scenario: str
-    output: str
+    output: str | Path
     plan: object | None = None
     site: scenarios.SiteSpec | None = None
     effects_path: str | None = None

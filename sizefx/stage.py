@@ -22,6 +22,7 @@ names both the path and the option.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from os import PathLike
 from pathlib import Path
 
 from .errors import ConfigError
@@ -52,10 +53,10 @@ def use_helper_threads(allowed: bool) -> None:
 
 def preflight(
     *,
-    inputs: Mapping[str, object],
-    outputs: Mapping[str, object],
+    inputs: Mapping[str, str | PathLike[str] | None],
+    outputs: Mapping[str, str | PathLike[str] | None],
     force: bool = False,
-    folders: Mapping[str, object] | None = None,
+    folders: Mapping[str, str | PathLike[str] | None] | None = None,
 ) -> None:
     """Refuse, before any work, what would fail later or destroy something.
 

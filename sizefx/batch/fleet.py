@@ -50,7 +50,7 @@ KEY_FIGURES = {
 def headline(stage: str, doc: dict) -> dict:
     """A few figures of a record's result for the manifest and the fleet table: the scalars at the top
     of its JSON, and per stage the ones that matter (navigation error, arms, findings)."""
-    out = {k: v for k, v in doc.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    out: dict[str, object] = {k: v for k, v in doc.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
     if stage == "navigate":
         errors = doc.get("errors") or {}
         out.update({k: v for k, v in errors.items() if isinstance(v, (int, float))})

@@ -28,6 +28,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -293,7 +294,8 @@ class _Hashing(threading.Thread):
 
     def __init__(self, path, paired: dict):
         super().__init__(daemon=True)
-        self.path, self.paired, self.digest, self.paired_digests = path, paired, "", {}
+        self.path, self.paired, self.digest = path, paired, ""
+        self.paired_digests: dict[str, dict] = {}
         self.start()
 
     def run(self):
@@ -310,7 +312,7 @@ def _work(job: BatchJob) -> RecordOutcome:
     """Run one record (in a worker process); never raises for the record's own faults."""
     t0 = time.perf_counter()
     reset = _reset_peak_memory()
-    entry = {
+    entry: dict[str, Any] = {  # the record's manifest entry (a JSON object)
         "input": job.input,
         "name": job.name,
         "sha256": "",
@@ -324,6 +326,7 @@ def _work(job: BatchJob) -> RecordOutcome:
     }
     may_reuse = not job.redo and job.previous is not None and job.previous.get("status") == "ok"
     if may_reuse:  # the hashes decide whether the record runs at all
+        assert job.previous is not None  # may_reuse says so
         paired = _paired_hashes(job.paired)
         try:
             entry["sha256"] = sha256_of(job.input)
@@ -641,7 +644,8 @@ def _run_locked(
 
     if client is not None:
         _run_dask(client, jobs, finished)
-    pending, suspects = ([] if client is not None else list(jobs)), []
+    pending: list[BatchJob] = [] if client is not None else list(jobs)
+    suspects: list[BatchJob] = []
     started = pool  # the first round's workers, if the caller started them
     while pending:
         running: dict = {}

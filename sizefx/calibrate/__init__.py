@@ -191,6 +191,7 @@ def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
             progress(k + 1, len(paths))
     per_rotation = {rec.name: per_rotation_fit(rec) for rec in records}
     res = joint_fit(records, with_tilt=config.with_tilt, with_delay=config.with_delay)
+    assert res.bound_sigma is not None  # joint_fit sets it
     point = triad_point(res.arms, how=config.triad)
     sigma_tilt = None if res.sigma_tilt_rad is None else (res.sigma_tilt_rad / ARCSEC).tolist()
     levers = Levers(

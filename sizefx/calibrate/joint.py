@@ -136,17 +136,22 @@ class CalibrationResult:
     @property
     def bound_arms(self) -> np.ndarray:
         """The bound of the arms [3, 3] m."""
+        assert self.bound_sigma is not None  # joint_fit sets it
         return self.bound_sigma[:9].reshape(3, 3)
 
     def bias_windows(self, of=None) -> np.ndarray:
         """Standard errors (default) or bounds (``of=self.bound_sigma``) of every bias window [w, 3] m/s^2."""
-        values = np.sqrt(np.diag(self.covariance)) if of is None else of
+        values = of
+        if of is None:
+            assert self.covariance is not None  # joint_fit sets it
+            values = np.sqrt(np.diag(self.covariance))
         index = [j for j, name in enumerate(self.names) if name.startswith("bias_")]
         return values[index].reshape(-1, 3)
 
     @property
     def efficiency(self) -> np.ndarray:
         """Bound over stated standard error, per parameter (1: the bound reached)."""
+        assert self.bound_sigma is not None and self.covariance is not None  # joint_fit sets both
         return self.bound_sigma / np.sqrt(np.diag(self.covariance))
 
 

@@ -117,6 +117,7 @@ def excitation(
         raise CalibrationError(
             f"{path}: no continuous segment holds {MIN_SAMPLES} samples; calibration needs that many between gaps"
         )
+    assert t_first is not None and t_last is not None and dt is not None  # set by the first chunk (n_total > 0)
     n = n_total
     return Excitation(
         str(path), n, t_last - t_first, np.sqrt(sum_w2 / n), np.sqrt(sum_wd2 / n), rotating * dt, info, noise

@@ -77,17 +77,21 @@ def prepare(tel: Telemetry, name: str = "") -> Record:
     """Rates, angular acceleration and reference attitude on the IMU samples of a record."""
     _require_reference_site_samples(tel.path, tel.reference, tel.site, tel.n_samples)
     tel = sync_accelerometers(tel)  # on the gyro time base before any conversion
+    ref = tel.reference
+    assert ref is not None  # refused above without one
     dt = tel.sample_period_s
     if tel.form == "rates":
+        assert tel.gyro_rad_s is not None and tel.accel_mps2 is not None  # the arrays of the record's form
         t, omega, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
     else:  # increments -> mean rates over each interval, stamped at its midpoint
+        assert tel.dtheta_rad is not None and tel.dvel_mps is not None  # the arrays of the record's form
         t, omega, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
-    mat_nb = quat_to_mat(reference_attitude(tel.reference.time_s, tel.reference.quat_nb, t))
-    lat, h = (
-        (tel.site.lat_rad, tel.site.height_m)
-        if tel.site is not None
-        else (tel.reference.lat_rad[0], tel.reference.height_m[0])
-    )
+    mat_nb = quat_to_mat(reference_attitude(ref.time_s, ref.quat_nb, t))
+    if tel.site is not None:
+        lat, h = tel.site.lat_rad, tel.site.height_m
+    else:  # refused above without a reference position
+        assert ref.lat_rad is not None and ref.height_m is not None
+        lat, h = ref.lat_rad[0], ref.height_m[0]
     return Record(
         name or str(tel.path),
         t,

@@ -140,7 +140,7 @@ def _read_telemetry_track(path: Path) -> Track:
             "/reference",
             "group is missing; compare needs /reference/position (latitude, longitude, height) or a navigation file",
         )
-    if not ref.has_position:
+    if ref.lat_rad is None or ref.lon_rad is None or ref.height_m is None:  # not ref.has_position
         raise TelemetryError(
             path,
             "/reference/position",
@@ -148,7 +148,7 @@ def _read_telemetry_track(path: Path) -> Track:
             "position (latitude, longitude, height) of a telemetry file",
         )
     notes = []
-    quat = ref.quat_nb
+    quat: np.ndarray | None = ref.quat_nb
     if tel.source and tel.source.get("reference_is_approximate"):
         # As sizefx navigate does: an importer marked the attitude as approximate (e.g. PSINS's).
         quat = None

@@ -248,6 +248,7 @@ class DiagnoseResult:
 
     @property
     def model_path(self) -> str:
+        assert self.diagnosis.model_path is not None  # run() writes the model before it makes the result
         return self.diagnosis.model_path
 
     def report(self) -> str:
@@ -294,10 +295,12 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
         return None  # navigation cannot bridge an IMU gap; diagnose --segment K navigates one segment
     from ..navigate import NavConfig, navigate
 
-    out = {"duration_s": float(tel.duration_s)}
+    out: dict[str, float | dict[str, float]] = {"duration_s": float(tel.duration_s)}
     for name, th in (("before", theta0), ("after", theta)):
         model = load_effects(base=IDEAL, overrides=model_document(th))
-        err = np.asarray(navigate(tel, NavConfig(model=model)).errors["horizontal_m"])
+        errors = navigate(tel, NavConfig(model=model)).errors
+        assert errors is not None  # navigate compares with the reference it was given
+        err = np.asarray(errors["horizontal_m"])
         out[name] = {"final_m": float(err[-1]), "max_m": float(np.max(err))}
     return out
 

@@ -254,7 +254,8 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
     floor = NUMERICAL_FLOOR * np.maximum(S, 0.0).max(axis=0)
     bad = (n_ref > NOISE_TO_MOTION * S) & (n_ref > n_imu) & (n_ref > floor)
 
-    per_channel, motion = {}, []
+    per_channel: dict[str, float | None] = {}  #: channel -> the lowest band of persistent reference noise
+    motion: list[float] = []
     for c, name in enumerate(names):
         shared = np.where(S[:, c] > n_ref[:, c] + n_imu[:, c], S[:, c] * (upper - lower), 0.0)  # power per band
         start = 0
@@ -279,7 +280,7 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
             per_channel,
             motion_hz,
         )
-    first = min(limits, key=limits.get)
+    first = min(limits, key=limits.__getitem__)
     band = readable_floor(limits[first])
     why = (
         f"below {band:g} Hz: the reference's noise (the prediction's power the IMU does not see) exceeds "

@@ -68,15 +68,12 @@ def block_consistency(
     if groups is None:
         groups = nrm.groups(min(PARTS, nrm.blocks // 2)) if nrm.blocks >= 4 else []
     K = len(groups)
-    out = {}
+    out: dict[int, dict] = {}
     if K < 2 or free.size == 0:
         return K, out
-    xs, ss = [], []
-    for g in groups:
-        x, white, _ = covariance(nrm, free, offset, blocks=g)
-        xs.append(x)
-        ss.append(np.sqrt(np.abs(np.diag(white))))
-    xs, ss = np.array(xs), np.array(ss)
+    per_part = [covariance(nrm, free, offset, blocks=g) for g in groups]
+    xs = np.array([x for x, _, _ in per_part])  # [K, free] the estimates of each part
+    ss = np.array([np.sqrt(np.abs(np.diag(white))) for _, white, _ in per_part])  # [K, free] their white sigmas
     for pos, j in enumerate(free.tolist()):
         ratio = sigma[j] / white_sigma[j] if white_sigma[j] > 0 else 1.0
         s = ss[:, pos] * ratio

@@ -44,7 +44,7 @@ from .candidates import CANDIDATES, PRIORITY, columns_between
 from .consistency import block_consistency, motion_groups
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
-from .normal import CHUNK_SAMPLES, Rows, block_means, covariance, huber_weights, normal_equations, solve
+from .normal import CHUNK_SAMPLES, Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
 from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, robust_p, select
@@ -189,6 +189,7 @@ def _residual(pred: Predictor, rows_of: Rows | None, theta, *, series: bool = Fa
         if out is not None:
             out[lo:hi] = inner
         if rows is not None:
+            assert rows_of is not None  # rows are made with rows_of
             r = rows_of.span_rows(res, a, lo, hi)
             rows[lo // L : lo // L + r.shape[0]] = r
     return _Residual(rows, sumsq / max(1, int(pred.mask.sum())), out)
@@ -203,7 +204,7 @@ class _State:
     chosen: list
     unrevealed: dict
     residual: np.ndarray  #: [m, 6] the rows of the residual at theta
-    nrm: object
+    nrm: Normal
     sigma_c: np.ndarray
     kappa: np.ndarray
     passes: int
@@ -221,6 +222,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
     ``start``: the residual's rows at ``theta``, when already known. The residual is held as rows
     (``_State.residual``), the regressors are formed span by span."""
     residual = _residual(pred, rows_of, theta).rows if start is None else start
+    assert residual is not None  # _residual gives rows with rows_of
     first = residual[rows_of.keep]  # white-noise sigma from first differences to start
     sigma_c = np.maximum(np.sqrt(np.mean(np.diff(first, axis=0) ** 2, axis=0) / 2.0), 1e-300)
     kappa, row_w = np.ones(6), None
@@ -247,6 +249,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
         theta = new
         final = _residual(pred, rows_of, theta)
         residual = final.rows
+        assert residual is not None  # _residual gives rows with rows_of
         sigma_c, kappa, row_w = _noise(rows_of, residual, robust=True)
         history.append(tuple(sorted(c.cand.key for c in chosen)))
         if progress is not None:

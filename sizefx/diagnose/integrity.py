@@ -153,6 +153,7 @@ def without_bad_rows(tel: Telemetry, check: ReferenceCheck) -> Telemetry:
     if check.bad_rows.size == 0:
         return tel
     ref = tel.reference
+    assert ref is not None  # checked by check_reference, which found the bad rows
     keep = np.ones(ref.time_s.size, dtype=bool)
     keep[check.bad_rows] = False
     return replace(
@@ -174,10 +175,11 @@ def check_reference(tel: Telemetry) -> ReferenceCheck:
     Vectorised: a two-minute 1600 Hz record with a 200 Hz reference takes a few tenths of a second.
     Steps outside the IMU's span, or across an IMU gap, are not compared.
     """
-    require_reference(tel)
-    ref = tel.reference
+    ref = require_reference(tel)
     rt = np.asarray(ref.time_s, dtype=float)
-    warnings, bad, breaks = _timing(rt), [], []
+    warnings = _timing(rt)
+    bad: list[int] = []
+    breaks: list[float] = []
     if rt.size >= 3:
         imu = _ImuIntegrals(tel)
         mat_nb = Rotation.from_quat(ref.quat_nb[:, [1, 2, 3, 0]])
@@ -202,21 +204,21 @@ def check_reference(tel: Telemetry) -> ReferenceCheck:
 
 def _timing(rt: np.ndarray) -> list[dict]:
     """Gaps (steps over REFERENCE_GAP_FACTOR median periods) and changes of the running median period."""
-    out = []
+    out: list[dict] = []
     if rt.size < 2:
         return out
     steps = np.diff(rt)
     period = float(np.median(steps))
-    for k in np.flatnonzero(steps > REFERENCE_GAP_FACTOR * period):
+    for g in np.flatnonzero(steps > REFERENCE_GAP_FACTOR * period):
         out.append(
             _warning(
                 "reference_gap",
                 "timing",
-                rt[k],
-                steps[k],
+                rt[g],
+                steps[g],
                 "s",
-                f"reference gap at t = {rt[k]:.3f} s: no reference for {steps[k] * 1e3:.1f} ms "
-                f"({steps[k] / period:.0f} periods of {period * 1e3:.2f} ms); the IMU samples around "
+                f"reference gap at t = {rt[g]:.3f} s: no reference for {steps[g] * 1e3:.1f} ms "
+                f"({steps[g] / period:.0f} periods of {period * 1e3:.2f} ms); the IMU samples around "
                 "it are masked",
             )
         )
@@ -473,7 +475,9 @@ def _classify(quantity, e, ok, rt, row_of_step, floor, allowance):
     norm = np.linalg.norm(e, axis=1)
     thr = _threshold(norm, ok, floor) + allowance
     suspect = np.flatnonzero(ok & (norm > thr))
-    warnings, bad, breaks = [], [], []
+    warnings: list[dict] = []
+    bad: list[int] = []
+    breaks: list[float] = []
     if suspect.size == 0:
         return warnings, bad, breaks
     # the cumulative mismatch: a glitch leaves it where it was, a discontinuity moves it
@@ -601,7 +605,8 @@ def _warning(kind, quantity, time_s, size, unit, message) -> dict:
 
 def _capped(warnings: list[dict]) -> list[dict]:
     """At most MAX_WARNINGS_PER_KIND of each kind, then one that counts the rest (all still acted on)."""
-    out, seen = [], {}
+    out: list[dict] = []
+    seen: dict[str, int] = {}
     for w in warnings:
         seen[w["kind"]] = seen.get(w["kind"], 0) + 1
         if seen[w["kind"]] <= MAX_WARNINGS_PER_KIND:

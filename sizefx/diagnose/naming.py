@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -56,6 +57,11 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
 
     def user(k):
         return val[k] / ps[k].per_unit, (sg[k] or 0.0) / ps[k].per_unit, nom[k] / ps[k].per_unit
+
+    # JSON values, by effect: a number, a list of three, or a dict by component
+    params: dict[str, Any]
+    sigma: dict[str, Any]
+    nominal: dict[str, Any]
 
     if eid == "lever_arm":
         params, sigma, nominal = {"r_m": val}, {"r_m": sg}, {"r_m": nom}

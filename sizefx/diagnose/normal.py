@@ -139,7 +139,7 @@ class Rows:
         self.keep = keep
         self.dt = dt * self.L
 
-    def spans(self, step: int = None) -> list:
+    def spans(self, step: int | None = None) -> list:
         """``[(lo, hi)]``: consecutive spans of about ``step`` samples (:data:`CHUNK_SAMPLES`; with a
         low-pass at least four margins, so that the margins cost at most half again) covering the
         record, each starting at a multiple of ``L``."""
@@ -188,7 +188,7 @@ class Normal:
     def blocks(self) -> int:
         return self.N.shape[0]
 
-    def total(self):
+    def total(self) -> tuple[np.ndarray, np.ndarray, float]:
         return self.N.sum(0), self.b.sum(0), float(self.yy.sum())
 
     def fold(self) -> np.ndarray:
@@ -263,8 +263,9 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
             for i in range(ks.size):
                 sl = slice(le[i], le[i + 1])
                 G[i] = Hw[sl].T @ H[sl]
-            N[np.ix_(ks, js, js)] += G
-            b[np.ix_(ks, js)] += np.add.reduceat(Hw * yb[a:z, c : c + 1], le[:-1], axis=0)
+            jx = np.asarray(js)  # as ix_ would make it (its stubs do not take an array and a list together)
+            N[np.ix_(ks, jx, jx)] += G
+            b[np.ix_(ks, jx)] += np.add.reduceat(Hw * yb[a:z, c : c + 1], le[:-1], axis=0)
             yy[ks] += np.add.reduceat(w * yb[a:z, c] ** 2, le[:-1])
         del cc
     return Normal(

@@ -90,7 +90,8 @@ def predict_readings(
     inv_g = np.linalg.inv(p.gyro_matrix())
     w = (gyro_b - p.gyro_bias - f_a @ p.gyro_g_sensitivity.T) @ inv_g.T
     wd = gyro_dot_b @ inv_g.T
-    at_gyro = sm.Motion(w_ib, None, f_g, mat_nb=mat_g, omega_in_b=w_in_b)
+    # a partial motion (see Returns): the gyro readings do not use omegadot; jacobian_columns fills it in
+    at_gyro = sm.Motion(w_ib, None, f_g, mat_nb=mat_g, omega_in_b=w_in_b)  # type: ignore[arg-type]
     at_accel = sm.Motion(w, wd, f_a, mat_nb=mat_a)
     out = np.empty((w_ib.shape[0], 6))
     out[:, :3] = sm.gyro_readings(p, at_gyro)
@@ -124,6 +125,7 @@ class Predictor:
         if tel.form == "rates":
             t, gyro, accel = tel.time_s, tel.gyro_rad_s, tel.accel_mps2
         else:  # mean rates over each interval, stamped at its midpoint (predict() predicts the mean)
+            assert tel.dtheta_rad is not None and tel.dvel_mps is not None  # the arrays of the record's form
             t, gyro, accel = tel.time_s - 0.5 * dt, tel.dtheta_rad / dt, tel.dvel_mps / dt
         self.increments = tel.form == "increments"
         self.path = tel.path
@@ -145,7 +147,7 @@ class Predictor:
         # a longer record evaluates the splines span by span (nothing cached, nothing per sample)
         fits = _CACHE_BYTES // (_KIN_BYTES_PER_SAMPLE * max(1, self.n))
         self._cached_shifts = fits if fits >= _MIN_CACHED_SHIFTS else 0
-        self._kin = {}
+        self._kin: dict[float, dict[str, np.ndarray]] = {}  #: shift (rounded) -> the motion at the samples
 
     # ------------------------------------------------------------------ the whole record
 

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -19,7 +20,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 
 from .. import earth
 from ..errors import SizefxError
-from ..io.telemetry import Telemetry
+from ..io.telemetry import Reference, Telemetry
 
 __all__ = [
     "DiagnoseError",
@@ -68,26 +69,27 @@ class DiagnoseError(SizefxError):
     """The record cannot be diagnosed (no reference, too short, no overlap)."""
 
 
-def require_reference(tel: Telemetry) -> None:
-    """Refuse a record without ``/reference``: there is nothing to predict the IMU from."""
+def require_reference(tel: Telemetry) -> Reference:
+    """Refuse a record without ``/reference``: there is nothing to predict the IMU from. Returns it."""
     if tel.reference is None:
         raise DiagnoseError(
             f"{tel.path}: diagnose needs /reference motion (attitude at least) to predict the IMU "
             "from; record it, or import it with sizefx import"
         )
+    return tel.reference
 
 
 def check_record(tel: Telemetry) -> None:
     """Everything the prediction needs of a (cropped) record: a reference, a site, enough rows, not too many."""
-    require_reference(tel)
-    if tel.site is None and not tel.reference.has_position:
+    ref = require_reference(tel)
+    if tel.site is None and not ref.has_position:
         raise DiagnoseError(
             f"{tel.path}: no site: gravity needs latitude and height; add the root attributes "
             "latitude_deg, longitude_deg, height_m (sizefx import --site-deg)"
         )
-    if tel.reference.time_s.size < MIN_REFERENCE_ROWS:
+    if ref.time_s.size < MIN_REFERENCE_ROWS:
         raise DiagnoseError(
-            f"{tel.path}: /reference has {tel.reference.time_s.size} rows; diagnose needs at "
+            f"{tel.path}: /reference has {ref.time_s.size} rows; diagnose needs at "
             f"least {MIN_REFERENCE_ROWS} to interpolate the motion from"
         )
     if tel.n_samples > MAX_SAMPLES:
@@ -116,6 +118,7 @@ class ReferenceMotion:
 
     def __init__(self, tel: Telemetry, breaks_s=()):
         ref = tel.reference
+        assert ref is not None  # check_record refused a record without one
         self.t = ref.time_s
         self.breaks_s = tuple(float(b) for b in breaks_s)
         rows = [(lo, hi) for lo, hi in reference_segments(ref.time_s, self.breaks_s) if hi - lo >= MIN_REFERENCE_ROWS]
@@ -170,10 +173,12 @@ class _Piece:
 
     def __init__(self, tel: Telemetry, lo: int, hi: int):
         ref = tel.reference
+        assert ref is not None  # check_record refused a record without one
         t = ref.time_s[lo:hi]
         self.t0, self.t1 = float(t[0]), float(t[-1])
         self.rot = _LongRotationSpline(t, Rotation.from_quat(ref.quat_nb[lo:hi][:, [1, 2, 3, 0]]))
         if ref.has_position:
+            assert ref.lat_rad is not None and ref.lon_rad is not None and ref.height_m is not None  # set together
             lat, lon, h = ref.lat_rad[lo:hi], ref.lon_rad[lo:hi], ref.height_m[lo:hi]
             self.lat = CubicSpline(t, lat)
             self.h = CubicSpline(t, h)
@@ -189,6 +194,7 @@ class _Piece:
             self.static = None
         else:
             site = tel.site
+            assert site is not None  # check_record refused a record with neither a site nor a position
             self.static = (site.lat_rad, site.height_m)
 
     def evaluate(self, t) -> dict:
@@ -267,6 +273,7 @@ def usable_mask(t: np.ndarray, tel: Telemetry, *, window: int, dt: float, breaks
     the same edge of the last row before and the first row after each break are left out, as at a
     gap, and so are the samples of a segment too short for splines (< :data:`MIN_REFERENCE_ROWS` rows).
     """
+    assert tel.reference is not None  # check_record refused a record without one
     rt = tel.reference.time_s
     steps = np.diff(rt)
     edge = max(EDGE_S, EDGE_REFERENCE_PERIODS * float(np.median(steps)))
@@ -303,11 +310,12 @@ def crop(tel: Telemetry, from_s: float | None, to_s: float | None) -> Telemetry:
         raise DiagnoseError(
             f"{tel.path}: --from-s/--to-s keep {int(keep.sum())} IMU samples; diagnose needs {MIN_SAMPLES}"
         )
-    fields = {
+    fields: dict[str, Any] = {  # keywords of replace(): an array, or None for one the record lacks
         k: (getattr(tel, k)[keep] if getattr(tel, k) is not None else None)
         for k in ("time_s", "gyro_rad_s", "accel_mps2", "dtheta_rad", "dvel_mps", "accel_time_s")
     }
     ref = tel.reference
+    assert ref is not None  # run() refused a record without one (require_reference)
     rk = (ref.time_s >= lo - 1.0) & (ref.time_s <= hi + 1.0)  # a second more of reference for the splines
     ref = replace(
         ref,

@@ -318,10 +318,11 @@ def format_report(d: Diagnosis, start: str) -> str:
                 "structure in its channels]"
             )
     else:
-        loud = [c for c in CHANNELS if d.white_sigma and d.rms_after[c] > 1.5 * d.white_sigma[c]]
+        white = d.white_sigma or {}
+        loud = [c for c in CHANNELS if white and d.rms_after[c] > 1.5 * white[c]]
         channels_flagged = sorted({u["channel"] for u in d.unexplained})
         if loud or channels_flagged or d.warnings:
-            parts = [f"{c} ({d.rms_after[c] / d.white_sigma[c]:.1f} times its sample-to-sample noise)" for c in loud]
+            parts = [f"{c} ({d.rms_after[c] / white[c]:.1f} times its sample-to-sample noise)" for c in loud]
             parts += [f"{c} (structure above)" for c in channels_flagged if c not in loud]
             lines.append(
                 "found nothing the data supports beyond the start model; but "
@@ -387,6 +388,7 @@ def format_report(d: Diagnosis, start: str) -> str:
     for name in CHANNELS:
         lines.append(_rms_line(name, d.rms_before[name], d.rms_after[name]))
     if d.bandwidth_hz:
+        assert d.rms_full_before is not None and d.rms_full_after is not None  # diagnose() sets both
         lines.append("full band (the reference's differentiated noise included):")
         for name in CHANNELS:
             lines.append(_rms_line(name, d.rms_full_before[name], d.rms_full_after[name]))
@@ -416,6 +418,8 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    assert d.t is not None and d.mask is not None, "diagnose(..., keep_series=True) keeps the series"
+    assert d.residual_before is not None and d.residual_after is not None, "diagnose(..., keep_series=True)"
     t, m = d.t[d.mask], d.mask
     dt = float(np.median(np.diff(d.t)))
     scale = [1 / DEG_PER_H] * 3 + [1 / UG] * 3

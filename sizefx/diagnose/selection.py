@@ -200,7 +200,7 @@ def aliased_pairs(nrm: Normal, chosen, offset, level) -> list:
     its regressors are nearly collinear with the other's on this motion (largest canonical
     correlation given the rest); or the correlation reaches :data:`ALIAS_CORRELATION` outright."""
     N = nrm.N.sum(0)
-    out = []
+    out: list[tuple[int, int, float]] = []
     for i in range(len(chosen)):
         weak = robust_p(nrm, chosen, offset, which=i) > level
         best = None

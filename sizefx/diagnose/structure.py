@@ -358,13 +358,13 @@ def _correlations(y, names, design, sigma, level):
     findings and the residual with the found correlations removed (on every row)."""
     from scipy.stats import t as student
 
-    found = []
+    found: list[dict] = []
     if not names:
         return found, y
     d = design
     yt0 = d.free_of_time(y[d.rows])
     basis = np.empty((d.rows.size, 0))  # orthonormal basis of the chosen regressors (freed of time)
-    chosen = []
+    chosen: list[int] = []
     for _ in range(min(MAX_CORRELATIONS, len(names))):
         free = [j for j in range(len(names)) if j not in chosen]
         if chosen:
@@ -599,7 +599,7 @@ def _lines(y, runs, dt, sigma, level, max_hz=None):
         return []
     groups = np.split(sig, np.flatnonzero(np.diff(sig) > GUARD_BINS) + 1)
     peaks = sorted((int(g[np.argmax(power[g])]) for g in groups), key=lambda k: -power[k])
-    lines = []
+    lines: list[int] = []
     for k in peaks:
         if any(abs(k - q) <= FLOOR_HALF_BINS and power[k] < SIDELOBE_FRACTION * power[q] for q in lines):
             continue  # leakage of a stronger line

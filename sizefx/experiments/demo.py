@@ -32,7 +32,7 @@ def run_demo(out_dir: Path, *, seed: int = 0, size: str = "reduced"):
     started = time.perf_counter()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    lines = []
+    lines: list[str] = []
     res = run_all(out_dir, SIZES[size], seed=seed, log=lines.append)
     yield from lines
     yield format_results(res)

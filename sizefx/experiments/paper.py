@@ -27,14 +27,18 @@ plots are :mod:`sizefx.experiments.paper_report`'s, the sway's closed form is
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.optimize import brentq
 
 from .. import earth, scenarios
 from ..calibrate import (
+    CalibrationResult,
+    Record,
     compensation_figure,
     joint_fit,
     per_rotation_fit,
@@ -67,7 +71,7 @@ __all__ = [
 
 
 #: The paper's figures, as printed.
-PAPER = {
+PAPER: dict[str, dict[str, Any]] = {
     "turntable": {
         "diff_mean_mm": 0.5,
         "diff_max_mm": 1.6,
@@ -122,7 +126,7 @@ def _true_arms_d():
 
 def _per_rotation_matrix(rows):
     """The per-rotation fit's rows as a [3, 3] arm matrix (mean where two rotations give a component)."""
-    acc = [[[] for _ in range(3)] for _ in range(3)]
+    acc: list[list[list[float]]] = [[[] for _ in range(3)] for _ in range(3)]
     for row in rows:
         i, j = "xyz".index(row["channel"]), "xyz".index(row["other_component"])
         acc[i][i].append(row["r_own"])
@@ -147,25 +151,31 @@ def turntable_experiment(out_dir: Path, size: Size, *, seed0: int = 0, log=print
         }
     )
     nominal = preset_arms_m("high-precision")
-    joint, sig, per_rot, first = [], [], [], None
+    joints: list[np.ndarray] = []
+    sigs: list[np.ndarray] = []
+    per_rots: list[np.ndarray] = []
+    first: tuple[Record, CalibrationResult] | None = None
     for k in range(size.turntable_repeats):
         tel = simulate_in_memory(traj, fx, rate_hz=size.turntable_rate_hz, form="rates", seed=seed0 + k)
         rec = prepare(tel, f"repeat {k + 1}")
         res = joint_fit([rec])
-        joint.append(res.arms)
-        sig.append(res.sigma_arms)
-        per_rot.append(_per_rotation_matrix(per_rotation_fit(rec)))
+        assert res.tilt_rad is not None  # joint_fit fits the tilt unless told not to
+        joints.append(res.arms)
+        sigs.append(res.sigma_arms)
+        per_rots.append(_per_rotation_matrix(per_rotation_fit(rec)))
         if first is None:
             first = (rec, res)
         log(
             f"  turntable repeat {k + 1}/{size.turntable_repeats}: joint fit sigma mean "
             f"{res.sigma_arms.mean() * 1e3:.3f} mm, tilt {res.tilt_rad[0] / ARCSEC:.2f}/{res.tilt_rad[1] / ARCSEC:.2f} arcsec"
         )
-    joint, sig, per_rot = np.array(joint), np.array(sig), np.array(per_rot)
+    joint, sig, per_rot = np.array(joints), np.array(sigs), np.array(per_rots)
     delta_joint = joint.mean(0) - nominal
     delta_per_rot = np.nanmean(per_rot, axis=0) - nominal
     spread = joint.std(0, ddof=1) if len(joint) > 1 else sig[0]
+    assert first is not None  # every Size runs one repeat at least
     rec, res = first
+    assert res.tilt_rad is not None  # joint_fit fits the tilt unless told not to
     point = triad_point(res.arms)
     levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms)
     fig6 = out_dir / "fig6_turntable_compensation.png"
@@ -412,7 +422,7 @@ def flight_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) ->
     _, tel, navs = _simulate_and_navigate(out_dir, "flight", plan, overrides, size.flight_rate_hz, seed, log)
     del tel
     hours = size.flight_duration_h
-    out = {
+    out: dict[str, Any] = {  # the experiment's JSON
         "rate_hz": size.flight_rate_hz,
         "duration_h": hours,
         "vibration_dps": list(FLIGHT_VIBRATION_DPS),
@@ -491,9 +501,14 @@ def run_all(
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     res = Results(size)
+    experiments: dict[str, Callable[..., dict]] = {
+        "turntable": turntable_experiment,
+        "sway": sway_experiment,
+        "flight": flight_experiment,
+    }
     for name in which:
         log(f"experiment: {name} ({size.name} size)")
-        fn = {"turntable": turntable_experiment, "sway": sway_experiment, "flight": flight_experiment}[name]
+        fn = experiments[name]
         setattr(res, name, fn(out_dir, size, log=log, **({"seed0": seed} if name == "turntable" else {"seed": seed})))
         if not keep_records:
             for record in (out_dir / "sway.h5", out_dir / "flight.h5"):

@@ -188,6 +188,7 @@ class ImportResult:
             + (f" ({self.reference_gaps} dropouts)" if self.reference_gaps else "")
         ]
         if gaps:
+            assert self.longest_imu_gap_s is not None  # set whenever there are IMU gaps (import_file)
             lines.append(
                 f"gaps: {gaps} in the IMU time stamps, {self.declared_gaps} declared in /imu/gaps (the first "
                 f"at t = {self.first_imu_gap_s:.6f} s, the longest {self.longest_imu_gap_s * 1e3:.4g} ms): "

@@ -29,6 +29,7 @@ Frames
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -128,7 +129,7 @@ class _Table:
         """
         idx = [self.header.index(c) for c in names]
         body = "\n".join(self.lines[1:])
-        converters = None
+        converters: dict[int | str, Callable[[str], float]] | None = None
         if empty_is_nan:
             converters = {i: (lambda s: float(s) if s.strip() else np.nan) for i in set(idx)}
         try:
@@ -326,6 +327,7 @@ def _reference_rows(table: _Table, spec: _ReferenceColumns, imu_time_s):
     table.require(names, options)
     raw = table.numbers(names, options, empty_is_nan=True)
     if spec.time:
+        assert spec.time_units is not None  # an own time column always comes with its units (_reference_columns)
         t, values = raw[:, 0] * TIME_UNITS[spec.time_units], raw[:, 1:]
     else:
         t, values = np.asarray(imu_time_s, dtype=float), raw
@@ -585,6 +587,7 @@ def _describe_reference(spec: _ReferenceColumns, n_rows: int, dropouts: int) -> 
     if spec.quaternion:
         parts.append(f"quaternion {','.join(spec.quaternion)} (scalar first, sensor axes to {frame})")
     else:
+        assert spec.euler is not None  # the attitude is a quaternion or Euler angles (_reference_columns)
         parts.append(f"roll, pitch, heading {','.join(spec.euler)} [{spec.euler_units}] (sensor axes, NED)")
     if spec.velocity:
         parts.append(f"velocity {','.join(spec.velocity)} [m/s, {frame}]")
@@ -610,6 +613,7 @@ def _reference_provenance(spec: _ReferenceColumns, n_rows: int, dropouts: int) -
     if spec.quaternion:
         out["reference_quaternion_columns"] = list(spec.quaternion)
     else:
+        assert spec.euler is not None  # the attitude is a quaternion or Euler angles (_reference_columns)
         out["reference_euler_columns"] = list(spec.euler)
         out["reference_euler_units"] = spec.euler_units
     if spec.velocity:

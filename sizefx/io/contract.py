@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import NoReturn
 
 import h5py
 import numpy as np
@@ -153,7 +154,7 @@ class ContractReader:
         self.gaps: list[Gap] = []
         self._limits: dict = {}  #: (dataset, columns) -> per-column (low, high) of its sample_limits
 
-    def fail(self, dataset: str, problem: str):
+    def fail(self, dataset: str, problem: str) -> NoReturn:
         raise TelemetryError(self.path, dataset, problem)
 
     # -- structure ------------------------------------------------------------------
@@ -235,7 +236,7 @@ class ContractReader:
         declared = attr_str(attrs["schema"])
         if declared != spec["schema"]["value"]:
             self.fail("/", f"root attribute schema is '{declared}', expected '{TELEMETRY_SCHEMA}'")
-        values = {}
+        values: dict[str, float | str] = {}
         for key, rule in spec.items():
             if key == "schema" or key not in attrs:
                 continue
@@ -285,7 +286,7 @@ class ContractReader:
         columns = values.shape[1]
         bounds = self._limit_columns(name, columns) if self.limits else None
         limited = bounds is not None
-        low, high = bounds if limited else (np.full(columns, -np.inf), np.full(columns, np.inf))
+        low, high = bounds if bounds is not None else (np.full(columns, -np.inf), np.full(columns, np.inf))
         factors = np.broadcast_to(np.asarray(factor, dtype=np.float64), (columns,)).copy()
         first_not_finite, first_beyond = scale_and_check(values, factors, low, high)
         if first_not_finite >= 0:
@@ -421,6 +422,7 @@ class ContractReader:
                     f"{lo:g}..{hi:g} Hz; time must be in seconds (is it in ms or us?)",
                 )
             nominal = own if nominal is None else nominal
+        assert nominal is not None, "a later chunk (first_row > 0) comes with the record's nominal period"
         rows = gap_rows(t, nominal)
         self.n_gaps[name] = self.n_gaps.get(name, 0) + rows.size
         if self.n_gaps[name] > MAX_GAPS:
@@ -636,17 +638,16 @@ def check_magnitudes(r, form, period, gyro, accel):
 
 def side_groups(r, h5, reference: bool = True):
     """``/reference`` (read whole; None with ``reference=False``), ``/source`` and ``/simulation``."""
-    want_reference = reference
-    reference = None
-    if want_reference and "/reference" in h5:
+    found: Reference | None = None
+    if reference and "/reference" in h5:
         ref_t = r.dataset("/reference/time", required=True)
         r.check_time("/reference/time", ref_t)
         quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
         pos = r.dataset("/reference/position", required=False)
         vel = r.dataset("/reference/velocity", required=False)
-        reference = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
+        found = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
         if pos is not None:  # columns within their limits (ContractReader.check_limits)
-            reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
+            found.lat_rad, found.lon_rad, found.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
     source = None
     if "/source" in h5:
         source = {k: attr_value(v) for k, v in h5["/source"].attrs.items()}
@@ -664,7 +665,7 @@ def side_groups(r, h5, reference: bool = True):
                 "/simulation",
                 f"attribute truth_json cannot be read ({type(exc).__name__}); it is not one sizefx simulate wrote",
             )
-    return reference, source, simulation
+    return found, source, simulation
 
 
 def site_from_attrs(attrs):

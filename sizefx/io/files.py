@@ -148,7 +148,7 @@ def _umask() -> int:
 #: exception a signal handler raises (when it lands in a weakref callback or a ``__del__``, it is
 #: printed as "Exception ignored" and the program goes on), so :func:`atomic_output` also looks
 #: here before it publishes an output.
-INTERRUPTED = {"signum": None}
+INTERRUPTED: dict[str, int | None] = {"signum": None}
 
 
 def interrupt(signum: int, frame=None):

@@ -183,6 +183,7 @@ class ReferenceStream:
         and the position extremes (so ``ptp`` of each position column is the whole record's)."""
         ref = Reference(time_s=np.array([self.first_s, self.last_s]), quat_nb=np.tile([1.0, 0.0, 0.0, 0.0], (2, 1)))
         if self.has_position:
+            assert self.position_min is not None and self.position_max is not None  # found at open with has_position
             ref.lat_rad, ref.lon_rad, ref.height_m = (
                 np.array([self.position_min[c], self.position_max[c]]) for c in range(3)
             )
@@ -252,7 +253,7 @@ class TelemetryStream:
             _, self.source, self.simulation = side_groups(r, self.h5, reference=False)
             self.site = site_from_attrs(attrs)
             self.description = attrs.get("description", "")
-            self._last_t = None
+            self._last_t: tuple[int, float] | None = None  #: (row, stamp) of the last chunk's last sample
         except BaseException:
             self.h5.close()
             raise

@@ -12,9 +12,21 @@
 
 from __future__ import annotations
 
+from typing import Literal, TypedDict
+
 from numba import njit
 
-JIT_OPTIONS = {"cache": True, "fastmath": False, "nogil": True, "error_model": "numpy"}
+
+class JitOptions(TypedDict):
+    """The keywords :func:`numba.njit` gets, typed as its signature wants them."""
+
+    cache: bool
+    fastmath: bool
+    nogil: bool
+    error_model: Literal["python", "numpy"]
+
+
+JIT_OPTIONS: JitOptions = {"cache": True, "fastmath": False, "nogil": True, "error_model": "numpy"}
 
 
 def kernel(func):

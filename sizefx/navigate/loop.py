@@ -80,7 +80,7 @@ class _Prepared:
         self.jitter = 0.0  #: the largest distance of a stamp from the grid [periods], for the configuration
         self.rates = src.form == "rates"
         self.n_increments = src.n_samples - 1 if self.rates else src.n_samples
-        self.correction = None  #: what the model corrected (from the first chunk), for the configuration
+        self.correction: dict | None = None  #: what the model corrected (from the first chunk), for the configuration
 
     def increments(self, j0: int, j1: int):
         src, dt = self.src, self.dt
@@ -103,6 +103,7 @@ class _Prepared:
         if self.cfg.model is not None:
             tel = correct_imu(tel, self.cfg.model, mode=self.cfg.mode)  # syncs the accelerometers itself
             if self.correction is None:
+                assert tel.source is not None  # correct_imu records the correction in the copy's source
                 self.correction = json.loads(tel.source["correction_json"])
                 del self.correction["effects"]  # in the model file; the configuration names it
         else:
@@ -175,7 +176,7 @@ def navigate_source(
             )
     chunk = max(n_sub, (int(chunk_samples) // (n_sub * stride)) * n_sub * stride)
     bounds = [(j0, min(j0 + chunk, n_steps * n_sub)) for j0 in range(0, n_steps * n_sub, chunk)]
-    out = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
+    out: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
     errors = Errors(ref, approximate, T)
     kernel_s = 0.0
     step0 = 0
@@ -183,7 +184,7 @@ def navigate_source(
     try:
         pending = pool.submit(prep.increments, *bounds[0]) if pool else None
         for c, (j0, j1) in enumerate(bounds):
-            t_end, dtheta, dvel = pending.result() if pool else prep.increments(j0, j1)
+            t_end, dtheta, dvel = pending.result() if pending is not None else prep.increments(j0, j1)
             if pool and c + 1 < len(bounds):
                 pending = pool.submit(prep.increments, *bounds[c + 1])
             steps = (j1 - j0) // n_sub
@@ -192,6 +193,7 @@ def navigate_source(
             window = ref.window(float(t_nav[0]), float(t_nav[-1])) if ref is not None else None
             h_ref = vd_ref = np.zeros(0)
             if vertical == "reference":
+                assert window is not None  # choose() holds the vertical channel only to a reference
                 h_ref, vd_ref = vertical_reference_at(window, t_nav)
                 vd_ref = -np.gradient(h_ref, t_nav) if vd_ref is None else vd_ref
             k_started = _time.perf_counter()
@@ -235,8 +237,14 @@ def navigate_source(
         **details,
         **(segment_config(src.segment) if src.segment is not None else {}),
     }
+    t_out, q_out, v_out, lat_out, lon_out, h_out = (np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h"))
     res = NavResult(
-        *(np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h")),
+        t_out,
+        q_out,
+        v_out,
+        lat_out,
+        lon_out,
+        h_out,
         config,
         {},
         path=None if src.path is None else str(src.path),

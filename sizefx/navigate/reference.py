@@ -17,6 +17,7 @@ def reference_at(ref: Reference, t, attitude: bool = True) -> dict:
     """The reference at times ``t``: ``quat_nb`` (slerp), ``lat``, ``lon``, ``h``, ``v_n`` (linear)."""
     out = {"quat_nb": quat_interp(ref.time_s, ref.quat_nb, t)} if attitude else {}
     if ref.has_position:
+        assert ref.lat_rad is not None and ref.lon_rad is not None and ref.height_m is not None  # set together
         out["lat"] = np.interp(t, ref.time_s, ref.lat_rad)
         out["lon"] = np.interp(t, ref.time_s, ref.lon_rad)
         out["h"] = np.interp(t, ref.time_s, ref.height_m)
@@ -30,6 +31,7 @@ def vertical_reference_at(ref: Reference, t):
     the vertical channel held to it; the down velocity is None without ``/reference/velocity``.
     Two interpolations instead of :func:`reference_at`'s six: at every navigation step of a flight
     they were 5 % of ``sizefx navigate``'s time."""
+    assert ref.height_m is not None  # the vertical channel is held to a reference with a position (choose)
     h = np.interp(t, ref.time_s, ref.height_m)
     vd = None if ref.velocity_n_mps is None else np.interp(t, ref.time_s, ref.velocity_n_mps[:, 2])
     return h, vd
@@ -88,9 +90,11 @@ class Errors:
         self.approximate = approximate  #: attitude approximate (an importer's note): not compared
         self.sparse = ref is not None and ref.n > 2 and ref.median_step_s > 1.5 * res_dt
         self.res_dt = res_dt
-        self.final = {}
-        self.max = {"horizontal": None, "attitude": None}
-        self.history = {k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps", "attitude_rad")}
+        self.final: dict[str, float] = {}
+        self.max: dict[str, float] = {}  #: the largest error so far, beside each final one
+        self.history: dict[str, list[np.ndarray]] = {
+            k: [] for k in ("time_s", "north_m", "east_m", "horizontal_m", "velocity_mps", "attitude_rad")
+        }
 
     def add(self, t, q, v, lat, lon, out_rows, window):
         """One chunk: navigation steps ``t``, the indices ``out_rows`` of the output rows among them,
@@ -136,7 +140,7 @@ class Errors:
         if has_pos:
             horiz = out[:, 2]
             self.final["horizontal"] = float(horiz[-1])
-            self.max["horizontal"] = max(self.max["horizontal"] or 0.0, float(horiz.max()))
+            self.max["horizontal"] = max(self.max.get("horizontal", 0.0), float(horiz.max()))
             for name, col in (("north_m", 0), ("east_m", 1), ("horizontal_m", 2)):
                 self.history[name].append(out[hist, col])
         if has_vel:
@@ -146,7 +150,7 @@ class Errors:
         if not self.approximate:
             att = out[:, 6]
             self.final["attitude"] = float(att[-1])
-            self.max["attitude"] = max(self.max["attitude"] or 0.0, float(att.max()))
+            self.max["attitude"] = max(self.max.get("attitude", 0.0), float(att.max()))
             self.history["attitude_rad"].append(att[hist])
 
     def errors(self):

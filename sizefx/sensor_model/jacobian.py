@@ -199,9 +199,13 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put, measured_lever_rates
     needs_inputs = bool(wanted & {"accel_scale_factor", "accel_quadratic", "accel_misalignment"}) or bool(
         np.any(p.accel_quadratic != 0.0)
     )
-    f_i = [specific_force_at(m, p.lever_arm[i]) for i in range(3)] if needs_inputs else None
-    a = np.column_stack([f_i[i] @ u[i] for i in range(3)]) if needs_inputs else None
+    f_i: list[np.ndarray] | None = None  # [3] of [n, 3]: the specific force at each accelerometer
+    a: np.ndarray | None = None  # [n, 3]: the input of each accelerometer
+    if needs_inputs:
+        f_i = [specific_force_at(m, p.lever_arm[i]) for i in range(3)]
+        a = np.column_stack([f_i[i] @ u[i] for i in range(3)])
     if np.any(p.accel_quadratic != 0.0):
+        assert a is not None  # a non-zero quadratic sets needs_inputs
         gain = 1.0 + p.accel_scale_factor + 2.0 * p.accel_quadratic * a  # [n, 3] d(reading)/d(input)
     else:
         gain = np.broadcast_to(1.0 + p.accel_scale_factor, (n, 3))
@@ -212,8 +216,10 @@ def _accel_columns(p: SensorParams, m: Motion, wanted, put, measured_lever_rates
         if "accel_bias" in wanted:
             put("accel_bias", i, c, one)
         if "accel_scale_factor" in wanted:
+            assert a is not None  # wanting the scale factor sets needs_inputs
             put("accel_scale_factor", i, c, a[:, i])
         if "accel_quadratic" in wanted:
+            assert a is not None  # wanting the quadratic sets needs_inputs
             put("accel_quadratic", i, c, a[:, i] ** 2)
         if "lever_arm" in wanted:  # d a_i / d r_i = u_i x omegadot + (u_i . omega) omega - |omega|^2 u_i
             grad = cross(u[i], wd) + (w @ u[i])[:, None] * w - w2[:, None] * u[i]

@@ -6,6 +6,7 @@ See the package docstring (:mod:`sizefx.sensor_model`) for the table in words an
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -272,8 +273,8 @@ class Param:
     label: str
 
 
-def _params():
-    out = []
+def _params() -> tuple[Param, ...]:
+    out: list[Param] = []
     for e in EFFECTS:
         for label in e.labels:
             out.append(Param(len(out), e.name, label))
@@ -282,7 +283,7 @@ def _params():
 
 PARAMS = _params()
 NP = len(PARAMS)
-_INDEX = {}
+_INDEX: dict[str, list[int]] = {}
 for _p in PARAMS:
     _INDEX.setdefault(_p.effect, []).append(_p.index)
 
@@ -366,7 +367,7 @@ class SensorParams:
     def from_vector(cls, theta, *, triad_offset=None, source: str = "theta") -> SensorParams:
         """The parameters of a model vector ``theta`` [NP] (diagnose's); misalignment diagonals zero."""
         theta = np.asarray(theta, dtype=float)
-        values = {}
+        values: dict[str, Any] = {}  # the dataclass's keywords: a float or an array, by field
         for e in EFFECTS:
             if not e.deterministic:
                 continue
@@ -385,7 +386,7 @@ class SensorParams:
 
     def vector(self) -> np.ndarray:
         """``theta`` [NP] in the table's order."""
-        out = []
+        out: list[float] = []
         for e in EFFECTS:
             if not e.deterministic:
                 continue
