@@ -346,8 +346,10 @@ HDF5_BREAKERS = {
     "reference-velocity-nan": (_ref_velocity(np.nan), REFUSE, REFUSE),
     "reference-position-lat-100": (_ref_position(100.0), REFUSE, REFUSE),
     # site attributes
-    "latitude-plus-90": (_attr("/", "latitude_deg", 90.0), ACCEPT_OR_REFUSE, ACCEPT_OR_REFUSE),
-    "latitude-minus-90": (_attr("/", "latitude_deg", -90.0), ACCEPT_OR_REFUSE, ACCEPT_OR_REFUSE),
+    # a pole is outside the contract (the NED longitude rate diverges): refused, naming the attribute
+    "latitude-plus-90": (_attr("/", "latitude_deg", 90.0), REFUSE, REFUSE),
+    "latitude-minus-90": (_attr("/", "latitude_deg", -90.0), REFUSE, REFUSE),
+    "reference-position-lat-90": (_ref_position(90.0), REFUSE, REFUSE),
     "latitude-91": (_attr("/", "latitude_deg", 91.0), REFUSE, REFUSE),
     "latitude-nan": (_attr("/", "latitude_deg", np.nan), REFUSE, REFUSE),
     "latitude-inf": (_attr("/", "latitude_deg", np.inf), REFUSE, REFUSE),
@@ -484,6 +486,18 @@ CSV_BREAKERS = {
     "csv-binary-garbage": (lambda: bytes(range(256)) * 40, REFUSE),
     "csv-10MB-field": (lambda: "t,gx,gy,gz,ax,ay,az\n" + "1" * 10_000_000 + ",0,0,0,0,0,-9.8\n", REFUSE),
 }
+
+
+def _csv_reference_text(lat_deg, n=20, rate_hz=RATE_HZ / 10):
+    """A reference CSV for :func:`_csv_text`'s static record: level (identity quaternion, body = NED),
+    at latitude ``lat_deg``: time [s], quaternion, latitude [deg], longitude [deg], height [m]."""
+    lines = ["t,qw,qx,qy,qz,lat,lon,h"]
+    lines += [f"{k / rate_hz:.9g},1,0,0,0,{lat_deg:.9g},55.7089,120" for k in range(n)]
+    return "\n".join(lines) + "\n"
+
+
+#: The options that import :func:`_csv_reference_text` as ``--reference-file``.
+CSV_REFERENCE_OPTIONS = ("--reference-quaternion", "qw,qx,qy,qz", "--reference-position", "lat,lon,h")
 
 
 def _replace_cell(text, row, col, value):
@@ -1053,6 +1067,19 @@ def _csv_cases(f):
         src.write_bytes(data if isinstance(data, bytes) else data.encode())
         argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS)
         out.append(Case(name, argv, d, (src,), expect, (str(src),)))
+    # a site at a pole, by the option or by the reference file's latitude column: named, with the range
+    for kind, site in (("csv-site-deg-north-pole", "90,55.7089,120"), ("csv-site-deg-south-pole", "-90,55.7089,120")):
+        name = f"{kind}-import"
+        d = f.new(name)
+        src = f.copy(d, "csv")
+        argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--site-deg", site)
+        out.append(Case(name, argv, d, (src,), REFUSE, ("--site-deg",)))
+    name = "csv-reference-latitude-90-import"
+    d = f.new(name)
+    src, ref = f.copy(d, "csv"), d / "ref.csv"
+    ref.write_text(_csv_reference_text(90.0))
+    argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--reference-file", str(ref))
+    out.append(Case(name, argv + CSV_REFERENCE_OPTIONS, d, (src, ref), REFUSE, (str(ref),)))
     d = f.new("csv-samples-without-rate-import")
     src = f.copy(d, "csv")
     out.append(

@@ -424,6 +424,14 @@ BAD = {
         "ref",
         ["column 'lat' (--reference-position) on line 5 holds latitude 91 deg, outside +-90"],
     ),
+    "latitude at the pole": (
+        lambda a, ref: (_edit_ref(ref, 3, 8, "90"), a)[1],
+        "ref",
+        [
+            "column 'lat' (--reference-position) on line 5 holds latitude 90 deg, outside [-89.5, 89.5] deg",
+            "within 0.5 deg of a pole",
+        ],
+    ),
     "latitude in degrees said radians": (
         lambda a, ref: _replace(a, "--reference-position-units", "rad"),
         "ref",
@@ -455,6 +463,20 @@ def test_bad_reference_input_is_one_line_exit_2(tmp_path, case):
     assert not (tmp_path / "out.h5").exists()
     if before is not None:
         assert ref.read_bytes() == before  # the reference file is never touched
+
+
+@pytest.mark.parametrize("site", ["90,13.3,40", "-89.6,13.3,40"])
+def test_a_site_at_a_pole_names_the_option_and_the_range(tmp_path, site):
+    """``--site-deg`` at a pole is the option's fault: refused before the CSV is read, naming the
+    option, the valid range and why (not an HDF5 root attribute the user never wrote)."""
+    _, _, args = _bad_setup(tmp_path)
+    result = _cli(args + ["--site-deg", site])
+    assert result.exit_code == 2, result.output
+    text = result.output.strip()
+    assert "\n" not in text and "Traceback" not in text, text
+    assert text.startswith(f"sizefx: error: import csv: --site-deg {site}: latitude "), text
+    assert "outside [-89.5, 89.5] deg (within 0.5 deg of a pole" in text, text
+    assert not (tmp_path / "out.h5").exists()
 
 
 def test_empty_imu_cell_names_the_column_and_line(tmp_path):

@@ -210,6 +210,17 @@ def _attr(name, key, value):
     return mutate
 
 
+def _reference_position(lat_deg):
+    """A /reference/position whose every row has latitude ``lat_deg`` [deg]."""
+
+    def mutate(h5):
+        rows = h5["reference/time"].shape[0]
+        pos = np.tile([lat_deg, 13.3, 40.0], (rows, 1))
+        h5.create_dataset("reference/position", data=pos).attrs["units"] = "deg,deg,m"
+
+    return mutate
+
+
 BAD_CASES = {
     # id: (mutate factory taking tmp_path, expected dataset, expected words)
     "missing schema attribute": (lambda p: _attr("/", "schema", None), "/", "schema"),
@@ -273,6 +284,22 @@ BAD_CASES = {
     "virtual dataset": (_virtual, "/imu/accel", "virtual dataset"),
     "partial site": (lambda p: _attr("/", "height_m", None), "/", "not height_m"),
     "latitude out of range": (lambda p: _attr("/", "latitude_deg", 95.0), "/", "latitude_deg = 95.0"),
+    # a site at a pole: the attribute, the valid range and why (the place, not the file, is the problem)
+    "site at the north pole": (
+        lambda p: _attr("/", "latitude_deg", 90.0),
+        "/",
+        "root attribute latitude_deg = 90.0 is outside [-89.5, 89.5] (within 0.5 deg of a pole",
+    ),
+    "reference at the south pole": (
+        lambda p: _reference_position(-90.0),
+        "/reference/position",
+        "latitude (column 0) is -90 deg at row 0",
+    ),
+    "reference latitude beyond the poles": (
+        lambda p: _reference_position(100.0),
+        "/reference/position",
+        "outside [-89.5, 89.5] deg; beyond the poles: check the units attribute",
+    ),
     "empty dataset": (
         lambda p: (
             lambda h5: [

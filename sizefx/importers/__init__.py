@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..errors import OutputError, SourceError, TelemetryError
+from ..errors import ConfigError, OutputError, SourceError, TelemetryError
 from ..io.contract import invalid_rows, limit_problem
 from ..io.files import atomic_output, sha256_of
-from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
+from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema, site_problem
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
 __all__ = ["FORMATS", "ImportConfig", "ImportResult", "run", "run_import", "provenance"]
@@ -228,6 +228,12 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
     from ..sanity import refuse_wrong_units
     from ..stage import preflight
 
+    site_deg = config.options.get("site_deg")
+    if site_deg is not None:  # the option, before any file is read: a site out of range is the option's fault
+        problem = site_problem(*(float(v) for v in site_deg))
+        if problem:
+            shown = ",".join(f"{float(v):g}" for v in site_deg)
+            raise ConfigError(f"import {config.format}: --site-deg {shown}: {problem}; give a site within the range")
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     fmt, source, out = config.format, config.source, config.output
     tel = load_source(fmt, source, keep_invalid=config.drop_invalid_rows, **config.options)

@@ -37,7 +37,7 @@ import numpy as np
 from ..constants import DEG, QUATERNION_NORM_TOLERANCE
 from ..errors import SourceError
 from ..frames import enu_to_ned, quat_nb_from_enu_body
-from ..io.schema import allowed_units, unit_factor
+from ..io.schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, unit_factor
 from ..io.telemetry import Reference, Site, Telemetry
 from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
 from . import provenance
@@ -413,6 +413,17 @@ def _build_reference(spec: _ReferenceColumns, table: _Table, t, values, rows, ma
                 f"{table.line_number(int(rows[j]))} holds latitude {pos[j, 0]:g} "
                 f"{spec.position_units}, outside +-90 deg; is it latitude, in "
                 "--reference-position-units?",
+            )
+        lat_max_deg = load_schema(TELEMETRY_SCHEMA)["root_attributes"]["latitude_deg"]["max"]
+        polar = np.flatnonzero(np.abs(pos[:, 0] * factor) > lat_max_deg * DEG)
+        if polar.size:
+            j = int(polar[0])
+            raise SourceError(
+                path,
+                f"column '{spec.position[0]}' (--reference-position) on line "
+                f"{table.line_number(int(rows[j]))} holds latitude {pos[j, 0]:g} {spec.position_units}, "
+                f"outside [-{lat_max_deg:g}, {lat_max_deg:g}] deg ({POLE_REASON}); cut the record where "
+                "it comes that close to the pole",
             )
         ref.lat_rad, ref.lon_rad, ref.height_m = pos[:, 0] * factor, pos[:, 1] * factor, pos[:, 2].copy()
     return ref

@@ -22,7 +22,7 @@ from ..errors import TelemetryError
 from ..kernels.checks import scale_and_check
 from .gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
 from .records import Reference, Site
-from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
+from .schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
 
 #: Deepest group nesting and most objects the link check visits: a telemetry file has two levels
 #: and a few dozen objects; the bounds keep a crafted file (thousands of nested groups, a tree
@@ -128,6 +128,18 @@ def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0)
         return None
     low, high = _bounds(schema, name, values.shape[1])
     row, col = (int(v) for v in np.argwhere(bad)[0])
+    if name == "/reference/position" and col == 0 and np.isfinite(values[row, col]):
+        # a latitude is said in degrees; up to 90 deg it is a place (near a pole), beyond it a unit or column error
+        lat_deg = float(np.degrees(values[row, col]))
+        fix = (
+            f"{POLE_REASON}: cut the record where it comes that close to the pole"
+            if abs(lat_deg) <= 90.0
+            else "beyond the poles: check the units attribute and that column 0 is the latitude"
+        )
+        return (
+            f"latitude (column 0) is {lat_deg:.6g} deg at row {row + first_row} ({int(bad.any(axis=1).sum())} rows "
+            f"in this read), outside [{np.degrees(low[col]):.6g}, {np.degrees(high[col]):.6g}] deg; {fix}"
+        )
     column = f", column {col}" if values.shape[1] > 1 else ""
     return (
         f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
@@ -246,7 +258,8 @@ class ContractReader:
                 except (TypeError, ValueError):
                     self.fail("/", f"root attribute {key} = {raw!r} is not a number")
                 if not np.isfinite(val) or not rule["min"] <= val <= rule["max"]:
-                    self.fail("/", f"root attribute {key} = {val} is outside [{rule['min']}, {rule['max']}]")
+                    why = f" ({POLE_REASON})" if key == "latitude_deg" and np.isfinite(val) else ""
+                    self.fail("/", f"root attribute {key} = {val} is outside [{rule['min']}, {rule['max']}]{why}")
                 values[key] = val
             else:
                 values[key] = attr_str(raw)
