@@ -135,14 +135,14 @@ bias_ug = [30.0, -20.0, 50.0]
 """
 
 
-def _csv_text(n=200, rate_hz=RATE_HZ):
-    """A static record as CSV: time [s], gyro [rad/s], accel [m/s^2]."""
+def _csv_text(n=200, rate_hz=RATE_HZ, time_scale=1.0):
+    """A static record as CSV: time [s, times ``time_scale``], gyro [rad/s], accel [m/s^2]."""
     rng = np.random.default_rng(2)
     lines = ["t,gx,gy,gz,ax,ay,az"]
     for k in range(n):
         w = np.array([3.9e-5, 0.0, -6.2e-5]) + 1e-6 * rng.standard_normal(3)
         f = np.array([0.0, 0.0, -9.817]) + 1e-4 * rng.standard_normal(3)
-        lines.append(",".join(f"{v:.9g}" for v in (k / rate_hz, *w, *f)))
+        lines.append(",".join(f"{v:.9g}" for v in (k / rate_hz * time_scale, *w, *f)))
     return "\n".join(lines) + "\n"
 
 
@@ -484,15 +484,18 @@ CSV_BREAKERS = {
     "csv-semicolons": (lambda: _csv_text().replace(",", ";"), REFUSE),
     "csv-invalid-utf8": (lambda: _csv_text().encode()[:200] + b"\xff\xfe\xc3\x28" + _csv_text().encode()[200:], REFUSE),
     "csv-binary-garbage": (lambda: bytes(range(256)) * 40, REFUSE),
+    # a time column in milliseconds read as seconds (the default --time-units s): 0.1 Hz, not 100 Hz
+    "csv-time-in-ms-read-as-s": (lambda: _csv_text(time_scale=1e3), REFUSE),
     "csv-10MB-field": (lambda: "t,gx,gy,gz,ax,ay,az\n" + "1" * 10_000_000 + ",0,0,0,0,0,-9.8\n", REFUSE),
 }
 
 
-def _csv_reference_text(lat_deg, n=20, rate_hz=RATE_HZ / 10):
+def _csv_reference_text(lat_deg=57.9825, n=20, rate_hz=RATE_HZ / 10, time_scale=1.0):
     """A reference CSV for :func:`_csv_text`'s static record: level (identity quaternion, body = NED),
-    at latitude ``lat_deg``: time [s], quaternion, latitude [deg], longitude [deg], height [m]."""
+    at latitude ``lat_deg``: time [s, times ``time_scale``], quaternion, latitude [deg], longitude [deg],
+    height [m]."""
     lines = ["t,qw,qx,qy,qz,lat,lon,h"]
-    lines += [f"{k / rate_hz:.9g},1,0,0,0,{lat_deg:.9g},55.7089,120" for k in range(n)]
+    lines += [f"{k / rate_hz * time_scale:.9g},1,0,0,0,{lat_deg:.9g},55.7089,120" for k in range(n)]
     return "\n".join(lines) + "\n"
 
 
@@ -1074,12 +1077,17 @@ def _csv_cases(f):
         src = f.copy(d, "csv")
         argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--site-deg", site)
         out.append(Case(name, argv, d, (src,), REFUSE, ("--site-deg",)))
-    name = "csv-reference-latitude-90-import"
-    d = f.new(name)
-    src, ref = f.copy(d, "csv"), d / "ref.csv"
-    ref.write_text(_csv_reference_text(90.0))
-    argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--reference-file", str(ref))
-    out.append(Case(name, argv + CSV_REFERENCE_OPTIONS, d, (src, ref), REFUSE, (str(ref),)))
+    # the reference file's own time column: at a pole, in milliseconds read as seconds; and a valid one
+    for name, text, expect in (
+        ("csv-reference-latitude-90-import", _csv_reference_text(90.0), REFUSE),
+        ("csv-reference-time-in-ms-read-as-s-import", _csv_reference_text(time_scale=1e3), REFUSE),
+        ("valid-import-csv-reference", _csv_reference_text(), ACCEPT),
+    ):
+        d = f.new(name)
+        src, ref = f.copy(d, "csv"), d / "ref.csv"
+        ref.write_text(text)
+        argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--reference-file", str(ref))
+        out.append(Case(name, argv + CSV_REFERENCE_OPTIONS, d, (src, ref), expect, (str(ref),)))
     d = f.new("csv-samples-without-rate-import")
     src = f.copy(d, "csv")
     out.append(
