@@ -295,6 +295,26 @@ def _simulation_truth(text):
     return mutate
 
 
+#: Text that is not UTF-8 (Latin-1 "café", then bytes no encoding starts with), stored where HDF5 is
+#: told it is UTF-8: HDF5 does not check, and h5py hands it over as lone surrogates.
+NOT_UTF8 = b"caf\xe9 \xff\xfe"
+
+
+def _text_not_utf8(obj, key):
+    """Attribute ``key`` of ``obj`` (a group made if missing) holding :data:`NOT_UTF8` as UTF-8 text;
+    ``key`` as bytes gives an attribute whose name is not UTF-8."""
+
+    def mutate(h5):
+        target = h5[obj] if obj in h5 else h5.create_group(obj)
+        target.attrs.create(key, data=NOT_UTF8, dtype=h5py.string_dtype("utf-8"))
+
+    return mutate
+
+
+def _group_named_not_utf8(h5):
+    h5.create_group(b"extra" + NOT_UTF8)
+
+
 #: Rows of the many-gaps case: a gap after every third sample gives 110 000 gaps, above the
 #: reader's 100 000.
 MANY_GAPS_ROWS = 330_000
@@ -364,6 +384,15 @@ HDF5_BREAKERS = {
     "gyro-units-array": (_attr("imu/gyro", "units", np.array([b"rad/s", b"deg/s"])), REFUSE, REFUSE),
     "time-units-ms": (_attr("imu/time", "units", "ms"), REFUSE, REFUSE),
     "accel-units-g-on-m-s2-data": (_attr("imu/accel", "units", "g"), REFUSE, REFUSE),
+    # text attributes that are not UTF-8: the informational ones (a description, /source provenance) are
+    # carried with backslash escapes; the ones sizefx interprets, and an object name it cannot open, refused
+    "description-not-utf8": (_text_not_utf8("/", "description"), ACCEPT, ACCEPT),
+    "source-comment-not-utf8": (_text_not_utf8("source", "comment"), ACCEPT, ACCEPT),
+    "source-attribute-name-not-utf8": (_text_not_utf8("source", b"note" + NOT_UTF8), ACCEPT, ACCEPT),
+    "gyro-units-not-utf8": (_text_not_utf8("imu/gyro", "units"), REFUSE, REFUSE),
+    "schema-not-utf8": (_text_not_utf8("/", "schema"), REFUSE, REFUSE),
+    "simulation-truth-not-utf8": (_text_not_utf8("simulation", "truth_json"), REFUSE, REFUSE),
+    "group-name-not-utf8": (_group_named_not_utf8, REFUSE, REFUSE),
     # dtypes and shapes
     "gyro-strings": (_strings("imu/gyro"), REFUSE, REFUSE),
     "time-strings": (_strings("imu/time"), REFUSE, REFUSE),
@@ -377,6 +406,10 @@ HDF5_BREAKERS = {
     "gyro-empty": (_replace("imu/gyro", np.zeros((0, 3))), REFUSE, REFUSE),
     "time-scalar": (_replace("imu/time", np.float64(1.0)), REFUSE, REFUSE),
 }
+
+#: Breakers whose record is valid but for text sizefx carries into what it writes (compensate copies the
+#: description and /source into its output): that command must run too.
+CARRIED_TEXT_KINDS = ("description-not-utf8", "source-comment-not-utf8", "source-attribute-name-not-utf8")
 
 #: Breakers also fed to the commands that read a record in other ways (compensate's
 #: accelerometer re-stamping, calibrate's and diagnose's reference use, compare's reader).
@@ -852,8 +885,10 @@ def _baseline_cases(f):
 def _hdf5_cases(f):
     out = []
     for kind, (mutate, inspect_expect, nav_expect) in HDF5_BREAKERS.items():
-        for command in ("inspect", "navigate") + (
-            ("compensate", "calibrate", "diagnose", "compare") if kind in CONSUMER_KINDS else ()
+        for command in (
+            ("inspect", "navigate")
+            + (("compensate", "calibrate", "diagnose", "compare") if kind in CONSUMER_KINDS else ())
+            + (("compensate",) if kind in CARRIED_TEXT_KINDS else ())
         ):
             name = f"{kind}-{command}"
             d = f.new(name)
@@ -866,7 +901,8 @@ def _hdf5_cases(f):
             elif command == "compensate":
                 lev = f.copy(d, "levers")
                 kept.append(lev)
-                argv, expect = ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5")), REFUSE
+                argv = ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5"))
+                expect = ACCEPT if kind in CARRIED_TEXT_KINDS else REFUSE
             elif command == "calibrate":
                 argv, expect = ("calibrate", str(rec), "--json", str(d / "lev.json")), REFUSE
             elif command == "diagnose":

@@ -629,3 +629,14 @@ def test_a_contract_violation_found_after_conversion_names_the_csv_not_a_tempora
     assert line.count("\n") == 0 and str(src) in line and ".tmp" not in line, line
     assert "not strictly increasing" in line
     assert not (tmp_path / "out.h5").exists() and not list(tmp_path.glob(".out.h5.*"))
+
+
+def test_a_source_named_in_latin1_is_carried_with_escapes(tmp_path):
+    """The source's file name goes into /source and the description: one that is not UTF-8 is written
+    with backslash escapes (h5py cannot write the lone surrogates the file system hands over)."""
+    import os
+
+    src = _write(tmp_path / os.fsdecode(b"caf\xe9.csv"), IMU_HEADER, _imu_rows())
+    tel, _ = _import(tmp_path, src)
+    assert tel.source["file"] == "caf\\xe9.csv"
+    assert tel.description.startswith("imported from CSV caf\\xe9.csv: ")

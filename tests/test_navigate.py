@@ -388,3 +388,18 @@ def test_navigate_without_position_is_a_clear_error(tmp_path):
     p = write_raw(tmp_path / "nosite.h5", mutate=drop_site, reference=False)
     result = CliRunner().invoke(main, ["navigate", str(p), "--align-s", "5"])
     assert result.exit_code == 2 and "no start position" in result.output
+
+
+def test_a_record_named_in_latin1_is_carried_into_the_solution(tmp_path):
+    """A file name that is not UTF-8 (the file system hands it over as lone surrogates) is written into
+    the navigation file's input_file with backslash escapes, not a traceback from h5py."""
+    import h5py
+    from support import write_raw
+
+    from sizefx.navigate import NavigateConfig, run
+
+    rec = write_raw(tmp_path / os.fsdecode(b"vol\xe9.h5"))
+    out = tmp_path / "nav.h5"
+    run(NavigateConfig(str(rec), options=NavConfig(align_s=5.0), output=str(out)))
+    with h5py.File(out) as h5:
+        assert h5.attrs["input_file"] == str(tmp_path / "vol\\xe9.h5")

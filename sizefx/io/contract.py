@@ -53,22 +53,39 @@ __all__ = [
 
 
 def attr_value(value):
-    """An HDF5 attribute as plain Python (str, float, int, list)."""
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
+    """An HDF5 attribute as plain Python (str, float, int, list), every text in it valid (:func:`attr_str`)."""
+    if isinstance(value, (bytes, str)):
+        return attr_str(value)
     if isinstance(value, np.ndarray):
-        return value.tolist()
+        return attr_value(value[()]) if value.shape == () else [attr_value(v) for v in value.tolist()]
+    if isinstance(value, list):  # the rows of a multi-dimensional array's tolist()
+        return [attr_value(v) for v in value]
     if isinstance(value, np.generic):
-        return value.item()
+        return attr_value(value.item())
     return value
 
 
 def attr_str(value) -> str:
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
+    """An HDF5 text attribute as valid text, whatever bytes the file holds.
+
+    HDF5 does not check that a string attribute declared UTF-8 is UTF-8, and h5py hands the bytes that
+    are not over as lone surrogates (``surrogateescape``), which no output can take: h5py refuses to write
+    them into a new file, and stdout and JSON readers choke on them. Those bytes become backslash escapes
+    (``b"caf\\xe9"`` -> ``"caf\\\\xe9"``), not an error: the text attributes sizefx only carries or prints
+    (``description``, the ``/source`` provenance) are informational, and a record is not refused for a
+    comment in Latin-1; they stay readable and travel into every output. The ones sizefx interprets
+    (``schema``, ``units``, ``/simulation`` ``truth_json``) keep their escapes too and are then refused by
+    their own checks, which quote the value."""
     if isinstance(value, np.ndarray) and value.shape == ():
-        return attr_str(value[()])
-    return str(value)
+        value = value[()]
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "backslashreplace")
+    text = str(value)
+    try:
+        raw = text.encode("utf-8", "surrogateescape")  # the bytes h5py could not decode, back as bytes
+    except UnicodeEncodeError:  # a surrogate that is no escaped byte: keep it visible as \udXXX
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return raw.decode("utf-8", "backslashreplace")
 
 
 def storage_problem(dset: h5py.Dataset) -> str | None:
@@ -190,6 +207,12 @@ class ContractReader:
                         prefix,
                         f"the file holds more than {MAX_OBJECTS} HDF5 objects; a telemetry file "
                         "needs a few dozen (copy /imu and /reference into a new file)",
+                    )
+                if isinstance(name, bytes):  # h5py hands over a name that is not UTF-8 undecoded
+                    self.fail(
+                        f"{prefix.rstrip('/')}/{attr_str(name)}",
+                        "is an HDF5 object whose name is not UTF-8 text; h5py cannot open it, so it cannot "
+                        "be checked (rename it in UTF-8, or copy /imu and /reference into a new file)",
                     )
                 full = f"{prefix}/{name}" if prefix != "/" else f"/{name}"
                 link = group.get(name, getlink=True)
@@ -662,7 +685,7 @@ def side_groups(r, h5, reference: bool = True):
             reference.lat_rad, reference.lon_rad, reference.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
     source = None
     if "/source" in h5:
-        source = {k: attr_value(v) for k, v in h5["/source"].attrs.items()}
+        source = {attr_str(k): attr_value(v) for k, v in h5["/source"].attrs.items()}
     simulation = None
     if "/simulation" in h5:
         sim_attrs = h5["/simulation"].attrs
