@@ -832,6 +832,7 @@ def write_corpus(root, *, bomb_rows: int = BOMB_ROWS, resource: bool = True) -> 
     cases += _document_cases(f)
     cases += _csv_cases(f)
     cases += _output_cases(f)
+    cases += _plot_cases(f)
     cases += numeric_option_cases(f)
     if resource:
         cases += resource_cases(f, bomb_rows=bomb_rows)
@@ -1136,6 +1137,64 @@ def _csv_cases(f):
             (str(src), "--rate-hz"),
         )
     )
+    return out
+
+
+def _reference_everywhere(h5):
+    """A level /reference with position at every IMU sample of a record written without one: navigate
+    starts from it, and --plot has the position error to draw."""
+    t = h5["imu/time"][()]
+    ref = h5.create_group("reference")
+    ref.create_dataset("time", data=t).attrs["units"] = "s"
+    ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
+    ref.create_dataset("position", data=np.tile([57.9825, 55.7089, 120.0], (t.size, 1))).attrs["units"] = "deg,deg,m"
+
+
+#: Per command with a plot option: its command line on a record ``rec`` (``other``: a copy, ``lev``: a
+#: levers file, ``d``: the case folder), and what it must do with a record of 5 and of 10 samples.
+PLOT_COMMANDS = {
+    "navigate-plot": (lambda rec, other, lev, d: ("navigate", rec, "--plot", d / "err.png", "-q"), REFUSE, REFUSE),
+    "navigate-output": (lambda rec, other, lev, d: ("navigate", rec, "-o", d / "nav.h5", "-q"), REFUSE, ACCEPT),
+    "run-plots": (
+        lambda rec, other, lev, d: ("run", "--out", d / "run", "--plots", "navigate", "--levers", lev, rec, "compare"),
+        REFUSE,
+        REFUSE,
+    ),
+    "diagnose-plots": (
+        lambda rec, other, lev, d: ("diagnose", rec, "--plots", d / "plots", "--no-navigation"),
+        REFUSE,
+        REFUSE,
+    ),
+    "calibrate-plot": (lambda rec, other, lev, d: ("calibrate", rec, "--plot", d / "fig6.png"), REFUSE, REFUSE),
+    # two references of a few samples are legal tracks: compared and drawn
+    "compare-plots": (
+        lambda rec, other, lev, d: ("compare", rec, other, "--plots", d / "plots"),
+        ACCEPT_OR_REFUSE,
+        ACCEPT_OR_REFUSE,
+    ),
+}
+
+
+def _plot_cases(f):
+    """A record of a handful of samples given to every command with a plot option: refused in one line
+    where there is nothing to draw, run where a tiny record is legal; and a plot asked of a record
+    without reference position, refused before the solution is written."""
+    out = []
+    for n in (5, 10):
+        for what, (build, expect_5, expect_10) in PLOT_COMMANDS.items():
+            name = f"samples-{n}-{what}"
+            d = f.new(name)
+            rec = write_raw(d / "rec.h5", n=n, reference=False, mutate=_reference_everywhere)
+            other = d / "other.h5"
+            shutil.copyfile(rec, other)
+            lev = f.copy(d, "levers")
+            argv = tuple(str(a) for a in build(rec, other, lev, d))
+            out.append(Case(name, argv, d, (rec, other, lev), expect_5 if n == 5 else expect_10, (str(rec),)))
+    name = "no-reference-position-navigate-output-and-plot"
+    d = f.new(name)
+    rec = f.copy(d, "rec")
+    argv = ("navigate", str(rec), "-o", str(d / "nav.h5"), "--plot", str(d / "err.png"), "-q")
+    out.append(Case(name, argv, d, (rec,), REFUSE, (str(rec),)))
     return out
 
 
