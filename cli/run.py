@@ -228,11 +228,9 @@ def run(out_dir, plots):
 @run.result_callback()
 def _execute(steps, out_dir, plots):
     from sizefx import chain as chain_stage
-    from sizefx.batch.runner import folder_lock
 
     names, chain, nav, flights, out = _checked(steps, out_dir, batch=False)
-    out.mkdir(exist_ok=True)
-    with folder_lock(out):
+    with chain_stage.chain_folder(out):
         chain_steps, levers = [], nav.get("levers")
         if "calibrate" in chain:
             step, levers = _calibrate_step(chain, out, plots)

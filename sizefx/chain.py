@@ -14,6 +14,7 @@ like the others: :class:`ChainConfig` in, a result with ``to_json`` and ``report
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import time
 from dataclasses import dataclass, field
@@ -34,6 +35,7 @@ __all__ = [
     "ChainResult",
     "run",
     "check_truth",
+    "chain_folder",
 ]
 
 #: The stages a chain may hold, in the order they can come.
@@ -172,6 +174,26 @@ def run(config: ChainConfig, *, echo=None) -> ChainResult:
         if echo is not None:
             echo(title, text)
     return result
+
+
+@contextlib.contextmanager
+def chain_folder(out_dir):
+    """``out_dir``, made if new and locked (:func:`sizefx.batch.runner.folder_lock`) while a chain writes
+    there. A chain refused before any step wrote anything (its first stage refused the record) leaves no
+    folder of its own making behind: bad input leaves nothing."""
+    from .batch.runner import LOCK_NAME, folder_lock
+
+    out = Path(out_dir)
+    fresh = not out.exists()
+    out.mkdir(exist_ok=True)
+    try:
+        with folder_lock(out):
+            yield out
+    except BaseException:
+        if fresh and [p.name for p in out.iterdir()] == [LOCK_NAME]:
+            (out / LOCK_NAME).unlink()
+            out.rmdir()
+        raise
 
 
 def check_truth(path) -> None:

@@ -135,14 +135,14 @@ bias_ug = [30.0, -20.0, 50.0]
 """
 
 
-def _csv_text(n=200, rate_hz=RATE_HZ):
-    """A static record as CSV: time [s], gyro [rad/s], accel [m/s^2]."""
+def _csv_text(n=200, rate_hz=RATE_HZ, time_scale=1.0):
+    """A static record as CSV: time [s, times ``time_scale``], gyro [rad/s], accel [m/s^2]."""
     rng = np.random.default_rng(2)
     lines = ["t,gx,gy,gz,ax,ay,az"]
     for k in range(n):
         w = np.array([3.9e-5, 0.0, -6.2e-5]) + 1e-6 * rng.standard_normal(3)
         f = np.array([0.0, 0.0, -9.817]) + 1e-4 * rng.standard_normal(3)
-        lines.append(",".join(f"{v:.9g}" for v in (k / rate_hz, *w, *f)))
+        lines.append(",".join(f"{v:.9g}" for v in (k / rate_hz * time_scale, *w, *f)))
     return "\n".join(lines) + "\n"
 
 
@@ -295,6 +295,26 @@ def _simulation_truth(text):
     return mutate
 
 
+#: Text that is not UTF-8 (Latin-1 "café", then bytes no encoding starts with), stored where HDF5 is
+#: told it is UTF-8: HDF5 does not check, and h5py hands it over as lone surrogates.
+NOT_UTF8 = b"caf\xe9 \xff\xfe"
+
+
+def _text_not_utf8(obj, key):
+    """Attribute ``key`` of ``obj`` (a group made if missing) holding :data:`NOT_UTF8` as UTF-8 text;
+    ``key`` as bytes gives an attribute whose name is not UTF-8."""
+
+    def mutate(h5):
+        target = h5[obj] if obj in h5 else h5.create_group(obj)
+        target.attrs.create(key, data=NOT_UTF8, dtype=h5py.string_dtype("utf-8"))
+
+    return mutate
+
+
+def _group_named_not_utf8(h5):
+    h5.create_group(b"extra" + NOT_UTF8)
+
+
 #: Rows of the many-gaps case: a gap after every third sample gives 110 000 gaps, above the
 #: reader's 100 000.
 MANY_GAPS_ROWS = 330_000
@@ -346,8 +366,10 @@ HDF5_BREAKERS = {
     "reference-velocity-nan": (_ref_velocity(np.nan), REFUSE, REFUSE),
     "reference-position-lat-100": (_ref_position(100.0), REFUSE, REFUSE),
     # site attributes
-    "latitude-plus-90": (_attr("/", "latitude_deg", 90.0), ACCEPT_OR_REFUSE, ACCEPT_OR_REFUSE),
-    "latitude-minus-90": (_attr("/", "latitude_deg", -90.0), ACCEPT_OR_REFUSE, ACCEPT_OR_REFUSE),
+    # a pole is outside the contract (the NED longitude rate diverges): refused, naming the attribute
+    "latitude-plus-90": (_attr("/", "latitude_deg", 90.0), REFUSE, REFUSE),
+    "latitude-minus-90": (_attr("/", "latitude_deg", -90.0), REFUSE, REFUSE),
+    "reference-position-lat-90": (_ref_position(90.0), REFUSE, REFUSE),
     "latitude-91": (_attr("/", "latitude_deg", 91.0), REFUSE, REFUSE),
     "latitude-nan": (_attr("/", "latitude_deg", np.nan), REFUSE, REFUSE),
     "latitude-inf": (_attr("/", "latitude_deg", np.inf), REFUSE, REFUSE),
@@ -362,6 +384,15 @@ HDF5_BREAKERS = {
     "gyro-units-array": (_attr("imu/gyro", "units", np.array([b"rad/s", b"deg/s"])), REFUSE, REFUSE),
     "time-units-ms": (_attr("imu/time", "units", "ms"), REFUSE, REFUSE),
     "accel-units-g-on-m-s2-data": (_attr("imu/accel", "units", "g"), REFUSE, REFUSE),
+    # text attributes that are not UTF-8: the informational ones (a description, /source provenance) are
+    # carried with backslash escapes; the ones sizefx interprets, and an object name it cannot open, refused
+    "description-not-utf8": (_text_not_utf8("/", "description"), ACCEPT, ACCEPT),
+    "source-comment-not-utf8": (_text_not_utf8("source", "comment"), ACCEPT, ACCEPT),
+    "source-attribute-name-not-utf8": (_text_not_utf8("source", b"note" + NOT_UTF8), ACCEPT, ACCEPT),
+    "gyro-units-not-utf8": (_text_not_utf8("imu/gyro", "units"), REFUSE, REFUSE),
+    "schema-not-utf8": (_text_not_utf8("/", "schema"), REFUSE, REFUSE),
+    "simulation-truth-not-utf8": (_text_not_utf8("simulation", "truth_json"), REFUSE, REFUSE),
+    "group-name-not-utf8": (_group_named_not_utf8, REFUSE, REFUSE),
     # dtypes and shapes
     "gyro-strings": (_strings("imu/gyro"), REFUSE, REFUSE),
     "time-strings": (_strings("imu/time"), REFUSE, REFUSE),
@@ -375,6 +406,10 @@ HDF5_BREAKERS = {
     "gyro-empty": (_replace("imu/gyro", np.zeros((0, 3))), REFUSE, REFUSE),
     "time-scalar": (_replace("imu/time", np.float64(1.0)), REFUSE, REFUSE),
 }
+
+#: Breakers whose record is valid but for text sizefx carries into what it writes (compensate copies the
+#: description and /source into its output): that command must run too.
+CARRIED_TEXT_KINDS = ("description-not-utf8", "source-comment-not-utf8", "source-attribute-name-not-utf8")
 
 #: Breakers also fed to the commands that read a record in other ways (compensate's
 #: accelerometer re-stamping, calibrate's and diagnose's reference use, compare's reader).
@@ -482,8 +517,23 @@ CSV_BREAKERS = {
     "csv-semicolons": (lambda: _csv_text().replace(",", ";"), REFUSE),
     "csv-invalid-utf8": (lambda: _csv_text().encode()[:200] + b"\xff\xfe\xc3\x28" + _csv_text().encode()[200:], REFUSE),
     "csv-binary-garbage": (lambda: bytes(range(256)) * 40, REFUSE),
+    # a time column in milliseconds read as seconds (the default --time-units s): 0.1 Hz, not 100 Hz
+    "csv-time-in-ms-read-as-s": (lambda: _csv_text(time_scale=1e3), REFUSE),
     "csv-10MB-field": (lambda: "t,gx,gy,gz,ax,ay,az\n" + "1" * 10_000_000 + ",0,0,0,0,0,-9.8\n", REFUSE),
 }
+
+
+def _csv_reference_text(lat_deg=57.9825, n=20, rate_hz=RATE_HZ / 10, time_scale=1.0):
+    """A reference CSV for :func:`_csv_text`'s static record: level (identity quaternion, body = NED),
+    at latitude ``lat_deg``: time [s, times ``time_scale``], quaternion, latitude [deg], longitude [deg],
+    height [m]."""
+    lines = ["t,qw,qx,qy,qz,lat,lon,h"]
+    lines += [f"{k / rate_hz * time_scale:.9g},1,0,0,0,{lat_deg:.9g},55.7089,120" for k in range(n)]
+    return "\n".join(lines) + "\n"
+
+
+#: The options that import :func:`_csv_reference_text` as ``--reference-file``.
+CSV_REFERENCE_OPTIONS = ("--reference-quaternion", "qw,qx,qy,qz", "--reference-position", "lat,lon,h")
 
 
 def _replace_cell(text, row, col, value):
@@ -782,6 +832,7 @@ def write_corpus(root, *, bomb_rows: int = BOMB_ROWS, resource: bool = True) -> 
     cases += _document_cases(f)
     cases += _csv_cases(f)
     cases += _output_cases(f)
+    cases += _plot_cases(f)
     cases += numeric_option_cases(f)
     if resource:
         cases += resource_cases(f, bomb_rows=bomb_rows)
@@ -835,8 +886,10 @@ def _baseline_cases(f):
 def _hdf5_cases(f):
     out = []
     for kind, (mutate, inspect_expect, nav_expect) in HDF5_BREAKERS.items():
-        for command in ("inspect", "navigate") + (
-            ("compensate", "calibrate", "diagnose", "compare") if kind in CONSUMER_KINDS else ()
+        for command in (
+            ("inspect", "navigate")
+            + (("compensate", "calibrate", "diagnose", "compare") if kind in CONSUMER_KINDS else ())
+            + (("compensate",) if kind in CARRIED_TEXT_KINDS else ())
         ):
             name = f"{kind}-{command}"
             d = f.new(name)
@@ -849,7 +902,8 @@ def _hdf5_cases(f):
             elif command == "compensate":
                 lev = f.copy(d, "levers")
                 kept.append(lev)
-                argv, expect = ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5")), REFUSE
+                argv = ("compensate", str(rec), "--levers", str(lev), "-o", str(d / "c.h5"))
+                expect = ACCEPT if kind in CARRIED_TEXT_KINDS else REFUSE
             elif command == "calibrate":
                 argv, expect = ("calibrate", str(rec), "--json", str(d / "lev.json")), REFUSE
             elif command == "diagnose":
@@ -1053,6 +1107,24 @@ def _csv_cases(f):
         src.write_bytes(data if isinstance(data, bytes) else data.encode())
         argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS)
         out.append(Case(name, argv, d, (src,), expect, (str(src),)))
+    # a site at a pole, by the option or by the reference file's latitude column: named, with the range
+    for kind, site in (("csv-site-deg-north-pole", "90,55.7089,120"), ("csv-site-deg-south-pole", "-90,55.7089,120")):
+        name = f"{kind}-import"
+        d = f.new(name)
+        src = f.copy(d, "csv")
+        argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--site-deg", site)
+        out.append(Case(name, argv, d, (src,), REFUSE, ("--site-deg",)))
+    # the reference file's own time column: at a pole, in milliseconds read as seconds; and a valid one
+    for name, text, expect in (
+        ("csv-reference-latitude-90-import", _csv_reference_text(90.0), REFUSE),
+        ("csv-reference-time-in-ms-read-as-s-import", _csv_reference_text(time_scale=1e3), REFUSE),
+        ("valid-import-csv-reference", _csv_reference_text(), ACCEPT),
+    ):
+        d = f.new(name)
+        src, ref = f.copy(d, "csv"), d / "ref.csv"
+        ref.write_text(text)
+        argv = ("import", "csv", str(src), "-o", str(d / "o.h5"), *CSV_OPTIONS, "--reference-file", str(ref))
+        out.append(Case(name, argv + CSV_REFERENCE_OPTIONS, d, (src, ref), expect, (str(ref),)))
     d = f.new("csv-samples-without-rate-import")
     src = f.copy(d, "csv")
     out.append(
@@ -1065,6 +1137,64 @@ def _csv_cases(f):
             (str(src), "--rate-hz"),
         )
     )
+    return out
+
+
+def _reference_everywhere(h5):
+    """A level /reference with position at every IMU sample of a record written without one: navigate
+    starts from it, and --plot has the position error to draw."""
+    t = h5["imu/time"][()]
+    ref = h5.create_group("reference")
+    ref.create_dataset("time", data=t).attrs["units"] = "s"
+    ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
+    ref.create_dataset("position", data=np.tile([57.9825, 55.7089, 120.0], (t.size, 1))).attrs["units"] = "deg,deg,m"
+
+
+#: Per command with a plot option: its command line on a record ``rec`` (``other``: a copy, ``lev``: a
+#: levers file, ``d``: the case folder), and what it must do with a record of 5 and of 10 samples.
+PLOT_COMMANDS = {
+    "navigate-plot": (lambda rec, other, lev, d: ("navigate", rec, "--plot", d / "err.png", "-q"), REFUSE, REFUSE),
+    "navigate-output": (lambda rec, other, lev, d: ("navigate", rec, "-o", d / "nav.h5", "-q"), REFUSE, ACCEPT),
+    "run-plots": (
+        lambda rec, other, lev, d: ("run", "--out", d / "run", "--plots", "navigate", "--levers", lev, rec, "compare"),
+        REFUSE,
+        REFUSE,
+    ),
+    "diagnose-plots": (
+        lambda rec, other, lev, d: ("diagnose", rec, "--plots", d / "plots", "--no-navigation"),
+        REFUSE,
+        REFUSE,
+    ),
+    "calibrate-plot": (lambda rec, other, lev, d: ("calibrate", rec, "--plot", d / "fig6.png"), REFUSE, REFUSE),
+    # two references of a few samples are legal tracks: compared and drawn
+    "compare-plots": (
+        lambda rec, other, lev, d: ("compare", rec, other, "--plots", d / "plots"),
+        ACCEPT_OR_REFUSE,
+        ACCEPT_OR_REFUSE,
+    ),
+}
+
+
+def _plot_cases(f):
+    """A record of a handful of samples given to every command with a plot option: refused in one line
+    where there is nothing to draw, run where a tiny record is legal; and a plot asked of a record
+    without reference position, refused before the solution is written."""
+    out = []
+    for n in (5, 10):
+        for what, (build, expect_5, expect_10) in PLOT_COMMANDS.items():
+            name = f"samples-{n}-{what}"
+            d = f.new(name)
+            rec = write_raw(d / "rec.h5", n=n, reference=False, mutate=_reference_everywhere)
+            other = d / "other.h5"
+            shutil.copyfile(rec, other)
+            lev = f.copy(d, "levers")
+            argv = tuple(str(a) for a in build(rec, other, lev, d))
+            out.append(Case(name, argv, d, (rec, other, lev), expect_5 if n == 5 else expect_10, (str(rec),)))
+    name = "no-reference-position-navigate-output-and-plot"
+    d = f.new(name)
+    rec = f.copy(d, "rec")
+    argv = ("navigate", str(rec), "-o", str(d / "nav.h5"), "--plot", str(d / "err.png"), "-q")
+    out.append(Case(name, argv, d, (rec,), REFUSE, (str(rec),)))
     return out
 
 

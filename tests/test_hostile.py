@@ -171,6 +171,16 @@ def test_corpus_covers_the_issue(corpus):
         "plots-with-existing",
         "unwritable",
         "missing-directory",
+        "samples-5-navigate-plot",
+        "samples-10-run-plots",
+        "no-reference-position-navigate-output-and-plot",
+        "description-not-utf8",
+        "gyro-units-not-utf8",
+        "group-name-not-utf8",
+        "csv-time-in-ms-read-as-s",
+        "csv-reference-time-in-ms-read-as-s",
+        "csv-site-deg-north-pole",
+        "reference-position-lat-90",
     ):
         assert kind in names, f"the corpus lost its {kind!r} cases"
     assert sum(c.expect == hc.ACCEPT for c in cases.values()) >= 5

@@ -424,6 +424,14 @@ BAD = {
         "ref",
         ["column 'lat' (--reference-position) on line 5 holds latitude 91 deg, outside +-90"],
     ),
+    "latitude at the pole": (
+        lambda a, ref: (_edit_ref(ref, 3, 8, "90"), a)[1],
+        "ref",
+        [
+            "column 'lat' (--reference-position) on line 5 holds latitude 90 deg, outside [-89.5, 89.5] deg",
+            "within 0.5 deg of a pole",
+        ],
+    ),
     "latitude in degrees said radians": (
         lambda a, ref: _replace(a, "--reference-position-units", "rad"),
         "ref",
@@ -455,6 +463,102 @@ def test_bad_reference_input_is_one_line_exit_2(tmp_path, case):
     assert not (tmp_path / "out.h5").exists()
     if before is not None:
         assert ref.read_bytes() == before  # the reference file is never touched
+
+
+@pytest.mark.parametrize("site", ["90,13.3,40", "-89.6,13.3,40"])
+def test_a_site_at_a_pole_names_the_option_and_the_range(tmp_path, site):
+    """``--site-deg`` at a pole is the option's fault: refused before the CSV is read, naming the
+    option, the valid range and why (not an HDF5 root attribute the user never wrote)."""
+    _, _, args = _bad_setup(tmp_path)
+    result = _cli(args + ["--site-deg", site])
+    assert result.exit_code == 2, result.output
+    text = result.output.strip()
+    assert "\n" not in text and "Traceback" not in text, text
+    assert text.startswith(f"sizefx: error: import csv: --site-deg {site}: latitude "), text
+    assert "outside [-89.5, 89.5] deg (within 0.5 deg of a pole" in text, text
+    assert not (tmp_path / "out.h5").exists()
+
+
+@pytest.mark.parametrize(
+    "scale,units,words",
+    [
+        (
+            1e3,
+            "s",
+            "the time column 't' (--time) implies 0.1 Hz in s, outside the 5..35000 Hz of an IMU; in ms it "
+            "would be 100 Hz: give --time-units ms",
+        ),
+        (
+            1e6,
+            "s",
+            "implies 0.0001 Hz in s, outside the 5..35000 Hz of an IMU; in us it would be 100 Hz: give --time-units us",
+        ),
+        (
+            1.0,
+            "ms",
+            "implies 1e+05 Hz in ms, outside the 5..35000 Hz of an IMU; in s it would be 100 Hz: give --time-units s",
+        ),
+    ],
+)
+def test_a_time_column_in_the_wrong_unit_is_refused_with_the_unit_that_fits(tmp_path, scale, units, words):
+    """The time unit is checked against the rate it implies (``IMU_RATE_HZ``): a column in milliseconds
+    read as seconds is not a 0.1 Hz record; the message names the column and the option, and the unit
+    that gives a plausible rate."""
+    src = _write(tmp_path / "imu.csv", IMU_HEADER, np.column_stack([T_S * scale, GYRO_B, F_B]).tolist())
+    args = [src, "-o", tmp_path / "out.h5", "--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"]
+    result = _cli(args + ["--time-units", units])
+    assert result.exit_code == 2, result.output
+    text = result.output.strip()
+    assert "\n" not in text and "Traceback" not in text, text
+    assert text.startswith(f"sizefx: error: {src}: "), text
+    assert words in text, text
+    assert not (tmp_path / "out.h5").exists()
+
+
+def test_a_reference_time_column_in_the_wrong_unit_is_refused_with_the_unit_that_fits(tmp_path):
+    """The reference file's own time column gets the same check, against ``REFERENCE_RATE_HZ`` (a
+    reference may be sparser than the IMU), naming its column and --reference-time-units."""
+    ref = _reference_file(tmp_path, time_scale=1e3)  # 25 Hz in ms; --reference-time-units defaults to s
+    with pytest.raises(SourceError) as info:
+        _import(tmp_path, _imu_file(tmp_path), reference_file=ref, reference_time="t", **_ref_opts())
+    assert str(info.value) == (
+        f"{ref}: the time column 't' (--reference-time) implies 0.025 Hz in s, outside the 0.7..35000 Hz of a "
+        "reference; in ms it would be 25 Hz: give --reference-time-units ms"
+    )
+
+
+def test_a_sample_counter_at_an_implausible_rate_names_rate_hz(tmp_path):
+    src = _write(tmp_path / "imu.csv", IMU_HEADER, np.column_stack([np.arange(N_IMU), GYRO_B, F_B]).tolist())
+    with pytest.raises(
+        SourceError,
+        match=r"implies 1 Hz as a sample counter, outside the 5\.\.35000 Hz of an IMU; "
+        r"check --rate-hz",
+    ):
+        run_import("csv", src, tmp_path / "o.h5", time_units="samples", rate_hz=1.0, **IMU_OPTS)
+
+
+def test_the_readme_example_imports_at_its_100_hz(tmp_path):
+    """examples/tumble_imu.csv (100 Hz, time in s) and its 50 Hz reference pass the rate check."""
+    from pathlib import Path
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    summary = run_import(
+        "csv",
+        examples / "tumble_imu.csv",
+        tmp_path / "own.h5",
+        time="time_s",
+        gyro=("gyro_x_dps", "gyro_y_dps", "gyro_z_dps"),
+        gyro_units="deg/s",
+        accel=("accel_x_mps2", "accel_y_mps2", "accel_z_mps2"),
+        axes=("x", "-y", "-z"),
+        reference_file=examples / "tumble_reference.csv",
+        reference_frame="enu",
+        reference_time="time_s",
+        reference_quaternion=("qw", "qx", "qy", "qz"),
+        reference_velocity=("v_east_mps", "v_north_mps", "v_up_mps"),
+        reference_position=("lat_deg", "lon_deg", "height_m"),
+    )
+    assert summary["rate_hz"] == pytest.approx(100.0) and summary["reference_rows"] == 5998
 
 
 def test_empty_imu_cell_names_the_column_and_line(tmp_path):
@@ -525,3 +629,14 @@ def test_a_contract_violation_found_after_conversion_names_the_csv_not_a_tempora
     assert line.count("\n") == 0 and str(src) in line and ".tmp" not in line, line
     assert "not strictly increasing" in line
     assert not (tmp_path / "out.h5").exists() and not list(tmp_path.glob(".out.h5.*"))
+
+
+def test_a_source_named_in_latin1_is_carried_with_escapes(tmp_path):
+    """The source's file name goes into /source and the description: one that is not UTF-8 is written
+    with backslash escapes (h5py cannot write the lone surrogates the file system hands over)."""
+    import os
+
+    src = _write(tmp_path / os.fsdecode(b"caf\xe9.csv"), IMU_HEADER, _imu_rows())
+    tel, _ = _import(tmp_path, src)
+    assert tel.source["file"] == "caf\\xe9.csv"
+    assert tel.description.startswith("imported from CSV caf\\xe9.csv: ")

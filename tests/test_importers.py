@@ -498,3 +498,25 @@ def test_invalid_rows_are_refused_or_dropped_as_gaps(tmp_path):
     assert "dropped 2 IMU rows" in kept.stdout and "source row 50, after t = 0.490000 s" in kept.stdout
     tel = read_telemetry(out)  # the holes are declared gaps: no --allow-gaps needed
     assert tel.n_samples == 198 and sum(g.declared for g in tel.gaps) == 2
+
+
+def test_a_fixed_unit_format_whose_stamps_imply_an_implausible_rate_is_refused(tmp_path, monkeypatch):
+    """The formats whose time unit is fixed (psins, broad, ulog) get the rate check too: a source whose
+    converted stamps imply 0.1 Hz is not what its format promises; refused before anything is written."""
+    import sizefx.importers as importers
+    from sizefx.io.telemetry import Telemetry
+
+    n = 50
+    slow = Telemetry(time_s=np.arange(n) * 10.0, form="rates")  # 0.1 Hz
+    slow.gyro_rad_s, slow.accel_mps2 = np.zeros((n, 3)), np.tile([0.0, 0.0, -9.81], (n, 1))
+    monkeypatch.setattr(importers, "load_source", lambda *args, **kwargs: slow)
+    src = tmp_path / "log.imu"
+    src.write_text("a PSINS log\n")
+    out = tmp_path / "o.h5"
+    with pytest.raises(SourceError) as info:
+        importers.run(importers.ImportConfig("psins-imu", src, out))
+    assert str(info.value) == (
+        f"{src}: its IMU time stamps imply 0.1 Hz (the median step), outside the 5..35000 Hz of an IMU; "
+        "check that the source is a genuine psins-imu file"
+    )
+    assert not out.exists()

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
 
+import h5py
 import naive
 import numpy as np
 import pytest
@@ -389,7 +391,7 @@ def test_navigate_without_position_is_a_clear_error(tmp_path):
 
 def test_an_output_rate_slower_than_the_record_is_one_line(tmp_path):
     """One output row every 20 s from a 10 s record would write no row at all: refused before
-    anything is written, with the rate that would write one."""
+    anything is written, with the option that writes one."""
     from support import write_raw
 
     p = write_raw(tmp_path / "short.h5")
@@ -397,5 +399,113 @@ def test_an_output_rate_slower_than_the_record_is_one_line(tmp_path):
     result = CliRunner().invoke(main, ["navigate", str(p), "-o", str(out), "-q", "--output-rate-hz", "0.05"])
     assert result.exit_code == 2, result.output
     assert len(result.output.strip().splitlines()) == 1 and "--output-rate-hz 0.05" in result.output, result.output
-    assert "give at least" in result.output and not out.exists()
+    assert "needs at least 1 row" in result.output and "give --output-rate-hz 0" in result.output
+    assert not out.exists()
     assert sorted(q.name for q in tmp_path.iterdir()) == ["short.h5"]
+
+
+def test_a_record_named_in_latin1_is_carried_into_the_solution(tmp_path):
+    """A file name that is not UTF-8 (the file system hands it over as lone surrogates) is written into
+    the navigation file's input_file with backslash escapes, not a traceback from h5py."""
+    import h5py
+    from support import write_raw
+
+    from sizefx.navigate import NavigateConfig, run
+
+    rec = write_raw(tmp_path / os.fsdecode(b"vol\xe9.h5"))
+    out = tmp_path / "nav.h5"
+    run(NavigateConfig(str(rec), options=NavConfig(align_s=5.0), output=str(out)))
+    with h5py.File(out) as h5:
+        assert h5.attrs["input_file"] == str(tmp_path / "vol\\xe9.h5")
+
+
+def _tiny(path, n, *, position=True):
+    """A static record of ``n`` samples at 100 Hz with a level /reference at every sample (position too)."""
+    from support import write_raw
+
+    def reference(h5):
+        t = h5["imu/time"][()]
+        ref = h5.create_group("reference")
+        ref.create_dataset("time", data=t).attrs["units"] = "s"
+        ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
+        if position:
+            pos = np.tile([57.9825, 55.7089, 120.0], (t.size, 1))
+            ref.create_dataset("position", data=pos).attrs["units"] = "deg,deg,m"
+
+    return write_raw(path, n=n, reference=False, mutate=reference)
+
+
+@pytest.mark.parametrize(
+    "n,args,words",
+    [
+        (
+            5,
+            ["-o", "nav.h5"],
+            "/imu/time: 5 samples give 1 navigation step of 0.04 s, 0 output rows at --output-rate-hz 10; the "
+            "solution (-o) needs at least 1 row: give --output-rate-hz 0 (a row per navigation step) or a longer record",
+        ),
+        (
+            10,
+            ["--plot", "err.png"],
+            "/imu/time: 10 samples give 2 navigation steps of 0.04 s, 1 output row at --output-rate-hz 10; the error "
+            "plot (--plot) needs at least 2 rows: give --output-rate-hz 0 (a row per navigation step) or a longer record",
+        ),
+        (
+            5,
+            ["-o", "nav.h5", "--plot", "err.png", "--output-rate-hz", "0"],
+            "/imu/time: 5 samples give 1 navigation step of 0.04 s; the error plot (--plot) needs at least 2 rows: "
+            "give a longer record",
+        ),
+    ],
+)
+@pytest.mark.parametrize("chunk_samples", ["1000", "0"])
+def test_a_record_too_short_for_its_outputs_is_refused_before_any_work(tmp_path, n, args, words, chunk_samples):
+    """A handful of samples: too few output rows for the solution or for a curve. Refused in one line that
+    says how many rows the record gives and how to get more, streamed or whole, and nothing is written."""
+    rec = _tiny(tmp_path / "tiny.h5", n)
+    argv = ["navigate", str(rec), "-q", "--chunk-samples", chunk_samples]
+    argv += [str(tmp_path / a) if a.endswith((".h5", ".png")) else a for a in args]
+    result = CliRunner().invoke(main, argv)
+    assert result.exit_code == 2, result.output
+    text = result.output.strip()
+    assert "\n" not in text and "Traceback" not in text, text
+    assert text == f"sizefx: error: {rec}: {words}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny.h5"]
+
+
+def test_a_record_just_long_enough_is_navigated_and_plotted(tmp_path):
+    rec = _tiny(tmp_path / "tiny.h5", 10)
+    out, png = tmp_path / "nav.h5", tmp_path / "err.png"
+    argv = ["navigate", str(rec), "-q", "-o", str(out), "--plot", str(png), "--output-rate-hz", "0"]
+    result = CliRunner().invoke(main, argv)
+    assert result.exit_code == 0, result.output
+    assert out.is_file() and png.read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("chunk_samples", ["1000", "0"])
+def test_a_plot_without_reference_position_leaves_no_solution_behind(tmp_path, chunk_samples):
+    """--plot needs /reference/position: refused before the solution (-o) is written, naming the dataset
+    (it once wrote the solution and then said 'no reference position to plot errors against')."""
+    rec = _tiny(tmp_path / "rec.h5", 400, position=False)
+    argv = ["navigate", str(rec), "-q", "-o", str(tmp_path / "nav.h5"), "--plot", str(tmp_path / "err.png")]
+    result = CliRunner().invoke(main, argv + ["--chunk-samples", chunk_samples])
+    assert result.exit_code == 2, result.output
+    assert result.output.strip().startswith(f"sizefx: error: {rec}: /reference/position: is missing: --plot draws ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rec.h5"]
+
+
+def test_a_reference_too_short_to_plot_leaves_no_solution_behind(tmp_path):
+    """The reference covers the start only: known after navigating, refused before the solution is published."""
+    rec = _tiny(tmp_path / "rec.h5", 400)
+    with h5py.File(rec, "a") as h5:
+        for name in ("time", "quaternion", "position"):
+            data, units = h5["reference"][name][:3], h5["reference"][name].attrs.get("units")
+            del h5["reference"][name]
+            ds = h5["reference"].create_dataset(name, data=data)
+            if units is not None:
+                ds.attrs["units"] = units
+    argv = ["navigate", str(rec), "-q", "-o", str(tmp_path / "nav.h5"), "--plot", str(tmp_path / "err.png")]
+    result = CliRunner().invoke(main, argv)
+    assert result.exit_code == 2, result.output
+    assert "/reference/position: covers 0 of the solution's output rows; --plot needs at least 2" in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rec.h5"]

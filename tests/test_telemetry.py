@@ -210,6 +210,32 @@ def _attr(name, key, value):
     return mutate
 
 
+def _reference_position(lat_deg):
+    """A /reference/position whose every row has latitude ``lat_deg`` [deg]."""
+
+    def mutate(h5):
+        rows = h5["reference/time"].shape[0]
+        pos = np.tile([lat_deg, 13.3, 40.0], (rows, 1))
+        h5.create_dataset("reference/position", data=pos).attrs["units"] = "deg,deg,m"
+
+    return mutate
+
+
+#: Text that is not UTF-8 (Latin-1 "café", then bytes no encoding starts with), and how sizefx carries it.
+NOT_UTF8 = b"caf\xe9 \xff\xfe"
+NOT_UTF8_ESCAPED = "caf\\xe9 \\xff\\xfe"
+
+
+def _text_not_utf8(name, key):
+    """Attribute ``key`` of ``name`` (a group made if missing) holding :data:`NOT_UTF8` declared as UTF-8."""
+
+    def mutate(h5):
+        target = h5[name] if name in h5 else h5.create_group(name)
+        target.attrs.create(key, data=NOT_UTF8, dtype=h5py.string_dtype("utf-8"))
+
+    return mutate
+
+
 BAD_CASES = {
     # id: (mutate factory taking tmp_path, expected dataset, expected words)
     "missing schema attribute": (lambda p: _attr("/", "schema", None), "/", "schema"),
@@ -273,6 +299,33 @@ BAD_CASES = {
     "virtual dataset": (_virtual, "/imu/accel", "virtual dataset"),
     "partial site": (lambda p: _attr("/", "height_m", None), "/", "not height_m"),
     "latitude out of range": (lambda p: _attr("/", "latitude_deg", 95.0), "/", "latitude_deg = 95.0"),
+    # a site at a pole: the attribute, the valid range and why (the place, not the file, is the problem)
+    "site at the north pole": (
+        lambda p: _attr("/", "latitude_deg", 90.0),
+        "/",
+        "root attribute latitude_deg = 90.0 is outside [-89.5, 89.5] (within 0.5 deg of a pole",
+    ),
+    "reference at the south pole": (
+        lambda p: _reference_position(-90.0),
+        "/reference/position",
+        "latitude (column 0) is -90 deg at row 0",
+    ),
+    "reference latitude beyond the poles": (
+        lambda p: _reference_position(100.0),
+        "/reference/position",
+        "outside [-89.5, 89.5] deg; beyond the poles: check the units attribute",
+    ),
+    # text sizefx interprets is refused when it is not UTF-8, with the bytes it cannot decode escaped
+    "units not UTF-8": (
+        lambda p: _text_not_utf8("imu/gyro", "units"),
+        "/imu/gyro",
+        "units 'caf\\xe9\\xff\\xfe' are not known",
+    ),
+    "object name not UTF-8": (
+        lambda p: lambda h5: h5.create_group(b"extra" + NOT_UTF8),
+        "/extra" + NOT_UTF8_ESCAPED,
+        "an HDF5 object whose name is not UTF-8 text",
+    ),
     "empty dataset": (
         lambda p: (
             lambda h5: [
@@ -426,3 +479,23 @@ def test_sha256_of_a_pipe_reads_it(tmp_path):
     writer.start()
     assert sha256_of(fifo) == hashlib.sha256(data).hexdigest()
     writer.join()
+
+
+def test_text_attributes_that_are_not_utf8_are_carried_with_escapes(tmp_path):
+    """A description or /source attribute (its value or its name) that is not UTF-8 is informational:
+    read as valid text with the undecodable bytes as backslash escapes, and written back as such (h5py
+    cannot write the lone surrogates it reads them as)."""
+
+    def mutate(h5):
+        _text_not_utf8("/", "description")(h5)
+        _text_not_utf8("source", "comment")(h5)
+        _text_not_utf8("source", b"note" + NOT_UTF8)(h5)
+
+    tel = read_telemetry(write_raw(tmp_path / "latin1.h5", mutate=mutate))
+    assert tel.description == NOT_UTF8_ESCAPED
+    assert tel.source == {"comment": NOT_UTF8_ESCAPED, "note" + NOT_UTF8_ESCAPED: NOT_UTF8_ESCAPED}
+    out = write_telemetry(tmp_path / "copy.h5", tel)
+    with h5py.File(out) as h5:
+        assert h5.attrs["description"] == NOT_UTF8_ESCAPED
+        assert dict(h5["source"].attrs) == tel.source
+    assert read_telemetry(out).description.encode("utf-8")  # valid text all the way

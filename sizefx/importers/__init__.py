@@ -22,13 +22,39 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..errors import OutputError, SourceError, TelemetryError
+from ..errors import ConfigError, OutputError, SourceError, TelemetryError
 from ..io.contract import invalid_rows, limit_problem
 from ..io.files import atomic_output, sha256_of
-from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
+from ..io.gaps import nominal_period_s
+from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema, site_problem
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
-__all__ = ["FORMATS", "ImportConfig", "ImportResult", "run", "run_import", "provenance"]
+__all__ = [
+    "FORMATS",
+    "IMU_RATE_HZ",
+    "REFERENCE_RATE_HZ",
+    "ImportConfig",
+    "ImportResult",
+    "median_rate_hz",
+    "run",
+    "run_import",
+    "provenance",
+]
+
+#: Sample rates [Hz] an imported IMU time axis may imply. A time column in the wrong unit is off by a
+#: factor of 1000 (milliseconds read as seconds turn 100 Hz into 0.1 Hz) and would make a file that every
+#: other command refuses or, worse, misreads. The contract accepts 1 Hz..100 kHz
+#: (``plausibility.sample_rate_hz``), but IMUs sample at round rates (50, 100, 200, 400 Hz, 1, 2, 4 kHz)
+#: and the contract's edges are two of them off by 1000: 1 kHz with milliseconds read as seconds is
+#: exactly 1 Hz, 100 Hz with seconds read as milliseconds exactly 100 kHz. The importers take a narrower
+#: range whose edges are no common rate off by 1000: no strapdown record is slower than 5 Hz (an AHRS
+#: logs at 10 Hz or more), none faster than 35 kHz (the fastest MEMS gyro output is 32 kHz).
+IMU_RATE_HZ = (5.0, 35_000.0)
+#: Sample rates [Hz] a reference time column may imply. A reference may be sparser than the IMU (the
+#: contract does not check its rate), but it carries the attitude, and the sparsest in use is a GNSS/INS
+#: solution at 1 Hz: 0.7 Hz leaves room for its jitter and still catches milliseconds read as seconds
+#: for a reference at up to 500 Hz. The top is the IMU's.
+REFERENCE_RATE_HZ = (0.7, IMU_RATE_HZ[1])
 
 #: format name -> (module in this package, loader function)
 FORMATS = {
@@ -48,6 +74,18 @@ def provenance(path: Path, fmt: str, credits: str = "", **extra) -> dict:
         out["credits"] = credits
     out.update(extra)
     return out
+
+
+def median_rate_hz(time_s) -> float | None:
+    """The sample rate [Hz] a time axis [s] implies: 1 / its median step over the finite stamps, the
+    reader's nominal period (:func:`sizefx.io.gaps.nominal_period_s`); None when the stamps do not
+    increase (refused by the time checks, with a better message)."""
+    t = np.asarray(time_s, dtype=float)
+    t = t[np.isfinite(t)]
+    if t.size < 2:
+        return None
+    step_s = nominal_period_s(t)
+    return 1.0 / step_s if step_s > 0.0 else None
 
 
 def check_source(path) -> Path:
@@ -229,10 +267,17 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
     from ..sanity import refuse_wrong_units
     from ..stage import preflight
 
+    site_deg = config.options.get("site_deg")
+    if site_deg is not None:  # the option, before any file is read: a site out of range is the option's fault
+        problem = site_problem(*(float(v) for v in site_deg))
+        if problem:
+            shown = ",".join(f"{float(v):g}" for v in site_deg)
+            raise ConfigError(f"import {config.format}: --site-deg {shown}: {problem}; give a site within the range")
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     fmt, source, out = config.format, config.source, config.output
     tel = load_source(fmt, source, keep_invalid=config.drop_invalid_rows, **config.options)
     dropped = _drop_invalid_rows(tel, source) if config.drop_invalid_rows else None
+    _check_imu_rate(tel, fmt, source)
     tel.gaps = find_imu_gaps(tel.time_s, tel.accel_time_s, declared=True)  # written to /imu/gaps
     report = None
     # write and validate the temporary file: a file the reader or the units check refuses never reaches OUT
@@ -285,6 +330,20 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         units_check=None if report is None else report.as_dict(),
         dropped_rows=dropped,
     )
+
+
+def _check_imu_rate(tel, fmt: str, source) -> None:
+    """Refuse a record whose IMU time stamps imply a rate outside :data:`IMU_RATE_HZ`. The CSV importer
+    checks its time column itself (it can name the column and suggest ``--time-units``); this catches the
+    formats whose time unit is fixed, where a rate out of range means the source is not what it claims."""
+    rate_hz = median_rate_hz(tel.time_s)
+    lo, hi = IMU_RATE_HZ
+    if rate_hz is not None and not lo <= rate_hz <= hi:
+        raise SourceError(
+            source,
+            f"its IMU time stamps imply {rate_hz:.3g} Hz (the median step), outside the {lo:g}..{hi:g} Hz of "
+            f"an IMU; check that the source is a genuine {fmt} file",
+        )
 
 
 def _drop_invalid_rows(tel, source) -> dict | None:

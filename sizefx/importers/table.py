@@ -38,10 +38,10 @@ import numpy as np
 from ..constants import DEG, QUATERNION_NORM_TOLERANCE
 from ..errors import SourceError
 from ..frames import enu_to_ned, quat_nb_from_enu_body
-from ..io.schema import allowed_units, unit_factor
+from ..io.schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, unit_factor
 from ..io.telemetry import Reference, Site, Telemetry
 from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
-from . import provenance
+from . import IMU_RATE_HZ, REFERENCE_RATE_HZ, median_rate_hz, provenance
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 FORM_QUANTITIES = {"rates": ("angular_rate", "acceleration"), "increments": ("angle", "velocity")}
@@ -56,6 +56,32 @@ REFERENCE_FRAMES = ("ned", "enu")
 #: without the axis map, or with its quaternion in the wrong order is typically 90-180 deg
 #: off; 45 deg separates the two with a wide margin on both sides.
 REFERENCE_GRAVITY_ANGLE_MAX_DEG = 45.0
+
+
+def _time_units_problem(column: str, option: str, units: str, units_option: str, time_s, rate_range_hz, what: str):
+    """What is wrong with the unit of a time column whose stamps (``time_s``, in s after ``units``) imply a
+    sample rate outside ``rate_range_hz``, naming the column and the unit option, and the unit that would
+    give a plausible rate; None when the rate is plausible (or the stamps do not increase: the time checks
+    refuse those)."""
+    rate_hz = median_rate_hz(time_s)
+    lo, hi = rate_range_hz
+    if rate_hz is None or lo <= rate_hz <= hi:
+        return None
+    read_as = f"in {units}" if units in TIME_UNITS else "as a sample counter"
+    found = f"the time column '{column}' ({option}) implies {rate_hz:.3g} Hz {read_as}, outside the {lo:g}..{hi:g} Hz"
+    if units not in TIME_UNITS:  # a sample counter: its step, not a unit, sets the rate
+        return f"{found} {what}; check --rate-hz (per counter step) or give the column's time unit ({units_option})"
+    # the plausible unit nearest the one given (ms before us when s was given)
+    given = TIME_UNITS[units]
+    plausible = [
+        (abs(np.log(factor / given)), unit, rate_hz * given / factor)
+        for unit, factor in TIME_UNITS.items()
+        if unit != units and lo <= rate_hz * given / factor <= hi
+    ]
+    if not plausible:
+        return f"{found} {what} in any of {', '.join(TIME_UNITS)}; check the column is the time"
+    _, unit, rate_then_hz = min(plausible)
+    return f"{found} {what}; in {unit} it would be {rate_then_hz:.3g} Hz: give {units_option} {unit}"
 
 
 def axis_matrix(spec) -> np.ndarray:
@@ -359,6 +385,19 @@ def _check_reference_time(spec: _ReferenceColumns, table: _Table, t, rows, imu_t
             f"reference time {time_label} {what} on line {table.line_number(int(rows[k]))} "
             f"({t[k - 1]:.6f} s -> {t[k]:.6f} s); sort it and drop repeated rows",
         )
+    if spec.time:
+        assert spec.time_units is not None  # an own time column always has its units (_reference_columns)
+        problem = _time_units_problem(
+            spec.time,
+            "--reference-time",
+            spec.time_units,
+            "--reference-time-units",
+            t,
+            REFERENCE_RATE_HZ,
+            "of a reference",
+        )
+        if problem:
+            raise SourceError(path, problem)
     if t[-1] < imu_t[0] or t[0] > imu_t[-1]:
         column = f"'{spec.time}' [{spec.time_units}]" if spec.time else "(the IMU time)"
         raise SourceError(
@@ -415,6 +454,17 @@ def _build_reference(spec: _ReferenceColumns, table: _Table, t, values, rows, ma
                 f"{table.line_number(int(rows[j]))} holds latitude {pos[j, 0]:g} "
                 f"{spec.position_units}, outside +-90 deg; is it latitude, in "
                 "--reference-position-units?",
+            )
+        lat_max_deg = load_schema(TELEMETRY_SCHEMA)["root_attributes"]["latitude_deg"]["max"]
+        polar = np.flatnonzero(np.abs(pos[:, 0] * factor) > lat_max_deg * DEG)
+        if polar.size:
+            j = int(polar[0])
+            raise SourceError(
+                path,
+                f"column '{spec.position[0]}' (--reference-position) on line "
+                f"{table.line_number(int(rows[j]))} holds latitude {pos[j, 0]:g} {spec.position_units}, "
+                f"outside [-{lat_max_deg:g}, {lat_max_deg:g}] deg ({POLE_REASON}); cut the record where "
+                "it comes that close to the pole",
             )
         ref.lat_rad, ref.lon_rad, ref.height_m = pos[:, 0] * factor, pos[:, 1] * factor, pos[:, 2].copy()
     return ref
@@ -541,6 +591,9 @@ def load(
             f"{table.line_number(row)}; IMU samples must be finite (cut the record there)",
         )
     t = data[:, 0] / rate_hz if time_units == "samples" else data[:, 0] * TIME_UNITS[time_units]
+    problem = _time_units_problem(time, "--time", time_units, "--time-units", t, IMU_RATE_HZ, "of an IMU")
+    if problem:
+        raise SourceError(path, problem)
     g = data[:, 1:4] * np.asarray(factors["gyro"]) @ mat_b_s.T
     a = data[:, 4:7] * np.asarray(factors["accel"]) @ mat_b_s.T
     site = None

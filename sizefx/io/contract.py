@@ -23,7 +23,7 @@ from ..errors import TelemetryError
 from ..kernels.checks import scale_and_check
 from .gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
 from .records import Reference, Site
-from .schema import TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
+from .schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
 
 #: Deepest group nesting and most objects the link check visits: a telemetry file has two levels
 #: and a few dozen objects; the bounds keep a crafted file (thousands of nested groups, a tree
@@ -54,22 +54,39 @@ __all__ = [
 
 
 def attr_value(value):
-    """An HDF5 attribute as plain Python (str, float, int, list)."""
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
+    """An HDF5 attribute as plain Python (str, float, int, list), every text in it valid (:func:`attr_str`)."""
+    if isinstance(value, (bytes, str)):
+        return attr_str(value)
     if isinstance(value, np.ndarray):
-        return value.tolist()
+        return attr_value(value[()]) if value.shape == () else [attr_value(v) for v in value.tolist()]
+    if isinstance(value, list):  # the rows of a multi-dimensional array's tolist()
+        return [attr_value(v) for v in value]
     if isinstance(value, np.generic):
-        return value.item()
+        return attr_value(value.item())
     return value
 
 
 def attr_str(value) -> str:
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
+    """An HDF5 text attribute as valid text, whatever bytes the file holds.
+
+    HDF5 does not check that a string attribute declared UTF-8 is UTF-8, and h5py hands the bytes that
+    are not over as lone surrogates (``surrogateescape``), which no output can take: h5py refuses to write
+    them into a new file, and stdout and JSON readers choke on them. Those bytes become backslash escapes
+    (``b"caf\\xe9"`` -> ``"caf\\\\xe9"``), not an error: the text attributes sizefx only carries or prints
+    (``description``, the ``/source`` provenance) are informational, and a record is not refused for a
+    comment in Latin-1; they stay readable and travel into every output. The ones sizefx interprets
+    (``schema``, ``units``, ``/simulation`` ``truth_json``) keep their escapes too and are then refused by
+    their own checks, which quote the value."""
     if isinstance(value, np.ndarray) and value.shape == ():
-        return attr_str(value[()])
-    return str(value)
+        value = value[()]
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "backslashreplace")
+    text = str(value)
+    try:
+        raw = text.encode("utf-8", "surrogateescape")  # the bytes h5py could not decode, back as bytes
+    except UnicodeEncodeError:  # a surrogate that is no escaped byte: keep it visible as \udXXX
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return raw.decode("utf-8", "backslashreplace")
 
 
 def storage_problem(dset: h5py.Dataset) -> str | None:
@@ -129,6 +146,18 @@ def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0)
         return None
     low, high = _bounds(schema, name, values.shape[1])
     row, col = (int(v) for v in np.argwhere(bad)[0])
+    if name == "/reference/position" and col == 0 and np.isfinite(values[row, col]):
+        # a latitude is said in degrees; up to 90 deg it is a place (near a pole), beyond it a unit or column error
+        lat_deg = float(np.degrees(values[row, col]))
+        fix = (
+            f"{POLE_REASON}: cut the record where it comes that close to the pole"
+            if abs(lat_deg) <= 90.0
+            else "beyond the poles: check the units attribute and that column 0 is the latitude"
+        )
+        return (
+            f"latitude (column 0) is {lat_deg:.6g} deg at row {row + first_row} ({int(bad.any(axis=1).sum())} rows "
+            f"in this read), outside [{np.degrees(low[col]):.6g}, {np.degrees(high[col]):.6g}] deg; {fix}"
+        )
     column = f", column {col}" if values.shape[1] > 1 else ""
     return (
         f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
@@ -179,6 +208,12 @@ class ContractReader:
                         prefix,
                         f"the file holds more than {MAX_OBJECTS} HDF5 objects; a telemetry file "
                         "needs a few dozen (copy /imu and /reference into a new file)",
+                    )
+                if isinstance(name, bytes):  # h5py hands over a name that is not UTF-8 undecoded
+                    self.fail(
+                        f"{prefix.rstrip('/')}/{attr_str(name)}",
+                        "is an HDF5 object whose name is not UTF-8 text; h5py cannot open it, so it cannot "
+                        "be checked (rename it in UTF-8, or copy /imu and /reference into a new file)",
                     )
                 full = f"{prefix}/{name}" if prefix != "/" else f"/{name}"
                 link = group.get(name, getlink=True)
@@ -247,7 +282,8 @@ class ContractReader:
                 except (TypeError, ValueError):
                     self.fail("/", f"root attribute {key} = {raw!r} is not a number")
                 if not np.isfinite(val) or not rule["min"] <= val <= rule["max"]:
-                    self.fail("/", f"root attribute {key} = {val} is outside [{rule['min']}, {rule['max']}]")
+                    why = f" ({POLE_REASON})" if key == "latitude_deg" and np.isfinite(val) else ""
+                    self.fail("/", f"root attribute {key} = {val} is outside [{rule['min']}, {rule['max']}]{why}")
                 values[key] = val
             else:
                 values[key] = attr_str(raw)
@@ -650,7 +686,7 @@ def side_groups(r, h5, reference: bool = True):
             found.lat_rad, found.lon_rad, found.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
     source = None
     if "/source" in h5:
-        source = {k: attr_value(v) for k, v in h5["/source"].attrs.items()}
+        source = {attr_str(k): attr_value(v) for k, v in h5["/source"].attrs.items()}
     simulation = None
     if "/simulation" in h5:
         sim_attrs = h5["/simulation"].attrs

@@ -68,7 +68,7 @@ def read_navigation(path) -> Solution:
     path = Path(path)
     with open_hdf5(path, "it must be a sizefx/navigation/1 file (sizefx navigate -o)") as h5:
         declared = h5.attrs.get("schema")
-        declared = declared.decode() if isinstance(declared, bytes) else declared
+        declared = None if declared is None else attr_str(declared)
         if declared != NAVIGATION_SCHEMA:
             raise TelemetryError(
                 path, "/", f"root attribute schema is {declared!r}; expected {NAVIGATION_SCHEMA!r} (sizefx navigate -o)"
@@ -169,7 +169,7 @@ def write_navigation(path, res, *, input_file, force: bool = False):
     roll, pitch, heading = mat_to_euler(quat_to_mat(res.quat_nb[sel]))
     with atomic_output(path, inputs=[input_file], force=force) as tmp, h5py.File(tmp, "w") as h5:
         h5.attrs["schema"] = NAVIGATION_SCHEMA
-        h5.attrs["input_file"] = str(input_file)
+        h5.attrs["input_file"] = attr_str(input_file)  # a file name may not be UTF-8
         h5.attrs["configuration_json"] = json.dumps(res.config, default=float)
         h5.attrs["summary_json"] = json.dumps(res.summary, default=float)
         h5.attrs["sizefx_version"] = __version__
@@ -199,7 +199,7 @@ class NavigationWriter:
         try:
             self.h5 = h5py.File(tmp, "w")
             self.h5.attrs["schema"] = NAVIGATION_SCHEMA
-            self.h5.attrs["input_file"] = str(input_file)
+            self.h5.attrs["input_file"] = attr_str(input_file)  # a file name may not be UTF-8
             self.h5.attrs["sizefx_version"] = __version__
             self._sets = {}
             for name, width, units in (

@@ -23,6 +23,8 @@ from ..errors import ConfigError
 __all__ = [
     "load_schema",
     "TELEMETRY_SCHEMA",
+    "POLE_REASON",
+    "site_problem",
     "unit_factor",
     "allowed_units",
     "normalise_units",
@@ -33,6 +35,13 @@ __all__ = [
 ]
 
 TELEMETRY_SCHEMA = "sizefx/telemetry/1"
+#: Why the telemetry contract's latitudes stop 0.5 deg short of the poles (root attribute
+#: ``latitude_deg``, the latitude column of ``/reference/position``), said by every message that
+#: refuses one, so that a user at a pole learns it is the place, not the file, that sizefx cannot take.
+POLE_REASON = (
+    "within 0.5 deg of a pole the north-east-down frame's longitude rate (1/cos latitude) diverges, "
+    "so sizefx cannot navigate there"
+)
 
 
 @functools.cache
@@ -65,6 +74,24 @@ def unit_factor(quantity: str, units: str, schema_name: str = TELEMETRY_SCHEMA):
 
 def allowed_units(quantity: str, schema_name: str = TELEMETRY_SCHEMA) -> list[str]:
     return list(load_schema(schema_name)["units"][quantity])
+
+
+def site_problem(latitude_deg: float, longitude_deg: float, height_m: float) -> str | None:
+    """What keeps a site (latitude [deg], longitude [deg], height [m]) out of the telemetry contract's
+    root attribute ranges, as a clause that names the value and the valid range; None when it is valid.
+    One rule for the file's attributes and for every option that sets them (``--site-deg``)."""
+    spec = load_schema(TELEMETRY_SCHEMA)["root_attributes"]
+    for key, value, unit in (
+        ("latitude_deg", latitude_deg, "deg"),
+        ("longitude_deg", longitude_deg, "deg"),
+        ("height_m", height_m, "m"),
+    ):
+        rule = spec[key]
+        if not rule["min"] <= value <= rule["max"]:
+            name = key.rpartition("_")[0]
+            why = f" ({POLE_REASON})" if key == "latitude_deg" else ""
+            return f"{name} {value:g} {unit} is outside [{rule['min']:g}, {rule['max']:g}] {unit}{why}"
+    return None
 
 
 # --------------------------------------------------------------------------- JSON Schema

@@ -11,6 +11,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from .contract import attr_str, attr_value
 from .files import atomic_output
 from .records import Site, Telemetry
 from .schema import TELEMETRY_SCHEMA, load_schema
@@ -111,8 +112,10 @@ class TelemetryWriter:
             h5.attrs["latitude_deg"] = float(np.degrees(self.site.lat_rad))
             h5.attrs["longitude_deg"] = float(np.degrees(self.site.lon_rad))
             h5.attrs["height_m"] = float(self.site.height_m)
+        # text that came from a file or a file name may hold bytes that are not UTF-8 (h5py's lone
+        # surrogates), which h5py cannot write: carried as backslash escapes (attr_str says why)
         if self.description:
-            h5.attrs["description"] = self.description
+            h5.attrs["description"] = attr_str(self.description)
         for name, rows in self._plan.items():
             spec = self.schema["datasets"][name]
             shape = tuple(rows if isinstance(s, str) else s for s in spec["shape"])
@@ -129,7 +132,7 @@ class TelemetryWriter:
         if self.source is not None:
             g = h5.create_group("source")
             for key, value in self.source.items():
-                g.attrs[key] = value
+                g.attrs[attr_str(key)] = attr_value(value)
         if self.simulation is not None:
             g = h5.create_group("simulation")
             g.attrs["truth_json"] = json.dumps(self.simulation, sort_keys=True)

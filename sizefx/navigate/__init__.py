@@ -25,7 +25,7 @@ from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
 from .initial import coarse_alignment
 from .loop import navigate, navigate_file, navigate_source
-from .output import plot_errors
+from .output import check_plottable, plot_errors
 from .result import NavResult, format_summary
 from .steps import increments_of
 
@@ -41,6 +41,7 @@ __all__ = [
     "increments_of",
     "format_summary",
     "plot_errors",
+    "check_plottable",
     "CHUNK_SAMPLES",
     "GAPS_WHY",
 ]
@@ -90,16 +91,24 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
         cfg = replace(cfg, model=load_model(config.model))
     path = config.input
     written = {}
+    # refused before any work when one of them would hold nothing (a record shorter than an output row)
+    outputs = tuple(option for option, value in config.outputs().items() if value and option != "--json")
     if config.chunk_samples == 0:
         from ..io.telemetry import read_telemetry
 
-        res = navigate(read_telemetry(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment), cfg)
+        res = navigate(read_telemetry(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment), cfg, outputs=outputs)
+        if config.plot:
+            check_plottable(res)
         if config.output:
             write_navigation(config.output, res, input_file=path, force=config.force)
     else:
         writer = NavigationWriter(config.output, input_file=path, force=config.force) if config.output else None
         try:
-            res = navigate_file(path, cfg, chunk_samples=config.chunk_samples, progress=progress, writer=writer)
+            res = navigate_file(
+                path, cfg, chunk_samples=config.chunk_samples, progress=progress, writer=writer, outputs=outputs
+            )
+            if config.plot:  # before the solution is published: a refusal leaves nothing behind
+                check_plottable(res)
         except BaseException as exc:
             if writer is not None:
                 writer.abort(exc)

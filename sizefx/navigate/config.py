@@ -20,6 +20,7 @@ __all__ = [
     "CHUNK_SAMPLES",
     "MARGIN",
     "MIN_ROWS",
+    "MIN_PLOT_ROWS",
 ]
 
 VERTICAL_MODES = {"free": VERTICAL_FREE, "held": VERTICAL_HELD, "reference": VERTICAL_REFERENCE}
@@ -47,6 +48,9 @@ CHUNK_SAMPLES = 1 << 20
 MARGIN = 64
 #: Fewest rows read for any chunk: the rates-domain compensation of a model needs 164.
 MIN_ROWS = 512
+#: Fewest output rows (``--output-rate-hz``) the error plot (``--plot``) is drawn from: a curve joins two
+#: points, and a single one draws an empty figure.
+MIN_PLOT_ROWS = 2
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,6 @@ import json
 import time as _time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -41,7 +40,7 @@ from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
 from ..stage import helper_threads
 from ..sync import sync_accelerometers
-from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_ROWS, VERTICAL_MODES, NavConfig
+from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_PLOT_ROWS, MIN_ROWS, VERTICAL_MODES, NavConfig
 from .initial import choose, initial_state
 from .reference import Errors, MemoryReference, reference_at, vertical_reference_at
 from .result import NavResult
@@ -127,6 +126,7 @@ def navigate_source(
     threads: bool = True,
     writer=None,
     decimate: bool = True,
+    outputs: tuple = (),
 ) -> NavResult:
     """Navigate ``src`` (a :class:`TelemetryStream` or a :class:`MemorySource`) chunk by chunk.
 
@@ -134,7 +134,9 @@ def navigate_source(
     navigation step (a record in memory; the writer decimates). ``writer`` (a
     :class:`sizefx.io.navigation.NavigationWriter`) receives the output rows chunk by chunk;
     the result then keeps only the first and the last row (memory stays bounded on any length).
-    ``progress(done, total)`` is called after each chunk (IMU samples).
+    ``progress(done, total)`` is called after each chunk (IMU samples). ``outputs``: the options
+    whose outputs the caller will write from the result (``"-o"``, implied by ``writer``, and
+    ``"--plot"``): one that would hold nothing is refused before any work (:func:`refuse_empty_outputs`).
     """
     started = _time.perf_counter()
     if cfg.levers and cfg.model is not None:
@@ -165,15 +167,9 @@ def navigate_source(
     state = pack_state(quat0, v0, lat0, lon0, h0)
     mode = VERTICAL_MODES[vertical]
     T = n_sub * dt
-    stride = 1
-    if decimate and cfg.output_rate_hz:
-        stride = max(1, int(round(1.0 / (T * cfg.output_rate_hz))))
-        if stride > n_steps:
-            where = "the record" if src.path is None else Path(src.path).name
-            raise ConfigError(
-                f"--output-rate-hz {cfg.output_rate_hz:g}: one row every {stride * T:.6g} s, but {where} "
-                f"navigates {n_steps * T:.6g} s; give at least {1.0 / (n_steps * T):.3g} Hz to write a row"
-            )
+    stride = output_stride(cfg, T) if decimate else 1
+    # a decimated run's result holds the output rows alone: none of them is refused even without -o
+    refuse_empty_outputs(src, cfg, (*outputs, "-o") if writer is not None or decimate else outputs, n_steps, T)
     chunk = max(n_sub, (int(chunk_samples) // (n_sub * stride)) * n_sub * stride)
     bounds = [(j0, min(j0 + chunk, n_steps * n_sub)) for j0 in range(0, n_steps * n_sub, chunk)]
     out: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
@@ -270,6 +266,41 @@ def navigate_source(
     return res
 
 
+def output_stride(cfg: NavConfig, step_s: float) -> int:
+    """Navigation steps per output row at ``cfg.output_rate_hz`` (1: every step), as the solution's
+    writers decimate (:func:`sizefx.io.navigation.write_navigation` by the same rule)."""
+    return max(1, int(round(1.0 / (step_s * cfg.output_rate_hz)))) if cfg.output_rate_hz else 1
+
+
+def refuse_empty_outputs(src, cfg: NavConfig, outputs, n_steps: int, step_s: float) -> None:
+    """Refuse, before any work, an output of ``outputs`` that would hold nothing: ``-o`` without one row
+    at ``--output-rate-hz`` (a record shorter than one output interval), ``--plot`` without
+    ``/reference/position`` to plot the error against or with fewer than :data:`MIN_PLOT_ROWS` rows."""
+    if "--plot" in outputs and (src.reference is None or not src.reference.has_position):
+        raise TelemetryError(
+            src.path,
+            "/reference/position",
+            "is missing: --plot draws the position error against it; leave out --plot (the summary "
+            "reports what the reference allows)",
+        )
+    stride = output_stride(cfg, step_s)
+    rows = n_steps // stride
+    for option, what, need in (("-o", "the solution", 1), ("--plot", "the error plot", MIN_PLOT_ROWS)):
+        if option not in outputs or rows >= need:
+            continue
+        found = f"{src.n_samples} samples give {n_steps} navigation step{'s' * (n_steps != 1)} of {step_s:.3g} s"
+        if stride > 1:
+            found += f", {rows} output row{'s' * (rows != 1)} at --output-rate-hz {cfg.output_rate_hz:g}"
+        fix = (
+            "give --output-rate-hz 0 (a row per navigation step) or a longer record"
+            if stride > 1 and n_steps >= need
+            else "give a longer record"
+        )
+        raise TelemetryError(
+            src.path, "/imu/time", f"{found}; {what} ({option}) needs at least {need} row{'s' * (need != 1)}: {fix}"
+        )
+
+
 def segment_config(seg) -> dict:
     """What the configuration records of the segment navigated."""
     return {
@@ -279,10 +310,13 @@ def segment_config(seg) -> dict:
     }
 
 
-def navigate(tel: Telemetry, cfg: NavConfig | None = None) -> NavResult:
-    """Navigate a record in memory: the loop with one chunk; the result keeps every navigation step."""
+def navigate(tel: Telemetry, cfg: NavConfig | None = None, *, outputs: tuple = ()) -> NavResult:
+    """Navigate a record in memory: the loop with one chunk; the result keeps every navigation step.
+    ``outputs``: as :func:`navigate_source`'s."""
     src = MemorySource(tel)
-    return navigate_source(src, cfg or NavConfig(), chunk_samples=max(src.n_samples, 1), threads=False, decimate=False)
+    return navigate_source(
+        src, cfg or NavConfig(), chunk_samples=max(src.n_samples, 1), threads=False, decimate=False, outputs=outputs
+    )
 
 
 def navigate_file(
@@ -293,8 +327,10 @@ def navigate_file(
     progress=None,
     threads: bool | None = None,
     writer=None,
+    outputs: tuple = (),
 ) -> NavResult:
-    """Navigate a telemetry file chunk by chunk; the result holds the output rows only.
+    """Navigate a telemetry file chunk by chunk; the result holds the output rows only. ``outputs``: as
+    :func:`navigate_source`'s.
 
     ``threads``: prepare the next chunk in a helper thread while the kernel runs (default: unless
     this process is a batch worker beside others that fill the cores, :func:`sizefx.stage.helper_threads`).
@@ -304,4 +340,6 @@ def navigate_file(
     if chunk_samples < 1000:
         raise ConfigError(f"--chunk-samples {chunk_samples}: use at least 1000")
     with TelemetryStream(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment) as st:
-        return navigate_source(st, cfg, chunk_samples=chunk_samples, progress=progress, threads=threads, writer=writer)
+        return navigate_source(
+            st, cfg, chunk_samples=chunk_samples, progress=progress, threads=threads, writer=writer, outputs=outputs
+        )
