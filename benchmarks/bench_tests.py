@@ -48,7 +48,8 @@ def _clone_and_install(work: Path) -> tuple[Path, Path]:
     if shared.is_dir():  # the real recordings at the same relative place as beside the checkout
         os.symlink(shared, work / "shared")
     venv = work / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    # no pip or setuptools of its own: this environment's (setuptools 77 or newer) build it
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
     # this environment's site-packages, seen from the new venv (a venv's --system-site-packages
     # reaches only the base interpreter's): a .pth file names it, after the venv's own
     site = subprocess.run(
@@ -60,9 +61,19 @@ def _clone_and_install(work: Path) -> tuple[Path, Path]:
     ours = [p for p in sys.path if p.endswith("site-packages")]
     Path(site, "zz_parent_env.pth").write_text("\n".join(ours) + "\n")
     subprocess.run(
-        [str(venv / "bin" / "python"), "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", str(clone)],
+        [sys.executable, "-m", "pip", "--python", str(venv / "bin" / "python"), "install", "-q", "--no-deps"]
+        + ["--no-build-isolation", str(clone)],
         check=True,
     )
+    # pytest's console script for this venv (pytest itself is this environment's): the README
+    # runs .venv/bin/pytest, which keeps the clone's folder off sys.path
+    script = venv / "bin" / "pytest"
+    # (the guard matters: a batch test's spawned worker imports the main script again)
+    script.write_text(
+        f"#!{venv / 'bin' / 'python'}\nimport sys\nfrom pytest import console_main\n\n"
+        "if __name__ == '__main__':\n    sys.exit(console_main())\n"
+    )
+    script.chmod(0o755)
     return clone, venv
 
 
@@ -70,7 +81,9 @@ def _run_tier(clone: Path, venv: Path, args: list[str]) -> dict:
     load_before = os.getloadavg()[0]
     cmd = [str(venv / "bin" / "pytest"), "-p", "no:cacheprovider", *args]
     proc = subprocess.run([sys.executable, "-c", _PROBE, str(clone), *cmd], capture_output=True, text=True)
-    probe = next(line for line in proc.stdout.splitlines() if line.startswith("PROBE"))
+    probe = next((line for line in proc.stdout.splitlines() if line.startswith("PROBE")), None)
+    if probe is None:
+        raise RuntimeError(f"pytest did not run: {proc.stdout[-2000:]}{proc.stderr[-2000:]}")
     _, rc, wall_s, peak_kib = probe.split()
     closing = [line for line in proc.stdout.splitlines() if re.search(r"\d+ (passed|failed)", line)]
     return {
