@@ -162,6 +162,8 @@ def test_a_worker_that_dies_takes_only_its_record(tmp_path):
     assert [e["status"] for e in _manifest(out)["records"]] == ["ok", "ok", "ok", "failed"]  # by input path
 
 
+# long tier: a long batch with a crash (1.5 s); fast twin: test_a_worker_that_dies_takes_only_its_record
+@pytest.mark.slow
 def test_a_worker_that_dies_early_in_a_long_batch_loses_no_record(tmp_path):
     """More records than the queue holds (2 per worker): the pool breaks while the rest wait to be
     submitted, and every record still gets its entry (only the crash fails)."""
@@ -191,6 +193,8 @@ def test_a_stopped_batch_stops_its_workers(tmp_path):
     assert not list((tmp_path / "out").glob("*.tmp"))
 
 
+# long tier: three batch runs (1.5 s); fast twin: test_rerun_skips_what_is_unchanged
+@pytest.mark.slow
 def test_a_reused_record_whose_input_is_gone_is_refused_alone(campaign, tmp_path):
     """A record deleted after the batch listed it, on a re-run: its hash cannot be taken, so it is not
     reused but run (a real stage then refuses the missing file in one line; this one reads nothing);
@@ -221,6 +225,8 @@ def test_a_reused_record_whose_input_is_gone_is_refused_alone(campaign, tmp_path
     assert result.outcomes[1].entry["sha256"] == ""
 
 
+# long tier: two batch runs (3 s); fast twin: test_rerun_skips_what_is_unchanged (a changed input reruns)
+@pytest.mark.slow
 def test_a_changed_levers_file_reruns_the_records(campaign, tmp_path):
     """--levers (like --model and --nominal) is hashed with each record: a new calibration written
     into the same levers.json makes the next run navigate every record again."""
@@ -299,6 +305,8 @@ def test_diagnose_batch_finds_what_the_single_command_finds_and_what_recurs(tmp_
     ) in result.output, result.output
 
 
+# long tier: two batch runs (2 s); fast twin: test_outputs_do_not_depend_on_the_workers
+@pytest.mark.slow
 def test_outputs_do_not_depend_on_the_order_of_the_inputs(campaign, tmp_path):
     """The records given in reverse: the same outputs, byte for byte, and the manifest in path order."""
     ahead, behind = tmp_path / "ahead", tmp_path / "behind"
@@ -474,6 +482,8 @@ def test_a_folder_of_another_stage_is_refused(campaign, tmp_path):
     _one_line_refusal(_batch("navigate", campaign / "run0.h5", "--out", out), "a batch of 'inspect'")
 
 
+# long tier: a batch run for its progress lines (1 s); fast twin: test_progress_off_a_terminal_is_a_plain_line_per_record
+@pytest.mark.slow
 def test_json_progress_is_one_object_per_record(campaign, tmp_path):
     result = CliRunner().invoke(
         main, ["batch", "inspect", str(campaign), "--out", str(tmp_path / "out"), "--json-progress"]

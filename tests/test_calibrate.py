@@ -150,6 +150,8 @@ def test_a_calibration_writes_its_levers_file(tmp_path, turntable_h5):
     assert calibrate.format_report(res) == res.report().rsplit("\n", 1)[0]
 
 
+# long tier: two calibrations of a turntable record (3 s); fast twin: the single-reference calibrations of this module
+@pytest.mark.slow
 def test_slow_reference_gives_the_same_arms():
     """Issue 13: a 100 Hz reference on a 1600 Hz sway biased the arms by 0.08 mm (40-100 sigma).
     With the rotation spline the arms agree with the 1600 Hz reference's to 0.01 mm; slerp on

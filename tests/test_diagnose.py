@@ -95,8 +95,9 @@ def test_each_effect_is_found_within_3_sigma_and_nothing_else(effect):
     "combo",
     [
         ("lever_arm", "accel_delay"),
-        ("reference_delay", "level_tilt", "accel_scale_factor"),
-        ("accel_misalignment", "gyro_scale_factor", "accel_delay"),
+        # long tier: two more combinations (2.5 s); fast twin: the first, arm and delay together
+        pytest.param(("reference_delay", "level_tilt", "accel_scale_factor"), marks=pytest.mark.slow),
+        pytest.param(("accel_misalignment", "gyro_scale_factor", "accel_delay"), marks=pytest.mark.slow),
     ],
 )
 def test_combinations_are_separated(combo):
@@ -610,7 +611,8 @@ def test_low_passed_rows_span_by_span_equal_the_whole_series():
     assert np.abs(np.vstack(parts) - whole).max() < 1e-12 * np.abs(x).max()
 
 
-@pytest.mark.parametrize("bandwidth_hz", [None, 20.0])
+# long tier: the band-limited case (3 s); fast twin: the full band
+@pytest.mark.parametrize("bandwidth_hz", [None, pytest.param(20.0, marks=pytest.mark.slow)])
 def test_diagnose_span_by_span_equals_the_whole_record_at_once(monkeypatch, bandwidth_hz):
     """The bounded-memory path (prediction, residual rows, regressors and structure regressors formed a
     few thousand samples at a time, no motion cached) finds what one span holding the whole record

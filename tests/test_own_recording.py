@@ -160,6 +160,8 @@ def truth():
     return {"r_m": np.array(sim["lever_arm"]["r_m"]), "tau_s": sim["accel_delay"]["tau_s"]}
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_every_command_exits_0(walkthrough):
     _, done = walkthrough
     assert len(done) == len(readme_commands(README.read_text("utf-8")))
@@ -167,6 +169,8 @@ def test_every_command_exits_0(walkthrough):
         assert result.returncode == 0, f"{shlex.join(argv)} -> {result.returncode}: {result.stderr.strip()}"
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_import_keeps_the_reference_and_reports_the_occlusion(walkthrough):
     cwd, _ = walkthrough
     argv, result = _step(walkthrough, "import csv")
@@ -177,12 +181,16 @@ def test_import_keeps_the_reference_and_reports_the_occlusion(walkthrough):
         assert h5["/source"].attrs["reference_dropout_rows"] == 3
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_inspect_shows_the_reference(walkthrough):
     _, result = _step(walkthrough, "inspect")
     assert "reference 5998 samples at 50 Hz: attitude + position + velocity" in result.stdout, result.stdout
     assert "dropouts  1 in /reference/time at row 3000 (t = 59.980000 s, 80 ms)" in result.stdout
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_diagnose_names_the_two_hidden_effects(walkthrough, truth):
     cwd, _ = walkthrough
     argv, result = _step(walkthrough, "diagnose")
@@ -197,6 +205,8 @@ def test_diagnose_names_the_two_hidden_effects(walkthrough, truth):
     assert "accelerometers lag the gyros" in result.stdout and "accelerometer y sits 3.00 mm" in result.stdout
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_calibrate_recovers_the_arms_and_the_delay(walkthrough, truth):
     cwd, _ = walkthrough
     argv, _ = _step(walkthrough, "calibrate")
@@ -213,6 +223,8 @@ def _final_error_m(stdout: str) -> float:
     return float(match.group(1))
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_the_calibrated_arms_make_navigation_better(walkthrough):
     _, plain = _step(walkthrough, "navigate", lacks="--levers")
     _, compensated = _step(walkthrough, "navigate", has="--levers")
@@ -220,6 +232,8 @@ def test_the_calibrated_arms_make_navigation_better(walkthrough):
     assert e_comp < COMPENSATED_MAX_M and e_plain > PLAIN_MIN_M and e_plain > GAIN_MIN * e_comp, (e_plain, e_comp)
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_compare_agrees_with_navigate(walkthrough):
     cwd, _ = walkthrough
     argv, result = _step(walkthrough, "compare")
@@ -230,6 +244,8 @@ def test_compare_agrees_with_navigate(walkthrough):
     assert a_ref == pytest.approx(_final_error_m(compensated.stdout), rel=0.01)
 
 
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
+@pytest.mark.slow
 def test_a_wrong_column_in_the_import_fails(walkthrough, tmp_path):
     argv, _ = _step(walkthrough, "import csv")
     (tmp_path / "examples").symlink_to(EXAMPLES, target_is_directory=True)

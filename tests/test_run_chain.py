@@ -262,6 +262,8 @@ def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp
     assert other.exit_code == 0 and "2 ok, 0 unchanged" in other.output, other.output
 
 
+# long tier: a batch chain (2 s); fast twin: tests/test_batch.py::test_one_bad_record_is_refused_alone
+@pytest.mark.slow
 def test_batch_run_a_flight_without_truth_is_refused_alone(records, flights, tmp_path):
     """A flight without /reference/position cannot be compared: that record is refused, the other done."""
     turntable, _ = records

@@ -262,6 +262,8 @@ def test_table_tilt_is_estimated_and_the_per_rotation_fit_is_biased(paper_plan):
         assert abs(row["r_own"] - truth[i][i]) < 4 * row["sigma_r_own"]
 
 
+# long tier: a turntable record with the delay (3.5 s); fast twin: test_known_accelerometer_delay_is_undone and tests/test_calibrate_bound.py's delay
+@pytest.mark.slow
 def test_accelerometer_delay_is_recovered_with_rotations_about_horizontal_axes(paper_plan):
     tau = 0.5e-3
     fx = _fx(accel_delay={"enabled": True, "tau_s": tau})
