@@ -25,12 +25,6 @@ from pathlib import Path
 RESULTS = Path(__file__).resolve().parent / "results"
 ROOT = RESULTS.parents[1]
 
-# Taken when the script imports this module, before any work: the machine as the run found it.
-_STARTED = {
-    "load": os.getloadavg()[0],
-    "clock": time.perf_counter(),
-    "date": datetime.datetime.now(datetime.UTC),
-}
 
 # A small intermediate Python runs the command and reports its child's peak RSS: measured from a
 # large benchmark process, a forked child would count the parent's pages as its own until exec.
@@ -122,15 +116,32 @@ def _git(*args: str) -> str | None:
     return done.stdout.strip()
 
 
+#: What no benchmark runs: a change there leaves the checkout clean for the figures.
+_NOT_RUN = ("docs", "*.md", "benchmarks/results", "tests/test_figures.py")
+
+
 def commit() -> dict:
-    """The checkout the figures come from; ``dirty``: tracked files differ from it (results files aside)."""
+    """The checkout the figures come from, as the run started; ``dirty``: tracked files that a
+    benchmark may run differ from it (the docs, the results and their test aside)."""
     sha = _git("rev-parse", "HEAD")
     if sha is None:
         return {"sha": None, "describe": None, "dirty": None}
-    changed = _git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)benchmarks/results")
+    changed = _git(
+        "status", "--porcelain", "--untracked-files=no", "--", ".", *(f":(exclude,glob){p}" for p in _NOT_RUN)
+    )
     dirty = bool(changed)
     describe = _git("describe", "--always") or sha[:7]
     return {"sha": sha, "describe": describe + ("-dirty" if dirty else ""), "dirty": dirty}
+
+
+# Taken when the script imports this module, before any work: the machine and the checkout as
+# the run found them.
+_STARTED = {
+    "load": os.getloadavg()[0],
+    "clock": time.perf_counter(),
+    "date": datetime.datetime.now(datetime.UTC),
+    "commit": commit(),
+}
 
 
 def command_line(script: str | Path, argv) -> str:
@@ -147,7 +158,7 @@ def emit(figures: dict, args, script: str | Path, argv=None, threads: int = 1, s
         "command": command_line(script, argv),
         "date": _STARTED["date"].strftime("%Y-%m-%dT%H:%M:%SZ"),
         "run_s": round(time.perf_counter() - _STARTED["clock"], 1),
-        "commit": commit(),
+        "commit": _STARTED["commit"],
         "machine": machine(threads),
         "figures": figures,
     }
