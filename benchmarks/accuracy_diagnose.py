@@ -352,6 +352,8 @@ def main(argv=None):
         out["recovery_summary"] = {
             "effects": len(rows),
             "records_per_effect": args.seeds,
+            "records": sum(r["records"] for r in rows),
+            "found": sum(r["found"] for r in rows),
             "found_in_every_record": all(r["found"] == r["records"] for r in rows),
             "records_with_other_effects": sum(r["other_effects_reported"] for r in rows),
             "rms_z_min": min(r["rms_z"] for r in rows),
