@@ -218,9 +218,43 @@ def test_the_formatter_reads_paths_scales_and_signs():
         f.format("{a.c}")
 
 
+def rewrite(revision: str = "HEAD") -> list[str]:
+    """Each registered text as its result file at ``revision`` filled it, replaced on its page by
+    the text the file in the working tree fills (the line breaks kept where the words are as many).
+    Returns the pages changed."""
+    import subprocess
+
+    changed = set()
+    for entry in FIGURES:
+        old_doc = subprocess.run(
+            ["git", "-C", str(ROOT), "show", f"{revision}:{entry['source']}"], capture_output=True, text=True
+        )
+        if old_doc.returncode != 0:
+            continue  # a new result file: nothing to replace
+        old, new = FigureFormatter(json.loads(old_doc.stdout)).format(entry["text"]), filled(entry)
+        path = ROOT / entry["page"]
+        text = path.read_text()
+        found = pattern(old).search(text)
+        if old == new or not found:
+            continue
+        gaps = re.findall(r"\s+", found.group(0))
+        words = new.split()
+        if len(words) == len(gaps) + 1:
+            new = "".join(w + g for w, g in zip(words, gaps + [""]))
+        path.write_text(text[: found.start()] + new + text[found.end() :])
+        changed.add(entry["page"])
+    return sorted(changed)
+
+
 if __name__ == "__main__":
+    import sys
+
     # `python tests/test_figures.py`: every registered text as its result file fills it, and whether
-    # its page reads so (what to write after a re-measurement).
+    # its page reads so. `--rewrite [REV]`: after a re-measurement, put the new figures into the
+    # pages where they read as the result files at REV (default HEAD) filled them.
+    if sys.argv[1:2] == ["--rewrite"]:
+        print("rewritten:", ", ".join(rewrite(*sys.argv[2:3])) or "nothing")
+        sys.exit(0)
     for entry in FIGURES:
         try:
             text = filled(entry)
