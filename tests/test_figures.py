@@ -231,7 +231,11 @@ def rewrite(revision: str = "HEAD") -> list[str]:
         )
         if old_doc.returncode != 0:
             continue  # a new result file: nothing to replace
-        old, new = FigureFormatter(json.loads(old_doc.stdout)).format(entry["text"]), filled(entry)
+        try:
+            old = FigureFormatter(json.loads(old_doc.stdout)).format(entry["text"])
+        except KeyError:
+            continue  # a new entry: the old file cannot fill it
+        new = filled(entry)
         path = ROOT / entry["page"]
         text = path.read_text()
         found = pattern(old).search(text)
