@@ -1,7 +1,7 @@
 """Figures of the calibration on simulated data: unbiased, honest errors, at the bound (issues 5, 13, 17).
 
     python benchmarks/accuracy_calibrate.py [--seeds 100] [--jobs 2] [--variants paper,sway,coloured]
-                                            [--skip-reference-rate] [--json out.json]
+                                            [--skip-reference-rate] [--json out.json] [--record]
 
 Monte Carlo (issue 17) of three set-ups, every seed an independent record (only the noise seed varies):
 
@@ -31,7 +31,6 @@ on one tilted record; and the paper's plan with a 40-minute roll sway, the sway'
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -48,6 +47,9 @@ from sizefx.constants import ARCSEC
 from sizefx.effects import load_effects
 from sizefx.simulate import SimulateConfig, simulate_in_memory
 from sizefx.simulate import run as simulate_file
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import add_output_options, emit  # (a sibling of this script)
 
 OFFSET_M = [0.10, -0.05, 0.02]
 TILT_ARCSEC = (8.0, -6.0)
@@ -145,6 +147,22 @@ def summarise(names, truth, rows) -> dict:
     return out
 
 
+def headline(table) -> dict:
+    """The set-up's figures over all its parameters: the worst of each, and the ranges."""
+    rms = [r["z_rms"] for r in table.values()]
+    return {
+        "worst_abs_mean_z": max(abs(r["mean_z"]) for r in table.values()),
+        "z_rms_min": min(rms),
+        "z_rms_max": max(rms),
+        "z_rms_pooled": float(np.sqrt(np.mean(np.square(rms)))),
+        "max_abs_z": max(r["max_abs_z"] for r in table.values()),
+        "bound_over_scatter_min": min(r["efficiency_scatter"] for r in table.values()),
+        "bound_over_scatter_max": max(r["efficiency_scatter"] for r in table.values()),
+        "bound_over_stated_min": min(r["efficiency_stated"] for r in table.values()),
+        "bound_over_stated_max": max(r["efficiency_stated"] for r in table.values()),
+    }
+
+
 def unit(name):
     if name.startswith("r_"):
         return 1e3, "mm"
@@ -182,7 +200,7 @@ def main(argv=None):
     ap.add_argument("--variants", default="paper,sway,coloured")
     ap.add_argument("--no-rates", action="store_true", help="skip the rates-domain comparison on the paper set-up")
     ap.add_argument("--skip-reference-rate", action="store_true", help="leave out the 40-minute sway files")
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     variants = [v for v in args.variants.split(",") if v]
     unknown = set(variants) - set(VARIANTS)
@@ -202,7 +220,11 @@ def main(argv=None):
             rows = [r[domain] for r in results]
             table = summarise(names, truth_of(variant), rows)
             fit_s = float(np.median([r[3] for r in rows]))
-            out["variants"][variant][domain] = {"parameters": table, "median_fit_s": fit_s}
+            out["variants"][variant][domain] = {
+                "parameters": table,
+                "summary": headline(table),
+                "median_fit_s": fit_s,
+            }
             print_table(f"{variant}, {domain} domain (median fit {fit_s:.2f} s)", table, args.seeds)
         print(f"  ({variant}: {wall:.0f} s for {args.seeds} seeds with {args.jobs} processes)")
     out["per_rotation"] = per_rotation()
@@ -221,9 +243,7 @@ def main(argv=None):
             f"..{rr['sigma_max_mm']:.4f} mm)"
         )
     print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
-    if args.json:
-        args.json.write_text(json.dumps(out, indent=2) + "\n")
-    return 0
+    return emit(out, args, __file__, argv, threads=args.jobs, show=False)
 
 
 def per_rotation() -> dict:

@@ -1,6 +1,6 @@
 """Figures of sizefx diagnose (issues 6 and 15) on simulated and real data, as text and JSON.
 
-    python benchmarks/accuracy_diagnose.py [--seeds 5] [--coloured-seeds 50] [--fp-seeds 50] [--json out.json]
+    python benchmarks/accuracy_diagnose.py [--seeds 5] [--coloured-seeds 50] [--fp-seeds 50] [--json out.json] [--record [LABEL]]
 
 1. Recovery: each effect hidden alone in a 60 s, 400 Hz tumble record (navigation-grade
    noise), over several seeds: found in how many, and the z-scores of its parameters
@@ -40,6 +40,9 @@ from sizefx.simulate import simulate_in_memory
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_diagnose import BASE, HIDDEN, NOMINAL
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import add_output_options, emit  # (a sibling of this script)
 
 REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
 
@@ -317,7 +320,7 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, default=5, help="records per effect in the recovery table")
     ap.add_argument("--coloured-seeds", type=int, default=50, help="coloured-noise records for z-scores and rates")
     ap.add_argument("--fp-seeds", type=int, default=50, help="noise-and-bias records for the false-positive rate")
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     ap.add_argument(
         "--only",
         nargs="+",
@@ -344,9 +347,20 @@ def main(argv=None):
             continue
         print(title, flush=True)
         out[name] = fn()
-    if args.json:
-        args.json.write_text(json.dumps(out, indent=2))
+    if "recovery" in out:  # the table in one line: every effect found in every record?
+        rows = out["recovery"].values()
+        out["recovery_summary"] = {
+            "effects": len(rows),
+            "records_per_effect": args.seeds,
+            "records": sum(r["records"] for r in rows),
+            "found": sum(r["found"] for r in rows),
+            "found_in_every_record": all(r["found"] == r["records"] for r in rows),
+            "records_with_other_effects": sum(r["other_effects_reported"] for r in rows),
+            "rms_z_min": min(r["rms_z"] for r in rows),
+            "rms_z_max": max(r["rms_z"] for r in rows),
+        }
+    return emit(out, args, __file__, argv, show=False)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

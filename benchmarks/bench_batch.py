@@ -1,6 +1,6 @@
 """Benchmark: ``sizefx batch navigate`` over a campaign, one worker against all cores (issue 18, item 3).
 
-    python benchmarks/bench_batch.py [--records 8] [--duration-h 1.8] [--file flight.h5] [--repeat 3] [--json out.json]
+    python benchmarks/bench_batch.py [--records 8] [--duration-h 1.8] [--file flight.h5] [--repeat 3] [--json out.json] [--record]
 
 Without --file it simulates one flight of --duration-h at 1600 Hz and makes --records copies of it
 (a campaign of that flight). The baseline is today's way, one after another: ``sizefx navigate``
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-from _measure import emit, run_measured
+from _measure import add_output_options, emit, run_measured
 
 from sizefx.scenarios import FlightPlan
 from sizefx.simulate import SimulateConfig
@@ -45,7 +45,7 @@ def main(argv=None):
         default=1,
         help="Run each way this many times (interleaved) and report the medians and every run.",
     )
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     sizefx = Path(sys.executable).with_name("sizefx")
     with tempfile.TemporaryDirectory() as tmp:
@@ -131,7 +131,7 @@ def main(argv=None):
             "speed_up_over_one_worker": runs[1]["wall_s"] / runs[args.workers]["wall_s"],
             "cores": os.cpu_count(),
         }
-    return emit(result, args.json)
+    return emit(result, args, __file__, argv, threads=args.workers)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Benchmark: ``sizefx diagnose`` end to end, wall time and peak memory against the record's length.
 
     python benchmarks/bench_diagnose_memory.py [--durations-s 120 625 1875 3750] [--dir DIR] [--keep DIR]
-                                               [--json out.json]
+                                               [--json out.json] [--record]
 
 Writes the two-minute record of ``benchmarks/accuracy_diagnose.py``'s runtime section (a 1600 Hz
 tumble, ``--seed 3``, an accelerometer delay and a y-arm off the nominal geometry) at each length
@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured
+from _measure import add_output_options, emit, run_measured
 
 RATE_HZ = 1600.0
 HIDDEN = ["--seed", "3", "--set", "accel_delay.enabled=true", "--set", "lever_arm.d_y_m=[0.003,0.0274,-0.002]"]
@@ -91,7 +91,7 @@ def main(argv=None):
         default=Path(sys.executable).with_name("sizefx"),
         help="the sizefx command to measure (default: the one next to this Python)",
     )
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     exe = args.exe
     with tempfile.TemporaryDirectory(dir=args.dir) as tmp:
@@ -124,7 +124,7 @@ def main(argv=None):
         "warm_up_10s_wall_s": round(warm_wall, 2),
         "records": rows,
     }
-    return emit(result, args.json)
+    return emit(result, args, __file__, argv)
 
 
 if __name__ == "__main__":

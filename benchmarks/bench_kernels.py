@@ -1,6 +1,6 @@
 """Benchmark: the sync and angular-acceleration kernels against scipy and their NumPy twins.
 
-    python benchmarks/bench_kernels.py [--samples 2000000] [--repeat 5] [--json out.json]
+    python benchmarks/bench_kernels.py [--samples 2000000] [--repeat 5] [--json out.json] [--record]
 
 Issue 14 item 8 asks for at least 30 M samples/s (3 channels) on one core from each of
 the accelerometer sync (not-a-knot spline, :mod:`sizefx.kernels.sync`) and the
@@ -51,7 +51,7 @@ from sizefx.omegadot import SAVGOL_ORDER, SAVGOL_WINDOW, savgol, savgol_rows
 from sizefx.sync import resample_increments, resample_onto
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured  # (a sibling of this script)
+from _measure import add_output_options, emit, run_measured  # (a sibling of this script)
 
 DT = 1 / 1600
 #: the spans the slow references run on (the twins are dense solves or a fit per row)
@@ -235,7 +235,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=2_000_000, help="Rows of the record (1600 Hz, 3 channels).")
     ap.add_argument("--repeat", type=int, default=5, help="Timed calls of each kernel (the best counts).")
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     if args.samples < 2 * TWIN_SAVGOL_ROWS:
         ap.error(f"--samples: at least {2 * TWIN_SAVGOL_ROWS}")
@@ -250,7 +250,7 @@ def main(argv=None):
     result["checks"] = check(t, ta, rates, incr)
     result["throughput"] = throughput(t, ta, rates, incr, args.repeat)
     result["jit"] = cold_compile()
-    return emit(result, args.json)
+    return emit(result, args, __file__, argv)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Benchmark: bounded memory on a long record (issue 8: 72 h at 1600 Hz, about 415 M samples).
 
-    python benchmarks/bench_long_record.py [--hours 72] [--rate-hz 1600] [--dir DIR] [--keep] [--json out.json]
+    python benchmarks/bench_long_record.py [--hours 72] [--rate-hz 1600] [--dir DIR] [--keep] [--json out.json] [--record]
 
 Writes a static record of --hours at --rate-hz (navigation-grade white noise on Earth
 rate and gravity, a 100 Hz reference: 23 GB and 2.3 GB of it for 72 h) with sizefx's own
@@ -26,7 +26,7 @@ from sizefx.constants import DEG
 from sizefx.io.telemetry import Site, TelemetryWriter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured
+from _measure import add_output_options, emit, run_measured
 
 CHUNK = 1 << 22
 ARW_RAD_PER_SQRT_S = 0.00035 * DEG / 60.0  # 0.00035 deg/sqrt(h)
@@ -77,7 +77,7 @@ def main(argv=None):
     ap.add_argument("--rate-hz", type=float, default=1600.0)
     ap.add_argument("--dir", type=Path, help="Where to write the record (default: a temporary folder).")
     ap.add_argument("--keep", action="store_true", help="Keep the record.")
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(dir=args.dir) as tmp:
         path = Path(tmp) / "long.h5"
@@ -110,7 +110,7 @@ def main(argv=None):
             kept = (args.dir or Path(".")) / "long.h5"
             path.rename(kept)
             result["record"] = str(kept)
-    return emit(result, args.json)
+    return emit(result, args, __file__, argv, threads=2)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Benchmark: the navigation kernel on the simulated 1.8 h, 1600 Hz flight (issue 4).
 
-    python benchmarks/bench_navigate.py [--file flight.h5] [--repeat 3] [--json out.json]
+    python benchmarks/bench_navigate.py [--file flight.h5] [--repeat 3] [--json out.json] [--record]
 
 Checks the answer first (ideal flight: final horizontal error < 1 m), then times the
 kernel alone on warm JIT code (best of --repeat), reporting the first call (JIT
@@ -11,7 +11,6 @@ end-to-end `navigate` wall time, and peak memory.
 from __future__ import annotations
 
 import argparse
-import json
 import resource
 import sys
 import tempfile
@@ -25,6 +24,9 @@ from sizefx.kernels.strapdown import VERTICAL_REFERENCE, coning_coefficients, pa
 from sizefx.navigate import NavConfig, increments_of, navigate
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import add_output_options, emit  # (a sibling of this script)
 
 
 def time_kernel(dtheta, dvel, dt, n_sub, repeat):
@@ -56,7 +58,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--file", type=Path, help="An ideal simulated flight (default: simulate one, ~40 s).")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         path = args.file
@@ -87,11 +89,7 @@ def main(argv=None):
             result[f"kernel_s_subsamples_{k}"] = round(best, 4)
             result[f"samples_per_s_subsamples_{k}"] = round(dtheta.shape[0] / best)
         result["peak_rss_mib"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
-    return 0
+    return emit(result, args, __file__, argv)
 
 
 if __name__ == "__main__":

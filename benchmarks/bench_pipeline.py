@@ -1,6 +1,6 @@
 """Benchmark: the whole-flight pipeline, stage by stage and end to end (issue 8).
 
-    python benchmarks/bench_pipeline.py [--file flight.h5] [--duration-h 1.8] [--json out.json]
+    python benchmarks/bench_pipeline.py [--file flight.h5] [--duration-h 1.8] [--json out.json] [--record]
 
 Without --file it simulates a flight of --duration-h at 1600 Hz (the paper's
 high-precision arms, navigation-grade noise). Before timing it checks the answers:
@@ -67,7 +67,7 @@ from sizefx.simulate import run as simulate
 from sizefx.sync import sync_accelerometers
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured  # (a sibling of this script)
+from _measure import add_output_options, emit, run_measured  # (a sibling of this script)
 
 
 def timed(fn, *args, repeat=1, **kw):
@@ -283,7 +283,7 @@ def main(argv=None):
     ap.add_argument("--file", type=Path, help="A telemetry file (default: simulate a flight).")
     ap.add_argument("--duration-h", type=float, default=1.8, help="Flight length when simulating [h].")
     ap.add_argument("--repeat", type=int, default=3, help="Runs of each whole-flight figure (the best is kept).")
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     result = {"benchmark": "whole-flight pipeline (issue 8)"}
     result.update(check_kernels())
@@ -325,7 +325,7 @@ def main(argv=None):
         result["end_to_end_warm"] = end_to_end(path, levers_path, cold=False)
         result["end_to_end_cold_jit"] = end_to_end(path, levers_path, cold=True)
         result["peak_over_file_size"] = round(result["end_to_end_warm"]["peak_mib"] / result["file_mib"], 2)
-    return emit(result, args.json)
+    return emit(result, args, __file__, argv, threads=2)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Benchmark: `sizefx simulate flight` throughput and peak memory (run by hand, not in the tests).
 
-    python benchmarks/bench_simulate.py --duration-h 1.8 [--form rates|increments] [--json out.json]
+    python benchmarks/bench_simulate.py --duration-h 1.8 [--form rates|increments] [--json out.json] [--record]
 
 Checks the answer before reporting: the file validates, has the expected
 number of samples, and its static lead-in reads normal gravity.
@@ -9,7 +9,6 @@ number of samples, and its static lead-in reads normal gravity.
 from __future__ import annotations
 
 import argparse
-import json
 import resource
 import sys
 import tempfile
@@ -22,12 +21,15 @@ from sizefx import earth, scenarios
 from sizefx.io.telemetry import read_telemetry
 from sizefx.simulate import SimulateConfig, run
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import add_output_options, emit  # (a sibling of this script)
+
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration-h", type=float, default=1.8)
     ap.add_argument("--form", choices=["rates", "increments"], default="rates")
-    ap.add_argument("--json", type=Path)
+    add_output_options(ap)
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "flight.h5"
@@ -56,11 +58,7 @@ def main(argv=None):
             "file_mib": round(summary.file_bytes / 2**20, 1),
             "peak_rss_mib": round(peak_mib, 1),
         }
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
-    return 0
+    return emit(result, args, __file__, argv)
 
 
 if __name__ == "__main__":

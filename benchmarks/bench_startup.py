@@ -1,6 +1,6 @@
 """Benchmark: how long ``sizefx --help`` and every ``sizefx CMD --help`` take to answer (issue 13).
 
-    python benchmarks/bench_startup.py [--repeat 7] [--json out.json]
+    python benchmarks/bench_startup.py [--repeat 7] [--json out.json] [--record]
 
 Each command runs in a fresh process through the installed console script (the one next to
 this Python), ``--repeat`` times after one warm-up run; the figure is the median wall time,
@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import emit, run_measured
+from _measure import add_output_options, emit, run_measured
 
 #: Every command path of the CLI (the group, each command, each scenario and importer).
 COMMANDS = (
@@ -50,7 +50,7 @@ TARGET_S = 0.3
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=7, help="timed runs per command (after one warm-up)")
-    ap.add_argument("--json", type=Path, help="also write the figures here")
+    add_output_options(ap)
     args = ap.parse_args(argv)
     exe = Path(sys.executable).with_name("sizefx")
     if not exe.exists():
@@ -80,17 +80,16 @@ def main(argv=None) -> int:
     _, peak_mib = run_measured([exe, *slowest["command"].split()[1:]])
     result = {
         "benchmark": "startup",
-        "cpus": os.cpu_count(),
-        "load_average_1min": round(os.getloadavg()[0], 2),
         "repeat": args.repeat,
         "target_s": TARGET_S,
         "slowest": slowest["command"],
         "slowest_median_s": slowest["median_s"],
         "slowest_peak_mib": round(peak_mib, 1),
+        "fastest_median_s": min(r["median_s"] for r in rows),
         "all_under_target": all(r["median_s"] < TARGET_S for r in rows),
         "commands": rows,
     }
-    return emit(result, args.json)
+    return emit(result, args, __file__, argv)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Fuzz: the hostile-input corpus and N random mutations against the installed ``sizefx`` (issue 16).
 
     python benchmarks/fuzz_hostile.py [--cases 200] [--seed 0] [--workers 2] [--limit-s 60]
-                                      [--bomb-rows 200000000] [--out DIR] [--json out.json]
+                                      [--bomb-rows 200000000] [--out DIR] [--json out.json] [--record]
 
 Every case runs as a subprocess of the console script next to this Python (what a user runs),
 two at a time; each child's peak RSS comes from ``os.wait4``. The corpus is
@@ -22,7 +22,6 @@ wall time is printed for planning only.
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 import tempfile
@@ -34,6 +33,9 @@ import numpy as np
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 sys.path.insert(0, str(TESTS))
 import hostile_corpus as hc  # noqa: E402  (tests/ holds the corpus and support.py)
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import add_output_options, emit  # noqa: E402  (a sibling of this script)
 
 #: Replacement values for a record mutation: the non-finite ones and the extremes of float64
 #: first, then a random normal number at a random scale.
@@ -110,7 +112,7 @@ def main(argv=None) -> int:
     ap.add_argument("--limit-s", type=float, default=60.0, help="seconds before a case counts as a hang")
     ap.add_argument("--bomb-rows", type=int, default=hc.BOMB_ROWS, help="rows of the gzip bomb (x3 float64)")
     ap.add_argument("--out", type=Path, help="keep the corpus and outputs here (default: a temporary folder)")
-    ap.add_argument("--json", type=Path, help="also write the figures and failures here")
+    add_output_options(ap)
     ap.add_argument("--no-corpus", action="store_true", help="only the random mutations")
     args = ap.parse_args(argv)
     if hc.console_script() is None:
@@ -187,21 +189,16 @@ def main(argv=None) -> int:
     for f in sorted(failures, key=lambda f: f["case"]):
         for b in f["broken"]:
             print(f"  {f['case']} | {b[:200]} | {f['stderr']!r}")
-    if args.json:
-        args.json.write_text(
-            json.dumps(
-                {
-                    "command": cmd,
-                    "tried": len(outcomes),
-                    "refused_cleanly": refused,
-                    "ran_cleanly": accepted,
-                    "failures": failures,
-                    "skipped": [c.name for c in skipped],
-                    "run_s": round(t_run, 1),
-                },
-                indent=1,
-            )
-        )
+    figures = {
+        "tried": len(outcomes),
+        "refused_cleanly": refused,
+        "ran_cleanly": accepted,
+        "failures": failures,
+        "skipped": [c.name for c in skipped],
+        "run_s": round(t_run, 1),
+        "peak_rss_mib": round(peak.peak_rss_bytes / 2**20),
+    }
+    emit(figures, args, __file__, argv, threads=args.workers, show=False)
     if args.out is None:
         shutil.rmtree(root, ignore_errors=True)
     return 1 if failures else 0
