@@ -80,6 +80,13 @@ class SizefxGroup(click.Group):
             self._interrupted(ctx, signal.SIGINT)
         except Interrupted as exc:
             self._interrupted(ctx, exc.signum)
+        except Exception:
+            # a signal's exception raised inside a library's C code can come out as that library's
+            # own (h5py turns it into a TypeError while it writes an attribute): after a signal,
+            # whatever ends the command is the signal's doing, not a bug to print
+            if INTERRUPTED["signum"] is not None:
+                self._interrupted(ctx, INTERRUPTED["signum"])
+            raise
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)

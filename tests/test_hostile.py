@@ -285,6 +285,30 @@ def test_signal_swallowed_by_a_finalizer_prints_no_traceback():
     assert [type(u.exc_value) for u in reported] == [ValueError]
 
 
+def test_a_signal_turned_into_a_library_error_is_still_the_signal(monkeypatch):
+    """A signal landing inside h5py's attribute write comes out as h5py's TypeError, not as the
+    handler's Interrupted (seen on a loaded machine): still exit 143 and one line, no traceback."""
+    from click.testing import CliRunner
+
+    from sizefx.errors import Interrupted
+    from sizefx.io.files import INTERRUPTED, interrupt
+    from sizefx_cli.main import SizefxGroup
+
+    monkeypatch.setitem(INTERRUPTED, "signum", None)  # the process-wide record, restored afterwards
+    group = SizefxGroup("sizefx")
+
+    @group.command("write")
+    def write():
+        try:
+            interrupt(signal.SIGTERM, None)
+        except Interrupted:
+            raise TypeError("Operation not defined for data type class") from None
+
+    result = CliRunner().invoke(group, ["write"])
+    assert result.exit_code == 143, result.output
+    assert result.output.strip() == "sizefx: terminated (SIGTERM); unfinished outputs removed", result.output
+
+
 def test_file_size_limit_is_a_one_line_refusal(tmp_path):
     """``ulimit -f 1024``: writing past 1 MiB fails with EFBIG (Python ignores SIGXFSZ). That is
     an output the command cannot write: exit 2, one line naming the output, no ``*.tmp``; not a
