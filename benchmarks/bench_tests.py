@@ -1,6 +1,6 @@
 """Benchmark: the test suite's two tiers, as a newcomer and CI run them.
 
-    python benchmarks/bench_tests.py [--tier fast|slow|both] [--workers N] [--json out.json]
+    python benchmarks/bench_tests.py [--tier fast|slow|both] [--workers N] [--json FILE] [--record]
 
 Each tier runs in a fresh ``git clone`` of this checkout's HEAD (so the figures are those of
 what is committed, never of uncommitted edits), into which sizefx is installed without ``-e``
@@ -12,24 +12,24 @@ README's test command; only the download of the dependencies is left out of the 
   150 s and 1 GiB on 2 quiet cores.
 - slow: ``pytest -m slow -n WORKERS`` (the long tier on every core, as .ci/run runs it).
 
-Figures: wall time of the pytest command, the peak resident memory of its largest process
-(``ru_maxrss`` of the children, as ``/usr/bin/time -v`` reports it), pytest's closing line,
-and the load average before and after (a figure taken on a loaded machine says so).
-Printed as JSON, never asserted.
+Figures per tier: wall time of the pytest command, the peak resident memory of its largest
+process (``ru_maxrss`` of the children, as ``/usr/bin/time -v`` reports it), pytest's closing
+line, and the load average before and after it. Printed as JSON, never asserted; ``--record``
+writes ``benchmarks/results/bench_tests.json`` (docs/development.md reads it).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import re
 import subprocess
 import sys
 import tempfile
-from datetime import UTC, datetime
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import add_output_options, emit
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the wrapper that runs a command and reports its wall time and its largest child's peak RSS
@@ -101,29 +101,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--tier", choices=("fast", "slow", "both"), default="both")
     ap.add_argument("--workers", default="auto", help="pytest-xdist workers of the long tier (default: auto)")
-    ap.add_argument("--json", type=Path, help="also write the figures here")
+    add_output_options(ap)
     args = ap.parse_args(argv)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
-    result = {
-        "benchmark": "bench_tests",
-        "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        "command": " ".join(["python", "benchmarks/bench_tests.py", *(argv if argv is not None else sys.argv[1:])]),
-        "commit": commit.stdout.strip(),
-        "machine": {"cores": os.cpu_count(), "processor": platform.processor() or platform.machine()},
-        "tiers": {},
-    }
+    tiers = {}
     with tempfile.TemporaryDirectory(prefix="sizefx-bench-tests-") as tmp:
         for tier in ("fast", "slow") if args.tier == "both" else (args.tier,):
             work = Path(tmp) / tier
             work.mkdir()
             clone, venv = _clone_and_install(work)  # a new install per tier: each starts with a cold Numba cache
             tier_args = [] if tier == "fast" else ["-m", "slow", "-n", str(args.workers)]
-            result["tiers"][tier] = _run_tier(clone, venv, tier_args)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
-    return 0 if all(t["exit_code"] == 0 for t in result["tiers"].values()) else 1
+            tiers[tier] = _run_tier(clone, venv, tier_args)
+    # the long tier keeps every core busy: the load it leaves is its own
+    emit(tiers, args, __file__, argv, threads=1 if args.tier == "fast" else os.cpu_count() or 1)
+    return 0 if all(t["exit_code"] == 0 for t in tiers.values()) else 1
 
 
 if __name__ == "__main__":
