@@ -8,10 +8,11 @@ behind, every input byte-identical, peak RSS under ``MEMORY_CEILING_BYTES``, an 
 seconds. Signals: SIGTERM exits 143 and SIGINT 130, both without a ``*.tmp``; a file-size limit
 (``ulimit -f``) is a one-line refusal, not a crash.
 
-How they run: each case is one test id (``pytest -k gzip-bomb``). Ordinary cases run click's
-CliRunner in a forked copy of this process (no interpreter start-up, a hang is killed at
-``IN_PROCESS_LIMIT_S``, peak RSS from ``os.wait4``); memory bombs, hang candidates and signal
-cases run the installed ``sizefx`` console script. All selected cases run once, two at a time,
+How they run: each case is one test id (``pytest --full -k gzip-bomb``; the fast tier runs the
+first case of each kind). Ordinary cases run click's CliRunner in a forked copy of this process
+(no interpreter start-up, a hang is killed at ``IN_PROCESS_LIMIT_S``, peak RSS from
+``os.wait4``); memory bombs, hang candidates and signal cases run the installed ``sizefx``
+console script. All selected cases run once, two at a time (one at a time per pytest-xdist worker),
 in a session fixture; each test then judges its own case. Many cases fail against today's
 sizefx: that is what the suite is for.
 """
