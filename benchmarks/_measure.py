@@ -37,12 +37,14 @@ _PROBE = (
 )
 
 
-def run_measured(cmd, env=None, stdout: Path | None = None) -> tuple[float, float]:
-    """``(wall seconds, peak MiB)`` of ``cmd`` run in a fresh process; its output to ``stdout`` if given."""
+def run_measured(cmd, env=None, stdout: Path | None = None, cwd: Path | None = None) -> tuple[float, float]:
+    """``(wall seconds, peak MiB)`` of ``cmd`` run in a fresh process (in ``cwd``, if given); its output to
+    ``stdout`` if given. A command that fails raises :class:`subprocess.CalledProcessError`."""
     done = subprocess.run(
         [sys.executable, "-c", _PROBE, str(stdout or ""), *map(str, cmd)],
         check=True,
         env=env,
+        cwd=cwd,
         capture_output=True,
         text=True,
     )

@@ -29,15 +29,9 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import add_output_options, emit
+from _measure import add_output_options, emit, run_measured
 
 ROOT = Path(__file__).resolve().parents[1]
-#: the wrapper that runs a command and reports its wall time and its largest child's peak RSS
-_PROBE = (
-    "import resource, subprocess, sys, time; t0 = time.perf_counter(); "
-    "rc = subprocess.run(sys.argv[2:], cwd=sys.argv[1]).returncode; "
-    "print('PROBE', rc, time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
-)
 
 
 def _clone_and_install(work: Path) -> tuple[Path, Path]:
@@ -79,18 +73,17 @@ def _clone_and_install(work: Path) -> tuple[Path, Path]:
 
 def _run_tier(clone: Path, venv: Path, args: list[str]) -> dict:
     load_before = os.getloadavg()[0]
+    log = clone.parent / "pytest.log"
     cmd = [str(venv / "bin" / "pytest"), "-p", "no:cacheprovider", *args]
-    proc = subprocess.run([sys.executable, "-c", _PROBE, str(clone), *cmd], capture_output=True, text=True)
-    probe = next((line for line in proc.stdout.splitlines() if line.startswith("PROBE")), None)
-    if probe is None:
-        raise RuntimeError(f"pytest did not run: {proc.stdout[-2000:]}{proc.stderr[-2000:]}")
-    _, rc, wall_s, peak_kib = probe.split()
-    closing = [line for line in proc.stdout.splitlines() if re.search(r"\d+ (passed|failed)", line)]
+    try:
+        wall_s, peak_mib = run_measured(cmd, stdout=log, cwd=clone)
+    except subprocess.CalledProcessError:  # a failing tier is no figure: say what failed
+        sys.exit(f"bench_tests: pytest {' '.join(args)} failed:\n{log.read_text()[-3000:]}")
+    closing = [line for line in log.read_text().splitlines() if re.search(r"\d+ (passed|failed)", line)]
     return {
         "command": " ".join(["pytest", *args]),
-        "exit_code": int(rc),
-        "wall_s": round(float(wall_s), 1),
-        "peak_mib": round(int(peak_kib) / 1024.0),
+        "wall_s": round(wall_s, 1),
+        "peak_mib": round(peak_mib),
         "pytest_summary": closing[-1].strip("= ") if closing else None,
         "load_1min_before": round(load_before, 2),
         "load_1min_after": round(os.getloadavg()[0], 2),
@@ -112,8 +105,7 @@ def main(argv=None) -> int:
             tier_args = [] if tier == "fast" else ["-m", "slow", "-n", str(args.workers)]
             tiers[tier] = _run_tier(clone, venv, tier_args)
     # the long tier keeps every core busy: the load it leaves is its own
-    emit(tiers, args, __file__, argv, threads=1 if args.tier == "fast" else os.cpu_count() or 1)
-    return 0 if all(t["exit_code"] == 0 for t in tiers.values()) else 1
+    return emit(tiers, args, __file__, argv, threads=1 if args.tier == "fast" else os.cpu_count() or 1)
 
 
 if __name__ == "__main__":
