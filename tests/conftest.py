@@ -20,8 +20,6 @@ from hypothesis import settings
 
 ROOT = Path(__file__).resolve().parents[1]
 REINSTALL = '.venv/bin/pip install -e ".[test]" (the development loop) or README command 2'
-#: source folder -> the module it is installed as (pyproject.toml's [tool.setuptools] package-dir)
-HOMES = {"sizefx": "sizefx", "cli": "sizefx_cli", "data-schemas": "sizefx.schemas"}
 
 
 def _home_of(module: str) -> Path | None:
@@ -32,10 +30,10 @@ def _home_of(module: str) -> Path | None:
 
 
 def _installed_matches_source():
-    homes = {ROOT / src: _home_of(module) for src, module in HOMES.items()}
+    homes = {ROOT / src: _home_of(module) for src, module in INSTALLED_AS.items()}
     if all(home == src for src, home in homes.items()):
         return  # an editable install of this checkout: every edit is seen at once
-    missing = [module for (src, module) in zip(homes, HOMES.values()) if homes[src] is None]
+    missing = [module for (src, module) in zip(homes, INSTALLED_AS.values()) if homes[src] is None]
     if missing:
         pytest.exit(
             f"{', '.join(missing)} cannot be imported: sizefx is not installed in this environment; "
@@ -113,7 +111,7 @@ def pytest_terminal_summary(terminalreporter, config):
         )
 
 
-from support import long_tier_selected, real_data, write_raw  # noqa: E402  (numpy and h5py only: no sizefx before the check)
+from support import INSTALLED_AS, long_tier_selected, real_data, write_raw  # noqa: E402  (numpy and h5py only: no sizefx before the check)
 
 
 @pytest.fixture

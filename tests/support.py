@@ -17,6 +17,9 @@ import pytest
 #: The real recordings by others (../shared/data/real beside the checkout; read there, never
 #: copied): ``SIZEFX_REAL_DATA`` points elsewhere.
 REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
+#: Source folder -> the package it is installed as (pyproject.toml's [tool.setuptools] package-dir;
+#: tests/test_packaging.py checks the two agree).
+INSTALLED_AS = {"sizefx": "sizefx", "cli": "sizefx_cli", "data-schemas": "sizefx.schemas"}
 #: Set by .ci/run: a missing real data set fails the test instead of skipping it.
 REQUIRE_REAL = os.environ.get("SIZEFX_REQUIRE_REAL_DATA") == "1"
 

@@ -19,6 +19,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from support import INSTALLED_AS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -66,9 +67,9 @@ def wheel(tmp_path_factory) -> zipfile.ZipFile:
 
 def _expected() -> dict[str, Path]:
     """Installed path -> source file for every module and schema of the checkout."""
-    homes = {"sizefx": "sizefx", "cli": "sizefx_cli", "data-schemas": "sizefx/schemas"}
     want = {}
-    for src, home in homes.items():
+    for src, package in INSTALLED_AS.items():
+        home = package.replace(".", "/")
         for f in (ROOT / src).rglob("*"):
             if f.is_file() and f.suffix in (".py", ".json") and "__pycache__" not in f.parts:
                 want[f"{home}/{f.relative_to(ROOT / src).as_posix()}"] = f
@@ -133,7 +134,7 @@ def test_plain_install_has_every_library_the_package_imports(wheel):
 def _packages_in_the_tree() -> set[str]:
     """Every package of the checkout by its installed name: each folder with an ``__init__.py``."""
     found = set()
-    for src, home in {"sizefx": "sizefx", "cli": "sizefx_cli", "data-schemas": "sizefx.schemas"}.items():
+    for src, home in INSTALLED_AS.items():
         for init in (ROOT / src).rglob("__init__.py"):
             if "__pycache__" not in init.parts:
                 rel = init.parent.relative_to(ROOT / src).parts
@@ -161,7 +162,8 @@ def test_setup_py_discovers_every_package():
     assert discovered == _packages_in_the_tree()
     cfg = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert cfg["build-system"]["build-backend"] == "setuptools.build_meta"
-    assert cfg["tool"]["setuptools"]["package-dir"] == {"sizefx_cli": "cli", "sizefx.schemas": "data-schemas"}
+    renamed = {package: src for src, package in INSTALLED_AS.items() if package != src}
+    assert cfg["tool"]["setuptools"]["package-dir"] == renamed
 
 
 #: run in a fresh interpreter: the editable wheel's import finder first on sys.meta_path (ahead of
