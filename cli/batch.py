@@ -174,9 +174,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
     ]
 
     def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False, **options):
-        from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
-        from sizefx.batch.inputs import check_out_dir, pair_inputs
-        from sizefx.batch.manifest import canonical_options
+        from sizefx.batch import BatchJob, expand_inputs, output_names, run_batch
+        from sizefx.batch.inputs import check_out_dir, check_stage_options, pair_inputs
+        from sizefx.batch.manifest import Manifest, canonical_options
         from sizefx.batch.runner import local_workers, start_workers
         from sizefx.stage import preflight
 
@@ -194,8 +194,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
         # the workers start while the configs are built: the stage's code loads in both
         pool = None if scheduler else start_workers(name, local_workers(workers, len(records)), memory_mib)
         try:
-            previous = read_manifest(out, name) if out.exists() else None
-            entries = {e["input"]: e for e in (previous or {}).get("records", [])}
+            previous = Manifest(out, name)  # each record's entry, looked up as its job is made
             names = output_names(records)
             stage_options = canonical_options({**options, **({"plots": True} if plots and spec.plots else {})})
             jobs = []
@@ -218,8 +217,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 # once, before any work, and hashed with each record, so that a re-calibration into the
                 # same levers.json reruns the records
                 option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
-                if not jobs:
+                if not jobs:  # every record would refuse the same bad option: refused once, before any work
                     preflight(inputs=option_files, outputs={})
+                    check_stage_options(config)
                 jobs.append(
                     BatchJob(
                         name,
@@ -229,7 +229,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                         stage_options,
                         outputs,
                         str(out / f"{names[record]}.{name}.json") if spec.summary else None,
-                        entries.get(str(record)),
+                        previous.entry(str(record)),
                         redo,
                         {**option_files, **{spec.paired[param][0]: path for param, path in paired.items()}},
                     )

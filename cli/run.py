@@ -75,7 +75,7 @@ def _link(name: str, batch: bool) -> click.Command:
 def _checked(steps, out_dir, *, batch: bool):
     """The chain's stages and options, refused in one line before anything runs or is written when it
     cannot work; with the navigate FILE expanded to its flights in a batch."""
-    from sizefx.batch.inputs import check_out_dir, expand_inputs
+    from sizefx.batch.inputs import check_option_files, check_out_dir, expand_inputs
     from sizefx.chain import check_chain, check_truth
     from sizefx.errors import ConfigError
     from sizefx.stage import preflight
@@ -113,6 +113,7 @@ def _checked(steps, out_dir, *, batch: bool):
         "calibrate --nominal": _nominal_file(chain.get("calibrate", {}).get("nominal")),
     }
     preflight(inputs=given, outputs={})
+    check_option_files(given)  # --levers, --model: read once, before any stage runs
     if "compare" in chain and not chain["compare"].get("reference") and not batch:
         check_truth(nav["file"])  # in a batch each flight is checked in its own record
     out = check_out_dir(
@@ -265,16 +266,15 @@ def batch_run(**_):
 
 @batch_run.result_callback()
 def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_progress, plots, quiet):
-    from sizefx.batch import read_manifest
+    from sizefx.batch.manifest import Manifest
     from sizefx.batch.runner import dask_client
 
     names, chain, nav, flights, out = _checked(steps, out_dir, batch=True)
-    previous = read_manifest(out, "run") if out.exists() else None
-    entries = {e["input"]: e for e in (previous or {}).get("records", [])}
+    previous = Manifest(out, "run")  # each flight's entry, looked up as its job is made
     client = dask_client(scheduler) if scheduler else None  # refused before calibrate runs or anything is written
     try:
         result = _batch_chain(
-            chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
+            chain, nav, flights, out, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
         )
     finally:
         if client is not None:
@@ -284,57 +284,69 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
         sys.exit(1)
 
 
-def _batch_chain(
-    chain, nav, flights, out, entries, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
-):
+def _batch_chain(chain, nav, flights, out, previous, client, workers, memory_mib, redo, json_progress, plots, quiet):
     """calibrate once into ``out`` (if in the chain), then the chain per flight as a batch."""
     from sizefx import chain as chain_stage
     from sizefx.batch import BatchJob, output_names, run_batch
+    from sizefx.batch.inputs import make_out_dir
     from sizefx.batch.manifest import canonical_options
-    from sizefx.batch.runner import folder_lock
+    from sizefx.batch.runner import check_batch_writes, folder_lock
+    from sizefx.chain import RUN_MANIFEST
 
-    out.mkdir(exist_ok=True)
+    levers = str(out / "levers.json") if "calibrate" in chain else nav.get("levers")
+    # the flights' options (each stage's, flattened: the manifest compares them as JSON)
+    options = canonical_options(
+        {
+            f"{stage}.{k}": v
+            for stage, opts in chain.items()
+            if stage != "calibrate"
+            for k, v in opts.items()
+            if not (stage == "navigate" and k == "file")
+        }
+    )
+    flight_names = output_names(flights)
+    jobs = []
+    for flight in flights:
+        folder = out / flight_names[flight]
+        config = chain_stage.ChainConfig(
+            tuple(_flight_steps(chain, nav, flight, levers, folder, plots)),
+            str(folder),
+            truth=str(flight) if "compare" in chain and not chain["compare"].get("reference") else None,
+        )
+        # the files the chain reads besides the flight (the lever arms, a --model, compare's
+        # --reference) are hashed with it: a new calibration reruns the flights
+        jobs.append(
+            BatchJob(
+                "run",
+                str(flight),
+                flight_names[flight],
+                config,
+                options,
+                {"folder": str(folder)},
+                previous=previous.entry(str(flight)),
+                redo=redo,
+                paired={k: str(v) for k, v in config.inputs().items() if str(v) != str(flight)},
+            )
+        )
+    # calibrate's files are the chain's own: no flight's folder may take their names, and nothing is
+    # written (calibrate neither) before every path is checked
+    own = (
+        {
+            "levers.json": "calibrate's lever arms",
+            "calibrate.png": "calibrate's plot",
+            RUN_MANIFEST: "calibrate's run.json",
+        }
+        if "calibrate" in chain
+        else {}
+    )
+    check_batch_writes(out, jobs, own)
+    make_out_dir(out)
     with folder_lock(out):
-        levers = nav.get("levers")
         if "calibrate" in chain:
-            step, levers = _calibrate_step(chain, out, plots)
+            step, _ = _calibrate_step(chain, out, plots)
             chain_stage.run(
                 chain_stage.ChainConfig((step,), str(out)),
                 echo=None if quiet else (lambda title, text: click.echo(f"{title}\n{text}")),
-            )
-        # the flights' options (each stage's, flattened: the manifest compares them as JSON)
-        options = canonical_options(
-            {
-                f"{stage}.{k}": v
-                for stage, opts in chain.items()
-                if stage != "calibrate"
-                for k, v in opts.items()
-                if not (stage == "navigate" and k == "file")
-            }
-        )
-        flight_names = output_names(flights)
-        jobs = []
-        for flight in flights:
-            folder = out / flight_names[flight]
-            config = chain_stage.ChainConfig(
-                tuple(_flight_steps(chain, nav, flight, levers, folder, plots)),
-                str(folder),
-                truth=str(flight) if "compare" in chain and not chain["compare"].get("reference") else None,
-            )
-            # the files the chain reads besides the flight (the lever arms, a --model, compare's
-            # --reference) are hashed with it: a new calibration reruns the flights
-            jobs.append(
-                BatchJob(
-                    "run",
-                    str(flight),
-                    flight_names[flight],
-                    config,
-                    options,
-                    {"folder": str(folder)},
-                    previous=entries.get(str(flight)),
-                    redo=redo,
-                    paired={k: str(v) for k, v in config.inputs().items() if str(v) != str(flight)},
-                )
             )
         return run_batch(
             "run",
@@ -348,6 +360,7 @@ def _batch_chain(
             plots=plots,
             memory_mib=memory_mib,
             locked=True,
+            own=own,
         )
 
 

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import ConfigError
+from .errors import ConfigError, SizefxError
 from .io.documents import write_json
 from .io.schema import as_json, check_document
 
@@ -35,6 +36,7 @@ __all__ = [
     "ChainResult",
     "run",
     "check_truth",
+    "check_inputs",
     "chain_folder",
 ]
 
@@ -151,6 +153,7 @@ def run(config: ChainConfig, *, echo=None) -> ChainResult:
 
     if config.truth is not None:
         check_truth(config.truth)
+    check_inputs(config)
     out = Path(config.out_dir)
     out.mkdir(exist_ok=True)
     result = ChainResult(out_dir=str(out))
@@ -179,21 +182,43 @@ def run(config: ChainConfig, *, echo=None) -> ChainResult:
 @contextlib.contextmanager
 def chain_folder(out_dir):
     """``out_dir``, made if new and locked (:func:`sizefx.batch.runner.folder_lock`) while a chain writes
-    there. A chain refused before any step wrote anything (its first stage refused the record) leaves no
-    folder of its own making behind: bad input leaves nothing."""
+    there. A chain refused (a step's input or option, however late in the chain) leaves no folder of
+    its own making behind: bad input leaves nothing."""
+    from .batch.inputs import make_out_dir
     from .batch.runner import LOCK_NAME, folder_lock
 
     out = Path(out_dir)
     fresh = not out.exists()
-    out.mkdir(exist_ok=True)
+    make_out_dir(out)
     try:
         with folder_lock(out):
             yield out
+    except SizefxError:
+        if fresh:  # refused (a step's input, checked only when the step reads it): the folder was ours alone
+            shutil.rmtree(out, ignore_errors=True)
+        raise
     except BaseException:
         if fresh and [p.name for p in out.iterdir()] == [LOCK_NAME]:
             (out / LOCK_NAME).unlink()
             out.rmdir()
         raise
+
+
+def check_inputs(config: ChainConfig) -> None:
+    """Every file the chain reads that no step of it writes, checked before the first step writes
+    anything: records (``.h5``) as far as their structure (HDF5, root attributes, groups, the IMU
+    form: :func:`sizefx.io.contract.open_structure`), lever-arm and model files read in full
+    (:func:`sizefx.batch.inputs.check_option_files`). A step's own deeper checks (the samples) still
+    come when it reads them; a chain refused then leaves nothing behind (:func:`chain_folder`)."""
+    from .batch.inputs import RECORD_SUFFIXES, check_option_files
+    from .io.contract import open_hdf5, open_structure
+
+    files = config.inputs()
+    for path in files.values():
+        if Path(path).suffix.lower() in RECORD_SUFFIXES:
+            with open_hdf5(Path(path), "convert it with sizefx import") as h5:
+                open_structure(Path(path), h5, allow_gaps=True, check_plausibility=False)
+    check_option_files(files)
 
 
 def check_truth(path) -> None:

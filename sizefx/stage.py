@@ -26,7 +26,7 @@ from os import PathLike
 from pathlib import Path
 
 from .errors import ConfigError
-from .io.files import check_output_folder, check_outputs
+from .io.files import check_output_folder, check_outputs, regular_file
 
 __all__ = ["preflight", "helper_threads", "use_helper_threads"]
 
@@ -61,7 +61,7 @@ def preflight(
     """Refuse, before any work, what would fail later or destroy something.
 
     ``inputs`` and ``outputs`` map the option that named each file to its path (None: not
-    given). Every input must be an existing file. Every output must be new (or ``force``),
+    given). Every input must be an existing regular file (not a FIFO or a device). Every output must be new (or ``force``),
     writable, in an existing folder, distinct from the other outputs and from every input,
     also through links (:func:`sizefx.io.files.check_outputs`). ``folders`` maps an option to
     an output folder (``--plots``): an existing folder, or a new one in an existing, writable
@@ -70,10 +70,9 @@ def preflight(
     """
     given = {opt: Path(p) for opt, p in inputs.items() if p is not None and str(p) != ""}
     for opt, path in given.items():
-        if not path.exists():
-            raise ConfigError(f"{path}: {opt}: no such file; check the path")
         if path.is_dir():
             raise ConfigError(f"{path}: {opt}: is a directory; give a file")
+        regular_file(path, opt)  # a FIFO or a device would block or never end: refused before it is opened
     for opt, folder in (folders or {}).items():
         if folder is not None and str(folder) != "":
             check_output_folder(folder, option=opt, inputs=list(given.values()))

@@ -98,7 +98,7 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
         (["calibrate", "{turntable}", "navigate", "{missing}", "compare"], "no such file"),
         (["calibrate", "{turntable}", "navigate", "{flight}", "navigate", "{flight}"], "each stage once"),
         (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
-        (["navigate", "--levers", "{turntable}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
+        (["navigate", "--levers", "{levers}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
         (["--no-out", "compare"], "nothing to compare"),
         (["navigate", "--levers", "{levers}", "{no_truth}", "compare"], "has no /reference/position"),
     ],
@@ -125,10 +125,11 @@ def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path,
         "missing_levers": tmp_path / "nope.json",
         "not_hdf5": tmp_path / "notes.txt",
     }
-    if "{no_truth}" in chain:
-        names["no_truth"] = _without_truth(flight, tmp_path / "no-truth.h5")
+    if "{levers}" in chain:
         names["levers"] = tmp_path / "levers.json"
         write_levers(names["levers"], levers_from_preset("high-precision"))
+    if "{no_truth}" in chain:
+        names["no_truth"] = _without_truth(flight, tmp_path / "no-truth.h5")
     out = tmp_path / "out"
     given = [a.format(**names) for a in chain]
     result = _run(*given[1:]) if given[0] == "--no-out" else _run("--out", out, *given)

@@ -5,18 +5,20 @@ command runs (its config, built by the command line from the same options, and t
 ``run``), in warm worker processes, into one folder with a manifest:
 
 - :mod:`.inputs`: files, folders and globs expanded to records, checked (unreadable folders,
-  duplicates, an output folder inside an input folder: one line, nothing written), and the
-  name each record's outputs get in the folder.
-- :mod:`.manifest`: ``DIR/manifest.json`` (``sizefx/batch/1``): per record the input and its
-  SHA-256, the options, the outputs and theirs, the status (ok / refused with its one-line
-  reason / failed), duration, peak memory and headline figures; written atomically after each
-  record, so an interrupted campaign continues where it stopped (a record whose input hash,
-  options and outputs match is skipped).
+  duplicates, an output folder inside an input folder, anything but a regular file: one line,
+  nothing written), the name each record's outputs get in the folder, and the check that no path
+  the batch writes is one of its inputs.
+- :mod:`.manifest`: ``DIR/manifest.sqlite``, the store of each record's entry (the input and its
+  SHA-256, the options, the outputs and theirs, the status: ok / refused with its one-line reason /
+  failed, duration, peak memory and headline figures), one committed row per record, so that an
+  interrupted campaign continues where it stopped (a record whose input hash, options and outputs
+  match is skipped); and ``DIR/manifest.json`` (``sizefx/batch/1``), the same as one document,
+  written when the batch ends.
 - :mod:`.runner`: the work in ``workers`` processes (the Numba kernels load from the on-disk
   cache once per process); one bad record never stops the others.
 
 The outputs of a record do not depend on the number of workers or the order: each record is
-the stage run on it alone, and the manifest lists the records in input order.
+the stage run on it alone, and the manifest lists the records sorted by input path.
 """
 
 from __future__ import annotations

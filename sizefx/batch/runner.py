@@ -16,11 +16,16 @@ they see them; a worker lost with a record is replaced and the record run again.
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import errno
 import fcntl
 import importlib
 import multiprocessing
 import os
 import resource
+import signal
+import stat
+import sys
 import threading
 import time
 import uuid
@@ -32,14 +37,14 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
 from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
-from ..io.files import remove_stale_temporaries, sha256_of
+from ..io.files import file_kind, remove_stale_temporaries, remove_stale_temporaries_below, sha256_of
 from ..io.schema import as_json
 from ..stage import use_helper_threads
 from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
-from .manifest import BATCH_SCHEMA, reusable, write_manifest
+from .inputs import check_writes, make_out_dir
+from .manifest import MANIFEST_NAME, STORE_FILES, Manifest, reusable
 
 __all__ = [
     "BatchJob",
@@ -55,6 +60,8 @@ __all__ = [
     "default_memory_mib",
     "LOCK_NAME",
     "MEMORY_SHARE",
+    "OWN_FILES",
+    "check_batch_writes",
 ]
 
 #: The stages a batch runs: the module whose ``run(config)`` is the stage (the same the single-file
@@ -330,7 +337,8 @@ def _work(job: BatchJob) -> RecordOutcome:
         paired = _paired_hashes(job.paired)
         try:
             entry["sha256"] = sha256_of(job.input)
-            if reusable(job.previous, entry["sha256"], job.options, paired):
+            expected = {**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})}
+            if reusable(job.previous, entry["sha256"], job.options, paired, expected):
                 return RecordOutcome(job.previous, reused=True)
         except OSError:  # the input (or an output) cannot be read now: the stage runs and says why
             entry["sha256"] = ""
@@ -372,9 +380,38 @@ def _work(job: BatchJob) -> RecordOutcome:
 # --------------------------------------------------------------------------- in the parent
 
 
-def _start_worker(memory_mib: float | None, helpers: bool, module: str | None) -> None:
-    """A worker's start: its memory bound, whether its stages may run helper threads, and the
-    stage's code imported (NumPy, Numba, h5py: most of a worker's start-up)."""
+#: Seconds between a worker's looks at its parent where the system cannot signal a parent's death.
+PARENT_POLL_S = 0.5
+
+
+def _die_with_parent(parent: int) -> None:
+    """End this worker the moment the batch's process ``parent`` ends, however it ends (``kill -9``
+    included), so that no worker outlives its batch or writes after it. Linux: the kernel sends
+    SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread looks
+    every :data:`PARENT_POLL_S`. A parent already gone (before the call) ends the worker at once."""
+    armed = False
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            armed = libc.prctl(1, signal.SIGKILL, 0, 0, 0) == 0  # 1: PR_SET_PDEATHSIG
+    if os.getppid() != parent:
+        os._exit(1)
+    if not armed:
+
+        def watch():
+            while os.getppid() == parent:
+                time.sleep(PARENT_POLL_S)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True, name="sizefx-parent-watch").start()
+
+
+def _start_worker(memory_mib: float | None, helpers: bool, module: str | None, parent: int | None = None) -> None:
+    """A worker's start: it dies with ``parent`` (:func:`_die_with_parent`), its memory bound,
+    whether its stages may run helper threads, and the stage's code imported (NumPy, Numba, h5py:
+    most of a worker's start-up)."""
+    if parent is not None:
+        _die_with_parent(parent)
     _bound_memory(memory_mib)
     use_helper_threads(helpers)
     if module is not None:
@@ -398,7 +435,7 @@ def _pool(workers: int, memory_mib: float | None, stage: str | None = None) -> P
         max_workers=workers,
         mp_context=multiprocessing.get_context("spawn"),
         initializer=_start_worker,
-        initargs=(memory_mib, helpers, STAGES.get(stage, stage) if stage else None),
+        initargs=(memory_mib, helpers, STAGES.get(stage, stage) if stage else None, os.getpid()),
     )
 
 
@@ -427,6 +464,7 @@ def _abandon(pool: ProcessPoolExecutor, jobs) -> None:
     for job in jobs:
         for path in [*job.outputs.values(), *([job.summary_path] if job.summary_path else [])]:
             remove_stale_temporaries(path)
+            remove_stale_temporaries_below(path)  # a folder output: a chain's, a stage's plots
 
 
 def available_cores() -> int:
@@ -467,15 +505,31 @@ def folder_lock(out_dir):
     """Hold ``out_dir``'s lock (an advisory ``flock`` on :data:`LOCK_NAME`) while a batch or a chain
     writes there: a second one given the same folder is refused in one line instead of interleaving
     its outputs and manifest with the first's. Released when the process ends, however it ends.
-    (``flock`` binds processes on one machine and on most local file systems; not across NFS clients.)"""
+    (``flock`` binds processes on one machine and on most local file systems; not across NFS clients.)
+
+    The lock file is opened without following a link (``O_NOFOLLOW``) and must be a regular file:
+    a link planted there (to a record, say) is refused, never written through; so are a folder, a
+    FIFO or a device of that name."""
     path = Path(out_dir) / LOCK_NAME
-    handle = open(path, "a+")
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC, 0o666)
+    except OSError as exc:
+        what = "a link" if exc.errno == errno.ELOOP else (exc.strerror or str(exc))
+        raise ConfigError(
+            f"{path}: the batch's lock file cannot be opened ({what}); remove it (sizefx makes its own)"
+        ) from None
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        raise ConfigError(
+            f"{path}: the batch's lock file is {file_kind(info.st_mode)}; remove it (sizefx makes its own)"
+        )
+    handle = os.fdopen(fd, "r+")
     try:
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            handle.seek(0)
-            holder = handle.read().strip() or "another process"
+            holder = handle.read(200).strip() or "another process"
             raise ConfigError(
                 f"{out_dir}: another sizefx batch or run is writing into this folder ({holder}); "
                 "wait for it to finish or give another --out"
@@ -555,7 +609,7 @@ def run_batch(
     options: dict,
     *,
     workers: int | None = None,
-    previous: dict | None = None,
+    previous: Manifest | None = None,
     progress=None,
     scheduler: str | None = None,
     plots: bool = False,
@@ -563,10 +617,12 @@ def run_batch(
     locked: bool = False,
     pool: ProcessPoolExecutor | None = None,
     client=None,
+    own: dict | None = None,
 ) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
-    finish. ``previous``: the folder's manifest, whose entries for other records are kept.
+    finish. ``previous``: the folder's manifest (:class:`.manifest.Manifest`, read by the caller to find
+    each job's ``previous`` entry; read here if not given), which keeps the other records' entries.
     ``progress(event)`` after each record: done, total, counts, rate, time left. ``plots``: also
     the headline figures across the records (:func:`.fleet.plot_fleet`). ``memory_mib``: each local
     worker's memory bound (default :func:`default_memory_mib`; a Dask cluster's workers have their
@@ -574,7 +630,10 @@ def run_batch(
     the caller holds its lock already (``locked``: ``sizefx batch run`` calibrates there first).
     ``pool``: the local workers, already started (:func:`start_workers`, with the same ``workers``
     and ``memory_mib``); ``client``: the Dask client of ``scheduler``, already connected
-    (:func:`dask_client`, by a caller that writes before the batch). Both are closed here in any case."""
+    (:func:`dask_client`, by a caller that writes before the batch). Both are closed here in any case.
+
+    Before anything is written, every path the jobs write is checked against every input and the
+    folder's own files (:func:`check_batch_writes`; ``own``: more of them, name -> what it is)."""
     try:
         if client is None and scheduler:
             client = dask_client(scheduler)  # refused before anything is written
@@ -582,7 +641,8 @@ def run_batch(
         if client is not None:
             workers = len(client.scheduler_info().get("workers", {})) or workers
         out_dir = Path(out_dir)
-        out_dir.mkdir(exist_ok=True)
+        check_batch_writes(out_dir, jobs, own)
+        make_out_dir(out_dir)
         with contextlib.nullcontext() if locked else folder_lock(out_dir):
             return _run_locked(
                 stage,
@@ -604,31 +664,48 @@ def run_batch(
             client.close()
 
 
+#: The files a batch keeps in its folder besides the records' outputs: name -> what it is.
+OWN_FILES = {
+    MANIFEST_NAME: "the batch's manifest",
+    **{name: "the batch's manifest store" for name in STORE_FILES},
+    LOCK_NAME: "the batch's lock file",
+    FLEET_PLOT: "the batch's figure across the records",
+}
+
+
+def check_batch_writes(out_dir, jobs: list[BatchJob], own: dict | None = None) -> None:
+    """Refuse in one line, before anything is written, a batch into ``out_dir`` that would write over an
+    input, over its own files (:data:`OWN_FILES`, and ``own``: name -> what it is) or one path twice
+    (:func:`.inputs.check_writes`)."""
+    out = Path(out_dir)
+    check_writes(out, jobs, {out / name: what for name, what in {**OWN_FILES, **(own or {})}.items()})
+
+
 def _run_locked(
     stage, jobs, out_dir, options, *, workers, previous, progress, client, plots, memory_mib, pool=None
 ) -> BatchResult:
-    kept = {e["input"]: e for e in (previous or {}).get("records", [])}
+    store = (previous if previous is not None else Manifest(out_dir, stage)).open_for_writing(options)
+    try:
+        return _run_stored(stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool)
+    finally:  # however the batch ends (short of SIGKILL): the JSON manifest of what is done
+        store.export(options)
+        store.close()
+
+
+def _run_stored(stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool):
     outcomes: dict[str, RecordOutcome] = {}
+    counts = {"ok": 0, "refused": 0, "failed": 0, "skipped": 0}
     t0 = time.perf_counter()
 
     def finished(job: BatchJob, outcome: RecordOutcome):
         outcomes[job.input] = outcome
-        kept[job.input] = outcome.entry
-        write_manifest(
-            out_dir,
-            {
-                "schema": BATCH_SCHEMA,
-                "stage": stage,
-                "sizefx_version": __version__,
-                "options": options,
-                "records": [kept[k] for k in sorted(kept)],
-            },
-        )
+        counts["skipped" if outcome.reused else outcome.status] += 1
+        if not outcome.reused:
+            store.record(outcome.entry, options)
         if progress is not None:
             done = len(outcomes)
             elapsed = time.perf_counter() - t0
             rate = done / elapsed if elapsed > 0 else 0.0
-            counts = BatchResult(stage, list(outcomes.values())).counts()
             progress(
                 {
                     "done": done,

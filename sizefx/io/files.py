@@ -22,10 +22,12 @@ import stat
 import tempfile
 from pathlib import Path
 
-from ..errors import Interrupted, OutputError
+from ..errors import ConfigError, Interrupted, OutputError
 
 __all__ = [
     "atomic_output",
+    "regular_file",
+    "file_kind",
     "check_output_path",
     "check_outputs",
     "check_output_folder",
@@ -34,6 +36,7 @@ __all__ = [
     "INTERRUPTED",
     "sha256_of",
     "remove_stale_temporaries",
+    "remove_stale_temporaries_below",
 ]
 
 #: Bytes of a file mapped (or read) and hashed at a time: a multiple of the page size.
@@ -71,6 +74,39 @@ def sha256_of(path, *, mapped: bool = True) -> str:
         while chunk := f.read(HASH_CHUNK_BYTES):
             digest.update(chunk)
     return digest.hexdigest()
+
+
+_KINDS = {
+    stat.S_IFDIR: "a folder",
+    stat.S_IFIFO: "a FIFO (named pipe)",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+}
+
+
+def file_kind(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, in words ("a FIFO (named pipe)"): for refusals."""
+    return _KINDS.get(stat.S_IFMT(mode), "not a regular file")
+
+
+def regular_file(path, what: str = "") -> Path:
+    """``path``, checked to be a regular file (links followed) that can be read: a FIFO, a device
+    or a socket would block a reader or never end, so it is refused in one line before anyone opens
+    it. ``what``: the option or argument that named it, for the message."""
+    path = Path(path)
+    label = f"{what}: " if what else ""
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: {label}no such file; check the path") from None
+    except OSError as exc:  # a link loop, a name too long, a folder on the way that cannot be searched
+        raise ConfigError(f"{path}: {label}cannot be read ({exc.strerror or exc}); check the path") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ConfigError(f"{path}: {label}is {file_kind(info.st_mode)}, not a regular file; give a file")
+    if not os.access(path, os.R_OK):
+        raise ConfigError(f"{path}: {label}cannot be read (permissions); fix them or leave it out")
+    return path
 
 
 def _require_writable_parent(out: Path) -> None:
@@ -210,6 +246,21 @@ def remove_stale_temporaries(out) -> None:
                 tmp.unlink()
         except OSError:
             pass  # alive, under another user
+
+
+def remove_stale_temporaries_below(folder) -> None:
+    """:func:`remove_stale_temporaries` for every output in ``folder`` and the folders below it (a
+    chain's folder, a plots folder: the outputs of a record that was stopped while writing there)."""
+    folder = Path(folder)
+    if not folder.is_dir() or folder.is_symlink():
+        return
+    for tmp in folder.rglob(".*.tmp"):
+        name = tmp.name[1:].split(".")
+        # .NAME.PID.RANDOM.tmp: the output's name is what comes before the pid (the random part may be
+        # digits too: every split is tried, and only a dead writer's file of that name is removed)
+        for k in range(1, len(name) - 1):
+            if name[k].isdigit():
+                remove_stale_temporaries(tmp.parent / ".".join(name[:k]))
 
 
 #: The errors of a write that ran out of room.
