@@ -192,7 +192,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
             [*records, *(p for pairs in partners.values() for p in pairs.values())],
         )
         # the workers start while the configs are built: the stage's code loads in both
-        pool = None if scheduler else start_workers(name, local_workers(workers, len(records)), memory_mib)
+        pool = None if scheduler is not None else start_workers(name, local_workers(workers, len(records)), memory_mib)
         try:
             previous = Manifest(out, name)  # each record's entry, looked up as its job is made
             names = output_names(records)

@@ -1,9 +1,12 @@
 """A stage for tests/test_fleet_safety.py: writes its worker's process id beside the record
-(RECORD.pid), then sleeps 30 s and only then writes RECORD.late: a worker that outlived its batch
-and went on writing would leave that file."""
+(RECORD.pid), sleeps as many seconds as the record file says (30 when it is empty), and only then
+writes RECORD.late as any stage writes an output (atomically): a worker that outlived its batch,
+or a Dask task its batch gave up, and went on writing would leave that file."""
 
 import os
 import time
+
+from sizefx.io.files import atomic_output
 
 
 class _Result:
@@ -14,6 +17,8 @@ class _Result:
 def run(config):
     with open(config + ".pid", "w") as f:
         f.write(str(os.getpid()))
-    time.sleep(30.0)
-    open(config + ".late", "w").close()
+    with open(config) as f:
+        time.sleep(float(f.read() or 30.0))
+    with atomic_output(config + ".late", force=True) as tmp:
+        open(tmp, "w").close()
     return _Result()

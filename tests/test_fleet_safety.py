@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sizefx.batch import BatchJob
+from sizefx.batch import BatchJob, run_batch
 from sizefx.batch.inputs import _glob, expand_inputs
 from sizefx.batch.manifest import Manifest, canonical_options
 from sizefx.batch.runner import LOCK_NAME, check_batch_writes
@@ -367,3 +367,108 @@ def test_a_store_killed_mid_write_is_read_by_the_next_run(tmp_path):
     check_document(doc, "sizefx/batch/1")
     assert len(doc["records"]) > 50 and doc["records"][0]["name"] == "again"
     store.close()
+
+
+# -- Dask like local ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "address, needle",
+    [
+        ("", "give a Dask scheduler's address"),
+        ("tcp://", "give a Dask scheduler's address"),
+        ("ucx://127.0.0.1:8786", "give a Dask scheduler's address"),
+        ("tcp://127.0.0.1:notaport", "not an address"),
+    ],
+)
+def test_a_scheduler_address_that_is_none_is_one_line_at_once(runs, tmp_path, address, needle):
+    out = tmp_path / "out"
+    _refused(_sizefx("batch", "inspect", runs, "--out", out, "--scheduler", address), needle)
+    assert not out.exists()
+
+
+def test_a_server_that_is_no_scheduler_is_one_line_within_seconds(runs, tmp_path, monkeypatch):
+    """A server that accepts the connection and then says nothing (as an HTTP server waits for its
+    request): refused after the connection's bound, not waited on for ever."""
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+
+    monkeypatch.setattr("sizefx.batch.runner.DASK_CONNECT_S", 0.5)
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    accepted = []
+    threading.Thread(target=lambda: accepted.append(server.accept()), daemon=True).start()
+    out = tmp_path / "out"
+    try:
+        address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+        _refused(
+            _sizefx("batch", "inspect", runs, "--out", out, "--scheduler", address), "cannot reach a Dask scheduler"
+        )
+    finally:
+        server.close()
+    assert not out.exists()
+
+
+def _sleep_jobs(folder, seconds: dict) -> list:
+    """A job of tests/batch_sleep_stage.py per name, on a record file that says how long it sleeps."""
+    jobs = []
+    for name, s in seconds.items():
+        (folder / f"{name}.h5").write_text(str(s))
+        jobs.append(BatchJob("batch_sleep_stage", str(folder / f"{name}.h5"), name, str(folder / f"{name}.h5"), {}, {}))
+    return jobs
+
+
+@pytest.fixture
+def one_worker_cluster():
+    """A Dask cluster on this machine: one worker process of two threads (two records at once)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as c:
+        yield c
+
+
+# long tier: a Dask cluster of its own and a record given up mid-way (8 s); fast twin:
+# test_the_workers_of_a_killed_batch_end_with_it (the local workers' promise)
+@pytest.mark.slow
+def test_a_stopped_dask_batch_writes_nothing_after_it(tmp_path, one_worker_cluster):
+    """Ctrl-C (raised by the progress callback after the first record): the task running on the cluster
+    is cancelled and its output discarded, not published after the batch has gone."""
+    jobs = _sleep_jobs(tmp_path, {"a": 0.1, "b": 3.0})
+
+    def interrupt(event):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(
+            "inspect", jobs, tmp_path / "out", {}, scheduler=one_worker_cluster.scheduler_address, progress=interrupt
+        )
+    deadline = time.monotonic() + 30.0
+    while not Path(f"{tmp_path}/b.h5.pid").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert Path(f"{tmp_path}/b.h5.pid").exists()  # b was running beside a when the batch stopped
+    time.sleep(4.0)  # longer than b sleeps: its output would be there by now
+    assert Path(f"{tmp_path}/a.h5.late").exists() and not Path(f"{tmp_path}/b.h5.late").exists()
+
+
+# long tier: a Dask cluster of its own, emptied mid-record (8 s); fast twin:
+# test_a_server_that_is_no_scheduler_is_one_line_within_seconds
+@pytest.mark.slow
+def test_a_cluster_that_loses_every_worker_fails_the_records_left(tmp_path, one_worker_cluster, monkeypatch):
+    monkeypatch.setattr("sizefx.batch.runner.DASK_NO_WORKERS_S", 2.0)
+    jobs = _sleep_jobs(tmp_path, {"a": 30.0, "b": 30.0})
+
+    def empty_the_cluster():
+        deadline = time.monotonic() + 30.0
+        while not Path(f"{tmp_path}/a.h5.pid").exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        one_worker_cluster.scale(0)
+
+    import threading
+
+    threading.Thread(target=empty_the_cluster, daemon=True).start()
+    result = run_batch("inspect", jobs, tmp_path / "out", {}, scheduler=one_worker_cluster.scheduler_address)
+    assert [o.status for o in result.outcomes] == ["failed", "failed"]
+    assert all("had no worker for 2 s" in o.entry["reason"] for o in result.outcomes)
+    doc = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert [e["status"] for e in doc["records"]] == ["failed", "failed"]

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
-from ..io.files import file_kind, remove_stale_temporaries, remove_stale_temporaries_below, sha256_of
+from ..io.files import ABANDONED, file_kind, remove_stale_temporaries, remove_stale_temporaries_below, sha256_of
 from ..io.schema import as_json
 from ..stage import use_helper_threads
 from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
@@ -315,8 +315,57 @@ class _Hashing(threading.Thread):
         return self.digest, self.paired_digests
 
 
+class _DaskWatch(threading.Thread):
+    """In a Dask worker: looks every :data:`DASK_WATCH_S` whether the task running this record is still
+    wanted (its batch cancels it when stopped, or its scheduler forgets it); once not, the thread
+    running the record is marked abandoned (:data:`sizefx.io.files.ABANDONED`) and its outputs are
+    discarded instead of published. Outside a Dask task it does nothing."""
+
+    def __init__(self):
+        super().__init__(daemon=True, name="sizefx-dask-watch")
+        self.owner, self.stopped = threading.get_ident(), threading.Event()
+        self.worker = self.key = None
+        with contextlib.suppress(Exception):  # not in a Dask task (a local worker): nothing to watch
+            from distributed import get_worker
+            from distributed.worker import thread_state
+
+            self.worker, self.key = get_worker(), thread_state.key
+        if self.worker is not None:
+            self.start()
+
+    def wanted(self) -> bool:
+        tasks = getattr(getattr(self.worker, "state", self.worker), "tasks", {})
+        task = tasks.get(self.key)
+        return task is not None and getattr(task, "state", "executing") not in ("cancelled", "released", "forgotten")
+
+    def run(self):
+        while not self.stopped.wait(DASK_WATCH_S):
+            if not self.wanted():
+                ABANDONED.add(self.owner)
+                return
+
+    def close(self):
+        self.stopped.set()
+        if self.is_alive():
+            self.join()  # at most one look: after it, the mark below cannot come back
+        ABANDONED.discard(self.owner)
+
+
+#: Seconds between a Dask task's looks at whether its batch still wants it.
+DASK_WATCH_S = 0.2
+
+
 def _work(job: BatchJob) -> RecordOutcome:
-    """Run one record (in a worker process); never raises for the record's own faults."""
+    """Run one record (in a worker process, or a Dask task: :class:`_DaskWatch`); never raises for the
+    record's own faults."""
+    watch = _DaskWatch()
+    try:
+        return _work_watched(job)
+    finally:
+        watch.close()
+
+
+def _work_watched(job: BatchJob) -> RecordOutcome:
     t0 = time.perf_counter()
     reset = _reset_peak_memory()
     entry: dict[str, Any] = {  # the record's manifest entry (a JSON object)
@@ -560,46 +609,122 @@ def _died(job: BatchJob, why: str) -> RecordOutcome:
     )
 
 
-#: Seconds to reach a Dask scheduler before the batch is refused.
+#: Seconds to reach a Dask scheduler, and to see a worker of its cluster, before the batch is refused.
 DASK_CONNECT_S = 5.0
+#: Seconds a cluster may be without any worker while records are left before the batch gives them up.
+DASK_NO_WORKERS_S = 30.0
+#: The address schemes of a Dask scheduler sizefx connects to.
+DASK_SCHEMES = ("tcp", "tls")
+
+
+def _scheduler_address(address: str) -> str:
+    """``address`` checked to be ``tcp://HOST:PORT`` or ``tls://HOST:PORT`` (a one-line refusal
+    otherwise: empty, another scheme, no host, no port)."""
+    from urllib.parse import urlsplit
+
+    text = (address or "").strip()
+    try:
+        parts = urlsplit(text)
+        port = parts.port
+    except ValueError as exc:
+        raise ConfigError(f"--scheduler {address!r}: not an address ({exc}); give tcp://HOST:PORT") from None
+    if parts.scheme not in DASK_SCHEMES or not parts.hostname or port is None or parts.path not in ("", "/"):
+        raise ConfigError(
+            f"--scheduler {address!r}: give a Dask scheduler's address, "
+            f"{' or '.join(f'{s}://HOST:PORT' for s in DASK_SCHEMES)} (as 'dask scheduler' prints it)"
+        )
+    return text
 
 
 def dask_client(address: str):
-    """A client of the Dask scheduler at ``address`` (``tcp://host:8786``), or a one-line
-    :class:`~sizefx.errors.ConfigError` when the ``distributed`` package is missing or the scheduler
-    cannot be reached in :data:`DASK_CONNECT_S`."""
+    """A client of the Dask scheduler at ``address`` (``tcp://host:8786``) whose cluster has a worker, or
+    a one-line :class:`~sizefx.errors.ConfigError` within about :data:`DASK_CONNECT_S` (twice, at most:
+    the connection, then the first worker): a malformed address, the ``distributed`` package missing,
+    nothing listening, something that is not a Dask scheduler (an HTTP server, a server sending
+    garbage), a cluster without workers."""
+    address = _scheduler_address(address)
     try:
         from distributed import Client
     except ImportError:
         raise ConfigError(
             f"--scheduler {address}: needs the 'distributed' package: pip install 'sizefx[dask]'"
         ) from None
-    try:
-        return Client(address, timeout=DASK_CONNECT_S, set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
+    box: dict = {}
+
+    def connect():  # in a thread of its own: a peer that never answers must not hold the batch
+        try:
+            box["client"] = Client(address, timeout=DASK_CONNECT_S, set_as_default=False)
+        except BaseException as exc:  # whatever the peer made the client raise: reported below
+            box["error"] = exc
+
+    thread = threading.Thread(target=connect, daemon=True, name="sizefx-dask-connect")
+    thread.start()
+    thread.join(DASK_CONNECT_S + 2.0)
+    if thread.is_alive() or "error" in box:
+        why = "no answer" if thread.is_alive() else _one_line(box["error"])
         raise ConfigError(
-            f"--scheduler {address}: cannot reach it ({_one_line(exc)}); start a scheduler there "
-            "(dask scheduler) or check the address"
+            f"--scheduler {address}: cannot reach a Dask scheduler there ({why}); start one (dask scheduler) "
+            "or check the address"
         ) from None
+    client = box["client"]
+    try:
+        client.wait_for_workers(1, timeout=DASK_CONNECT_S)
+    except Exception:
+        client.close()
+        raise ConfigError(
+            f"--scheduler {address}: the cluster has no worker (none joined in {DASK_CONNECT_S:g} s); "
+            "start workers (dask worker ADDRESS) or check the address"
+        ) from None
+    return client
 
 
 def _run_dask(client, jobs: list[BatchJob], finished) -> None:
     """Every job as a Dask task on ``client``'s cluster (the same :func:`_work`), finished as they come.
     A worker that dies with a record is replaced by its nanny and the record run again; a record that
     kills its worker more often than the scheduler allows (``distributed.scheduler.allowed-failures``,
-    3 by default) fails alone (``KilledWorker``)."""
+    3 by default) fails alone (``KilledWorker``). A cluster left without any worker for
+    :data:`DASK_NO_WORKERS_S` while records are left fails those records (each named in the
+    manifest) and ends the batch. Stopped (Ctrl-C, SIGTERM, an error here), the batch cancels every
+    task it sent before it exits."""
     from distributed import as_completed
 
     futures = {
         client.submit(_work, job, pure=False, key=f"sizefx-batch-{job.name}-{uuid.uuid4().hex}"): job for job in jobs
     }
-    for fut in as_completed(futures, loop=client.loop):  # not the default client's loop: there may be none
-        job = futures[fut]
-        try:
-            outcome = fut.result()
-        except Exception as exc:  # KilledWorker: the record took its worker down every time
-            outcome = _died(job, f"{type(exc).__name__}: {_one_line(exc)}")
-        finished(job, outcome)
+    done: set = set()
+    try:
+        pending = as_completed(futures, loop=client.loop)  # not the default client's loop: there may be none
+        alone_since = None
+        while len(done) < len(futures):
+            batch = pending.next_batch(block=False)
+            for fut in batch:
+                job = futures[fut]
+                try:
+                    outcome = fut.result()
+                except Exception as exc:  # KilledWorker: the record took its worker down every time
+                    outcome = _died(job, f"{type(exc).__name__}: {_one_line(exc)}")
+                done.add(fut)
+                finished(job, outcome)
+            if batch:
+                alone_since = None
+                continue
+            if client.scheduler_info().get("workers"):
+                alone_since = None
+            elif alone_since is None:
+                alone_since = time.monotonic()
+            elif time.monotonic() - alone_since > DASK_NO_WORKERS_S:
+                left = [f for f in futures if f not in done]
+                client.cancel(left, force=True)
+                for fut in left:
+                    finished(
+                        futures[fut],
+                        _died(futures[fut], f"the Dask cluster had no worker for {DASK_NO_WORKERS_S:g} s"),
+                    )
+                return
+            time.sleep(0.1)
+    except BaseException:
+        client.cancel([f for f in futures if f not in done], force=True)
+        raise
 
 
 def run_batch(
@@ -635,7 +760,7 @@ def run_batch(
     Before anything is written, every path the jobs write is checked against every input and the
     folder's own files (:func:`check_batch_writes`; ``own``: more of them, name -> what it is)."""
     try:
-        if client is None and scheduler:
+        if client is None and scheduler is not None:
             client = dask_client(scheduler)  # refused before anything is written
         workers = local_workers(workers, len(jobs))
         if client is not None:

@@ -18,8 +18,10 @@ import hashlib
 import mmap
 import os
 import resource
+import signal
 import stat
 import tempfile
+import threading
 from pathlib import Path
 
 from ..errors import ConfigError, Interrupted, OutputError
@@ -187,6 +189,12 @@ def _umask() -> int:
 INTERRUPTED: dict[str, int | None] = {"signum": None}
 
 
+#: The threads whose work was given up (a Dask task its batch cancelled, :mod:`sizefx.batch.runner`):
+#: an output they finish is discarded instead of published, so that nothing is written after the
+#: batch that wanted it has gone.
+ABANDONED: set[int] = set()
+
+
 def interrupt(signum: int, frame=None):
     """A signal handler (the command line installs it for SIGINT and SIGTERM): remember the signal,
     then raise :class:`~sizefx.errors.Interrupted`."""
@@ -311,6 +319,9 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp",
     if INTERRUPTED["signum"] is not None:  # a signal whose exception was swallowed: do not publish
         discard()
         raise Interrupted(INTERRUPTED["signum"])
+    if threading.get_ident() in ABANDONED:  # the work this thread does was given up by whoever asked for it
+        discard()
+        raise Interrupted(signal.SIGTERM)
     try:
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
