@@ -663,7 +663,7 @@ def dask_client(address: str):
     if thread.is_alive() or "error" in box:
         why = "no answer" if thread.is_alive() else _one_line(box["error"])
         raise ConfigError(
-            f"--scheduler {address}: cannot reach a Dask scheduler there ({why}); start one (dask scheduler) "
+            f"--scheduler {address}: cannot reach it ({why}); start a Dask scheduler there (dask scheduler) "
             "or check the address"
         ) from None
     client = box["client"]
