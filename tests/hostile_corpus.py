@@ -834,11 +834,141 @@ def write_corpus(root, *, bomb_rows: int = BOMB_ROWS, resource: bool = True) -> 
     cases += _output_cases(f)
     cases += _plot_cases(f)
     cases += numeric_option_cases(f)
+    cases += _fleet_cases(f)
     if resource:
         cases += resource_cases(f, bomb_rows=bomb_rows)
     names = [c.name for c in cases]
     assert len(names) == len(set(names)), "case names must be unique"
     return cases
+
+
+def _fleet_cases(f):
+    """The fleet commands (``sizefx batch``, ``sizefx batch run``, ``sizefx run``) against planted links,
+    files that never end, collisions with their own files, bad option files and scheduler addresses
+    (issue 28; docs/reliability.md, "Batches and chains"). Each case's inputs lie in its folder and
+    its ``--out`` beside them (watched: a refusal leaves it as it was, absent or empty)."""
+    out = []
+
+    def case(name, make, expect=REFUSE, resource=False):
+        d = f.new(name)
+        inputs = d / "in"
+        inputs.mkdir()
+        a, b = f.copy(inputs, "rec", "a.h5"), f.copy(inputs, "rec", "b.h5")
+        lev = f.copy(d, "levers")
+        dest = d / "out"
+        argv, names, kept = make(d, inputs, a, b, lev, dest)
+        out.append(
+            Case(
+                f"fleet-{name}", tuple(map(str, argv)), d, (a, b, lev, *kept), expect, tuple(map(str, names)), resource
+            )
+        )
+
+    def made(dest):
+        dest.mkdir()
+        return dest
+
+    def out_holds_records(d, inputs, a, b, lev, dest):  # the shell expanded d/*.h5 with --out d
+        shutil.copyfile(a, inputs / "a.compensated.h5")
+        argv = ("batch", "compensate", a, b, inputs / "a.compensated.h5", "--levers", lev, "--out", inputs)
+        return argv, ("--out holds the input",), (inputs / "a.compensated.h5",)
+
+    def output_links_to_input(d, inputs, a, b, lev, dest):
+        (made(dest) / "a.inspect.json").symlink_to(b)
+        return ("batch", "inspect", inputs, "--out", dest), ("would overwrite",), ()
+
+    def plant(name, how):
+        def make(d, inputs, a, b, lev, dest):
+            how(made(dest) / name, a)
+            return ("batch", "inspect", inputs, "--out", dest), (str(dest / name),), ()
+
+        return make
+
+    def scheduler(address):
+        def make(d, inputs, a, b, lev, dest):
+            return ("batch", "inspect", inputs, "--out", dest, "--scheduler", address), ("--scheduler",), ()
+
+        return make
+
+    def levers_file(make_file):
+        def make(d, inputs, a, b, lev, dest):
+            bad = make_file(d)
+            return ("batch", "navigate", inputs, "--levers", bad, "--out", dest), (str(bad),), ()
+
+        return make
+
+    def nan_levers(d):
+        p = d / "nan.json"
+        p.write_text(json.dumps({**_levers_doc(), "r_x": [float("nan"), 0.0, 0.0]}))
+        return p
+
+    def fifo(d):
+        os.mkfifo(d / "pipe.json")
+        return d / "pipe.json"
+
+    def record(path_of):
+        def make(d, inputs, a, b, lev, dest):
+            rec = path_of(d)
+            return ("batch", "inspect", rec, "--out", dest), (str(rec),), ()
+
+        return make
+
+    def fifo_record(d):
+        os.mkfifo(d / "pipe.h5")
+        return d / "pipe.h5"
+
+    def glob_link_loop(d, inputs, a, b, lev, dest):
+        (inputs / "deeper").mkdir()
+        (inputs / "deeper" / "up").symlink_to("..")
+        (inputs / "deeper" / "upup").symlink_to("../..")
+        return ("batch", "inspect", f"{inputs}/**/*.h5", "--out", dest, "--workers", "1"), (), ()
+
+    def out_loop(d, inputs, a, b, lev, dest):
+        (d / "l1").symlink_to(d / "l2")
+        (d / "l2").symlink_to(d / "l1")
+        return ("batch", "inspect", inputs, "--out", d / "l1"), ("--out",), ()
+
+    def flight_named_manifest(d, inputs, a, b, lev, dest):
+        shutil.copyfile(a, inputs / "manifest.json.h5")
+        argv = ("batch", "run", "--out", dest, "navigate", "--levers", lev, inputs)
+        return argv, ("manifest.json",), (inputs / "manifest.json.h5",)
+
+    def chain_bad_flight(d, inputs, a, b, lev, dest):
+        text = inputs / "flight.h5"
+        text.write_text("not a record")
+        return ("run", "--out", dest, "calibrate", a, "navigate", text, "compare"), (str(text),), (text,)
+
+    def garbage_store(d, inputs, a, b, lev, dest):
+        (made(dest) / "manifest.sqlite").write_text("not a database " * 100)
+        return ("batch", "inspect", inputs, "--out", dest), ("manifest.sqlite",), (dest / "manifest.sqlite",)
+
+    case("out-holds-records", out_holds_records)
+    case("output-links-to-input", output_links_to_input)
+    case("lock-link-to-record", plant(".sizefx.lock", lambda p, a: p.symlink_to(a)))
+    case("lock-dangling-link", plant(".sizefx.lock", lambda p, a: p.symlink_to(p.parent / "nowhere")))
+    case("lock-folder", plant(".sizefx.lock", lambda p, a: p.mkdir()))
+    case("lock-fifo", plant(".sizefx.lock", lambda p, a: os.mkfifo(p)), resource=True)
+    case("manifest-link-to-record", plant("manifest.json", lambda p, a: p.symlink_to(a)))
+    case("store-link-to-record", plant("manifest.sqlite", lambda p, a: p.symlink_to(a)))
+    case("store-garbage", garbage_store)
+    case("record-fifo", record(fifo_record), resource=True)
+    case("record-dev-zero", record(lambda d: Path("/dev/zero")), resource=True)
+    case("levers-dev-zero", levers_file(lambda d: Path("/dev/zero")), resource=True)
+    case("levers-fifo", levers_file(fifo), resource=True)
+    case("levers-nan", levers_file(nan_levers))
+    case("glob-link-loop", glob_link_loop, expect=ACCEPT, resource=True)
+    case("out-empty", lambda d, i, a, b, lev, dest: (("batch", "inspect", i, "--out", ""), ("--out",), ()))
+    case("out-link-loop", out_loop)
+    case(
+        "out-cannot-be-made",
+        lambda d, i, a, b, lev, dest: (("batch", "inspect", i, "--out", "/proc/nope"), ("--out",), ()),
+    )
+    case("run-flight-named-manifest", flight_named_manifest)
+    case("run-chain-bad-second-step", chain_bad_flight)
+    case("scheduler-empty", scheduler(""))
+    case("scheduler-ucx", scheduler("ucx://127.0.0.1:8786"))
+    case("scheduler-no-host", scheduler("tcp://"))
+    case("scheduler-unreachable", scheduler("tcp://127.0.0.1:9"), resource=True)
+    return out
 
 
 def _nav(rec, folder):

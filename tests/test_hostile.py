@@ -182,6 +182,11 @@ def test_corpus_covers_the_issue(corpus):
         "csv-reference-time-in-ms-read-as-s",
         "csv-site-deg-north-pole",
         "reference-position-lat-90",
+        "fleet-out-holds-records",
+        "fleet-lock-link-to-record",
+        "fleet-record-fifo",
+        "fleet-glob-link-loop",
+        "fleet-scheduler-unreachable",
     ):
         assert kind in names, f"the corpus lost its {kind!r} cases"
     assert sum(c.expect == hc.ACCEPT for c in cases.values()) >= 5
