@@ -58,15 +58,34 @@ def _batch(*args):
     return CliRunner().invoke(main, ["batch", *map(str, args)])
 
 
+# A batch run costs a second or so (its workers are spawned processes that import the stage's code):
+# where several tests read the same run, it is made once (module scope) and only read.
+
+
+@pytest.fixture(scope="module")
+def inspected(campaign, tmp_path_factory):
+    """``batch inspect`` of the campaign on two workers: its result (with the progress lines) and its folder."""
+    out = tmp_path_factory.mktemp("inspected") / "out"
+    return _batch("inspect", campaign, "--out", out, "--workers", "2"), out
+
+
+@pytest.fixture(scope="module")
+def navigated(campaign, tmp_path_factory):
+    """``batch navigate`` of the campaign on two workers: its folder."""
+    out = tmp_path_factory.mktemp("navigated") / "out"
+    result = _batch("navigate", campaign, "--out", out, "--workers", "2")
+    assert result.exit_code == 0, result.output
+    return out
+
+
 def _manifest(out):
     doc = json.loads((out / "manifest.json").read_text())
     check_document(doc, "sizefx/batch/1")
     return doc
 
 
-def test_inspect_batch_writes_one_output_per_record_and_a_manifest(campaign, tmp_path):
-    out = tmp_path / "out"
-    result = _batch("inspect", campaign, "--out", out, "--workers", "2")
+def test_inspect_batch_writes_one_output_per_record_and_a_manifest(inspected):
+    result, out = inspected
     assert result.exit_code == 0, result.output
     doc = _manifest(out)
     assert [e["name"] for e in doc["records"]] == ["run0", "run1", "run2"]
@@ -82,16 +101,17 @@ def test_rerun_skips_what_is_unchanged(campaign, tmp_path):
     runs = tmp_path / "runs"
     shutil.copytree(campaign, runs)
     out = tmp_path / "out"
-    assert _batch("inspect", runs, "--out", out).exit_code == 0
-    result = _batch("inspect", runs, "--out", out)
+    one = ("--workers", "1")  # each run starts its workers, even when it reuses every record
+    assert _batch("inspect", runs, "--out", out, *one).exit_code == 0
+    result = _batch("inspect", runs, "--out", out, *one)
     assert "0 ok, 3 unchanged" in result.output, result.output
     _record(runs / "run1.h5", seed=11)  # a changed input
     (out / "run2.inspect.json").unlink()  # a lost output
-    result = _batch("inspect", runs, "--out", out)
+    result = _batch("inspect", runs, "--out", out, *one)
     assert "2 ok, 1 unchanged" in result.output, result.output
     assert {e["name"]: e["sha256"] for e in _manifest(out)["records"]}["run1"] == sha256_of(runs / "run1.h5")
-    assert "3 ok, 0 unchanged" in _batch("inspect", runs, "--out", out, "--redo").output
-    result = _batch("inspect", runs, "--out", out, "--no-units-check")  # other options: run again
+    assert "3 ok, 0 unchanged" in _batch("inspect", runs, "--out", out, "--redo", *one).output
+    result = _batch("inspect", runs, "--out", out, "--no-units-check", *one)  # other options: run again
     assert "3 ok, 0 unchanged" in result.output, result.output
 
 
@@ -100,7 +120,7 @@ def test_one_bad_record_is_refused_alone(campaign, tmp_path):
     shutil.copytree(campaign, runs)
     (runs / "broken.h5").write_text("not HDF5")
     out = tmp_path / "out"
-    result = _batch("navigate", runs, "--out", out, "--workers", "2")
+    result = _batch("navigate", runs, "--out", out, "--workers", "1")
     assert result.exit_code == 1, result.output
     entries = {e["name"]: e for e in _manifest(out)["records"]}
     assert entries["broken"]["status"] == "refused" and "broken.h5" in entries["broken"]["reason"]
@@ -129,10 +149,9 @@ def _content(path):
     return found
 
 
-def test_outputs_do_not_depend_on_the_workers(campaign, tmp_path):
-    one, two = tmp_path / "one", tmp_path / "two"
+def test_outputs_do_not_depend_on_the_workers(campaign, navigated, tmp_path):
+    one, two = tmp_path / "one", navigated  # two workers there
     assert _batch("navigate", campaign, "--out", one, "--workers", "1").exit_code == 0
-    assert _batch("navigate", campaign, "--out", two, "--workers", "2").exit_code == 0
     for k in range(3):
         a, b = _content(one / f"run{k}.nav.h5"), _content(two / f"run{k}.nav.h5")
         assert a.keys() == b.keys()
@@ -152,14 +171,15 @@ def _crash_stage_jobs(folder, names):
 
 def test_a_worker_that_dies_takes_only_its_record(tmp_path):
     """A stage that kills its process on one record (tests/batch_crash_stage.py): that record is
-    failed, the others (in flight with it, or after it) are done."""
+    failed, the others (in flight with it, or after it) are done. (Each record the broken pool held
+    runs again alone in a fresh worker: one record after the crash, not two, saves a worker's start.)"""
     out = tmp_path / "out"
-    jobs = _crash_stage_jobs(tmp_path, ["a", "crash", "b", "c"])
+    jobs = _crash_stage_jobs(tmp_path, ["a", "crash", "b"])
     result = run_batch("inspect", jobs, out, {}, workers=2)
     status = {o.entry["name"]: o.status for o in result.outcomes}
-    assert status == {"a": "ok", "crash": "failed", "b": "ok", "c": "ok"}, status
+    assert status == {"a": "ok", "crash": "failed", "b": "ok"}, status
     assert "worker process died" in result.outcomes[1].entry["reason"]
-    assert [e["status"] for e in _manifest(out)["records"]] == ["ok", "ok", "ok", "failed"]  # by input path
+    assert [e["status"] for e in _manifest(out)["records"]] == ["ok", "ok", "failed"]  # by input path
 
 
 # long tier: a long batch with a crash (1.5 s); fast twin: test_a_worker_that_dies_takes_only_its_record
@@ -248,7 +268,7 @@ def test_compensate_batch_writes_each_record_compensated(campaign, tmp_path):
     levers = tmp_path / "levers.json"
     write_levers(levers, levers_from_preset("high-precision"))
     out = tmp_path / "out"
-    result = _batch("compensate", campaign, "--levers", levers, "--out", out, "-q")
+    result = _batch("compensate", campaign, "--levers", levers, "--out", out, "-q", "--workers", "1")
     assert result.exit_code == 0, result.output
     single = tmp_path / "single.h5"
     assert (
@@ -318,9 +338,9 @@ def test_outputs_do_not_depend_on_the_order_of_the_inputs(campaign, tmp_path):
     assert [e["name"] for e in _manifest(behind)["records"]] == ["run0", "run1", "run2"]
 
 
-def test_progress_off_a_terminal_is_a_plain_line_per_record(campaign, tmp_path):
+def test_progress_off_a_terminal_is_a_plain_line_per_record(inspected):
     """Not a terminal (as here): a line per record with the count, the record, the rate and the time left."""
-    result = _batch("inspect", campaign, "--out", tmp_path / "out", "--workers", "1")
+    result, _ = inspected
     assert result.exit_code == 0, result.output
     lines = [line for line in result.output.splitlines() if line.startswith("batch inspect: ") and "/3 " in line]
     assert [line.split()[2] for line in lines] == ["1/3", "2/3", "3/3"], result.output
@@ -329,10 +349,11 @@ def test_progress_off_a_terminal_is_a_plain_line_per_record(campaign, tmp_path):
 
 def test_a_record_beyond_the_memory_bound_fails_alone(tmp_path):
     """--memory-per-worker-mib: the record that needs more (4 GiB against 1 GiB) is failed with a
-    MemoryError that names the bound; the others, in the same warm workers, are done."""
+    MemoryError that names the bound; the others, in the same warm worker (one: b and c run in the
+    worker whose allocation failed), are done."""
     out = tmp_path / "out"
     jobs = _crash_stage_jobs(tmp_path, ["a", "hog", "b", "c"])
-    result = run_batch("inspect", jobs, out, {}, workers=2, memory_mib=1024)
+    result = run_batch("inspect", jobs, out, {}, workers=1, memory_mib=1024)
     status = {o.entry["name"]: o.status for o in result.outcomes}
     assert status == {"a": "ok", "hog": "failed", "b": "ok", "c": "ok"}, status
     reason = result.outcomes[1].entry["reason"]
@@ -365,14 +386,14 @@ def test_default_memory_bound_shares_the_machine():
 
 def test_a_folder_in_use_by_another_batch_is_refused(campaign, tmp_path):
     """Two batches into one folder at once: the second is refused in one line, exit 2, and writes
-    nothing; once the first is done the folder is free again."""
+    nothing; once the first is done the folder is free again. (One record: one worker to start.)"""
     out = tmp_path / "out"
     out.mkdir()
     with folder_lock(out):  # the first batch, still writing
-        result = _batch("inspect", campaign, "--out", out)
+        result = _batch("inspect", campaign / "run0.h5", "--out", out)
         _one_line_refusal(result, "another sizefx batch or run is writing into this folder (pid ")
         assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
-    assert _batch("inspect", campaign, "--out", out).exit_code == 0
+    assert _batch("inspect", campaign / "run0.h5", "--out", out).exit_code == 0
 
 
 def test_records_with_one_stem_get_names_of_their_folders(tmp_path):
@@ -460,9 +481,8 @@ def test_compare_pairs_each_solution_with_its_partner_and_reference(campaign, tm
 
 
 @pytest.mark.parametrize("case, needle", [("no-partner", "nothing for run2.nav.h5"), ("self", "compared with itself")])
-def test_compare_without_a_partner_is_one_line(campaign, tmp_path, case, needle):
-    plain = tmp_path / "plain"
-    assert _batch("navigate", campaign, "--out", plain, "-q").exit_code == 0
+def test_compare_without_a_partner_is_one_line(navigated, tmp_path, case, needle):
+    plain = navigated
     if case == "no-partner":
         other = tmp_path / "other"
         other.mkdir()
@@ -476,9 +496,10 @@ def test_compare_without_a_partner_is_one_line(campaign, tmp_path, case, needle)
     assert not out.exists()
 
 
-def test_a_folder_of_another_stage_is_refused(campaign, tmp_path):
-    out = tmp_path / "out"
-    assert _batch("inspect", campaign / "run0.h5", "--out", out).exit_code == 0
+def test_a_folder_of_another_stage_is_refused(campaign, inspected, tmp_path):
+    done, out = inspected[0], tmp_path / "out"
+    assert done.exit_code == 0, done.output
+    shutil.copytree(inspected[1], out)  # a folder batch inspect wrote
     _one_line_refusal(_batch("navigate", campaign / "run0.h5", "--out", out), "a batch of 'inspect'")
 
 
@@ -570,9 +591,9 @@ def cluster():
         yield c
 
 
-def test_dask_batch_gives_the_local_outputs(campaign, tmp_path, cluster):
-    local, remote = tmp_path / "local", tmp_path / "dask"
-    assert _batch("inspect", campaign, "--out", local).exit_code == 0
+def test_dask_batch_gives_the_local_outputs(campaign, inspected, tmp_path, cluster):
+    (local_result, local), remote = inspected, tmp_path / "dask"
+    assert local_result.exit_code == 0, local_result.output
     result = _batch("inspect", campaign, "--out", remote, "--scheduler", cluster.scheduler_address)
     assert result.exit_code == 0, result.output
     for k in range(3):
@@ -653,7 +674,7 @@ def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campa
 
     write_raw(runs / "tiny.h5", n=5, reference=False, mutate=reference)
     out = tmp_path / "out"
-    result = _batch("navigate", runs, "--out", out, "--plots", "--workers", "2")
+    result = _batch("navigate", runs, "--out", out, "--plots", "--workers", "1")
     assert result.exit_code == 1, result.output
     entries = {e["name"]: e for e in _manifest(out)["records"]}
     assert entries["tiny"]["status"] == "refused" and entries["tiny"]["outputs"] == {}

@@ -24,24 +24,21 @@ from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate
 from sizefx_cli.main import main
 
+#: The chains' records: what is tested is the plumbing (which stage gets which file and option, what
+#: is written where), not the accuracy, so short and at 200 Hz. The flight: a minute of alignment, no
+#: S-turns (FlightPlan's weave), 10 min, a little more than the shortest the plan then allows (571 s).
+RATE_HZ = 200.0
+TURNTABLE = TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1)
+FLIGHT = FlightPlan(duration_s=600.0, align_s=60.0, weave_deg=0.0)
+
 
 @pytest.fixture(scope="module")
 def records(tmp_path_factory):
-    """A short turntable record and the shortest flight the plan allows (27 min), both at 400 Hz."""
+    """A short turntable record (100 s) and a short flight (10 min)."""
     folder = tmp_path_factory.mktemp("chain")
     turntable, flight = folder / "turntable.h5", folder / "flight.h5"
-    simulate(
-        SimulateConfig(
-            "turntable",
-            str(turntable),
-            rate_hz=400.0,
-            seed=1,
-            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1),
-        )
-    )
-    simulate(
-        SimulateConfig("flight", str(flight), rate_hz=400.0, seed=2, plan=FlightPlan(duration_s=1620.0, align_s=162.0))
-    )
+    simulate(SimulateConfig("turntable", str(turntable), rate_hz=RATE_HZ, seed=1, plan=TURNTABLE))
+    simulate(SimulateConfig("flight", str(flight), rate_hz=RATE_HZ, seed=2, plan=FLIGHT))
     return turntable, flight
 
 
@@ -171,11 +168,18 @@ def flights(records, tmp_path_factory):
     folder = tmp_path_factory.mktemp("flights") / "flights"
     folder.mkdir()
     (folder / "day1.h5").write_bytes(flight.read_bytes())
-    simulate(
-        SimulateConfig(
-            "flight", str(folder / "day2.h5"), rate_hz=400.0, seed=3, plan=FlightPlan(duration_s=1620.0, align_s=162.0)
-        )
-    )
+    simulate(SimulateConfig("flight", str(folder / "day2.h5"), rate_hz=RATE_HZ, seed=3, plan=FLIGHT))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def one_flight(records, tmp_path_factory):
+    """A folder of one flight, the fixture's: enough for the chains refused before any stage runs
+    (``flights`` simulates a second one for the chains that run)."""
+    _, flight = records
+    folder = tmp_path_factory.mktemp("one-flight") / "flights"
+    folder.mkdir()
+    (folder / "day1.h5").write_bytes(flight.read_bytes())
     return folder
 
 
@@ -250,15 +254,7 @@ def test_batch_run_calibrates_once_and_chains_every_flight(records, flights, tmp
     again = _batch_run(*args)
     assert again.exit_code == 0 and "0 ok, 2 unchanged" in again.output, again.output
     turntable2 = tmp_path / "turntable2.h5"  # another calibration run: other noise, other arms
-    simulate(
-        SimulateConfig(
-            "turntable",
-            str(turntable2),
-            rate_hz=400.0,
-            seed=7,
-            plan=TurntablePlan(static_s=10.0, seconds_per_axis=20.0, cycles=1),
-        )
-    )
+    simulate(SimulateConfig("turntable", str(turntable2), rate_hz=RATE_HZ, seed=7, plan=TURNTABLE))
     other = _batch_run(*[turntable2 if a == turntable else a for a in args])
     assert other.exit_code == 0 and "2 ok, 0 unchanged" in other.output, other.output
 
@@ -293,8 +289,9 @@ def test_batch_run_a_flight_without_truth_is_refused_alone(records, flights, tmp
     ],
     ids=["no-flights", "one-solution", "glob-matches-nothing", "out-inside"],
 )
-def test_batch_chains_that_cannot_work_are_one_line(records, flights, tmp_path, chain, needle):
+def test_batch_chains_that_cannot_work_are_one_line(records, one_flight, tmp_path, chain, needle):
     turntable, _ = records
+    flights = one_flight
     out = flights / "out" if "--inside" in chain else tmp_path / "out"
     given = [
         a.format(turntable=turntable, flights=flights, nothing=tmp_path / "*.h5") for a in chain if a != "--inside"
@@ -307,7 +304,7 @@ def test_batch_chains_that_cannot_work_are_one_line(records, flights, tmp_path, 
     assert not out.exists()
 
 
-def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, flights, tmp_path, monkeypatch):
+def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, one_flight, tmp_path, monkeypatch):
     """The scheduler is reached before calibrate runs or the folder is made: one line, exit 2."""
     pytest.importorskip("distributed")
     # nothing listens on port 9: the wait for it is not what is tested (5 s by default)
@@ -315,7 +312,7 @@ def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, flights
     turntable, _ = records
     out = tmp_path / "out"
     result = _batch_run(
-        "--out", out, "--scheduler", "tcp://127.0.0.1:9", "calibrate", turntable, "navigate", flights, "compare"
+        "--out", out, "--scheduler", "tcp://127.0.0.1:9", "calibrate", turntable, "navigate", one_flight, "compare"
     )
     assert result.exit_code == 2, result.output
     assert len(result.output.strip().splitlines()) == 1 and "cannot reach it" in result.output, result.output
