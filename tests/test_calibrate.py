@@ -41,6 +41,13 @@ def turntable_h5(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def turntable_calibration(tmp_path_factory, turntable_h5):
+    """The calibration of turntable_h5 with its levers file, run once for the module: ``(result, path)``."""
+    out = tmp_path_factory.mktemp("cal") / "levers.json"
+    return calibrate_run(turntable_h5, json_path=out), out
+
+
+@pytest.fixture(scope="module")
 def one_axis_h5(tmp_path_factory):
     path = tmp_path_factory.mktemp("cal") / "one_axis.h5"
     simulate(
@@ -140,9 +147,8 @@ def test_preflight_bound_is_optimistic_and_close_on_the_papers_plan(turntable_h5
     assert preflight([turntable_h5])[0].samples == exc.samples
 
 
-def test_a_calibration_writes_its_levers_file(tmp_path, turntable_h5):
-    out = tmp_path / "levers.json"
-    res = calibrate_run(turntable_h5, json_path=out)
+def test_a_calibration_writes_its_levers_file(turntable_calibration):
+    res, out = turntable_calibration
     doc = json.loads(out.read_text())
     assert doc["schema"] == "sizefx/levers/1" and len(doc["r_x"]) == 3
     assert res.to_json()["levers"] == doc and res.report().endswith(f"lever arms -> {out}")
@@ -184,16 +190,14 @@ def test_slow_reference_gives_the_same_arms():
     assert np.abs(slerp.arms - full.arms).max() > 10 * full.sigma_arms.min()
 
 
-def test_a_record_with_declared_gaps_is_fitted_segment_by_segment(tmp_path):
+def test_a_record_with_declared_gaps_is_fitted_segment_by_segment(tmp_path, turntable_h5, turntable_calibration):
     """Issue 13, item 9: gaps an importer declared are a property of the record. Calibration
     estimates the angular acceleration within each continuous segment (never across a gap) and
-    fits the segments jointly; the arms agree with the gapless record's."""
-    from sizefx.io.telemetry import find_imu_gaps, write_telemetry
+    fits the segments jointly; the arms agree with the gapless record's (the module's turntable
+    record and its calibration)."""
+    from sizefx.io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 
-    fx = load_effects(overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}})
-    tel = simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], fx, form="rates", seed=5, rate_hz=400.0)
-    whole = tmp_path / "whole.h5"
-    write_telemetry(whole, tel)
+    tel = read_telemetry(turntable_h5)
     drop = np.r_[20_000:20_050, 50_000:50_007]  # two dropouts: 125 ms and 17.5 ms
     keep = np.setdiff1d(np.arange(tel.n_samples), drop)
     cut = replace(tel, time_s=tel.time_s[keep], gyro_rad_s=tel.gyro_rad_s[keep], accel_mps2=tel.accel_mps2[keep])
@@ -201,7 +205,7 @@ def test_a_record_with_declared_gaps_is_fitted_segment_by_segment(tmp_path):
     assert len(cut.gaps) == 2
     gappy = tmp_path / "gappy.h5"
     write_telemetry(gappy, cut)
-    ref = calibrate_run(whole).fit
+    ref = turntable_calibration[0].fit
     out = calibrate_run(gappy)  # declared: no --allow-gaps needed
     res = out.fit
     assert [r.name.split()[-1] for r in out.records] == ["1/3", "2/3", "3/3"]

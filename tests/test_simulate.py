@@ -302,9 +302,10 @@ def test_reference_delay_stamps_the_reference_late(z_plan_traj):
 def test_output_is_deterministic_and_independent_of_chunk_size(tmp_path, short_turntable_plan):
     traj, info = scenarios.turntable(short_turntable_plan)
     fx = load_effects()
-    a = simulate_to_file(traj, info, fx, tmp_path / "a.h5", seed=5, chunk_samples=1 << 16)
-    b = simulate_to_file(traj, info, fx, tmp_path / "b.h5", seed=5, chunk_samples=777)
-    c = simulate_to_file(traj, info, fx, tmp_path / "c.h5", seed=6)
+    # at 400 Hz: 16 001 samples, one chunk of 2^16 or 21 of 777 (at 1600 Hz: one or 83)
+    a = simulate_to_file(traj, info, fx, tmp_path / "a.h5", rate_hz=400.0, seed=5, chunk_samples=1 << 16)
+    b = simulate_to_file(traj, info, fx, tmp_path / "b.h5", rate_hz=400.0, seed=5, chunk_samples=777)
+    c = simulate_to_file(traj, info, fx, tmp_path / "c.h5", rate_hz=400.0, seed=6)
     ta, tb, tc = (read_telemetry(x.path) for x in (a, b, c))
     np.testing.assert_array_equal(ta.accel_mps2, tb.accel_mps2)
     np.testing.assert_array_equal(ta.gyro_rad_s, tb.gyro_rad_s)
@@ -312,8 +313,13 @@ def test_output_is_deterministic_and_independent_of_chunk_size(tmp_path, short_t
     assert np.abs(ta.accel_mps2 - tc.accel_mps2).max() > 0  # another seed, other noise
 
 
-def test_truth_is_stored_in_si(turntable_file):
-    tel = read_telemetry(turntable_file)
+def test_truth_is_stored_in_si(tmp_path, short_turntable_plan):
+    # the default effects (lever arms and noise), seed 0, as the full paper plan at 1600 Hz would
+    # store them (the session's turntable_file, 7.8 min of it): the truth written does not depend
+    # on the plan's length or the rate
+    path = tmp_path / "tt.h5"
+    run(SimulateConfig("turntable", path, plan=short_turntable_plan, rate_hz=400.0, seed=0))
+    tel = read_telemetry(path)
     fx = tel.simulation["effects"]
     assert fx["lever_arm"]["r_m"] == [[0.0249, 0, 0], [0, 0.0249, 0], [0, 0, 0.0249]]
     assert fx["gyro_noise"]["arw_rad_per_sqrt_s"] == pytest.approx(0.00035 * DEG / 60)
