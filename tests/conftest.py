@@ -126,16 +126,6 @@ def raw_file(tmp_path):
 
 
 @pytest.fixture(scope="session")
-def turntable_file(tmp_path_factory):
-    """The full paper turntable plan with default effects (lever arms + noise), seed 0."""
-    from sizefx.simulate import SimulateConfig, run
-
-    path = tmp_path_factory.mktemp("sim") / "turntable.h5"
-    run(SimulateConfig("turntable", path, seed=0))
-    return path
-
-
-@pytest.fixture(scope="session")
 def short_turntable_plan():
     """One axis (Z), one cycle: a 40 s record for quick checks."""
     from sizefx import scenarios

@@ -315,8 +315,7 @@ def test_output_is_deterministic_and_independent_of_chunk_size(tmp_path, short_t
 
 def test_truth_is_stored_in_si(tmp_path, short_turntable_plan):
     # the default effects (lever arms and noise), seed 0, as the full paper plan at 1600 Hz would
-    # store them (the session's turntable_file, 7.8 min of it): the truth written does not depend
-    # on the plan's length or the rate
+    # store them: the truth written does not depend on the plan's length or the rate
     path = tmp_path / "tt.h5"
     run(SimulateConfig("turntable", path, plan=short_turntable_plan, rate_hz=400.0, seed=0))
     tel = read_telemetry(path)
