@@ -55,16 +55,25 @@ def test_budget_search_beats_the_paper_in_its_time():
     assert design.plan.peak_rate_dps <= 20.0 and design.plan.accel_dps2 <= 10.0
 
 
-def test_least_time_search_is_minimal():
+def test_least_time_search_meets_its_target():
     target = 0.06
+    design = design_plan(PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target, static_s=10.0))
+    assert design.prediction.max_sigma_mm <= target
+
+
+# long tier: a search that needs two cycles (7 s of CPU); fast twin: test_least_time_search_meets_its_target
+@pytest.mark.slow
+def test_least_time_search_is_minimal():
+    # a target that one cycle cannot meet (0.06 mm was met by one, and then there is no fewer to try)
+    target = 0.05
     design = design_plan(PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target, static_s=10.0))
     p = design.plan
     assert design.prediction.max_sigma_mm <= target
+    assert p.cycles > 1, "the target must need more than one cycle for the check below to mean anything"
     fewer = scenarios.TurntablePlan(
         **{**p.__dict__, "cycles": p.cycles - 1, "seconds_per_axis": p.seconds_per_axis * (p.cycles - 1) / p.cycles}
     )
-    if p.cycles > 1:
-        assert predict(fewer, NOISE_UG).max_sigma_mm > target
+    assert predict(fewer, NOISE_UG).max_sigma_mm > target
 
 
 def test_two_axes_leave_arms_unobservable():
