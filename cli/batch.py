@@ -191,10 +191,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
             [*inputs, *(g for given in given_pairs.values() for g in given)],
             [*records, *(p for pairs in partners.values() for p in pairs.values())],
         )
-        # the workers start while the configs are built: the stage's code loads in both
-        pool = None if scheduler is not None else start_workers(name, local_workers(workers, len(records)), memory_mib)
+        previous = Manifest(out, name)  # each record's entry, looked up as its job is made
+        pool = None
         try:
-            previous = Manifest(out, name)  # each record's entry, looked up as its job is made
             names = output_names(records)
             stage_options = canonical_options({**options, **({"plots": True} if plots and spec.plots else {})})
             jobs = []
@@ -220,6 +219,8 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 if not jobs:  # every record would refuse the same bad option: refused once, before any work
                     preflight(inputs=option_files, outputs={})
                     check_stage_options(config)
+                    if scheduler is None:  # the workers start while the other configs are built
+                        pool = start_workers(name, local_workers(workers, len(records)), memory_mib)
                 jobs.append(
                     BatchJob(
                         name,

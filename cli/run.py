@@ -271,7 +271,9 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
 
     names, chain, nav, flights, out = _checked(steps, out_dir, batch=True)
     previous = Manifest(out, "run")  # each flight's entry, looked up as its job is made
-    client = dask_client(scheduler) if scheduler is not None else None  # refused before calibrate runs or anything is written
+    client = (
+        dask_client(scheduler) if scheduler is not None else None
+    )  # refused before calibrate runs or anything is written
     try:
         result = _batch_chain(
             chain, nav, flights, out, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
