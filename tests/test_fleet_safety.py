@@ -287,7 +287,7 @@ import sys
 from sizefx.batch import BatchJob, run_batch
 from sizefx.batch.manifest import Manifest, canonical_options
 jobs = [BatchJob("batch_sleep_stage", r, r, r, canonical_options({}), {}) for r in sys.argv[2:]]
-run_batch("batch_sleep_stage", jobs, sys.argv[1], {}, workers=len(jobs))
+run_batch("inspect", jobs, sys.argv[1], {}, workers=len(jobs))
 """
 
 
@@ -321,6 +321,17 @@ def test_the_workers_of_a_killed_batch_end_with_it(tmp_path):
             time.sleep(0.05)
         assert not any(_alive(w) for w in workers), "a worker outlived its batch"
         assert not any(Path(f"{r}.late").exists() for r in records)
+        # the next run reads what the killed one left and completes every record, each once
+        rerun = subprocess.run(
+            [sys.executable, "-c", _KILLED_BATCH, str(tmp_path / "out"), *map(str, records)],
+            env={**env, "SLEEP_STAGE_S": "0"},
+            timeout=120,
+        )
+        assert rerun.returncode == 0
+        doc = json.loads((tmp_path / "out" / "manifest.json").read_text())
+        assert [e["status"] for e in doc["records"]] == ["ok", "ok"]
+        assert all(Path(f"{r}.late").exists() for r in records)
+        assert not list((tmp_path / "out").glob(".*.tmp")) and not list(tmp_path.glob(".*.tmp"))
     finally:
         if parent.poll() is None:
             parent.kill()
@@ -403,9 +414,7 @@ def test_a_server_that_is_no_scheduler_is_one_line_within_seconds(runs, tmp_path
     out = tmp_path / "out"
     try:
         address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
-        _refused(
-            _sizefx("batch", "inspect", runs, "--out", out, "--scheduler", address), "cannot reach it (no answer)"
-        )
+        _refused(_sizefx("batch", "inspect", runs, "--out", out, "--scheduler", address), "cannot reach it (no answer)")
     finally:
         server.close()
     assert not out.exists()
