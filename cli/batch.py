@@ -175,10 +175,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
 
     def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False, **options):
         from sizefx.batch import BatchJob, expand_inputs, output_names, read_manifest, run_batch
-        from sizefx.batch.inputs import check_out_dir, pair_inputs
+        from sizefx.batch.inputs import check_option_files, check_out_dir, pair_inputs
         from sizefx.batch.manifest import canonical_options
         from sizefx.batch.runner import local_workers, start_workers
-        from sizefx.stage import preflight
 
         accepted = inspect.signature(module.config_of).parameters
         records = expand_inputs(inputs)
@@ -219,7 +218,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 # same levers.json reruns the records
                 option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
                 if not jobs:
-                    preflight(inputs=option_files, outputs={})
+                    check_option_files(option_files)
                 jobs.append(
                     BatchJob(
                         name,

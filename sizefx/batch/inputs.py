@@ -14,6 +14,7 @@ __all__ = [
     "check_out_dir",
     "record_key",
     "pair_inputs",
+    "check_option_files",
     "RECORD_SUFFIXES",
     "KEY_SUFFIXES",
 ]
@@ -160,3 +161,27 @@ def pair_inputs(records: list[Path], given, option: str) -> dict[Path, Path]:
         if p == r:
             raise ConfigError(f"{option}: {r} would be compared with itself; give the other solutions")
     return pairs
+
+
+def _option_readers() -> dict:
+    """Option -> the reader that owns its file (imported here: the readers load NumPy and the schemas)."""
+    from ..correct import load_model
+    from ..levers import nominal_levers, read_levers
+
+    return {"--levers": read_levers, "--nominal": nominal_levers, "--model": load_model}
+
+
+def check_option_files(option_files: dict) -> None:
+    """The files the options name (``{"--levers": path, ...}``, or a chain's ``{"navigate --levers":
+    path, ...}``), each read once by its own reader before any record runs: a missing, unreadable or
+    invalid one is the whole run's fault, refused in the reader's one line (ConfigError, exit 2)
+    instead of once per record. Other files (records, ``--against``, ``--reference``) are only
+    pre-flighted here; their contents are judged with their records."""
+    from ..stage import preflight
+
+    preflight(inputs=option_files, outputs={})
+    readers = _option_readers()
+    for option, path in option_files.items():
+        reader = readers.get(str(option).split()[-1]) if option else None
+        if reader is not None and path:
+            reader(path)
