@@ -193,8 +193,8 @@ class ImuSynthesizer:
         """``values`` [n, 3] on a grid of ``lsb_increment`` (an increment's step; rates: over dt).
 
         A step of 0 quantises nothing, as a noise density of 0 adds no noise (the contract allows
-        both, "not negative"). A step so fine that a value divided by it overflows is below the
-        float spacing of that value, where quantising changes nothing either: such values are
+        both, "not negative"). A step so fine that a value divided by it overflows is far below the
+        float spacing of that value, where quantising would change nothing either: such values are
         kept as they are instead of becoming inf and NaN.
         """
         if lsb_increment == 0.0:
