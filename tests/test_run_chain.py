@@ -98,7 +98,8 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
         (["calibrate", "{turntable}", "navigate", "{missing}", "compare"], "no such file"),
         (["calibrate", "{turntable}", "navigate", "{flight}", "navigate", "{flight}"], "each stage once"),
         (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
-        (["navigate", "--levers", "{turntable}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
+        # a good levers file: the chain reads it (sizefx.batch.inputs.check_option_files) before the flight
+        (["navigate", "--levers", "{levers}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
         (["--no-out", "compare"], "nothing to compare"),
         (["navigate", "--levers", "{levers}", "{no_truth}", "compare"], "has no /reference/position"),
     ],
@@ -127,6 +128,7 @@ def test_chains_that_cannot_work_are_refused_before_any_stage(records, tmp_path,
     }
     if "{no_truth}" in chain:
         names["no_truth"] = _without_truth(flight, tmp_path / "no-truth.h5")
+    if "{levers}" in chain:
         names["levers"] = tmp_path / "levers.json"
         write_levers(names["levers"], levers_from_preset("high-precision"))
     out = tmp_path / "out"
