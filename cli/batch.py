@@ -178,7 +178,6 @@ def _make(name: str, spec: _Stage) -> click.Command:
         from sizefx.batch.inputs import check_out_dir, check_stage_options, pair_inputs
         from sizefx.batch.manifest import Manifest, canonical_options
         from sizefx.batch.runner import local_workers, start_workers
-        from sizefx.stage import preflight
 
         accepted = inspect.signature(module.config_of).parameters
         records = expand_inputs(inputs)
@@ -217,8 +216,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 # same levers.json reruns the records
                 option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
                 if not jobs:  # every record would refuse the same bad option: refused once, before any work
-                    preflight(inputs=option_files, outputs={})
-                    check_stage_options(config)
+                    check_stage_options(config)  # its options, and its option files by their readers
                     if scheduler is None:  # the workers start while the other configs are built
                         pool = start_workers(name, local_workers(workers, len(records)), memory_mib)
                 jobs.append(

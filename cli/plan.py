@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from sizefx.constants import MAX_PLAN_S
+
 from .options import force_option, span
 
 
@@ -42,7 +44,12 @@ from .options import force_option, span
     help="Time to turn the next axis vertical [s].",
 )
 @click.option("--settle-s", default=10.0, show_default=True, type=span(0.1, 3600.0), help="Rest after each turn [s].")
-@click.option("--budget-s", type=span(1.0, 1e7), help="Time budget [s]: the plan with the smallest largest arm sigma.")
+@click.option(
+    "--budget-s",
+    type=span(1.0, MAX_PLAN_S),
+    help="Time budget [s]: the plan with the smallest largest arm sigma (at most the longest record "
+    "calibrate reads whole at 1600 Hz).",
+)
 @click.option(
     "--target-sigma-mm",
     type=span(0.0, 1000.0, low_open=True),

@@ -78,7 +78,6 @@ def _checked(steps, out_dir, *, batch: bool):
     from sizefx.batch.inputs import check_option_files, check_out_dir, expand_inputs
     from sizefx.chain import check_chain, check_truth
     from sizefx.errors import ConfigError
-    from sizefx.stage import preflight
 
     command = "sizefx batch run" if batch else "sizefx run"
     chain = dict(steps)
@@ -112,8 +111,7 @@ def _checked(steps, out_dir, *, batch: bool):
         "compare --reference": chain.get("compare", {}).get("reference"),
         "calibrate --nominal": _nominal_file(chain.get("calibrate", {}).get("nominal")),
     }
-    preflight(inputs=given, outputs={})
-    check_option_files(given)  # --levers, --model: read once, before any stage runs
+    check_option_files(given)  # the lever arms and the model read by their readers, too
     if "compare" in chain and not chain["compare"].get("reference") and not batch:
         check_truth(nav["file"])  # in a batch each flight is checked in its own record
     out = check_out_dir(

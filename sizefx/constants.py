@@ -54,3 +54,8 @@ METRES_PER_NMI = 1852.0
 #: bomb of that size) is refused before anything is read (docs/reliability.md has the memory this
 #: takes). Streamed commands (navigate, simulate) read in chunks and have no such limit.
 MAX_WHOLE_READ_ROWS = 12_000_000
+#: The longest calibration plan ``sizefx plan`` designs [s]: the plan is for one turntable record,
+#: which calibrate reads whole, at most :data:`MAX_WHOLE_READ_ROWS` rows: 7500 s at 1600 Hz, the
+#: rate sizefx simulate writes by default and the paper's (tests/test_consistent_inputs.py checks
+#: the two agree). A longer calibration is several records, each planned on its own.
+MAX_PLAN_S = 7500.0

@@ -19,13 +19,22 @@ from .geometry import PRESETS, preset_arms_m
 from .io.documents import read_json
 from .io.files import atomic_output
 from .io.schema import check_document, load_schema, validate_input
+from .sensor_model.table import MAX_AXES_CONDITION
 
 __all__ = ["Levers", "read_levers", "write_levers", "levers_from_preset", "nominal_levers", "LEVERS_SCHEMA"]
 
 LEVERS_SCHEMA = "sizefx/levers/1"
-#: A row of ``axes`` shorter than this is no direction (a typo, a zero row); rows are normalised,
-#: so any length near 1 is accepted.
-MIN_AXIS_NORM = 0.5
+#: Largest disagreement [m] accepted between ``r_i`` and ``offset + d_i`` (per component). A file
+#: sizefx writes carries 17 significant digits, so the two agree to 1e-14 m even 100 m out; one
+#: typed by hand in millimetres to three decimals (micrometres) agrees to 1.5 um (three roundings
+#: of 0.5 um). 10 um accepts both and is a third of the best arm sigma a calibration states
+#: (0.032 mm, docs/calibrate.md): a larger disagreement makes ``--mode center`` and ``--mode
+#: triad`` compensate two different geometries, and one of the two numbers is wrong.
+LEVER_CHAIN_TOLERANCE_M = 1e-5
+#: Largest departure of an ``axes`` row's length from 1. A unit vector typed with three decimals
+#: per component is within sqrt(3) * 0.5e-3 = 0.87e-3 of unit length (such rows are normalised);
+#: a row further off is not a rounded direction but a gain folded in, another unit, or a typo.
+AXIS_LENGTH_TOLERANCE = 1e-3
 
 
 @dataclass
@@ -111,27 +120,29 @@ def _parse(path: Path):
 def read_levers(path) -> Levers:
     """Read a ``sizefx/levers/1`` file, checked against ``data-schemas/levers-1.json`` (``jsonschema``).
 
+    Beyond the schema, the numbers must describe one geometry: ``r_i = offset + d_i`` within
+    :data:`LEVER_CHAIN_TOLERANCE_M`, and ``axes`` (when given) three unit rows (within
+    :data:`AXIS_LENGTH_TOLERANCE`, then normalised), independent (condition number under the
+    sensor model's :data:`~sizefx.sensor_model.table.MAX_AXES_CONDITION`), row i nearest body
+    axis +i (channel i of a record is accelerometer i).
+
     Raises
     ------
     ConfigError
         One line naming the file, the JSON path and the problem (a missing key, a vector
-        that is not 3 numbers, an unknown ``reference_point``, an axis that is no direction).
+        that is not 3 numbers, an unknown ``reference_point``, arms that disagree with their
+        offset, an axis that is no unit direction, axes that are dependent or out of order),
+        and how to fix it.
     """
     path = Path(path)
     doc = _parse(path)
     validate_input(doc, LEVERS_SCHEMA, path)
-    axes = np.asarray(doc.get("axes", np.eye(3)), dtype=float)
-    norms = np.linalg.norm(axes, axis=1)
-    if np.any(norms < MIN_AXIS_NORM):
-        i = int(np.argmin(norms))
-        raise ConfigError(
-            f"{path}: $.axes[{i}] has length {norms[i]:.3g}; axes are the sensitive directions "
-            "u_x, u_y, u_z, one unit vector per row"
-        )
+    axes = _checked_axes(path, np.asarray(doc.get("axes", np.eye(3)), dtype=float))
 
     def rows(prefix):
         return np.array([doc[f"{prefix}_{a}"] for a in "xyz"], dtype=float)
 
+    _check_chain(path, rows("r"), np.asarray(doc["offset"], dtype=float), rows("d"))
     sigma = None if any(doc[f"sigma_{a}"] is None for a in "xyz") else rows("sigma")
     known = set(load_schema(LEVERS_SCHEMA)["properties"])
     return Levers(
@@ -142,9 +153,56 @@ def read_levers(path) -> Levers:
         sigma=sigma,
         tilt_arcsec=doc["tilt_arcsec"],
         accel_delay_s=doc["accel_delay_s"],
-        axes=axes / norms[:, None],
+        axes=axes,
         extra={k: v for k, v in doc.items() if k not in known},
     )
+
+
+def _check_chain(path: Path, arms_total: np.ndarray, offset: np.ndarray, arms_triad: np.ndarray):
+    """Refuse arms ``r_i`` [3, 3] that are not ``offset + d_i`` within :data:`LEVER_CHAIN_TOLERANCE_M`."""
+    miss = arms_total - (offset + arms_triad)
+    i, j = np.unravel_index(int(np.argmax(np.abs(miss))), miss.shape)
+    if abs(miss[i, j]) > LEVER_CHAIN_TOLERANCE_M:
+        a = "xyz"[i]
+        raise ConfigError(
+            f"{path}: $.r_{a}[{j}] = {arms_total[i, j]:.9g} m disagrees with $.offset[{j}] + $.d_{a}[{j}] = "
+            f"{offset[j] + arms_triad[i, j]:.9g} m by {miss[i, j]:.3g} m (tolerance {LEVER_CHAIN_TOLERANCE_M:g} m); "
+            f"the contract has r_i = offset + d_i: correct r_{a}, offset or d_{a} so that they agree"
+        )
+
+
+def _checked_axes(path: Path, axes: np.ndarray) -> np.ndarray:
+    """``axes`` [3, 3] as unit rows, refused unless each row is a unit vector nearest its own body
+    axis and the three are independent (one line naming the row and the fix)."""
+    norms = np.linalg.norm(axes, axis=1)
+    off = np.abs(norms - 1.0)
+    i = int(np.argmax(off))
+    if off[i] > AXIS_LENGTH_TOLERANCE:
+        raise ConfigError(
+            f"{path}: $.axes[{i}] has length {norms[i]:.6g}, not 1 (tolerance {AXIS_LENGTH_TOLERANCE:g}); "
+            "axes are the sensitive directions u_x, u_y, u_z, one unit vector per row: write the direction "
+            "alone, normalised"
+        )
+    unit = axes / norms[:, None]
+    cond = np.linalg.cond(unit)
+    if not cond < MAX_AXES_CONDITION:
+        pairs = [(0, 1), (0, 2), (1, 2)]
+        angles = [np.degrees(np.arccos(min(1.0, abs(float(unit[a] @ unit[b]))))) for a, b in pairs]
+        k = int(np.argmin(angles))
+        a, b = pairs[k]
+        raise ConfigError(
+            f"{path}: $.axes are not three independent directions (condition number {cond:.3g}, limit "
+            f"{MAX_AXES_CONDITION:g}; $.axes[{a}] and $.axes[{b}] are {angles[k]:.3g} deg from parallel); "
+            "each row is the sensitive axis of its own accelerometer (x, y, z): give three that span space"
+        )
+    for i, u in enumerate(unit):
+        if not u[i] > np.max(np.abs(np.delete(u, i))):
+            raise ConfigError(
+                f"{path}: $.axes[{i}] = {[round(float(x), 6) for x in u]} is not nearest body axis +{'xyz'[i]}; "
+                f"row {i} is the sensitive axis of accelerometer {'xyz'[i]}, which a record's channel {i} reads "
+                f"along body axis +{'xyz'[i]}: give the rows in the order x, y, z, each along its own positive axis"
+            )
+    return unit
 
 
 def write_levers(path, levers: Levers, *, inputs=(), force: bool = False):

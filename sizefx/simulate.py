@@ -190,15 +190,27 @@ class ImuSynthesizer:
         return walk, walk[-1].copy()
 
     def _quantise(self, name: str, values: np.ndarray, lsb_increment: float):
-        if self.form == "rates":
-            lsb = lsb_increment / self.dt
-            return np.round(values / lsb) * lsb
-        # Counters carry the remainder: the sum of outputs tracks the true sum.
-        total = np.cumsum(np.vstack([self._carry[name], values]), axis=0)[1:]
-        counts = np.round(total / lsb_increment)
-        prev = np.vstack([np.round(self._carry[name] / lsb_increment), counts[:-1]])
-        self._carry[name] = total[-1]
-        return (counts - prev) * lsb_increment
+        """``values`` [n, 3] on a grid of ``lsb_increment`` (an increment's step; rates: over dt).
+
+        A step of 0 quantises nothing, as a noise density of 0 adds no noise (the contract allows
+        both, "not negative"). A step so fine that a value divided by it overflows is far below the
+        float spacing of that value, where quantising would change nothing either: such values are
+        kept as they are instead of becoming inf and NaN.
+        """
+        if lsb_increment == 0.0:
+            return values
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self.form == "rates":
+                lsb = lsb_increment / self.dt
+                out = np.round(values / lsb) * lsb
+            else:
+                # Counters carry the remainder: the sum of outputs tracks the true sum.
+                total = np.cumsum(np.vstack([self._carry[name], values]), axis=0)[1:]
+                counts = np.round(total / lsb_increment)
+                prev = np.vstack([np.round(self._carry[name] / lsb_increment), counts[:-1]])
+                self._carry[name] = total[-1]
+                out = (counts - prev) * lsb_increment
+        return np.where(np.isfinite(out), out, values)
 
     def _markov(self, n: int, density: float, correlation_s: float) -> np.ndarray:
         """The next ``n`` values [n, 3] of the first-order Gauss-Markov part of the accelerometer
@@ -301,6 +313,21 @@ class SimulateResult:
         return asdict(self)
 
 
+def _refuse_not_finite(out, effects: EffectModel, t, gyro, accel):
+    """The last guard of the contract (no NaN or inf in /imu): every in-range effect value is
+    meant to give finite readings (tests/test_consistent_inputs.py sweeps them); one that does
+    not is refused here, naming the effects, and the atomic writer leaves nothing behind."""
+    for name, values in (("gyro", gyro), ("accel", accel)):
+        bad = ~np.isfinite(values)
+        if np.any(bad):
+            k = int(np.argwhere(bad)[0][0])
+            raise ConfigError(
+                f"{out}: the effects ({effects.source}) make {name} readings that are not finite at "
+                f"t = {t[k]:.6g} s; nothing was written: choose smaller or other values (sizefx simulate "
+                "--print-effects lists every key and its range)"
+            )
+
+
 def simulate_to_file(
     traj: Trajectory,
     scenario_info: dict,
@@ -366,6 +393,7 @@ def simulate_to_file(
         done = 0
         while done < syn.n_samples:
             t, g, a = syn.next_chunk(chunk_samples)
+            _refuse_not_finite(out, effects, t, g, a)
             w.write_imu(t, g, a)
             done += t.shape[0]
             if progress is not None:

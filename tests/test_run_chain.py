@@ -95,6 +95,7 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
         (["calibrate", "{turntable}", "navigate", "{missing}", "compare"], "no such file"),
         (["calibrate", "{turntable}", "navigate", "{flight}", "navigate", "{flight}"], "each stage once"),
         (["calibrate", "--nominal", "{missing_levers}", "{turntable}"], "--nominal"),
+        # a good levers file: the chain reads it (sizefx.batch.inputs.check_option_files) before the flight
         (["navigate", "--levers", "{levers}", "{not_hdf5}", "compare"], "is not an HDF5 file"),
         (["--no-out", "compare"], "nothing to compare"),
         (["navigate", "--levers", "{levers}", "{no_truth}", "compare"], "has no /reference/position"),

@@ -58,7 +58,7 @@ BAD_LEVERS = {
     "delay as a flag": (lambda d: _set(d, "accel_delay_s", True), "$.accel_delay_s must be a number or null, got true"),
     "one tilt angle": (lambda d: _set(d, "tilt_arcsec", [3.0]), "$.tilt_arcsec must be a list of 2 numbers or null"),
     "two axes": (lambda d: _set(d, "axes", [[1, 0, 0], [0, 1, 0]]), "$.axes must be a list of 3 lists of 3 numbers"),
-    "zero axis": (lambda d: _set(d, "axes", [[1, 0, 0], [0, 0, 0], [0, 0, 1]]), "$.axes[1] has length 0"),
+    "zero axis": (lambda d: _set(d, "axes", [[1, 0, 0], [0, 0, 0], [0, 0, 1]]), "$.axes[1] has length 0, not 1"),
 }
 
 
@@ -92,7 +92,8 @@ def test_numbers_json_cannot_hold_are_refused_where_they_enter(tmp_path, text, w
 
 def test_a_good_levers_file_reads_back_with_its_extra_keys(tmp_path):
     path, doc = _good_levers(tmp_path)
-    doc["axes"] = [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]  # rows are normalised
+    # a row within AXIS_LENGTH_TOLERANCE of unit length (typed to 4 decimals) is normalised
+    doc["axes"] = [[1.0004, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     doc["note"] = "kept"
     path.write_text(json.dumps(doc))
     back = read_levers(path)

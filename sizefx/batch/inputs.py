@@ -15,11 +15,11 @@ __all__ = [
     "check_out_dir",
     "make_out_dir",
     "check_writes",
-    "check_option_files",
     "check_stage_options",
     "resolve_path",
     "record_key",
     "pair_inputs",
+    "check_option_files",
     "RECORD_SUFFIXES",
     "KEY_SUFFIXES",
 ]
@@ -238,28 +238,13 @@ def check_writes(out: Path, jobs, own: dict | None = None) -> None:
                 )
 
 
-def check_option_files(files: dict) -> None:
-    """Read and check, once before a batch's first record, the files its options name (``files``:
-    option -> path, as a config's ``inputs()`` gives them; ``--levers``, ``--model``, also as a
-    chain's ``navigate --levers``): a file that every record would refuse (no arms, NaN arms, a
-    broken model) is refused in one line for the whole batch, before anything is written."""
-    from ..correct import load_model
-    from ..levers import read_levers
-
-    readers = {"--levers": read_levers, "--model": load_model}
-    for option, path in files.items():
-        reader = readers.get(str(option).split()[-1])
-        if reader is not None and path:
-            reader(path)
-
-
 def check_stage_options(config) -> None:
     """A batch's stage options checked once, before its first record: the config's own option checks
     (``check_options``, where the stage has them) and its option files (:func:`check_option_files`)."""
     check = getattr(config, "check_options", None)
     if check is not None:
         check()
-    check_option_files({k: v for k, v in config.inputs().items() if str(k).split()[-1].startswith("-")})
+    check_option_files({k: v for k, v in config.inputs().items() if v and str(k).split()[-1].startswith("-")})
 
 
 def _one_line(exc: BaseException) -> str:
@@ -336,3 +321,27 @@ def pair_inputs(records: list[Path], given, option: str) -> dict[Path, Path]:
         if p == r:
             raise ConfigError(f"{option}: {r} would be compared with itself; give the other solutions")
     return pairs
+
+
+def _option_readers() -> dict:
+    """Option -> the reader that owns its file (imported here: the readers load NumPy and the schemas)."""
+    from ..correct import load_model
+    from ..levers import nominal_levers, read_levers
+
+    return {"--levers": read_levers, "--nominal": nominal_levers, "--model": load_model}
+
+
+def check_option_files(option_files: dict) -> None:
+    """The files the options name (``{"--levers": path, ...}``, or a chain's ``{"navigate --levers":
+    path, ...}``), each read once by its own reader before any record runs: a missing, unreadable or
+    invalid one is the whole run's fault, refused in the reader's one line (ConfigError, exit 2)
+    instead of once per record. Other files (records, ``--against``, ``--reference``) are only
+    pre-flighted here; their contents are judged with their records."""
+    from ..stage import preflight
+
+    preflight(inputs=option_files, outputs={})
+    readers = _option_readers()
+    for option, path in option_files.items():
+        reader = readers.get(str(option).split()[-1]) if option else None
+        if reader is not None and path:
+            reader(path)
