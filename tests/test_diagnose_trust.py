@@ -24,6 +24,9 @@ from sizefx.errors import ConfigError
 from sizefx.scenarios import SwayPlan, sway
 from sizefx.simulate import simulate_in_memory
 
+#: tests/test_diagnose.py's records run at 100 Hz; these keep the rate their traps were built at.
+RATE_HZ = 400.0
+
 
 def simulated(traj, hidden, *, seed=3, rate_hz=400.0):
     overrides = {k: dict(v) for k, v in BASE.items()}
@@ -50,7 +53,7 @@ def test_reference_glitches_are_named_masked_and_move_nothing():
     """Motion capture drops a handful of bad attitude rows: before issue 15 the fit came out with
     scale factors of -1e6 ppm. Now each glitch is a warning, the rows are dropped, and the lever arm
     comes out as on the clean record (within a tenth of its standard error)."""
-    tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=21, duration_s=40.0)
+    tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=21, rate_hz=RATE_HZ, duration_s=40.0)
     clean = D.diagnose(tel, NOMINAL, keep_series=False)
     ref = tel.reference
     q = ref.quat_nb.copy()
@@ -100,7 +103,9 @@ def test_the_issues_glitchy_sway_finds_the_arm_and_nothing_unexplained():
 def test_imu_spikes_cannot_move_an_estimate_by_its_standard_error():
     """Ten single-sample spikes of 0.5 m/s^2 (5000 times the noise) in the accelerometers: Huber's
     weights cap each one's pull, so every estimate stays within one standard error of the clean fit."""
-    tel, truth = record({"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"]}, seed=22)
+    tel, truth = record(
+        {"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"]}, seed=22, rate_hz=RATE_HZ
+    )
     clean = D.diagnose(tel, NOMINAL, keep_series=False)
     rng = np.random.default_rng(5)
     spiky = tel.accel_mps2.copy()
@@ -119,7 +124,7 @@ def test_a_remount_splits_the_record_and_says_the_segments_share_one_model():
     jump is a warning, the motion is split there (the gyros fit to the noise on both sides), and a
     second warning says that the segments share one model, which a re-mount breaks (the arms turn
     with the IMU). Diagnosed alone, the segment before the jump gives the arm within 3 sigma."""
-    tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=23, duration_s=30.0)
+    tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=23, rate_hz=RATE_HZ, duration_s=30.0)
     tel = remount(tel, 12.0)
     d = D.diagnose(tel, NOMINAL, keep_series=True)
     kinds = [w["kind"] for w in d.warnings]
@@ -167,7 +172,7 @@ def test_a_tilt_the_sway_cannot_tell_from_the_biases_is_no_finding():
 def test_an_accelerometer_in_the_wrong_unit_is_rejected_not_reported():
     """accel_z scaled by 1.1 (a wrong range setting): 100 000 ppm is no navigation-grade scale factor.
     It is rejected with the reason and a warning saying what is more likely."""
-    tel, _ = record({}, seed=25, duration_s=30.0)
+    tel, _ = record({}, seed=25, rate_hz=RATE_HZ, duration_s=30.0)
     tel.accel_mps2 = tel.accel_mps2 * np.array([1.0, 1.0, 1.1])
     d = D.diagnose(tel, NOMINAL, keep_series=False, grade="navigation")
     assert "accel_scale_factor" not in ids(d)
@@ -179,7 +184,7 @@ def test_an_accelerometer_in_the_wrong_unit_is_rejected_not_reported():
 def test_effects_outside_the_candidates_are_named_on_their_channel():
     """A 37 Hz vibration line on accel_y and a drifting gyro_z bias, neither a candidate: both appear
     in ``unexplained`` on their channel, and the summary does not call the residual noise."""
-    tel, _ = record({}, seed=26, duration_s=30.0)
+    tel, _ = record({}, seed=26, rate_hz=RATE_HZ, duration_s=30.0)
     t = tel.time_s
     accel = tel.accel_mps2.copy()
     accel[:, 1] += 3e-3 * np.sin(2 * np.pi * 37.0 * t)  # 300 ug, three times the per-sample noise
@@ -199,7 +204,7 @@ def test_effects_outside_the_candidates_are_named_on_their_channel():
 def test_coloured_noise_widens_the_errors_honestly():
     """A bias random walk far above the white noise (a drifting MEMS-like accelerometer), on a lever
     arm record: the block-sandwich errors grow above the white ones and still cover the truth."""
-    tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=27)
+    tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=27, rate_hz=RATE_HZ)
     white = D.diagnose(tel, NOMINAL, keep_series=False)
     rng = np.random.default_rng(27)
     walk = np.cumsum(rng.normal(0.0, 2e-5, size=tel.accel_mps2.shape), axis=0)  # ~3 mg wander in a minute
@@ -212,7 +217,7 @@ def test_coloured_noise_widens_the_errors_honestly():
 
 
 def test_report_version_2_validates_and_version_1_still_reads(tmp_path):
-    tel, _ = record({"accel_delay": HIDDEN["accel_delay"]}, seed=28, duration_s=20.0)
+    tel, _ = record({"accel_delay": HIDDEN["accel_delay"]}, seed=28, rate_hz=RATE_HZ, duration_s=20.0)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     doc = D.to_json(d, "test")
     assert doc["schema"] == "sizefx/diagnosis/2"
