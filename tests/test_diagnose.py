@@ -101,7 +101,7 @@ def test_each_effect_is_found_within_3_sigma_and_nothing_else(effect):
     "combo",
     [
         ("lever_arm", "accel_delay"),
-        # long tier: two more combinations (2.5 s); fast twin: the first, arm and delay together
+        # long tier: two more combinations (1.5 s); fast twin: the first, arm and delay together
         pytest.param(("reference_delay", "level_tilt", "accel_scale_factor"), marks=pytest.mark.slow),
         pytest.param(("accel_misalignment", "gyro_scale_factor", "accel_delay"), marks=pytest.mark.slow),
     ],
