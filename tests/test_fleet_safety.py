@@ -306,7 +306,11 @@ def test_the_workers_of_a_killed_batch_end_with_it(tmp_path):
     for r in records:
         r.write_text("")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS), os.environ.get("PYTHONPATH", "")])}
-    parent = subprocess.Popen([sys.executable, "-c", _KILLED_BATCH, str(tmp_path / "out"), *map(str, records)], env=env)
+    # run from tmp_path: ``python -c`` puts its working folder first on sys.path, and a checkout's
+    # sizefx/ there would shadow the installed package
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _KILLED_BATCH, str(tmp_path / "out"), *map(str, records)], env=env, cwd=tmp_path
+    )
     try:
         pid_files = [Path(f"{r}.pid") for r in records]
         deadline = time.monotonic() + 60.0
@@ -325,6 +329,7 @@ def test_the_workers_of_a_killed_batch_end_with_it(tmp_path):
         rerun = subprocess.run(
             [sys.executable, "-c", _KILLED_BATCH, str(tmp_path / "out"), *map(str, records)],
             env={**env, "SLEEP_STAGE_S": "0"},
+            cwd=tmp_path,
             timeout=120,
         )
         assert rerun.returncode == 0
@@ -366,7 +371,9 @@ for k in range(10**9):
 def test_a_store_killed_mid_write_is_read_by_the_next_run(tmp_path):
     """SIGKILL while records are being kept: the store holds every record committed before, and the
     next batch reads it, keeps more and writes manifest.json."""
-    writer = subprocess.Popen([sys.executable, "-c", _WRITER, str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    writer = subprocess.Popen(  # from tmp_path: not the checkout's sizefx/ before the installed one
+        [sys.executable, "-c", _WRITER, str(tmp_path)], stdout=subprocess.PIPE, text=True, cwd=tmp_path
+    )
     assert writer.stdout is not None and writer.stdout.readline() == "going\n"
     time.sleep(0.2)
     writer.send_signal(signal.SIGKILL)
