@@ -232,7 +232,7 @@ def test_a_reused_record_whose_input_is_gone_is_refused_alone(campaign, tmp_path
             str(runs / f"run{k}.h5"),
             e["options"],
             {},
-            None,
+            str(out / f"{names[runs / f'run{k}.h5']}.inspect.json"),  # where the batch wrote it: a resume checks
             e,
             False,
         )
