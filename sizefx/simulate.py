@@ -313,19 +313,77 @@ class SimulateResult:
         return asdict(self)
 
 
-def _refuse_not_finite(out, effects: EffectModel, t, gyro, accel):
-    """The last guard of the contract (no NaN or inf in /imu): every in-range effect value is
-    meant to give finite readings (tests/test_consistent_inputs.py sweeps them); one that does
-    not is refused here, naming the effects, and the atomic writer leaves nothing behind."""
-    for name, values in (("gyro", gyro), ("accel", accel)):
-        bad = ~np.isfinite(values)
-        if np.any(bad):
-            k = int(np.argwhere(bad)[0][0])
+def _differs(value, default) -> bool:
+    """An effect key's value (as given: a number, a list, an array, a text) is not its default."""
+    if isinstance(value, str) or isinstance(default, str) or value is None or default is None:
+        return value != default
+    return not np.array_equal(np.asarray(value, dtype=float), np.asarray(default, dtype=float))
+
+
+def _changed_effects(effects: EffectModel, sensor: str) -> list[str]:
+    """The effects on ``sensor`` ("accel" or "gyro"; the quantisation acts on both, the reference's
+    effects count for the gyros, which are checked against the reference) that are on and differ from
+    their defaults: ``section.key`` for each key set away from its default, ``section`` for one only
+    switched on. What ``--set``, ``--effects``, ``--offset-mm`` and ``--geometry`` changed."""
+    from .effects import EFFECTS_SCHEMA
+    from .io.schema import load_schema
+    from .sensor_model import EFFECTS
+
+    sensors = {"accel": ("accel", "both"), "gyro": ("gyro", "both", "reference")}[sensor]
+    sections = load_schema(EFFECTS_SCHEMA)["sections"]
+    named = []
+    for effect in EFFECTS:
+        if effect.sensor not in sensors or not effects.enabled(effect.name):
+            continue
+        raw = effects.raw.get(effect.name, {})
+        keys = [
+            k
+            for k, rule in sections[effect.name]["keys"].items()
+            if k != "enabled" and k in raw and _differs(raw[k], rule["default"])
+        ]
+        if keys:
+            named += [f"{effect.name}.{k}" for k in keys]
+        elif not sections[effect.name]["keys"]["enabled"]["default"]:
+            named.append(effect.name)
+    return named
+
+
+def _blame(scenario: str, effects: EffectModel, sensor: str) -> str:
+    """Which of the user's choices make the ``sensor`` readings what they are, for a refusal."""
+    changed = _changed_effects(effects, sensor)
+    if not changed:
+        return f"the {scenario} motion's options with the default {sensor} effects (effects: {effects.source})"
+    return f"the {scenario} motion with {', '.join(changed)} (effects: {effects.source})"
+
+
+def _refuse_invalid(out, scenario: str, effects: EffectModel, form: str, t, gyro, accel):
+    """The last guard of the contract on each chunk: every sample finite (no NaN or inf in /imu) and
+    within the schema's ``sample_limits``, which the reader refuses with or without
+    ``--no-units-check``. Every in-range effect value is meant to give finite readings
+    (tests/test_consistent_inputs.py sweeps them); one that does not, or a motion and effects that
+    reach beyond the limits, are refused here, naming the effects, and the atomic writer leaves
+    nothing behind."""
+    from .io.contract import invalid_rows
+    from .io.schema import TELEMETRY_SCHEMA, load_schema
+
+    schema = load_schema(TELEMETRY_SCHEMA)
+    for name, dataset, values in zip(("gyro", "accel"), schema["forms"][form]["datasets"], (gyro, accel)):
+        bad = invalid_rows(schema, dataset, values)
+        if not np.any(bad):
+            continue
+        k, column = (int(v) for v in np.argwhere(bad)[0])
+        if not np.isfinite(values[k, column]):
             raise ConfigError(
                 f"{out}: the effects ({effects.source}) make {name} readings that are not finite at "
                 f"t = {t[k]:.6g} s; nothing was written: choose smaller or other values (sizefx simulate "
                 "--print-effects lists every key and its range)"
             )
+        raise ConfigError(
+            f"{out}: {dataset} would read {values[k, column]:.6g} (SI) at t = {t[k]:.6g} s, axis {'xyz'[column]}, "
+            f"beyond the telemetry contract's physical limit (+-{schema['sample_limits'][dataset]:g}) that every "
+            f"reader refuses; this comes from {_blame(scenario, effects, name)}; nothing was written: choose "
+            "smaller values or a gentler motion (sizefx simulate --print-effects lists every key and its range)"
+        )
 
 
 def simulate_to_file(
@@ -347,6 +405,9 @@ def simulate_to_file(
 
     ``reference_rate_hz`` defaults to the IMU rate; it must divide it.
     ``progress(done, total)`` is called after each chunk when given.
+
+    Every chunk is checked against the contract's sample limits before it is written. A refusal
+    is a :class:`~sizefx.errors.ConfigError` naming the effects, and leaves nothing behind.
     """
     started = time.perf_counter()
     syn = ImuSynthesizer(traj, effects, rate_hz=rate_hz, form=form, seed=seed)
@@ -393,7 +454,7 @@ def simulate_to_file(
         done = 0
         while done < syn.n_samples:
             t, g, a = syn.next_chunk(chunk_samples)
-            _refuse_not_finite(out, effects, t, g, a)
+            _refuse_invalid(out, traj.name, effects, form, t, g, a)
             w.write_imu(t, g, a)
             done += t.shape[0]
             if progress is not None:
