@@ -700,10 +700,12 @@ def sample_blocks(n_samples: int, rate_hz: float, reference=None) -> list[tuple[
 
     ``reference(time_s) -> quat_nb``: the record's reference attitude at any time [s] from its
     start (a simulator knows it before it writes a row). Check (b) looks for the stretches where
-    the reference turns, as few as 2 % of a flight (its one turn), which evenly spread blocks miss;
-    so half the blocks go to them, found as (b) finds them (:func:`_reference_starts`: cells of
-    :data:`REF_MAX_INTERVAL_S` whose ends differ by :data:`REF_MIN_ANGLE_RAD`), and half are spread
-    evenly (the first at the start, the last at the end), where rest and the typical magnitudes are.
+    the reference turns, which evenly spread blocks miss (the 1.8 h flight turns by
+    :data:`REF_MIN_ANGLE_RAD` within 2 s in 9 of its 3240 cells); so half the blocks go to them,
+    found as (b) finds them (:func:`_reference_starts`: cells of :data:`REF_MAX_INTERVAL_S`, at
+    most :data:`REF_COARSE_ROWS` of them, whose ends differ by :data:`REF_MIN_ANGLE_RAD`), and half
+    are spread evenly (the first at the start and, when there are two, the last at the end), where
+    rest and the typical magnitudes are.
     """
     if n_samples <= SAMPLE_ROWS:
         return [(0, n_samples)]
@@ -713,13 +715,13 @@ def sample_blocks(n_samples: int, rate_hz: float, reference=None) -> list[tuple[
     )
     count = SAMPLE_ROWS // length
     centres = np.zeros(0)
-    if reference is not None:
-        cells_s = np.arange(0.0, n_samples / rate_hz, REF_MAX_INTERVAL_S)
-        q = reference(cells_s)
+    if reference is not None:  # cells as (b)'s coarse grid: at most REF_COARSE_ROWS of them
+        cell_s = max(REF_MAX_INTERVAL_S, n_samples / rate_hz / REF_COARSE_ROWS)
+        q = reference(np.arange(0.0, n_samples / rate_hz, cell_s))
         turning = np.flatnonzero(quat_angle_between(q[:-1], q[1:]) >= REF_MIN_ANGLE_RAD)
         if turning.size:
             pick = turning[np.linspace(0, turning.size - 1, min(turning.size, count // 2)).round().astype(int)]
-            centres = (np.unique(pick) + 0.5) * REF_MAX_INTERVAL_S * rate_hz  # rows
+            centres = (np.unique(pick) + 0.5) * cell_s * rate_hz  # rows
     even = np.linspace(0, n_samples - length, count - centres.size).round()
     starts = np.sort(np.r_[even, np.clip(centres - length / 2, 0, n_samples - length).round()]).astype(int)
     blocks: list[tuple[int, int]] = []
