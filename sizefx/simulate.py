@@ -495,6 +495,11 @@ def simulate_to_file(
     """
     started = time.perf_counter()
     syn = ImuSynthesizer(traj, effects, rate_hz=rate_hz, form=form, seed=seed)
+    if syn.n_samples < 2:  # the reader needs two stamps to know the rate (a 1 s tumble at 1 Hz has one increment)
+        raise ConfigError(
+            f"{out}: {traj.duration_s:g} s at {rate_hz:g} Hz make {syn.n_samples} {form} sample; a record needs at "
+            "least 2 (its sample rate is read from them): lengthen the record or raise --rate-hz"
+        )
     ref_rate = _reference_rate(rate_hz, reference_rate_hz)
     stride = rate_hz / ref_rate
     n_ref = int(np.floor(traj.duration_s * ref_rate + 1e-9)) + 1

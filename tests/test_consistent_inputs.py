@@ -410,6 +410,14 @@ def test_a_motion_beyond_the_contracts_limits_is_refused_even_without_the_units_
         assert list(tmp_path.iterdir()) == []
 
 
+def test_a_record_of_one_sample_is_refused_before_it_is_written(tmp_path):
+    """A 1 s tumble at 1 Hz has one increment, and the reader needs two stamps to know the rate."""
+    out = tmp_path / "one.h5"
+    command = ["simulate", "tumble", "--duration-s", "1", "--rate-hz", "1", "--form", "increments", "-q"]
+    _refused(CliRunner().invoke(main, command + ["-o", str(out)]), "make 1 increments sample", "--rate-hz")
+    assert list(tmp_path.iterdir()) == []
+
+
 # every settable key at 0 and both ends of its range, alone on an ideal IMU, on the 5 s tumble: simulate and
 # inspect both (about 0.1 s a value)
 @pytest.mark.parametrize("section, key, rule", NUMERIC_KEYS, ids=[f"{s}.{k}" for s, k, _ in NUMERIC_KEYS])
