@@ -397,9 +397,9 @@ def _refuse_implausible(out, scenario: str, effects: EffectModel, tel: Telemetry
         return
     raise ConfigError(
         f"{out}: sizefx inspect would refuse this record by its physics check: {found.dataset} {found.detail}; "
-        f"this comes from {_blame(scenario, effects, found.what)}; nothing was written: choose smaller values "
-        "(sizefx simulate --print-effects lists every key and its range), or pass --no-units-check to write it "
-        "anyway for tests of the checkers (sizefx inspect then needs --no-units-check too)"
+        f"this comes from {_blame(scenario, effects, found.what)}; nothing was written: choose smaller values or "
+        "a gentler motion (sizefx simulate --print-effects lists every key and its range), or pass --no-units-check "
+        "to write it anyway for tests of the checkers (sizefx inspect then needs --no-units-check too)"
     )
 
 
