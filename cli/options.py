@@ -83,7 +83,8 @@ def allow_gaps_option(f):
     )(f)
 
 
-#: Help of --no-units-check (import and inspect), in one place.
+#: Help of --no-units-check of import and inspect, in one place (simulate's, which writes rather
+#: than reads: cli/simulate.py).
 NO_UNITS_CHECK_HELP = (
     "Skip the physics check of the units (specific force at rest against gravity, gyros against "
     "the reference attitude or the tilt the accelerometers see), which refuses data that look like "

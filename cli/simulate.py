@@ -8,6 +8,16 @@ from sizefx.constants import PAPER_AIRFIELD_DEG
 
 from .options import SEED, Progress, force_option, parse_overrides, parse_vector, quiet_option, span
 
+#: Help of simulate's --no-units-check: what it writes, and which readers then refuse the record
+#: (inspect by the whole check unless told; the others by the reader's median magnitudes, always).
+NO_UNITS_CHECK_HELP = (
+    "Write the record even if the physics check of sizefx inspect would refuse it (median specific force "
+    "or rate outside what an IMU on Earth reads, specific force at rest far from gravity, gyros that "
+    "disagree with the reference): for records that test the checkers. sizefx inspect then needs "
+    "--no-units-check too; navigate, calibrate, compensate, diagnose and compare refuse such a record "
+    "when its median specific force or rate is implausible (they have no such option), and read it otherwise."
+)
+
 
 def common_options(f):
     """Options every scenario shares (applied bottom-up, shown top-down)."""
@@ -83,6 +93,7 @@ def common_options(f):
             type=span(-12000.0, 100000.0),
             help="Site or start height above the WGS-84 ellipsoid [m].",
         ),
+        click.option("--no-units-check", is_flag=True, help=NO_UNITS_CHECK_HELP),
         force_option,
         quiet_option,
     ]
@@ -107,6 +118,7 @@ def _run(
     latitude_deg,
     longitude_deg,
     height_m,
+    no_units_check,
     force,
     quiet,
     plan_path=None,
@@ -136,6 +148,7 @@ def _run(
         reference_rate_hz=reference_rate_hz,
         force=force,
         plan_path=plan_path,
+        check_units=not no_units_check,
     )
     click.echo(run(config, progress=Progress(f"simulate {scenario}", quiet)).report())
 

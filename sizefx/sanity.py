@@ -1,4 +1,5 @@
-"""Physics checks of a record's units: ``sizefx import`` and ``sizefx inspect`` (issue 13, item 6).
+"""Physics checks of a record's units: ``sizefx import`` and ``sizefx inspect`` (issue 13, item 6),
+and ``sizefx simulate`` before it publishes (issue 28, item 7).
 
 A units attribute (or a ``--gyro-units`` option) that says rad/s over data in deg/s makes
 every rate 57.3 times too large, and nothing downstream can tell. The magnitudes can:
@@ -22,13 +23,18 @@ every rate 57.3 times too large, and nothing downstream can tell. The magnitudes
 Nothing here refuses on its own: :func:`check_units` returns what it found (figures, or why a
 check could not be made) and :func:`refuse_wrong_units` raises :class:`~sizefx.errors.UnitsError`
 for a check whose data look like another unit. When nothing can be decided, nothing is refused.
+:func:`implausible` says what ``sizefx inspect`` would refuse by default (the reader's median
+magnitudes, then these checks) in a record in memory: ``sizefx simulate`` asks it of what it
+writes, on the rows :func:`sample_blocks` keeps of a long record, so that it never publishes a
+record inspect refuses.
 
 Work is bounded on any record length: at most :data:`MAX_WINDOWS` windows, :data:`REF_MAX_STARTS`
 reference intervals and :data:`TILT_MAX_PAIRS` tilt changes are examined, each reading only its
 own rows (the 1.8 h flight at 1600 Hz, 10 M samples, takes about a second).
 
-Why one module of about 570 lines (issue 14 asks for a reason above 500): it is one decision,
-the verdict on a record's units. (a), (b) and (c) share the windows and the rest detection, the
+Why one module of about 720 lines (issue 14 asks for a reason above 500): it is one decision,
+the verdict on a record's units (and the rows a streamed record is judged on, chosen for what
+(a) and (b) look for). (a), (b) and (c) share the windows and the rest detection, the
 unit-hypothesis test :func:`looks_like` and the verdict type :class:`Check`, and
 :func:`check_units` chooses (c) only where (b) cannot decide. A quarter of the lines are the
 named thresholds, each beside the evidence that set it (rates measured on the real recordings);
@@ -47,10 +53,23 @@ import numpy as np
 from . import earth
 from .constants import DEG, GAP_FACTOR, STANDARD_GRAVITY_MPS2
 from .errors import UnitsError
+from .io.contract import magnitude_problem
+from .io.gaps import nominal_period_s
 from .io.schema import TELEMETRY_SCHEMA, load_schema, unit_factor
 from .rotation import quat_angle_between, rotvec_to_mat
 
-__all__ = ["Check", "UnitsReport", "check_units", "refuse_wrong_units", "looks_like", "report_lines"]
+__all__ = [
+    "Check",
+    "UnitsReport",
+    "Implausible",
+    "check_units",
+    "implausible",
+    "refuse_wrong_units",
+    "looks_like",
+    "report_lines",
+    "sample_blocks",
+    "SAMPLE_ROWS",
+]
 
 # --------------------------------------------------------------------------- windows and rest
 
@@ -140,6 +159,24 @@ TILT_REJECT = 0.5
 TILT_MIN_PAIRS = 3
 #: Scale factors tried around the winning hypothesis for the reported ratio (within GYRO_BAND).
 TILT_SCALE_GRID = np.exp(np.linspace(-math.log(GYRO_BAND), math.log(GYRO_BAND), 41))
+
+# --------------------------------------------------------------------------- a streamed record's sample
+
+#: Rows of a record written in chunks (``sizefx simulate``) that :func:`implausible` judges it on:
+#: up to this many, the whole record (the verdict ``sizefx inspect`` reaches on the file, from the
+#: same rows); beyond, :func:`sample_blocks` spread over it, this many rows in all. 2^18 rows hold
+#: 164 s at 1600 Hz (a default tumble whole) and take 24 MiB with a reference at the IMU rate (time,
+#: gyro, accel; reference time and attitude), beside the simulator's 100 MiB of chunk work.
+SAMPLE_ROWS = 1 << 18
+#: A sample block lasts this long [s] where the rows allow: a pair of tilt moments
+#: :data:`TILT_PAIR_MAX_S` apart, and many rest runs (:data:`REST_MIN_WINDOWS` windows) and reference
+#: intervals (:data:`REF_MAX_INTERVAL_S`) fit in it. At 1600 Hz: 16 blocks of 16 000 rows.
+SAMPLE_BLOCK_S = TILT_PAIR_MAX_S
+#: ...and there are at least this many, so that a record is judged on more than one stretch of its
+#: motion; not more, so that at the top rate (100 kHz) a block still lasts 1.3 s and holds a rest run
+#: (:data:`REST_MIN_WINDOWS` windows of :data:`WINDOW_S`): without one, (a) would judge the record in
+#: motion, with the wider band, where ``sizefx inspect`` finds it at rest.
+SAMPLE_MIN_BLOCKS = 2
 
 #: Units a mistake may leave data in that the contract does not accept (named in messages only):
 #: velocity increments integrated from accelerometers that read g.
@@ -618,3 +655,79 @@ def refuse_wrong_units(report: UnitsReport, path, *, where: dict | None = None, 
             + (f": {how}" if how else "")
             + " (or pass --no-units-check if you know the data are right)",
         )
+
+
+@dataclass(frozen=True)
+class Implausible:
+    """What ``sizefx inspect`` refuses by default in a record's magnitudes (:func:`implausible`)."""
+
+    what: str  #: "accel" or "gyro"
+    dataset: str  #: /imu/accel, /imu/dtheta, ...
+    detail: str  #: the check's own figures, without the fix for a file's units attribute
+
+
+def implausible(tel) -> Implausible | None:
+    """What the default checks of ``sizefx inspect`` refuse in the record ``tel`` (SI, in memory),
+    or None when they accept its magnitudes.
+
+    The same checks, in inspect's order: the reader's median specific force and angular rate
+    (:func:`sizefx.io.contract.magnitude_problem`), then the verdicts of :func:`check_units` that
+    :func:`refuse_wrong_units` refuses. A writer calls it on what it writes (``sizefx simulate``,
+    on the rows of :func:`sample_blocks`) so that it does not publish a record inspect refuses.
+    """
+    schema = load_schema(TELEMETRY_SCHEMA)
+    gyro_name, accel_name = schema["forms"][tel.form]["datasets"]
+    units = {
+        name: (tel.stored_units or {}).get(name, next(iter(schema["units"][schema["datasets"][name]["quantity"]])))
+        for name in (gyro_name, accel_name)
+    }
+    gyro, accel = tel.imu_arrays()
+    found = magnitude_problem(schema, tel.form, nominal_period_s(tel.time_s), gyro, accel, units)
+    if found is not None:
+        name, figures, _ = found  # the hint names the units attribute: the caller says its own fix
+        return Implausible("accel" if name == accel_name else "gyro", name, figures)
+    for check in check_units(tel).wrong:
+        return Implausible(check.what, check.dataset, check.detail)
+    return None
+
+
+def sample_blocks(n_samples: int, rate_hz: float, reference=None) -> list[tuple[int, int]]:
+    """Rows ``[(first, stop), ...]`` of a record of ``n_samples`` rows at ``rate_hz`` that a writer
+    streaming it keeps for :func:`implausible`: the whole record up to :data:`SAMPLE_ROWS` rows,
+    else blocks of :data:`SAMPLE_BLOCK_S` each (shorter above 6.4 kHz: at least
+    :data:`SAMPLE_MIN_BLOCKS` blocks), :data:`SAMPLE_ROWS` rows in all, in row order; the checks
+    treat the breaks between blocks as gaps.
+
+    ``reference(time_s) -> quat_nb``: the record's reference attitude at any time [s] from its
+    start (a simulator knows it before it writes a row). Check (b) looks for the stretches where
+    the reference turns, which evenly spread blocks miss (the 1.8 h flight turns by
+    :data:`REF_MIN_ANGLE_RAD` within 2 s in 9 of its 3240 cells); so half the blocks go to them,
+    found as (b) finds them (:func:`_reference_starts`: cells of :data:`REF_MAX_INTERVAL_S`, at
+    most :data:`REF_COARSE_ROWS` of them, whose ends differ by :data:`REF_MIN_ANGLE_RAD`), and half
+    are spread evenly (the first at the start and, when there are two, the last at the end), where
+    rest and the typical magnitudes are.
+    """
+    if n_samples <= SAMPLE_ROWS:
+        return [(0, n_samples)]
+    length = min(
+        max(MIN_WINDOW_SAMPLES * REST_MIN_WINDOWS, math.ceil(SAMPLE_BLOCK_S * rate_hz)),
+        SAMPLE_ROWS // SAMPLE_MIN_BLOCKS,
+    )
+    count = SAMPLE_ROWS // length
+    centres = np.zeros(0)
+    if reference is not None:  # cells as (b)'s coarse grid: at most REF_COARSE_ROWS of them
+        cell_s = max(REF_MAX_INTERVAL_S, n_samples / rate_hz / REF_COARSE_ROWS)
+        q = reference(np.arange(0.0, n_samples / rate_hz, cell_s))
+        turning = np.flatnonzero(quat_angle_between(q[:-1], q[1:]) >= REF_MIN_ANGLE_RAD)
+        if turning.size:
+            pick = turning[np.linspace(0, turning.size - 1, min(turning.size, count // 2)).round().astype(int)]
+            centres = (np.unique(pick) + 0.5) * cell_s * rate_hz  # rows
+    even = np.linspace(0, n_samples - length, count - centres.size).round()
+    starts = np.sort(np.r_[even, np.clip(centres - length / 2, 0, n_samples - length).round()]).astype(int)
+    blocks: list[tuple[int, int]] = []
+    for k in starts:  # overlapping blocks are merged (fewer rows, never more)
+        if blocks and k <= blocks[-1][1]:
+            blocks[-1] = (blocks[-1][0], int(k) + length)
+        else:
+            blocks.append((int(k), int(k) + length))
+    return blocks

@@ -6,6 +6,10 @@
   code 2, in the single command and up front in a batch or a chain.
 - Every value ``simulate --set`` accepts writes finite readings: a quantisation step of 0 is no
   quantisation; NaN, inf and values beyond a key's range are refused before anything is simulated.
+- Every value ``simulate --set`` accepts makes a record ``sizefx inspect`` accepts, or is refused in
+  one line naming the key (exit 2, nothing left): readings beyond the contract's physical limits
+  always, records the physics check refuses unless ``--no-units-check``, which writes them (and
+  then inspect refuses them: the two agree, also on a long record judged on a sample).
 - ``sizefx plan`` refuses a budget longer than the longest plan calibrate can use before it
   searches; above ``BLOCK_MAX_S`` per axis its screening rests on the information being additive
   over repeated cycles, which is checked here.
@@ -22,13 +26,16 @@ import pytest
 from click.testing import CliRunner
 from support import write_raw
 
-from sizefx import scenarios
+from sizefx import sanity, scenarios
 from sizefx.constants import MAX_PLAN_S, MAX_WHOLE_READ_ROWS
 from sizefx.effects import IDEAL, load_effects
-from sizefx.errors import ConfigError
+from sizefx.errors import ConfigError, SizefxError
+from sizefx.inspect import InspectConfig
+from sizefx.inspect import run as inspect
 from sizefx.levers import AXIS_LENGTH_TOLERANCE, LEVER_CHAIN_TOLERANCE_M, levers_from_preset, read_levers, write_levers
 from sizefx.plan import PlanError, PlanRequest, _fisher, _one_bias_per_channel
 from sizefx.simulate import ImuSynthesizer, SimulateConfig, simulate_to_file
+from sizefx.simulate import run as simulate
 from sizefx_cli.main import main
 
 NOISE_UG = 2.96
@@ -294,3 +301,182 @@ def test_every_value_set_accepts_gives_finite_readings(section, key, rule):
             syn = ImuSynthesizer(traj, fx, rate_hz=100.0, form=form)
             _, gyro, accel = syn.next_chunk(syn.n_samples)
             assert np.all(np.isfinite(gyro)) and np.all(np.isfinite(accel)), (section, key, value, form)
+
+
+# --------------------------------------------------------------------------- simulate: records inspect accepts
+
+#: A short tumble (5 s at 100 Hz: it rests for 1.75 s, and its reference turns in ~500 intervals, so
+#: both physics checks decide), as every --set value below is simulated on.
+TUMBLE = ["simulate", "tumble", "--duration-s", "5", "--rate-hz", "100", "-q"]
+
+#: The extreme but in-range values of issue 28 item 7: the scenario options each comes with, its --set
+#: values, the key a refusal must name, and whether it is refused today (every accelerometer extreme;
+#: a gyro scale factor of +-50 % reads 1.5 or 0.5 times the reference's rotation, which inspect calls
+#: odd, matching no unit, and accepts): pinned, so that a change in either checker is seen.
+EXTREMES = {
+    "100 m lever arms on a tumble": (TUMBLE, ["lever_arm.r_vehicle_m=[100, 100, 100]"], "lever_arm.r_vehicle_m", True),
+    "1 g accelerometer bias": (
+        TUMBLE,
+        ["accel_bias.enabled=true", "accel_bias.bias_ug=[1e6, 1e6, 1e6]"],
+        "accel_bias.bias_ug",
+        True,
+    ),
+    "+50 % accelerometer scale factor": (
+        TUMBLE,
+        ["accel_scale_factor.enabled=true", "accel_scale_factor.ppm=[5e5, 5e5, 5e5]"],
+        "accel_scale_factor.ppm",
+        True,
+    ),
+    "-50 % accelerometer scale factor": (
+        TUMBLE,
+        ["accel_scale_factor.enabled=true", "accel_scale_factor.ppm=[-5e5, -5e5, -5e5]"],
+        "accel_scale_factor.ppm",
+        True,
+    ),
+    "+50 % gyro scale factor": (
+        TUMBLE,
+        ["gyro_scale_factor.enabled=true", "gyro_scale_factor.ppm=[5e5, 5e5, 5e5]"],
+        "gyro_scale_factor.ppm",
+        False,
+    ),
+    "-50 % gyro scale factor": (
+        TUMBLE,
+        ["gyro_scale_factor.enabled=true", "gyro_scale_factor.ppm=[-5e5, -5e5, -5e5]"],
+        "gyro_scale_factor.ppm",
+        False,
+    ),
+    "noise density 1e6 ug/sqrt(Hz)": (
+        TUMBLE,
+        ["accel_noise.density_ug_per_sqrt_hz=1e6"],
+        "accel_noise.density_ug_per_sqrt_hz",
+        True,
+    ),
+    "accelerometer LSB of 1 m/s at 1600 Hz": (
+        ["simulate", "tumble", "--duration-s", "2", "--rate-hz", "1600", "-q"],
+        ["quantisation.enabled=true", "quantisation.accel_lsb_m_per_s=1"],
+        "quantisation.accel_lsb_m_per_s",
+        True,
+    ),
+    "accelerometer LSB of 1 m/s at 1600 Hz, increments": (
+        ["simulate", "tumble", "--duration-s", "2", "--rate-hz", "1600", "--form", "increments", "-q"],
+        ["quantisation.enabled=true", "quantisation.accel_lsb_m_per_s=1"],
+        "quantisation.accel_lsb_m_per_s",
+        True,
+    ),
+}
+
+
+def _sets(items):
+    return [arg for item in items for arg in ("--set", item)]
+
+
+@pytest.mark.parametrize("case", list(EXTREMES))
+def test_an_extreme_set_value_is_refused_in_one_line_or_makes_a_record_inspect_accepts(tmp_path, case):
+    """Refused (exit 2, one line naming the key, the check's figures and --no-units-check, nothing left)
+    exactly when inspect refuses the record --no-units-check writes; --no-units-check always writes it."""
+    command, items, key, expected = EXTREMES[case]
+    runner = CliRunner()
+    out = tmp_path / "rec.h5"
+    result = runner.invoke(main, command + _sets(items) + ["-o", str(out)])
+    refused = result.exit_code != 0
+    if refused:
+        _refused(result, str(out), "sizefx inspect would refuse this record", key, "--no-units-check")
+        assert list(tmp_path.iterdir()) == []  # neither the record nor its temporary file
+    else:
+        assert result.exit_code == 0, result.output
+        assert runner.invoke(main, ["inspect", str(out)]).exit_code == 0
+        out.unlink()
+    result = runner.invoke(main, command + _sets(items) + ["--no-units-check", "-o", str(out)])
+    assert result.exit_code == 0 and out.exists(), result.output
+    assert runner.invoke(main, ["inspect", str(out), "--no-units-check"]).exit_code == 0
+    checked = runner.invoke(main, ["inspect", str(out)])
+    assert (checked.exit_code == 2) == refused, checked.output
+    assert refused == expected
+
+
+def test_a_motion_beyond_the_contracts_limits_is_refused_even_without_the_units_check(tmp_path):
+    """A 5000 deg/s table with 3 m arms reads 10 586 m/s^2: beyond the telemetry contract, which every
+    reader refuses with or without --no-units-check, so simulate never writes it."""
+    command = ["simulate", "turntable", "--axes", "Z", "--static-s", "60", "--seconds-per-axis", "10", "--cycles", "1"]
+    command += ["--peak-rate-dps", "5000", "--accel-dps2", "1e5", "--rate-hz", "100", "-q"]
+    out = tmp_path / "fast.h5"
+    for extra in ([], ["--no-units-check"]):
+        result = CliRunner().invoke(
+            main, command + _sets(["lever_arm.r_vehicle_m=[3, 0, 0]"]) + extra + ["-o", str(out)]
+        )
+        _refused(
+            result, "/imu/accel would read -10586.4 (SI) at t = 61.09 s", "physical limit", "lever_arm.r_vehicle_m"
+        )
+        assert list(tmp_path.iterdir()) == []
+
+
+def test_a_record_of_one_sample_is_refused_before_it_is_written(tmp_path):
+    """A 1 s tumble at 1 Hz has one increment, and the reader needs two stamps to know the rate."""
+    out = tmp_path / "one.h5"
+    command = ["simulate", "tumble", "--duration-s", "1", "--rate-hz", "1", "--form", "increments", "-q"]
+    _refused(CliRunner().invoke(main, command + ["-o", str(out)]), "make 1 increments sample", "--rate-hz")
+    assert list(tmp_path.iterdir()) == []
+
+
+# every settable key at 0 and both ends of its range, alone on an ideal IMU, on the 5 s tumble: simulate and
+# inspect both (about 0.1 s a value)
+@pytest.mark.parametrize("section, key, rule", NUMERIC_KEYS, ids=[f"{s}.{k}" for s, k, _ in NUMERIC_KEYS])
+def test_every_value_set_accepts_makes_a_record_inspect_accepts(tmp_path, section, key, rule):
+    """simulate writes the record exactly when inspect accepts it: a refusal is a ConfigError that leaves
+    nothing and names the key, and the record --no-units-check then writes is one inspect refuses."""
+    shape = {"number": (), "vector": (3,), "matrix": (3, 3)}[rule["type"]]
+    low, high = rule["range"]
+    extra = {"markov_density_ug_per_sqrt_hz": 100.0} if key == "markov_correlation_s" else {}
+    out = tmp_path / "rec.h5"
+    for value in dict.fromkeys(v for v in (0.0, low, high) if low <= v <= high):
+        given = {"enabled": True, **extra, key: np.full(shape, value).tolist()}
+        config = SimulateConfig(
+            "tumble",
+            out,
+            plan=scenarios.TumblePlan(duration_s=5.0),
+            ideal=True,
+            rate_hz=100.0,
+            overrides={section: given},
+        )
+        try:
+            simulate(config)
+        except ConfigError as exc:
+            assert f"{section}" in str(exc) and "--no-units-check" in str(exc), str(exc)
+            assert list(tmp_path.iterdir()) == [], (section, key, value)
+            simulate(replace(config, check_units=False))
+            with pytest.raises(SizefxError):
+                inspect(InspectConfig(out))
+        else:
+            inspect(InspectConfig(out))
+        out.unlink()
+
+
+@pytest.mark.parametrize("bias_deg_per_h, refused", [(1e5, False), (3e5, True)])
+def test_a_long_record_is_judged_on_its_sample_as_inspect_judges_it_whole(
+    tmp_path, monkeypatch, bias_deg_per_h, refused
+):
+    """Beyond SAMPLE_ROWS simulate judges blocks of the record (here 6 blocks of 10 s of a 1050 s flight
+    at 20 Hz), and must find what inspect finds on the whole: a gyro bias of 3e5 deg/h integrates to 49
+    times the rotation of the flight's turn, which inspect takes for deg/s read as rad/s; 1e5 deg/h to 17
+    times, odd but no unit. The turn fills 9 of the 525 two-second cells: 6 evenly spread blocks miss it
+    and leave the gyros unchecked (this test then fails), so half the blocks go where the reference turns."""
+    monkeypatch.setattr(sanity, "SAMPLE_ROWS", 1200)
+    out = tmp_path / "flight.h5"
+    config = SimulateConfig(
+        "flight",
+        out,
+        plan=scenarios.FlightPlan(duration_s=1050.0, align_s=30.0),
+        rate_hz=20.0,
+        reference_rate_hz=20.0,
+        overrides={"gyro_bias": {"enabled": True, "deg_per_h": [bias_deg_per_h] * 3}},
+    )
+    if refused:
+        with pytest.raises(ConfigError, match=r"/imu/gyro integrates to 49\.\d+ times .* gyro_bias\.deg_per_h"):
+            simulate(config)
+        assert list(tmp_path.iterdir()) == []
+        simulate(replace(config, check_units=False))
+        with pytest.raises(SizefxError, match="the data look like deg/s"):
+            inspect(InspectConfig(out))
+    else:
+        simulate(config)
+        assert inspect(InspectConfig(out)).units_check["gyro"]["method"] == "reference"

@@ -232,3 +232,39 @@ def test_looks_like_reads_the_units_from_the_contract():
     assert sanity.looks_like("acceleration", "m/s^2", 1 / STANDARD_GRAVITY_MPS2, sanity.ACCEL_BAND) == "g"
     assert sanity.looks_like("velocity", "m/s", 1 / STANDARD_GRAVITY_MPS2, sanity.ACCEL_BAND) == "g*s"
     assert sanity.looks_like("angular_rate", "rad/s", 3.0, sanity.GYRO_BAND) is None  # no unit fits
+
+
+# --------------------------------------------------------------------------- what a streamed writer keeps
+
+
+def _turning_between(t_a, t_b):
+    """A reference attitude [N, 4] at times [N] that turns about the vertical (1 rad/s) only in [t_a, t_b]."""
+
+    def quat(t):
+        angle = np.clip(np.asarray(t, dtype=float), t_a, t_b) - t_a
+        return np.column_stack([np.cos(angle / 2), np.zeros_like(angle), np.zeros_like(angle), np.sin(angle / 2)])
+
+    return quat
+
+
+def test_a_short_record_is_judged_whole():
+    assert sanity.sample_blocks(sanity.SAMPLE_ROWS, 1600.0) == [(0, sanity.SAMPLE_ROWS)]
+
+
+@pytest.mark.parametrize("rate_hz", [1.0, 100.0, 1600.0, 1e5])
+def test_a_long_record_is_judged_on_bounded_blocks_many_where_the_reference_turns(rate_hz):
+    n = 50 * sanity.SAMPLE_ROWS + 7
+    turn_rows = (int(0.61 * n), int(0.62 * n))  # 1 % of the record
+    in_turn = {}
+    for reference in (None, _turning_between(turn_rows[0] / rate_hz, turn_rows[1] / rate_hz)):
+        rows = np.array(sanity.sample_blocks(n, rate_hz, reference))
+        assert rows[0, 0] == 0  # the start (an alignment rests there)
+        assert rows[-1, 1] == n or reference is not None  # and the end, given two evenly spread blocks
+        assert np.all(rows[:, 1] > rows[:, 0]) and np.all(rows[1:, 0] > rows[:-1, 1])  # in order, apart
+        assert (rows[:, 1] - rows[:, 0]).sum() <= sanity.SAMPLE_ROWS
+        # each block holds a rest run: REST_MIN_WINDOWS windows of WINDOW_S (or of MIN_WINDOW_SAMPLES)
+        run_rows = sanity.REST_MIN_WINDOWS * max(sanity.MIN_WINDOW_SAMPLES, round(sanity.WINDOW_S * rate_hz))
+        assert np.all(rows[:, 1] - rows[:, 0] >= run_rows)
+        overlap = np.minimum(rows[:, 1], turn_rows[1]) - np.maximum(rows[:, 0], turn_rows[0])
+        in_turn[reference is None] = int(np.clip(overlap, 0, None).sum())
+    assert in_turn[False] > 0 and in_turn[False] >= 5 * in_turn[True], in_turn

@@ -45,6 +45,7 @@ __all__ = [
     "open_hdf5",
     "open_structure",
     "check_magnitudes",
+    "magnitude_problem",
     "side_groups",
     "site_from_attrs",
     "invalid_rows",
@@ -588,29 +589,6 @@ class ContractReader:
             )
         return q / np.linalg.norm(q, axis=1, keepdims=True)
 
-    def check_plausible(self, name: str, values: np.ndarray, key: str, what: str, units: str):
-        lo, hi = self.schema["plausibility"][key]
-        med = float(np.median(np.linalg.norm(values, axis=1)))
-        if not lo <= med <= hi:
-            quantity = self.schema["datasets"][name]["quantity"]
-            base = unit_factor(quantity, units)
-            # the units under which the same numbers would be plausible: the data look like those
-            fits = [
-                u
-                for u, factor in self.schema["units"][quantity].items()
-                if u != units and lo <= med / base * factor <= hi
-            ]
-            hint = (
-                f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'"
-                if len(fits) == 1
-                else "the units attribute is probably wrong"
-            )
-            self.fail(
-                name,
-                f"median |{what}| is {med:.4g} in SI after converting from '{units}', outside the "
-                f"plausible {lo:g}..{hi:g}; {hint}",
-            )
-
 
 def open_hdf5(path: Path, hint: str) -> h5py.File:
     """Open ``path`` read-only, or raise a one-line error saying why it is not a readable HDF5 file.
@@ -664,12 +642,51 @@ def open_structure(path, h5, allow_gaps, check_plausibility):
     return r, attrs, complete[0]
 
 
-def check_magnitudes(r, form, period, gyro, accel):
-    gyro_name, accel_name = r.schema["forms"][form]["datasets"]
+def magnitude_problem(schema: dict, form: str, period: float, gyro, accel, units: dict) -> tuple[str, str, str] | None:
+    """The first median magnitude outside the schema's ``plausibility`` (specific force, then angular
+    rate) of IMU rows ``gyro``, ``accel`` (SI; increments divided by the sample ``period`` [s]), as
+    ``(dataset, figures, hint)``: what the data read against the plausible range, and the units
+    under which the same numbers would be plausible. None when both are plausible.
+
+    The reader's check (:func:`check_magnitudes`); :func:`sizefx.sanity.implausible` applies it to
+    a record in memory (``sizefx simulate``). ``units``: dataset -> the units the data were read in.
+    """
+    gyro_name, accel_name = schema["forms"][form]["datasets"]
     f_est = accel if form == "rates" else accel / period
     w_est = gyro if form == "rates" else gyro / period
-    r.check_plausible(accel_name, f_est, "median_specific_force_mps2", "specific force", r.units[accel_name])
-    r.check_plausible(gyro_name, w_est, "median_angular_rate_rad_s", "angular rate", r.units[gyro_name])
+    for name, values, key, what in (
+        (accel_name, f_est, "median_specific_force_mps2", "specific force"),
+        (gyro_name, w_est, "median_angular_rate_rad_s", "angular rate"),
+    ):
+        lo, hi = schema["plausibility"][key]
+        med = float(np.median(np.linalg.norm(values, axis=1)))
+        if lo <= med <= hi:
+            continue
+        quantity = schema["datasets"][name]["quantity"]
+        base = unit_factor(quantity, units[name])
+        # the units under which the same numbers would be plausible: the data look like those
+        fits = [
+            u for u, factor in schema["units"][quantity].items() if u != units[name] and lo <= med / base * factor <= hi
+        ]
+        hint = (
+            f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'"
+            if len(fits) == 1
+            else "the units attribute is probably wrong"
+        )
+        figures = (
+            f"median |{what}| is {med:.4g} in SI after converting from '{units[name]}', outside the "
+            f"plausible {lo:g}..{hi:g}"
+        )
+        return name, figures, hint
+    return None
+
+
+def check_magnitudes(r, form, period, gyro, accel):
+    """Refuse (``r.fail``) median magnitudes that betray wrong units: :func:`magnitude_problem`."""
+    found = magnitude_problem(r.schema, form, period, gyro, accel, r.units)
+    if found is not None:
+        name, figures, hint = found
+        r.fail(name, f"{figures}; {hint}")
 
 
 def side_groups(r, h5, reference: bool = True):
