@@ -659,7 +659,7 @@ def dask_client(address: str):
 
     thread = threading.Thread(target=connect, daemon=True, name="sizefx-dask-connect")
     thread.start()
-    thread.join(DASK_CONNECT_S + 2.0)
+    thread.join(DASK_CONNECT_S + min(DASK_CONNECT_S, 2.0))  # the client gives up at DASK_CONNECT_S; a grace to say so
     if thread.is_alive() or "error" in box:
         why = "no answer" if thread.is_alive() else _one_line(box["error"])
         raise ConfigError(
