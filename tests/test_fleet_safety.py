@@ -488,3 +488,34 @@ def test_a_cluster_that_loses_every_worker_fails_the_records_left(tmp_path, one_
     assert all("had no worker for 2 s" in o.entry["reason"] for o in result.outcomes)
     doc = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert [e["status"] for e in doc["records"]] == ["failed", "failed"]
+
+
+def test_the_manifest_is_written_also_after_a_signal(tmp_path, monkeypatch):
+    """SIGTERM stops a batch: the records' outputs it was writing are discarded, but manifest.json of
+    the records done is written (a record's output in the same state is not)."""
+    from sizefx.io import files
+
+    store = Manifest(tmp_path, "inspect").open_for_writing({})
+    store.record({**_entry_of("a"), "input": "/r/a.h5"}, {})
+    monkeypatch.setitem(files.INTERRUPTED, "signum", signal.SIGTERM)
+    doc = json.loads(store.export({}).read_text())
+    assert [e["name"] for e in doc["records"]] == ["a"]
+    with pytest.raises(files.Interrupted), files.atomic_output(tmp_path / "a.inspect.json") as tmp:
+        Path(tmp).write_text("{}")
+    assert not (tmp_path / "a.inspect.json").exists()
+    store.close()
+
+
+def _entry_of(name: str) -> dict:
+    return {
+        "input": f"/r/{name}.h5",
+        "name": name,
+        "sha256": "",
+        "options": {},
+        "outputs": {},
+        "status": "ok",
+        "reason": None,
+        "duration_s": 0.0,
+        "peak_memory_mib": 0.0,
+        "headline": {},
+    }

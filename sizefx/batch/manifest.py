@@ -189,12 +189,18 @@ class Manifest:
 
     def export(self, options: dict) -> Path:
         """Write ``manifest.json`` atomically from the store, a record at a time (memory bounded
-        whatever the batch's size), the records sorted by input path."""
+        whatever the batch's size), the records sorted by input path.
+
+        Also after a signal stopped the batch: unlike a record's outputs (which
+        :func:`~sizefx.io.files.atomic_output` then discards), the manifest of the records done is
+        what the user needs. The batch checked before it started that this path is no input
+        (:func:`.inputs.check_writes`)."""
         assert self._db is not None
         target = self.out_dir / MANIFEST_NAME
         head = json.dumps(self._document(options, []), indent=2)
         assert head.endswith('"records": []\n}')
-        with atomic_output(target, force=True) as tmp, open(tmp, "w") as f:
+        # published also after a signal stopped the batch (interrupted=True), unlike a record's outputs
+        with atomic_output(target, force=True, interrupted=True) as tmp, open(tmp, "w") as f:
             f.write(head[: -len("[]\n}")] + "[")
             try:
                 for k, (text,) in enumerate(self._db.execute("SELECT entry FROM records ORDER BY input")):

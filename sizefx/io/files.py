@@ -281,8 +281,14 @@ def _write_failed(out: Path, exc: OSError) -> OutputError:
 
 
 @contextlib.contextmanager
-def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp", expected_bytes: int = 0):
+def atomic_output(
+    path, *, inputs=(), force: bool = False, suffix: str = ".tmp", expected_bytes: int = 0, interrupted: bool = False
+):
     """Yield a temporary path next to ``path``; rename it to ``path`` on success.
+
+    After a signal (SIGINT, SIGTERM) or with the thread's work given up (:data:`ABANDONED`), the
+    file is discarded instead of published, unless ``interrupted``: bookkeeping of the work done
+    (a batch's manifest) that is wanted most then.
 
     On any exception the temporary file is removed and ``path`` is untouched. ``expected_bytes``:
     about how large the output will be (:func:`check_room` refuses it first if it cannot fit). An
@@ -316,10 +322,10 @@ def atomic_output(path, *, inputs=(), force: bool = False, suffix: str = ".tmp",
     except BaseException:
         discard()
         raise
-    if INTERRUPTED["signum"] is not None:  # a signal whose exception was swallowed: do not publish
+    if INTERRUPTED["signum"] is not None and not interrupted:  # a signal whose exception was swallowed
         discard()
         raise Interrupted(INTERRUPTED["signum"])
-    if threading.get_ident() in ABANDONED:  # the work this thread does was given up by whoever asked for it
+    if threading.get_ident() in ABANDONED and not interrupted:  # the work was given up by whoever asked for it
         discard()
         raise Interrupted(signal.SIGTERM)
     try:
