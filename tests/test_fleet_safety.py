@@ -485,7 +485,7 @@ def test_a_cluster_that_loses_every_worker_fails_the_records_left(tmp_path, one_
     threading.Thread(target=empty_the_cluster, daemon=True).start()
     result = run_batch("inspect", jobs, tmp_path / "out", {}, scheduler=one_worker_cluster.scheduler_address)
     assert [o.status for o in result.outcomes] == ["failed", "failed"]
-    assert all("had no worker for 2 s" in o.entry["reason"] for o in result.outcomes)
+    assert all("had no worker (or its scheduler was gone) for 2 s" in o.entry["reason"] for o in result.outcomes)
     doc = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert [e["status"] for e in doc["records"]] == ["failed", "failed"]
 
@@ -519,3 +519,54 @@ def _entry_of(name: str) -> dict:
         "peak_memory_mib": 0.0,
         "headline": {},
     }
+
+
+# long tier: a Dask scheduler and worker of their own, the scheduler killed mid-record (10 s); fast
+# twin: test_a_server_that_is_no_scheduler_is_one_line_within_seconds
+@pytest.mark.slow
+def test_a_scheduler_gone_mid_batch_fails_the_records_left(tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+
+    monkeypatch.setattr("sizefx.batch.runner.DASK_NO_WORKERS_S", 2.0)
+    with socket.socket() as probe:  # a free port for the scheduler
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS), os.environ.get("PYTHONPATH", "")])}
+    bin_dir = Path(sys.executable).parent
+    scheduler = subprocess.Popen(
+        [str(bin_dir / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    worker = subprocess.Popen(
+        [str(bin_dir / "dask"), "worker", address, "--nthreads", "2", "--no-nanny", "--no-dashboard"],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        jobs = _sleep_jobs(tmp_path, {"a": 30.0, "b": 30.0})
+
+        def kill_the_scheduler():
+            deadline = time.monotonic() + 60.0
+            while not Path(f"{tmp_path}/a.h5.pid").exists() and time.monotonic() < deadline:
+                time.sleep(0.1)
+            scheduler.kill()
+
+        threading.Thread(target=kill_the_scheduler, daemon=True).start()
+        monkeypatch.setattr("sizefx.batch.runner.DASK_CONNECT_S", 20.0)  # two processes starting
+        result = run_batch("inspect", jobs, tmp_path / "out", {}, scheduler=address)
+        assert [o.status for o in result.outcomes] == ["failed", "failed"]
+        # the client gives the futures up itself when it loses the scheduler, or the batch after 2 s
+        reasons = [o.entry["reason"] for o in result.outcomes]
+        assert all("scheduler" in r and "worker process died" not in r for r in reasons), reasons
+    finally:
+        for process in (scheduler, worker):
+            process.kill()
+            process.wait()

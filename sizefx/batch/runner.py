@@ -592,7 +592,9 @@ def folder_lock(out_dir):
         handle.close()
 
 
-def _died(job: BatchJob, why: str) -> RecordOutcome:
+def _died(
+    job: BatchJob, why: str, what: str = "the worker process died", then: str = "run it alone to see why"
+) -> RecordOutcome:
     return RecordOutcome(
         {
             "input": job.input,
@@ -601,7 +603,7 @@ def _died(job: BatchJob, why: str) -> RecordOutcome:
             "options": job.options,
             "outputs": {},
             "status": "failed",
-            "reason": f"the worker process died ({why}); run it alone to see why",
+            "reason": f"{what} ({why}); {then}",
             "duration_s": 0.0,
             "peak_memory_mib": 0.0,
             "headline": {},
@@ -682,9 +684,9 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
     """Every job as a Dask task on ``client``'s cluster (the same :func:`_work`), finished as they come.
     A worker that dies with a record is replaced by its nanny and the record run again; a record that
     kills its worker more often than the scheduler allows (``distributed.scheduler.allowed-failures``,
-    3 by default) fails alone (``KilledWorker``). A cluster left without any worker for
-    :data:`DASK_NO_WORKERS_S` while records are left fails those records (each named in the
-    manifest) and ends the batch. Stopped (Ctrl-C, SIGTERM, an error here), the batch cancels every
+    3 by default) fails alone (``KilledWorker``). A cluster left without any worker, or a scheduler
+    gone, for :data:`DASK_NO_WORKERS_S` while records are left fails those records (each named in
+    the manifest) and ends the batch. Stopped (Ctrl-C, SIGTERM, an error here), the batch cancels every
     task it sent before it exits."""
     from distributed import as_completed
 
@@ -701,29 +703,39 @@ def _run_dask(client, jobs: list[BatchJob], finished) -> None:
                 job = futures[fut]
                 try:
                     outcome = fut.result()
-                except Exception as exc:  # KilledWorker: the record took its worker down every time
-                    outcome = _died(job, f"{type(exc).__name__}: {_one_line(exc)}")
+                except Exception as exc:
+                    why = f"{type(exc).__name__}: {_one_line(exc)}"
+                    if type(exc).__name__ == "KilledWorker":  # the record took its worker down every time
+                        outcome = _died(job, why)
+                    else:  # the cluster gave it up (its scheduler lost): not the record's fault
+                        outcome = _died(job, why, "the Dask cluster lost the record", "run the batch again")
                 done.add(fut)
                 finished(job, outcome)
             if batch:
                 alone_since = None
                 continue
-            if client.scheduler_info().get("workers"):
+            # a scheduler gone leaves its last word (workers included) in the client: its status says
+            if client.status == "running" and client.scheduler_info().get("workers"):
                 alone_since = None
             elif alone_since is None:
                 alone_since = time.monotonic()
             elif time.monotonic() - alone_since > DASK_NO_WORKERS_S:
                 left = [f for f in futures if f not in done]
-                client.cancel(left, force=True)
+                with contextlib.suppress(Exception):  # a scheduler gone cannot be told
+                    client.cancel(left, force=True)
                 for fut in left:
                     finished(
                         futures[fut],
-                        _died(futures[fut], f"the Dask cluster had no worker for {DASK_NO_WORKERS_S:g} s"),
+                        _died(
+                            futures[fut],
+                            f"the Dask cluster had no worker (or its scheduler was gone) for {DASK_NO_WORKERS_S:g} s",
+                        ),
                     )
                 return
             time.sleep(0.1)
     except BaseException:
-        client.cancel([f for f in futures if f not in done], force=True)
+        with contextlib.suppress(Exception):  # a scheduler gone cannot be told
+            client.cancel([f for f in futures if f not in done], force=True)
         raise
 
 
