@@ -325,7 +325,9 @@ class _DaskWatch(threading.Thread):
         super().__init__(daemon=True, name="sizefx-dask-watch")
         self.owner, self.stopped = threading.get_ident(), threading.Event()
         self.worker = self.key = None
-        with contextlib.suppress(Exception):  # not in a Dask task (a local worker): nothing to watch
+        if "distributed" not in sys.modules:  # a local worker: no Dask task to watch, and no import of it
+            return
+        with contextlib.suppress(Exception):  # not in a Dask task: nothing to watch
             from distributed import get_worker
             from distributed.worker import thread_state
 
