@@ -79,3 +79,18 @@ def write_raw(path, *, n=N, rate_hz=RATE_HZ, form="rates", mutate=None, referenc
         if mutate is not None:
             mutate(h5)
     return path
+
+
+def write_tiny_flight(path, n: int):
+    """A static record of ``n`` samples (:func:`write_raw`'s rate) with a level ``/reference``, position
+    included, at every sample: a flight too short for what is asked of it."""
+
+    def reference(h5):
+        t = h5["imu/time"][()]
+        ref = h5.create_group("reference")
+        ref.create_dataset("time", data=t).attrs["units"] = "s"
+        ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
+        pos = np.tile([57.9825, 55.7089, 120.0], (t.size, 1))
+        ref.create_dataset("position", data=pos).attrs["units"] = "deg,deg,m"
+
+    return write_raw(path, n=n, reference=False, mutate=reference)

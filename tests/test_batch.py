@@ -659,20 +659,11 @@ def test_headline_figures_of_each_stage():
 def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campaign, tmp_path):
     """batch navigate --plots: a 5-sample record is refused (the single command's one line as the reason),
     not 'failed' with a ValueError, and the other records run."""
-    from support import write_raw
+    from support import write_tiny_flight
 
     runs = tmp_path / "runs"
     shutil.copytree(campaign, runs)
-
-    def reference(h5):
-        t = h5["imu/time"][()]
-        ref = h5.create_group("reference")
-        ref.create_dataset("time", data=t).attrs["units"] = "s"
-        ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
-        pos = np.tile([57.9825, 55.7089, 120.0], (t.size, 1))
-        ref.create_dataset("position", data=pos).attrs["units"] = "deg,deg,m"
-
-    write_raw(runs / "tiny.h5", n=5, reference=False, mutate=reference)
+    write_tiny_flight(runs / "tiny.h5", 5)
     out = tmp_path / "out"
     result = _batch("navigate", runs, "--out", out, "--plots", "--workers", "1")
     assert result.exit_code == 1, result.output

@@ -16,6 +16,7 @@ import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from support import write_tiny_flight
 
 from sizefx.io.schema import check_document
 from sizefx.levers import levers_from_preset, write_levers
@@ -320,26 +321,11 @@ def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, one_fli
     assert not out.exists()
 
 
-def _tiny_flight(path, n):
-    """A static record of ``n`` samples at 100 Hz with a level /reference (position too) at every sample."""
-    from support import write_raw
-
-    def reference(h5):
-        t = h5["imu/time"][()]
-        ref = h5.create_group("reference")
-        ref.create_dataset("time", data=t).attrs["units"] = "s"
-        ref.create_dataset("quaternion", data=np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
-        pos = np.tile([57.9825, 55.7089, 120.0], (t.size, 1))
-        ref.create_dataset("position", data=pos).attrs["units"] = "deg,deg,m"
-
-    return write_raw(path, n=n, reference=False, mutate=reference)
-
-
 @pytest.mark.parametrize("n,needle", [(5, "the solution (-o) needs at least 1 row"), (10, "(--plot) needs at least 2")])
 def test_a_flight_of_a_handful_of_samples_is_refused_and_leaves_no_folder(tmp_path, n, needle):
     """run --plots on a flight too short for a solution or a curve: navigate, the first stage, refuses it in
     one line (it ended in a traceback), and the --out folder the chain made for it is gone again."""
-    flight = _tiny_flight(tmp_path / "tiny.h5", n)
+    flight = write_tiny_flight(tmp_path / "tiny.h5", n)
     levers = tmp_path / "levers.json"
     write_levers(levers, levers_from_preset("high-precision"))
     out = tmp_path / "out"
