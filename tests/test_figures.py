@@ -20,7 +20,7 @@ Checked here, without running anything: every text, filled from its file, occurs
 (wrapped anywhere between its words); every result file records a clean checkout; a speed figure
 measured on a busy machine (the file's ``machine.quiet`` false) stands beside the words "under
 load" and never beside "quiet"; and, the other way round, every number with a unit of time,
-memory or throughput in the sections that ``docs/figures.toml`` scopes is covered by a registered
+memory, throughput or accuracy in the sections that ``docs/figures.toml`` scopes is covered by a registered
 text (or a ``[[given]]`` text: an input such as a record's length, not a measurement), so a new
 figure without a source fails here.
 """
@@ -39,10 +39,13 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 REGISTRY = ROOT / "docs" / "figures.toml"
 
-#: A number followed by a unit of time, memory or throughput: what the reverse check looks for.
+#: A number followed by a unit of time, memory, throughput or accuracy (length, position,
+#: acceleration, angle, angular rate, ratio, standard errors): what the reverse check looks for. A
+#: range (``0.2–0.4 %``, ``1052 ± 70 arcsec``) is one figure.
 FIGURE = re.compile(
-    r"(?<![\w.])\d[\d.]*(?:[  ]\d{3})*(?:\s*[–-]\s*\d[\d.]*)?\s*"
-    r"(?:s|ms|min|MiB|GiB|KiB|MB|GB|M samples/s|samples/s)(?![\w/])"
+    r"(?<![\w.])[−-]?\d[\d.]*(?:[  ]\d{3})*(?:\s*(?:[–-]|±|to)\s*[−-]?\d[\d.]*)?\s*"
+    r"(?:s|ms|µs|min|MiB|GiB|KiB|MB|GB|M samples/s|samples/s"
+    r"|µm|mm|cm|km|m/s²|m/s|m|µg|mg|ppm|arcsec|″|deg/h|°/h|mrad|µrad|deg|°|%|σ)(?![\w/])"
 )
 
 
@@ -204,6 +207,26 @@ def test_every_measured_figure_in_a_scoped_section_has_a_source(scope):
         f"{scope['page']}: figures without a source: {orphans}; register each in docs/figures.toml "
         f"with its result file (or as [[given]] when it is an input, not a measurement)"
     )
+
+
+def test_every_page_is_scoped_and_every_given_says_why():
+    pages = {"README.md", *(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))}
+    scoped = {s["page"] for s in registry()["scope"]}
+    assert pages <= scoped, f"pages no scope covers: {sorted(pages - scoped)}; add a [[scope]] for each"
+    for given in registry().get("given", []):
+        assert given.get("why"), f"{given['page']}: [[given]] {given['text']!r} needs a `why`"
+        assert pattern(given["text"]).search(page(given["page"])), (
+            f"{given['page']} no longer reads the [[given]] text {given['text']!r}; correct or remove it"
+        )
+
+
+def test_the_reverse_check_sees_accuracy_figures_as_well_as_timings():
+    found = [m.group(0) for m in FIGURE.finditer(
+        "took 2.5 s, 570 MiB; arms 0.028–0.032 mm, lag 1052 ± 70 arcsec, the delay −44 µs, 0.09 µg, "
+        "14.85 deg/h, 0.6 σ, 10 %, 1.07 km, 0.62 m/s; not CH4 or v2.5 or 3D"
+    )]
+    assert found == ["2.5 s", "570 MiB", "0.028–0.032 mm", "1052 ± 70 arcsec", "−44 µs", "0.09 µg",
+                     "14.85 deg/h", "0.6 σ", "10 %", "1.07 km", "0.62 m/s"]
 
 
 def test_the_formatter_reads_paths_scales_and_signs():
