@@ -6,7 +6,7 @@
 Each record is its own draw from the priors below (:func:`draw`): the motion, the geometry, a
 random subset of effects with random sizes and signs, and the noise colour. ``sizefx diagnose``
 then sees the record with the drawing's nominal geometry as its start model, as a user would, and
-every parameter it reports is judged against the truth: ``z = (estimate - truth) / sigma``.
+every parameter of a finding is judged against the truth: ``z = (estimate - truth) / sigma``.
 
 **Two seed ranges, never mixed.** ``--range dev`` draws records from seeds 0, 1, 2, ...: tune the
 error recipe, the selection and the thresholds on these. ``--range validation`` draws from
@@ -59,6 +59,7 @@ from scipy.stats import norm
 
 from sizefx import diagnose as D
 from sizefx import scenarios as S
+from sizefx.diagnose.candidates import CANDIDATES
 from sizefx.effects import IDEAL, load_effects
 from sizefx.geometry import preset_arms_m
 from sizefx.simulate import simulate_in_memory
@@ -211,6 +212,21 @@ def _effect_present(kind: str, truth: np.ndarray, nominal: np.ndarray) -> bool:
     return bool(np.any(truth[idx] != nominal[idx]))
 
 
+def finding_parameters(d) -> list[int]:
+    """The indices into theta of what diagnose reports as findings: each found effect's parameters
+    but those it says the record does not reveal. A parameter the report lists as not revealed
+    (the motion does not excite it, or it is indistinguishable from another candidate and the
+    extended model carries their sum under one name) is no estimate of its own truth; its count
+    is shown (``not_revealed``), its value is not judged."""
+    cands = {(c.id, c.channel): c for c in CANDIDATES}
+    out = []
+    for e in d.effects:
+        for j in cands[(e.id, e.channel)].idx:
+            if D.PARAMS[j].label not in e.hidden and d.sigma_theta.get(j, 0) > 0:
+                out.append(j)
+    return sorted(set(out))
+
+
 def judge(seed: int, motions=MOTIONS) -> dict:
     """Draw, simulate and diagnose record ``seed``; what diagnose found against the truth."""
     rng = np.random.default_rng(seed)
@@ -226,9 +242,12 @@ def judge(seed: int, motions=MOTIONS) -> dict:
     found = sorted({e.id for e in d.effects})
     unrevealed = sorted({u["id"] for u in d.unrevealed})
     z = [
-        {"effect": D.PARAMS[j].effect, "label": D.PARAMS[j].label, "z": float((d.theta[j] - truth[j]) / s)}
-        for j, s in d.sigma_theta.items()
-        if s > 0
+        {
+            "effect": D.PARAMS[j].effect,
+            "label": D.PARAMS[j].label,
+            "z": float((d.theta[j] - truth[j]) / d.sigma_theta[j]),
+        }
+        for j in finding_parameters(d)
     ]
     return {
         "seed": seed,
