@@ -10,7 +10,8 @@ written by ``python benchmarks/SCRIPT.py --record``, or ``docs/paper/results.jso
 - ``a.b.0.c``: keys and list indices, from the file's top level;
 - ``/1e6``, ``*1e3`` at the end of the path: the value scaled (``{figures.rate/1e6:.1f} M``);
 - ``|min``, ``|max``: the least or largest of a list (or of an object's values); ``|abs``: the
-  value, or each of them, made positive (``{x|abs|max}``);
+  value, or each of them, made positive (``{x|abs|max}``); ``|flat``: a nested list as one list
+  (``{m|flat|abs|max}``: the largest magnitude in a matrix);
 - the format spec ``_`` groups thousands with a space (``{x:_.0f}``: ``12 001``); an exponent is
   written without padding (``{x:.1e}``: ``8.3e-9``), a percentage with a space (``{x:.0%}``: ``6 %``);
 - the conversion ``!m`` writes a minus sign as U+2212 (``{x!m:+.2f}``: ``−0.01``);
@@ -59,6 +60,14 @@ class _Minus:
         return format(self.value, spec).replace("-", "−")
 
 
+def _flatten(values):
+    for v in values:
+        if isinstance(v, list):
+            yield from _flatten(v)
+        else:
+            yield v
+
+
 class FigureFormatter(string.Formatter):
     """``str.format`` whose fields are paths into a JSON document (the grammar above)."""
 
@@ -82,7 +91,9 @@ class FigureFormatter(string.Formatter):
             value = value * factor if scale.group(1) == "*" else value / factor
         for reducer in reducers:
             values = list(value.values()) if isinstance(value, dict) else value
-            if reducer == "abs":
+            if reducer == "flat":
+                value = list(_flatten(values))
+            elif reducer == "abs":
                 value = [abs(v) for v in values] if isinstance(values, list) else abs(values)
             else:
                 value = {"min": min, "max": max}[reducer](values)
@@ -230,12 +241,13 @@ def test_the_reverse_check_sees_accuracy_figures_as_well_as_timings():
 
 
 def test_the_formatter_reads_paths_scales_and_signs():
-    f = FigureFormatter({"a": {"b": [1.5, -0.0123]}, "r": 13_412_345.0, "n": 12001, "xs": [3, 1, 2]})
+    f = FigureFormatter({"a": {"b": [1.5, -0.0123]}, "r": 13_412_345.0, "n": 12001, "xs": [3, 1, 2], "m": [[1, -4], [3, 2]]})
     assert f.format("{a.b.0:.1f}") == "1.5"
     assert f.format("{r/1e6:.1f} M") == "13.4 M"
     assert f.format("{a.b.1*1e3!m:+.1f}") == "−12.3"
     assert f.format("{n:_d}") == "12 001"
     assert f.format("{xs|min}–{xs|max} {a.b|abs|min}") == "1–3 0.0123"
+    assert f.format("{m|flat|abs|max} {m|flat|min}") == "4 -4"
     assert f.format("{a.b.1:.1e} {r:.0e} {a.b.0:.0%}") == "-1.2e-2 1e7 150 %"
     with pytest.raises(KeyError, match="no 'c'"):
         f.format("{a.c}")
