@@ -221,7 +221,7 @@ def test_every_measured_figure_in_a_scoped_section_has_a_source(scope):
 
 
 def test_every_page_is_scoped_and_every_given_says_why():
-    pages = {"README.md", *(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))}
+    pages = {"README.md", *(str(p.relative_to(ROOT)) for d in ("docs", "examples") for p in (ROOT / d).glob("*.md"))}
     scoped = {s["page"] for s in registry()["scope"]}
     assert pages <= scoped, f"pages no scope covers: {sorted(pages - scoped)}; add a [[scope]] for each"
     for given in registry().get("given", []):
