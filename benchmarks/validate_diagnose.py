@@ -29,7 +29,9 @@ The priors (SI inside, the effect model's file units in the draw):
   30-80, 30-80 deg; frequencies 0.03-0.16 Hz) at 200 Hz; a single-axis sway (roll, pitch or
   heading; 0.5, 1 or 2 Hz; two rate amplitudes of 5-30 deg/s; 150 s) at 200 Hz; the paper's
   three-axis turntable plan shortened to 40 s per axis (peak rate 10-30 deg/s) at 200 Hz; a short
-  helicopter flight (480-600 s, rotor vibration at 8 Hz and its harmonics) at 100 Hz.
+  helicopter flight (480-600 s, rotor vibration at 8 Hz and its harmonics) at 400 Hz (at 100 Hz,
+  the reference would hold the 32 Hz harmonic in three samples a period: no recorder of a flight
+  trial logs its reference so).
 - **Geometry**: the high-precision design's arms (the start model) moved by a rotation-centre
   offset ``r0`` of 0-50 mm in a random direction; with probability 1/2, each accelerometer's arm
   also differs from the drawing by 0.5-5 mm per component.
@@ -141,7 +143,7 @@ def draw_motion(rng, motions=MOTIONS) -> tuple[str, object, float]:
         weave_deg=0.0,
         climb_step_m=0.0,
     )
-    return kind, S.flight(plan)[0], 100.0
+    return kind, S.flight(plan)[0], 400.0  # the rotor's 32 Hz harmonic needs a reference that resolves it
 
 
 def draw_effects(rng) -> tuple[dict, dict]:
