@@ -4,12 +4,16 @@
 
 - coning (1 deg half-angle at 10 and 50 Hz) and sculling (0.25 deg, 1 m/s^2 at 100 Hz):
   measured drift for 1-4 sub-samples beside the closed-form residual of the algorithm;
-- the simulated 1.8 h helicopter flight, ideal sensors, 1600 Hz rates: final horizontal error.
+- the simulated 1.8 h helicopter flight, ideal sensors, 1600 Hz rates: final horizontal error;
+- real data: the PSINS ring-laser log (../shared/data/real/psins/lasergyro.imu, or under
+  SIZEFX_REAL_DATA) imported and navigated as docs/navigate.md says, ``sizefx navigate
+  lasergyro.h5 --align-s 300``: the heading the alignment finds and the free-inertial error.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -28,6 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import add_output_options, emit  # (a sibling of this script)
 
 H = 1 / 1600
+#: The real recordings (read where they lie, never copied): shared/ beside the checkout.
+REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
 #: A closed-form coning drift below this is at the float64 floor of the attitude.
 FLOOR_DEG_PER_H = 1e-6
 
@@ -176,6 +182,35 @@ def flight_check():
         }
 
 
+def ring_laser_check():
+    """The PSINS ring-laser log, parked: imported, aligned over 300 s, navigated free-inertial (height held)."""
+    path = REAL / "psins" / "lasergyro.imu"
+    if not path.is_file():
+        print(f"  real data {path} not found: the ring-laser log is skipped")
+        return None
+    from sizefx.importers import run_import
+    from sizefx.io.telemetry import read_telemetry
+    from sizefx.rotation import mat_to_euler, quat_to_mat
+
+    with tempfile.TemporaryDirectory() as tmp:
+        h5 = Path(tmp) / "lasergyro.h5"
+        run_import("psins-imu", path, h5)
+        header = read_telemetry(h5).reference.quat_nb[0]  # the header's approximate attitude
+        res = run(NavigateConfig(input=str(h5), options=NavConfig(align_s=300.0)))
+    c, s = res.config, res.summary
+    return {
+        "init": c["init"],
+        "align_s": c["align_s"],
+        "vertical": c["vertical"],
+        "header_heading_deg": float(np.degrees(mat_to_euler(quat_to_mat(header))[2])),
+        "fine_roll_pitch_heading_deg": c["fine_roll_pitch_heading_deg"],
+        "duration_s": s["duration_s"],
+        "final_horizontal_error_m": s["final_horizontal_error_m"],
+        "max_horizontal_error_m": s["max_horizontal_error_m"],
+        "drift_nmi_per_h": s["drift_nmi_per_h"],
+    }
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-flight", action="store_true", help="Leave out the 1.8 h flight (about a minute).")
@@ -220,6 +255,15 @@ def main(argv=None):
         f"Schuler, 10 ug: period {sc['period_min']:.3f} min (theory {sc['period_expected_min']:.3f}), "
         f"peak {sc['peak_error_m']:.2f} m (2bR/g = {sc['peak_expected_m']:.2f} m)"
     )
+    laser = ring_laser_check()
+    if laser is not None:
+        report["ring_laser"] = laser
+        print(
+            f"ring-laser log ({laser['duration_s']:.0f} s): aligned over {laser['align_s']:.0f} s to heading "
+            f"{laser['fine_roll_pitch_heading_deg'][2]:.2f} deg (header {laser['header_heading_deg']:.2f}), "
+            f"free-inertial error final {laser['final_horizontal_error_m']:.1f} m, "
+            f"max {laser['max_horizontal_error_m']:.1f} m"
+        )
     if not args.skip_flight:
         report["flight"] = flight_check()
         fl = report["flight"]
