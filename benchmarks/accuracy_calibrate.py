@@ -2,6 +2,7 @@
 
     python benchmarks/accuracy_calibrate.py [--seeds 100] [--jobs 2] [--variants paper,sway,coloured]
                                             [--skip-reference-rate] [--json out.json] [--record]
+    python benchmarks/accuracy_calibrate.py --only checks --record checks   # the single-record checks alone
 
 Monte Carlo (issue 17) of three set-ups, every seed an independent record (only the noise seed varies):
 
@@ -26,6 +27,19 @@ Then (issues 5 and 13): the paper's per-rotation fit, which ignores the tilt, ag
 on one tilted record; and the paper's plan with a 40-minute roll sway, the sway's reference at
 1600 Hz and at 100 Hz, calibrated through ``sizefx.calibrate.run`` (the arms must agree within
 0.01 mm).
+
+Last, the single-record checks (``checks``; ``--only checks`` runs them alone, in a few minutes):
+
+- ``noiseless``: issue 17's set-up without noise on the paper's plan shortened to 214 s (1600 Hz):
+  the arms' largest |estimate - truth| / sigma (sigma at 2.96 ug/sqrt(Hz), from the Fisher
+  information) in the increment domain, and in the rates domain with the gyros' 25 ms and a 125 ms
+  Savitzky-Golay derivative.
+- ``steps``: the ``sway`` set-up on paired seeds (0.5 ms of delay less none, the same noise): the
+  delay's difference off 0.5 ms with the rows at the sway's steps in angular acceleration left out
+  (the fit's way) and kept.
+- ``turntable``: one record of the paper's plan with ``simulate turntable``'s defaults (seed 0),
+  calibrated by ``sizefx.calibrate.run``: the pre-flight bound over the fit's sigma per arm, and the
+  final horizontal error of navigating the record without and with the calibrated arms (triad).
 """
 
 from __future__ import annotations
@@ -36,15 +50,21 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from sizefx import scenarios
-from sizefx.calibrate import PARAMS_R, CalibrateConfig, joint_fit, per_rotation_fit, prepare
+from sizefx.calibrate import PARAMS_R, CalibrateConfig, excitation, joint_fit, per_rotation_fit, prepare
+from sizefx.calibrate import joint as joint_module
 from sizefx.calibrate import run as calibrate_files
-from sizefx.constants import ARCSEC
+from sizefx.calibrate.joint import information
+from sizefx.constants import ARCSEC, MICRO_G
 from sizefx.effects import load_effects
+from sizefx.io.telemetry import read_telemetry
+from sizefx.navigate import NavConfig, navigate
+from sizefx.omegadot import savgol
 from sizefx.simulate import SimulateConfig, simulate_in_memory
 from sizefx.simulate import run as simulate_file
 
@@ -200,8 +220,12 @@ def main(argv=None):
     ap.add_argument("--variants", default="paper,sway,coloured")
     ap.add_argument("--no-rates", action="store_true", help="skip the rates-domain comparison on the paper set-up")
     ap.add_argument("--skip-reference-rate", action="store_true", help="leave out the 40-minute sway files")
+    ap.add_argument("--only", choices=["checks"], help="run only the single-record checks (the docstring's last list)")
     add_output_options(ap)
     args = ap.parse_args(argv)
+    if args.only == "checks":
+        out = {"checks": checks(args.jobs)}
+        return emit(out, args, __file__, argv, threads=args.jobs, show=False)
     variants = [v for v in args.variants.split(",") if v]
     unknown = set(variants) - set(VARIANTS)
     if unknown:
@@ -242,6 +266,7 @@ def main(argv=None):
             f"1600 Hz: arms differ by at most {rr['max_difference_mm']:.5f} mm (sigma {rr['sigma_min_mm']:.4f}"
             f"..{rr['sigma_max_mm']:.4f} mm)"
         )
+    out["checks"] = checks(args.jobs)
     print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
     return emit(out, args, __file__, argv, threads=args.jobs, show=False)
 
@@ -289,6 +314,120 @@ def reference_rate() -> dict:
         "sigma_min_mm": float(arms[1600.0].sigma_arms.min() * 1e3),
         "sigma_max_mm": float(arms[1600.0].sigma_arms.max() * 1e3),
     }
+
+
+#: The paper's plan shortened to 214 s, all nine arms observable (tests/test_calibrate_bound.py's).
+SHORT_PLAN = scenarios.TurntablePlan(static_s=20.0, seconds_per_axis=48.0, cycles=2)
+#: The wide derivative of the noiseless check: 201 samples, 125 ms at 1600 Hz.
+WIDE_WINDOW = 201
+
+
+def noiseless() -> dict:
+    """The arms' bias in sigma on a noiseless record: the increment domain against the rates
+    domain's filtered derivatives (issue 17)."""
+    quiet = load_effects(overrides={**BASE, "accel_noise": {"enabled": False}, "gyro_noise": {"enabled": False}})
+    rec = prepare(simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], quiet, form="rates", seed=0))
+    names, fisher = information([rec], 2.96 * MICRO_G)
+    sigma = np.sqrt(np.diag(np.linalg.inv(fisher)))[:9].reshape(3, 3)
+    truth = quiet.arms_total_m()
+    dt = float(np.median(np.diff(rec.t)))
+    wide = replace(rec, omegadot=savgol(rec.omega, dt, window=WIDE_WINDOW))
+    fits = {
+        "increments": joint_fit([rec]),
+        "rates_25ms": joint_fit([rec], interval_s=None),
+        "rates_125ms": joint_fit([wide], interval_s=None),
+    }
+    return {
+        "record_s": float(rec.t[-1] - rec.t[0]),
+        **{f"max_abs_z_{k}": float(np.abs((r.arms - truth) / sigma).max()) for k, r in fits.items()},
+    }
+
+
+_STEPS = joint_module.steps_in_angular_acceleration
+
+
+def _no_steps(rec):
+    return np.zeros(rec.t.size, dtype=bool)
+
+
+def _delay(job):
+    """The ``sway`` set-up's delay estimate at ``tau`` on seed ``seed``, the rows at steps in
+    angular acceleration left out (the fit's way) or kept."""
+    tau, seed, keep_steps = job
+    joint_module.steps_in_angular_acceleration = _no_steps if keep_steps else _STEPS  # a worker runs either
+    fx = load_effects(overrides={**BASE, "accel_delay": {"enabled": tau > 0, "tau_s": tau}})
+    plan = scenarios.turntable(scenarios.TurntablePlan())[0]
+    records = [prepare(simulate_in_memory(plan, fx, form="rates", seed=seed), "turntable")]
+    for k, axis in enumerate(("roll", "pitch")):
+        sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=10.0, segment_s=60.0))[0]
+        records.append(prepare(simulate_in_memory(sway, fx, form="rates", seed=seed + 50_000 * (k + 1)), axis))
+    res = joint_fit(records, with_delay=True)
+    return res.delay_s, res.left_out_steps, res.left_out_s
+
+
+def steps(jobs: int, seeds=(0, 1)) -> dict:
+    """Paired seeds: 0.5 ms of delay less none, the same noise, with the steps' rows left out and kept."""
+    grid = [(tau, SEED_BASE["sway"] + s, keep) for keep in (False, True) for s in seeds for tau in (DELAY_S, 0.0)]
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        got = dict(zip(grid, pool.map(_delay, grid)))
+    out = {"seeds": len(seeds)}
+    for keep, name in ((False, "left_out"), (True, "kept")):
+        pairs = [
+            got[(DELAY_S, SEED_BASE["sway"] + s, keep)][0] - got[(0.0, SEED_BASE["sway"] + s, keep)][0] for s in seeds
+        ]
+        out[f"{name}_error_us"] = [(d - DELAY_S) * 1e6 for d in pairs]
+    out["left_out_steps"], out["left_out_s"] = got[(DELAY_S, SEED_BASE["sway"] + seeds[0], False)][1:]
+    return out
+
+
+def turntable_record() -> dict:
+    """One ``simulate turntable`` record with the defaults: the pre-flight bound against the fit's
+    sigma, and navigation without and with the calibrated arms."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path, levers = Path(tmp) / "turntable.h5", Path(tmp) / "levers.json"
+        simulate_file(SimulateConfig("turntable", path, seed=0))
+        fit = calibrate_files(CalibrateConfig((str(path),), json_path=str(levers))).fit
+        exc = excitation(path)
+        bound = np.array(
+            [np.sqrt(np.diag(np.linalg.inv(exc.arm_information[i] / exc.noise_mps2[i] ** 2))) for i in range(3)]
+        )
+        tel = read_telemetry(path)
+        final = {
+            mode: float(navigate(tel, cfg).errors["horizontal_m"][-1])
+            for mode, cfg in (("none", NavConfig()), ("triad", NavConfig(levers=str(levers), mode="triad")))
+        }
+    ratio = bound / fit.sigma_arms
+    return {
+        "duration_s": float(tel.time_s[-1] - tel.time_s[0]),
+        "preflight_over_fit_sigma_min": float(ratio.min()),
+        "preflight_over_fit_sigma_max": float(ratio.max()),
+        "final_horizontal_error_m": final,
+    }
+
+
+def checks(jobs: int) -> dict:
+    t0 = time.perf_counter()
+    out = {"noiseless": noiseless()}
+    n = out["noiseless"]
+    print(
+        f"\nnoiseless, {n['record_s']:.0f} s: arms' largest |z| increments {n['max_abs_z_increments']:.4f}, "
+        f"rates 25 ms {n['max_abs_z_rates_25ms']:.2f}, 125 ms {n['max_abs_z_rates_125ms']:.2f}",
+        flush=True,
+    )
+    out["steps"] = st = steps(jobs)
+    print(
+        f"paired seeds, delay less 0.5 ms [us]: steps left out {st['left_out_error_us']}, kept {st['kept_error_us']} "
+        f"({st['left_out_steps']} steps, {st['left_out_s']:.2f} s left out)",
+        flush=True,
+    )
+    out["turntable"] = tt = turntable_record()
+    print(
+        f"turntable: pre-flight bound / fit sigma {tt['preflight_over_fit_sigma_min']:.3f}.."
+        f"{tt['preflight_over_fit_sigma_max']:.3f}; final horizontal error {tt['final_horizontal_error_m']}",
+        flush=True,
+    )
+    out["wall_s"] = time.perf_counter() - t0
+    return out
 
 
 if __name__ == "__main__":
