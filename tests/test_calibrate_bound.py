@@ -83,7 +83,7 @@ def _bias_z(rec, truth, sigma, **fit):
 
 def test_increment_domain_is_unbiased(noiseless_and_sigma):
     """Arms and tilt; the tilt is against the ellipsoid's normal, as the simulator and the reference
-    state it (gravity's north component, 0.09 ug at the site's 380 m, once came out as 0.018 arcsec
+    state it (gravity's north component, 0.09 ug at the site's 120 m, once came out as 0.018 arcsec
     of tilt, half a sigma)."""
     rec, truth, sigma, sigma_tilt = noiseless_and_sigma
     res = joint_fit([rec])

@@ -47,7 +47,7 @@ class Record:
     omegadot: np.ndarray  #: [N, 3] rad/s^2 (Savitzky-Golay, centred)
     mat_nb: np.ndarray  #: [N, 3, 3] reference attitude
     #: normal gravity at the site, NED [3] m/s^2, with its small north component (Groves eq. 2.139:
-    #: 0.09 ug at 380 m, which a fit that took only the down component would call 0.018 arcsec of tilt)
+    #: 0.09 ug at the paper's airfield, 120 m, which a fit that took only the down component would call 0.018 arcsec of tilt)
     g_n: np.ndarray
 
     @property
