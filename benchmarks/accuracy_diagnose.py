@@ -15,8 +15,8 @@
    on a two-minute 1600 Hz record, wall time and peak memory of the child process.
 5. Real data: BROAD trials 07, 09 and 21 (one rigid mount) with the band measured by diagnose
    itself (no ``--bandwidth-hz``): arms, clock offsets, and their cross-trial consistency
-   chi2/dof with the reported errors (target <= 4); trial 16 (translation only) must not
-   report lever arms.
+   chi2/dof with the reported errors (target <= 4); trial 16 ("translation", but turning too):
+   which lever arms it reports.
 6. Real data, BROAD checks (``broad_checks``, recorded alone: ``--only broad_checks --record
    broad_checks``): trials 07, 09 and 21 refitted at the bands a third of an octave below and above
    the measured one (what the errors' systematic part looks at: how far the arms move), and trial
