@@ -41,22 +41,24 @@ STEPS = (
 )
 
 # Tolerances, each with its reason.
-#: Calibrated arms against the truth, in their own sigma (0.004-0.013 mm): the 50 Hz reference is
-#: interpolated by a rotation spline, and the arms come out within 1.8 sigma of the truth (slerp had
-#: biased them by up to 0.093 mm, 9 sigma). 4 sigma: a 1-in-16000 false alarm per component; a
-#: missed arm (3.0 mm) is hundreds of sigma off.
+#: Calibrated arms against the truth, in their own sigma: every one of the nine components within
+#: 4 sigma (the 50 Hz reference is interpolated by a rotation spline; slerp had biased the arms by
+#: many sigma). 4 sigma: a 1-in-16000 false alarm per component; a missed arm (3.0 mm) is hundreds
+#: of sigma off. The measured arms and sigmas: benchmarks/results/accuracy_own_recording.json.
 ARM_Z = 4.0
-#: Calibrated accelerometer delay against the truth [s]: it comes out 1.2 us late (sigma 0.34 us),
-#: where diagnose, which fits the delay exactly rather than to first order, gets 1000.15 +- 0.35 us.
-#: 3 us bounds that and still fails for a wrong sign or units (1000 us off).
+#: Calibrated accelerometer delay against the truth [s]: within 3 us of the 1 ms truth. That leaves
+#: room for a small bias of the fit (its sigma is a fraction of a microsecond) and still fails for a
+#: wrong sign or units (1000 us off). The measured delay: benchmarks/results/accuracy_own_recording.json.
 DELAY_TOL_S = 3e-6
 #: diagnose's estimates against the truth, in their own sigma (no interpolation bias: diagnose fits
 #: the reference with splines). 4 sigma: a 1-in-16000 false alarm per parameter.
 DIAGNOSE_Z = 4.0
-#: Navigation: the arms must remove most of the error. Without them it reaches 33 m in 120 s; with
-#: them 0.66 m, of which 0.55 m is the navigation's own error at 50 Hz on this tumble (an ideal
-#: record gives it). 1.5 m and a factor 10 leave room for a better or worse algorithm, not for
-#: arms that fail to compensate.
+#: Navigation: the arms must remove most of the error. After the two minutes the compensated solution
+#: must be under 1.5 m from the reference and the plain one over 15 m and ten times as far. Most of
+#: what remains with the arms is the navigation's own error at 50 Hz on this tumble (an ideal record
+#: navigated the same way shows it); the measured errors are in
+#: benchmarks/results/accuracy_own_recording.json. The bounds leave room for a better or worse
+#: algorithm, not for arms that fail to compensate.
 COMPENSATED_MAX_M = 1.5
 PLAIN_MIN_M = 15.0
 GAIN_MIN = 10.0
