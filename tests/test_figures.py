@@ -46,7 +46,8 @@ REGISTRY = ROOT / "docs" / "figures.toml"
 FIGURE = re.compile(
     r"(?<![\w.])[−-]?\d[\d.]*(?:[  ]\d{3})*(?:\s*(?:[–-]|±|to)\s*[−-]?\d[\d.]*)?\s*"
     r"(?:s|ms|µs|min|MiB|GiB|KiB|MB|GB|M samples/s|samples/s"
-    r"|µm|mm|cm|km|m/s²|m/s|m|µg|mg|ppm|arcsec|″|deg/h|°/h|mrad|µrad|deg|°|%|σ)(?![\w/])"
+    r"|µm|mm|cm|km|m/s²|m/s|m|µg/√Hz|µg/√h|µg|mg|ppm|arcsec|″|deg/h/g|deg/h|°/h|deg/√h|deg/s²|deg/s|nmi/h"
+    r"|mrad|µrad|deg|°|%|σ)(?![\w/])"
 )
 
 
@@ -232,16 +233,34 @@ def test_every_page_is_scoped_and_every_given_says_why():
 
 
 def test_the_reverse_check_sees_accuracy_figures_as_well_as_timings():
-    found = [m.group(0) for m in FIGURE.finditer(
-        "took 2.5 s, 570 MiB; arms 0.028–0.032 mm, lag 1052 ± 70 arcsec, the delay −44 µs, 0.09 µg, "
-        "14.85 deg/h, 0.6 σ, 10 %, 1.07 km, 0.62 m/s; not CH4 or v2.5 or 3D"
-    )]
-    assert found == ["2.5 s", "570 MiB", "0.028–0.032 mm", "1052 ± 70 arcsec", "−44 µs", "0.09 µg",
-                     "14.85 deg/h", "0.6 σ", "10 %", "1.07 km", "0.62 m/s"]
+    found = [
+        m.group(0)
+        for m in FIGURE.finditer(
+            "took 2.5 s, 570 MiB; arms 0.028–0.032 mm, lag 1052 ± 70 arcsec, the delay −44 µs, 0.09 µg, "
+            "14.85 deg/h, 0.6 σ, 10 %, 1.07 km, 0.62 m/s, 2.5 µg/√Hz, 20 deg/s; not CH4 or v2.5 or 3D"
+        )
+    ]
+    assert found == [
+        "2.5 s",
+        "570 MiB",
+        "0.028–0.032 mm",
+        "1052 ± 70 arcsec",
+        "−44 µs",
+        "0.09 µg",
+        "14.85 deg/h",
+        "0.6 σ",
+        "10 %",
+        "1.07 km",
+        "0.62 m/s",
+        "2.5 µg/√Hz",
+        "20 deg/s",
+    ]
 
 
 def test_the_formatter_reads_paths_scales_and_signs():
-    f = FigureFormatter({"a": {"b": [1.5, -0.0123]}, "r": 13_412_345.0, "n": 12001, "xs": [3, 1, 2], "m": [[1, -4], [3, 2]]})
+    f = FigureFormatter(
+        {"a": {"b": [1.5, -0.0123]}, "r": 13_412_345.0, "n": 12001, "xs": [3, 1, 2], "m": [[1, -4], [3, 2]]}
+    )
     assert f.format("{a.b.0:.1f}") == "1.5"
     assert f.format("{r/1e6:.1f} M") == "13.4 M"
     assert f.format("{a.b.1*1e3!m:+.1f}") == "−12.3"
