@@ -351,6 +351,7 @@ def plot_pit(summary: dict, path: Path, title: str) -> None:
         ax.axis("off")
     fig.suptitle(f"{title}: PIT of the truth under each reported error (uniform when the errors are right)")
     fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
@@ -417,9 +418,10 @@ def main(argv=None) -> int:
             f"  {motion:9s}: {m['records']} records, {m['parameters']} parameters, z RMS {m['rms_z'] or 0:.2f}, "
             f"95 % {m['coverage_95'] or 0:.2f}, false findings in {m['records_with_false_findings']}"
         )
+    code = emit(summary, args, __file__, argv, threads=args.jobs, show=False)
     if args.plot:
         plot_pit(summary, args.plot, f"diagnose, {args.range} range, {len(rows)} records")
-    return emit(summary, args, __file__, argv, threads=args.jobs, show=False)
+    return code
 
 
 if __name__ == "__main__":
