@@ -12,12 +12,23 @@ misalignments, g-sensitivity, the tilt) carry that noise too, which biases them 
 
 :func:`choose_bandwidth` measures that frequency from the record itself, channel by channel,
 with the cross-spectrum of the measured and the predicted readings (see its docstring).
+
+An exact reference has a second limit: its samples. The predicted rates and accelerations are the
+derivatives of cubic splines through the reference rows (attitude, velocity), which read a motion
+at frequency ``f`` short by the relative error :func:`spline_derivative_error` of ``2 pi f h`` (``h``
+the reference's row spacing): 1e-3 at 12 rows a period, the 32 Hz rotor harmonic of a helicopter
+logged at 400 Hz. That error is the motion's own, coherent with it, so the noise test above cannot
+see it; it is computed instead (:func:`interpolation_chi2`), and the band is set where what is left
+of it after the fit's low-pass can bias no estimate by more than :data:`INTERPOLATION_BIAS_SIGMA`
+of its standard error, unless that would cut into the motion's band (which the fit must keep, as
+for the noise): then the reason says how much of the error stays in the fit.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,6 +47,9 @@ __all__ = [
     "NUMERICAL_FLOOR",
     "MAX_FRACTION_OF_NYQUIST",
     "READABLE",
+    "INTERPOLATION_BIAS_SIGMA",
+    "interpolation_chi2",
+    "spline_derivative_error",
 ]
 
 #: Frequency resolution of the spectra [Hz]: 4 s segments, fine enough for 1/3-octave bands
@@ -81,6 +95,12 @@ MAX_FRACTION_OF_NYQUIST = 0.5
 #: The band is rounded down to one of these mantissas (times a power of ten): readable values
 #: that never exceed the measured limit.
 READABLE = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
+#: The largest bias, in units of its standard error, that the reference's interpolation error may
+#: put into any estimate. For a least-squares estimate the bias from an error ``e`` in the data is
+#: at most ``sqrt(e' W e)`` of its standard error (Cauchy-Schwarz in the weights' metric), so the
+#: band keeps that chi-square of the error at most this squared: 0.2, the issue-29 target for a
+#: mean z-score (derived, not tuned).
+INTERPOLATION_BIAS_SIGMA = 0.2
 
 
 @dataclass
@@ -99,6 +119,10 @@ class BandChoice:
     reason: str
     per_channel: dict = field(default_factory=dict)
     motion_hz: float | None = None
+    #: the chi-square the reference's interpolation error leaves in the fit at the chosen band, when
+    #: it exceeds :data:`INTERPOLATION_BIAS_SIGMA` squared (the band kept the motion it lies in, and
+    #: ``reason`` says so); else 0
+    interpolation_chi2: float = 0.0
 
 
 def readable_floor(f_hz: float) -> float:
@@ -117,6 +141,52 @@ def readable_ceil(f_hz: float) -> float:
     return 10.0 * decade  # unreachable: 10 * decade > f_hz
 
 
+def spline_derivative_error(theta):
+    """``|1 - H(theta)|``: the relative error of an interpolating cubic spline's first derivative at
+    its knots on a sinusoid of ``theta = 2 pi f h`` radians per row (``h`` the row spacing).
+
+    The knot slopes ``m`` of a cubic spline solve ``m[k-1] + 4 m[k] + m[k+1] = 3 (y[k+1] - y[k-1]) / h``;
+    for ``y = exp(i omega t)`` that gives ``m = H i omega y`` with ``H = 3 sin(theta) / (theta (2 +
+    cos(theta)))``, so ``1 - H ~ theta^4 / 180`` (de Boor, A Practical Guide to Splines, ch. IV). Between
+    the knots the error is of the same order. scipy's ``RotationSpline`` (attitude) and ``CubicSpline``
+    (velocity) are such splines; their end conditions matter only within a few rows of an end.
+    """
+    theta = np.asarray(theta, dtype=float)
+    safe = np.where(theta > 1e-3, theta, 1.0)
+    exact = 1.0 - 3.0 * np.sin(safe) / (safe * (2.0 + np.cos(safe)))
+    return np.abs(np.where(theta > 1e-3, exact, theta**4 / 180.0))
+
+
+def _no_interpolation_error(cut_hz: float | None) -> float:
+    """The interpolation chi-square when the row spacing is not known: none."""
+    return 0.0
+
+
+def _low_pass_power(f_hz, cut_hz):
+    """Power response of the fit's zero-phase 4th-order Butterworth low-pass (``sosfiltfilt``: the
+    filter's power response squared); 1 without a cut-off (the full band)."""
+    if cut_hz is None:
+        return np.ones_like(f_hz)
+    return 1.0 / (1.0 + (f_hz / cut_hz) ** 8) ** 2
+
+
+def interpolation_chi2(f_hz, width_hz, motion, noise_density, duration_s, reference_dt_s, cut_hz=None) -> float:
+    """The chi-square the reference's interpolation error leaves in the fit's rows, all channels.
+
+    Per band of centre ``f_hz`` [nb] and width ``width_hz`` [nb]: the motion's power density
+    ``motion`` [nb, c] read short by :func:`spline_derivative_error` of ``2 pi f h`` (at the band's
+    upper edge, the larger error) is an error of density ``err^2 * motion``; against white noise of
+    one-sided density ``noise_density`` [c] over ``duration_s`` its chi-square is ``2 T width err^2
+    motion / noise`` (``n`` samples of variance ``noise fs / 2``), times what the low-pass at
+    ``cut_hz`` lets through.
+    """
+    upper = np.asarray(f_hz) + 0.5 * np.asarray(width_hz)
+    err2 = spline_derivative_error(2.0 * np.pi * upper * reference_dt_s) ** 2
+    keep = _low_pass_power(np.asarray(f_hz, dtype=float), cut_hz)
+    per_band = 2.0 * duration_s * (width_hz * err2 * keep)[:, None] * np.maximum(motion, 0.0) / noise_density[None, :]
+    return float(per_band.sum())
+
+
 def _segments(mask: np.ndarray, nperseg: int) -> np.ndarray:
     """Starts of the half-overlapping segments of ``nperseg`` samples that lie wholly in ``mask``."""
     bad = np.concatenate([[0], np.cumsum(~mask)])
@@ -129,8 +199,11 @@ def _spectra(measured, predicted, mask, fs_hz):
     ``(lo, hi) ->`` the samples ``lo:hi`` [hi - lo, 6], asked for one batch of segments at a time.
 
     Returns ``f`` [nf] (Hz), ``p_mm``, ``p_pp`` [nf, 6] ((unit)^2/Hz) and ``p_mp`` [nf, 6]
-    (complex), or None when the record has fewer than :data:`MIN_SEGMENTS` segments of
-    :data:`MIN_NPERSEG` samples. Each segment: linear trend removed, Hann window.
+    (complex), and the same three of the first differences (``(d_mm, d_pp, d_mp)``, scaled back by
+    the difference's response ``|2 sin(pi f / fs)|^2``: the spectra without the leakage of a slow,
+    large motion into the high bins, which the Hann window's sidelobes leave at 1e-13 of it), or
+    None when the record has fewer than :data:`MIN_SEGMENTS` segments of :data:`MIN_NPERSEG`
+    samples. Each segment: linear trend removed, Hann window.
     """
     nperseg = 1 << max(int(math.ceil(math.log2(fs_hz / RESOLUTION_HZ))), 0)
     while True:
@@ -147,31 +220,42 @@ def _spectra(measured, predicted, mask, fs_hz):
     p_mm = np.zeros((nf, 6))
     p_pp = np.zeros((nf, 6))
     p_mp = np.zeros((nf, 6), dtype=complex)
+    d_mm, d_pp = np.zeros((nf, 6)), np.zeros((nf, 6))
+    d_mp = np.zeros((nf, 6), dtype=complex)
     chunk = max(1, (1 << 22) // (nperseg * 6))  # segments per batch: ~32 MB of float64 at a time
     for i in range(0, starts.size, chunk):
         first = int(starts[i])
         idx = starts[i : i + chunk, None] - first + np.arange(nperseg)
         stop = first + int(idx[-1, -1]) + 1
-        spec = []
+        spec, diff = [], []
         for x in (measured, predicted):
-            seg = x(first, stop)[idx]  # [s, nperseg, 6]
-            seg = seg - seg.mean(axis=1, keepdims=True)
+            raw = x(first, stop)[idx]  # [s, nperseg, 6]
+            seg = raw - raw.mean(axis=1, keepdims=True)
             seg = seg - np.einsum("snc,n->sc", seg, k)[:, None, :] / float(k @ k) * k[None, :, None]
             spec.append(np.fft.rfft(seg * window[None, :, None], axis=1))
+            d = np.diff(raw, axis=1, prepend=raw[:, :1])
+            d = d - d.mean(axis=1, keepdims=True)
+            diff.append(np.fft.rfft(d * window[None, :, None], axis=1))
         xm, xp = spec
         p_mm += (np.abs(xm) ** 2).sum(axis=0)
         p_pp += (np.abs(xp) ** 2).sum(axis=0)
         p_mp += (xm * np.conj(xp)).sum(axis=0)
+        dm, dp = diff
+        d_mm += (np.abs(dm) ** 2).sum(axis=0)
+        d_pp += (np.abs(dp) ** 2).sum(axis=0)
+        d_mp += (dm * np.conj(dp)).sum(axis=0)
     norm = scale / starts.size
     f = np.fft.rfftfreq(nperseg, 1.0 / fs_hz)
-    return f, p_mm * norm, p_pp * norm, p_mp * norm
+    response = np.maximum((2.0 * np.sin(np.pi * f / fs_hz)) ** 2, 1e-300)[:, None]
+    differenced = (d_mm * norm / response, d_pp * norm / response, d_mp * norm / response)
+    return f, p_mm * norm, p_pp * norm, p_mp * norm, differenced
 
 
 def _between(x, lo, hi):
     return x[lo:hi]
 
 
-def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
+def choose_bandwidth(t_s, measured, predicted, mask, dt_s, reference_dt_s=None) -> BandChoice:
     """The band below which the record's reference can be trusted, measured from the record.
 
     Method. Welch spectra (Hann segments of at least 4 s, a power of two in samples, half-
@@ -204,6 +288,10 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
     mask : [n] bool, the usable samples (:class:`sizefx.diagnose.Predictor` ``.mask``); samples where
         ``measured`` or ``predicted`` (arrays) are not finite are left out too.
     dt_s : the sample period (s).
+    reference_dt_s : the reference's row spacing (s): with it, the band is also kept where the
+        splines through the rows read the motion exactly enough (:func:`interpolation_chi2` at
+        most :data:`INTERPOLATION_BIAS_SIGMA` squared, the noise density each channel's residual's
+        median over the bands); None leaves that test out.
 
     Assumptions: uniform sampling at ``dt_s`` (diagnose's records are); the reference's noise is
     independent of the IMU's; the start model is close (a prediction that is wrong by a fraction
@@ -230,7 +318,7 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
             "from",
             {c: None for c in names},
         )
-    f, p_mm, p_pp, p_mp = spectra
+    f, p_mm, p_pp, p_mp, differenced = spectra
     df = f[1] - f[0]
     # 1/3-octave bands from two bins up (the lowest bins hold the trend the segments lost) to
     # MAX_FRACTION_OF_NYQUIST of Nyquist, edges on the base-2 series through 1 Hz (8, 10.1, 12.7, 16 Hz)
@@ -246,6 +334,11 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
             "measure the reference's noise in",
             {c: None for c in names},
         )
+    interp_cut: float | None = None
+    interp_chi2: Callable[[float | None], float] = _no_interpolation_error
+    if reference_dt_s is not None:
+        d_mm, d_pp, d_mp = differenced
+        interp_cut, interp_chi2 = _interpolation_cut(f, d_mm, d_pp, d_mp, lo_k, nyquist_hz, mask, dt_s, reference_dt_s)
     S = np.array([np.abs(p_mp[sel]).mean(axis=0) for _, _, sel in bands])  # [nb, 6]
     n_ref = np.array([p_pp[sel].mean(axis=0) for _, _, sel in bands]) - S
     n_imu = np.array([p_mm[sel].mean(axis=0) for _, _, sel in bands]) - S
@@ -270,6 +363,24 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
                 break
     motion_hz = float(np.median(motion)) if motion else None
     limits = {n: v for n, v in per_channel.items() if v is not None}
+    if interp_cut is not None and (motion_hz is None or interp_cut >= motion_hz):
+        if not limits or interp_cut < readable_floor(min(limits.values())):
+            band, why = _interpolation_choice(interp_cut, interp_chi2(None), reference_dt_s)
+            return BandChoice(band, why, per_channel, motion_hz)
+    choice = _noise_choice(t_s, limits, per_channel, motion_hz, upper, nyquist_hz)
+    left = interp_chi2(choice.bandwidth_hz)
+    if left > INTERPOLATION_BIAS_SIGMA**2:
+        # the splines' error lies inside the motion's band, which the fit must keep: said, not cut
+        choice.interpolation_chi2 = left
+        choice.reason += (
+            f"; the reference's rows resolve the motion too coarsely inside its band (interpolation "
+            f"chi-square {left:.3g}, up to {math.sqrt(left):.2g} sigma of bias, most on the gyros' terms)"
+        )
+    return choice
+
+
+def _noise_choice(t_s, limits, per_channel, motion_hz, upper, nyquist_hz) -> BandChoice:
+    """The band the reference's noise sets (the rule of :func:`choose_bandwidth`)."""
     span = f"{float(t_s[-1] - t_s[0]):.0f} s" if len(t_s) > 1 else "the record"
     if not limits:
         return BandChoice(
@@ -308,3 +419,52 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s) -> BandChoice:
             motion_hz,
         )
     return BandChoice(band, why, per_channel, motion_hz)
+
+
+def _interpolation_cut(f, p_mm, p_pp, p_mp, lo_k, nyquist_hz, mask, dt_s, reference_dt_s):
+    """``(cut-off or None, chi2_at)``: the largest readable cut-off at which the reference's
+    interpolation error (:func:`interpolation_chi2`) stays within :data:`INTERPOLATION_BIAS_SIGMA`
+    squared, or None when the full band does; ``chi2_at(cut_hz)`` gives that chi-square at any
+    cut-off (None: the full band). 1/3-octave bands up to
+    the Nyquist frequency; the spectra those of the first differences (:func:`_spectra`), the
+    motion's power per band the cross-spectrum's where the motion dominates the band, the noise
+    density each channel's residual's median over the bands."""
+    hi_k = math.floor(BANDS_PER_OCTAVE * math.log2(nyquist_hz))
+    edges = 2.0 ** (np.arange(lo_k, hi_k + 1) / BANDS_PER_OCTAVE)
+    sel = [(f >= a) & (f < b) for a, b in zip(edges[:-1], edges[1:])]
+    keep = [i for i, m in enumerate(sel) if m.any()]
+    if len(keep) < PERSIST_BANDS:
+        return None, _no_interpolation_error
+    lower, upper = edges[:-1][keep], edges[1:][keep]
+    shared = np.array([np.abs(p_mp[sel[i]]).mean(axis=0) for i in keep])
+    own = np.array([(p_mm[sel[i]] + p_pp[sel[i]]).mean(axis=0) for i in keep])
+    # the motion counts where it dominates both noises (S > N_ref + N_imu, as for the motion's band):
+    # elsewhere |P_mp| is the small bias of two independent noises' cross-spectrum, which near the
+    # Nyquist frequency, where the splines' error nears 1, would pass for motion read wrong
+    motion = np.where(3.0 * shared > own, shared, 0.0)
+    residual = np.array([(p_mm[sel[i]] + p_pp[sel[i]] - 2.0 * p_mp[sel[i]].real).mean(axis=0) for i in keep])
+    noise = np.maximum(np.median(residual, axis=0), 1e-300)
+    centre, width = np.sqrt(lower * upper), upper - lower
+    duration_s = float(np.count_nonzero(mask)) * dt_s
+
+    def chi2_at(cut_hz):
+        return interpolation_chi2(centre, width, motion, noise, duration_s, reference_dt_s, cut_hz)
+
+    bound = INTERPOLATION_BIAS_SIGMA**2
+    if chi2_at(None) <= bound:
+        return None, chi2_at
+    cut = readable_floor(MAX_FRACTION_OF_NYQUIST * nyquist_hz)
+    while cut > lower[0] and chi2_at(cut) > bound:
+        cut = readable_floor(cut * (1.0 - 1e-6))  # the next readable value down
+    return cut, chi2_at
+
+
+def _interpolation_choice(cut_hz, chi2_full, reference_dt_s) -> tuple:
+    """``(band, reason)`` the reference's sampling sets (:func:`_interpolation_cut`)."""
+    why = (
+        f"below {cut_hz:g} Hz: the reference's {1.0 / reference_dt_s:g} Hz rows resolve the motion above it too "
+        f"coarsely (its splines' interpolation error would add chi-square {chi2_full:.3g} to a full-band fit, "
+        f"enough to bias an estimate by up to {math.sqrt(chi2_full):.2g} sigma; below the cut-off at most "
+        f"{INTERPOLATION_BIAS_SIGMA:g} sigma)"
+    )
+    return cut_hz, why

@@ -461,7 +461,12 @@ def diagnose(
             > 0.0
         )
         band = choose_bandwidth(
-            pred.t, pred.measured_span, functools.partial(_predicted, pred, theta0), pred.mask & finite, pred.dt
+            pred.t,
+            pred.measured_span,
+            functools.partial(_predicted, pred, theta0),
+            pred.mask & finite,
+            pred.dt,
+            reference_dt_s=_row_spacing(tel),
         )
         bandwidth_hz, band_reason = band.bandwidth_hz, band.reason
         del finite
@@ -710,6 +715,14 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
     return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
+
+
+def _row_spacing(tel: Telemetry) -> float | None:
+    """The reference's median row spacing [s], or None with fewer than two rows."""
+    ref = tel.reference
+    if ref is None or ref.time_s.size < 2:
+        return None
+    return float(np.median(np.diff(ref.time_s)))
 
 
 def _predicted(pred: Predictor, theta, lo: int, hi: int) -> np.ndarray:
