@@ -19,7 +19,9 @@
    keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE` of the
    structure on its channels is rejected; so is one no longer significant once its errors are
    widened to the scatter of the record's parts, cut in time, by rotation rate and by translation
-   (a selection must be stable across them). The survivors are refitted with the selection fixed.
+   (a selection must be stable across them). The survivors are refitted with the selection fixed,
+   and with the candidates left out that are nearly collinear with one of them
+   (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves.
 6. **Errors**: the block sandwich (never under the white one), widened to those parts' scatter
    (:mod:`.consistency`, :func:`_errors`).
 7. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
@@ -47,7 +49,16 @@ from .naming import name_effect
 from .normal import CHUNK_SAMPLES, Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
-from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, aliases_outside, honest, robust_p, select
+from .selection import (
+    FAMILY_ALPHA,
+    Chosen,
+    aliased_pairs,
+    aliases_outside,
+    honest,
+    nuisance_aliases,
+    robust_p,
+    select,
+)
 from .structure import unexplained as unexplained_structure
 from .theta import CHANNELS, LEVER, PARAMS
 
@@ -553,6 +564,24 @@ def diagnose(
                 theta[list(c.cand.idx)] = theta0[list(c.cand.idx)]
         log.append("refit without " + ", ".join(sorted(drop)))
         state = _iterate(pred, rows_of, theta0, theta, log, fixed=kept)
+    # candidates left out that are nearly collinear with a finding are fitted beside it, so that the
+    # finding's error and estimate do not hang on their start values (selection.nuisance_aliases)
+    findings = list(state.chosen)
+    rejected_keys = {f"{r['id']}:{r['channel']}" if r["channel"] else r["id"] for r in rejected}
+    paired = {c.cand.key for pair in aliased for c in pair[:2]}  # already no findings: their sum is carried
+    nuisance = [n for n in nuisance_aliases(state.nrm, state.chosen, skip=rejected_keys) if n[1] not in paired]
+    weak: list = []  # findings no longer significant beside their nuisance: (finding, nuisance, rho)
+    if nuisance:
+        log.append(
+            "refit with "
+            + ", ".join(f"{n.cand.key} (beside {of}, canonical correlation {rho:.3f})" for n, of, rho in nuisance)
+        )
+        state = _iterate(pred, rows_of, theta0, state.theta, log, fixed=findings + [n for n, _, _ in nuisance])
+        errors = _errors(pred, state, theta0)
+        for i, c in enumerate(findings):
+            mates = [(n, rho) for n, of, rho in nuisance if of == c.cand.key]
+            if mates and robust_p(state.nrm, state.chosen, theta0 - state.theta, which=i, factors=errors[1]) > level:
+                weak.append((c, *max(mates, key=lambda m: m[1])))
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     offset = theta0 - theta
     # the last round judged this very state: its shares and errors stand
@@ -603,12 +632,14 @@ def diagnose(
         }
     # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed
     alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
+    nuisance_keys = {n.cand.key for n, _, _ in nuisance}
     outside = [
         (chosen[i], cand, rho)
         for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
-        if chosen[i].cand.key not in alias_keys
+        if chosen[i].cand.key not in alias_keys | nuisance_keys  # a nuisance is no finding to begin with
     ]
     alias_keys |= {c.cand.key for c, _, _ in outside}
+    alias_keys |= nuisance_keys | {c.cand.key for c, _, _ in weak}
     effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in chosen if c.cand.key not in alias_keys]
     effects.sort(key=lambda e: -e.explained_fraction)
     unrev = [
@@ -642,6 +673,29 @@ def diagnose(
                     f"{rho:.4f}); the extended model carries it as {c.cand.key}",
                 }
             )
+    for n, of, rho in nuisance:
+        unrev = [u for u in unrev if (u["id"], u["channel"]) != (n.cand.id, n.cand.channel)]
+        unrev.append(
+            {
+                "id": n.cand.id,
+                "channel": n.cand.channel,
+                "parameters": [PARAMS[j].label for j in n.active],
+                "reason": f"nearly indistinguishable from {of} on this motion (canonical correlation "
+                f"{rho:.4f}): fitted beside it, so that {of}'s estimate and error do not assume it absent; "
+                "not a finding of its own",
+            }
+        )
+    for c, n, rho in weak:
+        unrev = [u for u in unrev if (u["id"], u["channel"]) != (c.cand.id, c.cand.channel)]
+        unrev.append(
+            {
+                "id": c.cand.id,
+                "channel": c.cand.channel,
+                "parameters": [PARAMS[j].label for j in c.active],
+                "reason": f"indistinguishable from {n.cand.key} on this motion (canonical correlation "
+                f"{rho:.4f}): fitted together, it is no longer significant; the extended model carries both",
+            }
+        )
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = _residual(pred, None, theta, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = _rms(rows_of, before.rows), _rms(rows_of, residual)

@@ -41,12 +41,14 @@ __all__ = [
     "aliased_pairs",
     "aliases_outside",
     "honest",
+    "nuisance_aliases",
     "revealed",
     "robust_p",
     "select",
     "why_hidden",
     "ALIAS_CORRELATION",
     "FAMILY_ALPHA",
+    "NUISANCE_CORRELATION",
 ]
 
 #: Family-wise false-alarm level of the robust Wald gate, over every candidate of a step.
@@ -191,6 +193,44 @@ def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
             trial = chosen + [Chosen(cand, tuple(seen), ())]
             if rho >= ALIAS_CORRELATION or robust_p(nrm, trial, offset, which=i) > level:
                 out.append((i, cand, rho))
+    return out
+
+
+#: A candidate the selection left out whose regressors reach this canonical correlation with a
+#: selected effect's (given the rest) is fitted beside it (:func:`nuisance_aliases`): the issue-29
+#: "nearly collinear", the same correlation from which :func:`aliases_outside` looks at a pair.
+NUISANCE_CORRELATION = _PREFILTER_CORRELATION
+
+
+def nuisance_aliases(nrm: Normal, chosen, skip=()) -> list:
+    """``(nuisance, of, rho)``: candidates the selection did not take whose revealed parameters are
+    nearly collinear (:data:`NUISANCE_CORRELATION` up to :data:`ALIAS_CORRELATION`, from which the
+    two are one to the record and :func:`aliases_outside` names them) on this motion with a selected
+    effect ``of``
+    (a key), each as a :class:`Chosen` to fit beside the selection; ``skip``: candidate keys left out.
+
+    A selected effect's standard error is conditional on the others being what the fit assumes:
+    those left out at their start values. Beside a nearly collinear one left out (an accelerometer-z
+    scale factor under constant gravity, with the z bias out), that error holds only if the other is
+    exactly at its start value; the record cannot say so. Fitted together, the selected effect
+    carries the error it has with the other free, 1/sqrt(1 - rho^2) times wider, and its estimate
+    loses the other's pull."""
+    N = nrm.N.sum(0)
+    taken = {c.cand for c in chosen}
+    out: list[tuple[Chosen, str, float]] = []
+    for i, c in enumerate(chosen):
+        rest = sorted({j for m, o in enumerate(chosen) if m != i for j in o.active})
+        for cand in CANDIDATES:
+            if cand in taken or cand.key in skip or any(n.cand == cand for n, _, _ in out):
+                continue
+            seen = [
+                j for j in cand.idx if j not in rest and excitation(nrm, np.array([j]))[j] >= PARAMS[j].min_excitation
+            ]
+            if not seen:
+                continue
+            rho = canonical_correlation(N, c.active, seen, rest)
+            if NUISANCE_CORRELATION <= rho < ALIAS_CORRELATION:  # beyond, aliases_outside names the pair
+                out.append((Chosen(cand, tuple(seen), ()), c.cand.key, rho))
     return out
 
 
