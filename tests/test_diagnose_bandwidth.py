@@ -118,6 +118,31 @@ def test_a_fast_line_the_rows_cannot_resolve_is_cut_away():
     assert any(r["id"].startswith("gyro_") for r in full.rejected), full.rejected
 
 
+@pytest.mark.slow
+def test_a_helicopter_record_at_400_hz_is_cut_below_its_rotor_lines():
+    """The long twin of the test above, the case inside the motion's band: a helicopter flight logged
+    at 400 Hz, its rotor lines at 8, 16 and 32 Hz carrying most of the rates' power, no effect hidden.
+    The splines misread the 16 and 32 Hz lines by far more than the noise (a full-band fit selects
+    gyro scale factors and lever arms that are not there); the band is cut below the lines, the
+    manoeuvres are kept, and nothing is found."""
+    plan = scenarios.FlightPlan(
+        duration_s=500.0,
+        align_s=60.0,
+        speed_mps=20.0,
+        turn_rate_dps=10.0,
+        altitude_m=100.0,
+        weave_deg=0.0,
+        climb_step_m=0.0,
+    )
+    tel = simulate_in_memory(
+        scenarios.flight(plan)[0], load_effects(base=IDEAL, overrides=BASE), rate_hz=400.0, form="rates", seed=5
+    )
+    d = D.diagnose(tel, NOMINAL, keep_series=False)
+    assert d.bandwidth_hz is not None and d.bandwidth_hz < 8.0, d.bandwidth_reason
+    assert "what lies above the cut-off is left out" in d.bandwidth_reason
+    assert not d.effects, [(e.id, e.channel) for e in d.effects]
+
+
 def test_a_motion_capture_reference_is_cut_above_the_motion():
     exact = record(HAND)
     choice = choose(with_mocap_noise(exact))

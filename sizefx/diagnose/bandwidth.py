@@ -20,8 +20,9 @@ the reference's row spacing): 1e-3 at 12 rows a period, the 32 Hz rotor harmonic
 logged at 400 Hz. That error is the motion's own, coherent with it, so the noise test above cannot
 see it; it is computed instead (:func:`interpolation_chi2`), and the band is set where what is left
 of it after the fit's low-pass can bias no estimate by more than :data:`INTERPOLATION_BIAS_SIGMA`
-of its standard error, unless that would cut into the motion's band (which the fit must keep, as
-for the noise): then the reason says how much of the error stays in the fit.
+of its standard error. It cuts into the motion's band (which the fit otherwise keeps, as for the
+noise) only when keeping it would leave an error able to bias an estimate by
+:data:`GROSS_BIAS_SIGMA`; short of that the reason says how much of the error stays in the fit.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ __all__ = [
     "MAX_FRACTION_OF_NYQUIST",
     "READABLE",
     "INTERPOLATION_BIAS_SIGMA",
+    "GROSS_BIAS_SIGMA",
     "interpolation_chi2",
     "spline_derivative_error",
 ]
@@ -101,6 +103,11 @@ READABLE = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
 #: band keeps that chi-square of the error at most this squared: 0.2, the issue-29 target for a
 #: mean z-score (derived, not tuned).
 INTERPOLATION_BIAS_SIGMA = 0.2
+#: Where keeping the motion's band would leave an interpolation error able to bias an estimate by
+#: this many standard errors (its chi-square this squared), the band is cut inside the motion: an
+#: error beyond the 3-sigma line of chance makes every finding it touches meaningless, and the
+#: slower motion is kept. Below it the band keeps the motion and its reason says how much error stays.
+GROSS_BIAS_SIGMA = 3.0
 
 
 @dataclass
@@ -363,12 +370,16 @@ def choose_bandwidth(t_s, measured, predicted, mask, dt_s, reference_dt_s=None) 
                 break
     motion_hz = float(np.median(motion)) if motion else None
     limits = {n: v for n, v in per_channel.items() if v is not None}
-    if interp_cut is not None and (motion_hz is None or interp_cut >= motion_hz):
-        if not limits or interp_cut < readable_floor(min(limits.values())):
-            band, why = _interpolation_choice(interp_cut, interp_chi2(None), reference_dt_s)
-            return BandChoice(band, why, per_channel, motion_hz)
     choice = _noise_choice(t_s, limits, per_channel, motion_hz, upper, nyquist_hz)
     left = interp_chi2(choice.bandwidth_hz)
+    if interp_cut is not None and (choice.bandwidth_hz is None or interp_cut < choice.bandwidth_hz):
+        # the rows' limit is below the noise's: it sets the band, also inside the motion's band when
+        # what the motion's band would leave could bias an estimate by GROSS_BIAS_SIGMA or more
+        if motion_hz is None or interp_cut >= motion_hz or left >= GROSS_BIAS_SIGMA**2:
+            band, why = _interpolation_choice(interp_cut, interp_chi2(None), reference_dt_s)
+            if motion_hz is not None and interp_cut < motion_hz:
+                why += f"; the motion reaches {motion_hz:.1f} Hz, and what lies above the cut-off is left out"
+            return BandChoice(band, why, per_channel, motion_hz)
     if left > INTERPOLATION_BIAS_SIGMA**2:
         # the splines' error lies inside the motion's band, which the fit must keep: said, not cut
         choice.interpolation_chi2 = left
