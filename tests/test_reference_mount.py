@@ -111,7 +111,9 @@ def test_the_mount_is_found_within_3_sigma_and_not_taken_for_misalignments():
     assert mount.sentence.startswith("the IMU sits rotated against the reference's body frame by ")
     assert "arcsec about z" in mount.sentence and "(marker body or fixture alignment)" in mount.sentence
     assert 0.0 < mount.explained_fraction <= 1.0
-    assert not d.unrevealed  # the tumble reveals all three angles
+    # the tumble reveals all three angles; what it shows only nearly collinear with the mount (a gyro
+    # misalignment) is fitted beside it and named, never the mount itself
+    assert all("fitted beside it" in u["reason"] and u["id"] != "reference_mount" for u in d.unrevealed), d.unrevealed
     # the extended model carries it, in arcsec, and loads back as the same vector
     doc = D.model_document(d.theta)
     assert doc["reference_mount"]["enabled"]
@@ -120,19 +122,24 @@ def test_the_mount_is_found_within_3_sigma_and_not_taken_for_misalignments():
     np.testing.assert_allclose(back[MOUNT], d.theta[MOUNT], rtol=1e-12)  # arcsec -> rad and back
 
 
-def test_rotation_about_the_vertical_reveals_the_mount_about_x_and_y_only():
+def test_rotation_about_the_vertical_cannot_tell_the_mount_from_misalignments_and_biases():
     """Turning about z only: a mount about z is a heading offset, which neither the gyros
-    (omega x e_z = 0) nor the accelerometers (gravity along z) can see; about x and y the gyros
-    see the rate about z leak into them (omega x e_x, omega x e_y)."""
+    (omega x e_z = 0) nor the accelerometers (gravity along z) can see. About x and y the gyros see
+    the rate about z leak into them (omega x e_x, omega x e_y) exactly as their own misalignments
+    x->z and y->z would (canonical correlation above 0.99), and the accelerometers see a tilt of
+    gravity as their biases would. Fitted beside those misalignments the mount is no finding: it is
+    named indistinguishable, and the extended model still carries it, within 3 sigma of the truth."""
     tel, truth = record(HIDDEN, axes="z", duration_s=30.0, rate_hz=200.0)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
-    mount = [e for e in d.effects if e.id == "reference_mount"]
-    assert len(mount) == 1 and mount[0].hidden == ["z"], d.log
-    assert "z not revealed by this record" in mount[0].sentence
+    assert "reference_mount" not in {e.id for e in d.effects}, d.log
+    mount = [u for u in d.unrevealed if u["id"] == "reference_mount"]
+    assert mount and "indistinguishable" in mount[0]["reason"], d.unrevealed
+    beside = {
+        u["channel"] for u in d.unrevealed if u["id"] == "gyro_misalignment" and "fitted beside it" in u["reason"]
+    }
+    assert beside == {"gyro_x", "gyro_y"}, d.unrevealed
     for j in MOUNT[:2]:
         assert abs(d.theta[j] - truth[j]) < 3.0 * d.sigma_theta[j], D.PARAMS[j]
-    hidden = [u for u in d.unrevealed if u["id"] == "reference_mount"]
-    assert hidden and hidden[0]["parameters"] == ["z"] and "does not excite" in hidden[0]["reason"], d.unrevealed
 
 
 def test_the_json_report_carries_the_mount():

@@ -208,7 +208,7 @@ def _spectra(measured, predicted, mask, fs_hz):
     Returns ``f`` [nf] (Hz), ``p_mm``, ``p_pp`` [nf, 6] ((unit)^2/Hz) and ``p_mp`` [nf, 6]
     (complex), and the same three of the first differences (``(d_mm, d_pp, d_mp)``, scaled back by
     the difference's response ``|2 sin(pi f / fs)|^2``: the spectra without the leakage of a slow,
-    large motion into the high bins, which the Hann window's sidelobes leave at 1e-13 of it), or
+    large motion into the high bins, which the Hann window's sidelobes spread over all of them), or
     None when the record has fewer than :data:`MIN_SEGMENTS` segments of :data:`MIN_NPERSEG`
     samples. Each segment: linear trend removed, Hann window.
     """
