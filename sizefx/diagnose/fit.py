@@ -648,53 +648,39 @@ def diagnose(
     ]
     for keep, gone, rho in aliased:
         for me, other in ((keep, gone), (gone, keep)):
-            unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.cand.id, me.cand.channel)]
-            unrev.append(
-                {
-                    "id": me.cand.id,
-                    "channel": me.cand.channel,
-                    "parameters": [PARAMS[j].label for j in me.active],
-                    "reason": f"indistinguishable from {other.cand.key} on this motion (canonical "
-                    f"correlation {rho:.4f}); the extended model carries their sum as "
-                    f"{keep.cand.key}",
-                }
+            unrev = _named(
+                unrev,
+                me.cand,
+                me.active,
+                f"indistinguishable from {other.cand.key} on this motion (canonical correlation {rho:.4f}); "
+                f"the extended model carries their sum as {keep.cand.key}",
             )
     for c, cand, rho in outside:
         for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
             if any((u["id"], u["channel"]) == (me.id, me.channel) and "on this motion" in u["reason"] for u in unrev):
                 continue
-            unrev = [u for u in unrev if (u["id"], u["channel"]) != (me.id, me.channel)]
-            unrev.append(
-                {
-                    "id": me.id,
-                    "channel": me.channel,
-                    "parameters": [PARAMS[j].label for j in params],
-                    "reason": f"indistinguishable from {other} on this motion (canonical correlation "
-                    f"{rho:.4f}); the extended model carries it as {c.cand.key}",
-                }
+            unrev = _named(
+                unrev,
+                me,
+                params,
+                f"indistinguishable from {other} on this motion (canonical correlation {rho:.4f}); "
+                f"the extended model carries it as {c.cand.key}",
             )
     for n, of, rho in nuisance:
-        unrev = [u for u in unrev if (u["id"], u["channel"]) != (n.cand.id, n.cand.channel)]
-        unrev.append(
-            {
-                "id": n.cand.id,
-                "channel": n.cand.channel,
-                "parameters": [PARAMS[j].label for j in n.active],
-                "reason": f"nearly indistinguishable from {of} on this motion (canonical correlation "
-                f"{rho:.4f}): fitted beside it, so that {of}'s estimate and error do not assume it absent; "
-                "not a finding of its own",
-            }
+        unrev = _named(
+            unrev,
+            n.cand,
+            n.active,
+            f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
+            f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
         )
     for c, n, rho in weak:
-        unrev = [u for u in unrev if (u["id"], u["channel"]) != (c.cand.id, c.cand.channel)]
-        unrev.append(
-            {
-                "id": c.cand.id,
-                "channel": c.cand.channel,
-                "parameters": [PARAMS[j].label for j in c.active],
-                "reason": f"indistinguishable from {n.cand.key} on this motion (canonical correlation "
-                f"{rho:.4f}): fitted together, it is no longer significant; the extended model carries both",
-            }
+        unrev = _named(
+            unrev,
+            c.cand,
+            c.active,
+            f"indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): fitted "
+            "together, it is no longer significant; the extended model carries both",
         )
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = _residual(pred, None, theta, series=True).series if keep_series else None  # for the plots
@@ -769,6 +755,24 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
     return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
+
+
+def _named(unrev: list, cand, params, reason: str) -> list:
+    """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``:
+    taken out of the entries that named them before (an entry left with none is dropped), so that a
+    component named for another reason (a mount's z the motion does not excite, beside its x and y
+    named indistinguishable) keeps its own entry."""
+    labels = [PARAMS[j].label for j in params]
+    out = []
+    for u in unrev:
+        if (u["id"], u["channel"]) == (cand.id, cand.channel):
+            rest = [p for p in u["parameters"] if p not in labels]
+            if not rest:
+                continue
+            u = {**u, "parameters": rest}
+        out.append(u)
+    out.append({"id": cand.id, "channel": cand.channel, "parameters": labels, "reason": reason})
+    return out
 
 
 def _row_spacing(tel: Telemetry) -> float | None:
