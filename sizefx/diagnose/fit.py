@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..constants import STANDARD_GRAVITY_MPS2
+from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
 from .arms import split_arms
@@ -477,7 +478,7 @@ def diagnose(
             functools.partial(_predicted, pred, theta0),
             pred.mask & finite,
             pred.dt,
-            reference_dt_s=_row_spacing(tel),
+            reference_dt_s=nominal_period_s(tel.reference.time_s) if tel.reference is not None else None,
         )
         bandwidth_hz, band_reason = band.bandwidth_hz, band.reason
         del finite
@@ -773,14 +774,6 @@ def _named(unrev: list, cand, params, reason: str) -> list:
         out.append(u)
     out.append({"id": cand.id, "channel": cand.channel, "parameters": labels, "reason": reason})
     return out
-
-
-def _row_spacing(tel: Telemetry) -> float | None:
-    """The reference's median row spacing [s], or None with fewer than two rows."""
-    ref = tel.reference
-    if ref is None or ref.time_s.size < 2:
-        return None
-    return float(np.median(np.diff(ref.time_s)))
 
 
 def _predicted(pred: Predictor, theta, lo: int, hi: int) -> np.ndarray:

@@ -168,19 +168,17 @@ def select(nrm: Normal, offset, penalty, alpha: float = FAMILY_ALPHA):
 _PREFILTER_CORRELATION = 0.9
 
 
-def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
-    """``(i, candidate, rho)``: a selected effect ``chosen[i]`` that is no longer significant (robust
-    Wald p above ``level``) once a candidate the selection did *not* take is fitted with it, their
-    regressors being nearly collinear on this motion. The selection took one of two explanations the
-    record cannot tell apart (a level tilt or the horizontal accelerometer biases on a sway): the one
-    it took is no finding."""
+def _collinear_left_out(nrm: Normal, chosen, skip=()):
+    """``(i, candidate, seen, rho)`` for each selected effect ``chosen[i]`` and each candidate the
+    selection did not take (nor named in ``skip``), with ``seen`` the candidate's parameters the
+    record reveals beside the others and ``rho`` their largest canonical correlation with
+    ``chosen[i]``'s, given the rest, from :data:`_PREFILTER_CORRELATION` on."""
     N = nrm.N.sum(0)
     taken = {c.cand for c in chosen}
-    out = []
     for i, c in enumerate(chosen):
         rest = sorted({j for m, o in enumerate(chosen) if m != i for j in o.active})
         for cand in CANDIDATES:
-            if cand in taken:
+            if cand in taken or cand.key in skip:
                 continue
             seen = [
                 j for j in cand.idx if j not in rest and excitation(nrm, np.array([j]))[j] >= PARAMS[j].min_excitation
@@ -188,11 +186,21 @@ def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
             if not seen:
                 continue
             rho = canonical_correlation(N, c.active, seen, rest)
-            if rho < _PREFILTER_CORRELATION:
-                continue
-            trial = chosen + [Chosen(cand, tuple(seen), ())]
-            if rho >= ALIAS_CORRELATION or robust_p(nrm, trial, offset, which=i) > level:
-                out.append((i, cand, rho))
+            if rho >= _PREFILTER_CORRELATION:
+                yield i, cand, seen, rho
+
+
+def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
+    """``(i, candidate, rho)``: a selected effect ``chosen[i]`` that is no longer significant (robust
+    Wald p above ``level``) once a candidate the selection did *not* take is fitted with it, their
+    regressors being nearly collinear on this motion. The selection took one of two explanations the
+    record cannot tell apart (a level tilt or the horizontal accelerometer biases on a sway): the one
+    it took is no finding."""
+    out = []
+    for i, cand, seen, rho in _collinear_left_out(nrm, chosen):
+        trial = chosen + [Chosen(cand, tuple(seen), ())]
+        if rho >= ALIAS_CORRELATION or robust_p(nrm, trial, offset, which=i) > level:
+            out.append((i, cand, rho))
     return out
 
 
@@ -215,22 +223,12 @@ def nuisance_aliases(nrm: Normal, chosen, skip=()) -> list:
     exactly at its start value; the record cannot say so. Fitted together, the selected effect
     carries the error it has with the other free, 1/sqrt(1 - rho^2) times wider, and its estimate
     loses the other's pull."""
-    N = nrm.N.sum(0)
-    taken = {c.cand for c in chosen}
     out: list[tuple[Chosen, str, float]] = []
-    for i, c in enumerate(chosen):
-        rest = sorted({j for m, o in enumerate(chosen) if m != i for j in o.active})
-        for cand in CANDIDATES:
-            if cand in taken or cand.key in skip or any(n.cand == cand for n, _, _ in out):
-                continue
-            seen = [
-                j for j in cand.idx if j not in rest and excitation(nrm, np.array([j]))[j] >= PARAMS[j].min_excitation
-            ]
-            if not seen:
-                continue
-            rho = canonical_correlation(N, c.active, seen, rest)
-            if NUISANCE_CORRELATION <= rho < ALIAS_CORRELATION:  # beyond, aliases_outside names the pair
-                out.append((Chosen(cand, tuple(seen), ()), c.cand.key, rho))
+    for i, cand, seen, rho in _collinear_left_out(nrm, chosen, skip):
+        if any(n.cand == cand for n, _, _ in out):
+            continue
+        if NUISANCE_CORRELATION <= rho < ALIAS_CORRELATION:  # beyond, aliases_outside names the pair
+            out.append((Chosen(cand, tuple(seen), ()), chosen[i].cand.key, rho))
     return out
 
 
