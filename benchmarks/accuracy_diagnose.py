@@ -52,7 +52,7 @@ from sizefx.effects import IDEAL, load_effects
 from sizefx.simulate import simulate_in_memory
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_diagnose import BASE, HIDDEN, NOMINAL
+from test_diagnose import BASE, HIDDEN, NAVIGATION_SWAY_R_Y_M, NOMINAL, write_navigation_sway
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import add_output_options, emit  # (a sibling of this script)
@@ -495,24 +495,12 @@ def psins():
 
 
 def sway():
-    from sizefx.simulate import SimulateConfig
-    from sizefx.simulate import run as simulate
-
     theta0, _ = D.start_model()
     j = D.LEVER[4]  # r_y[y]
-    truth_m = 0.0273
+    truth_m = NAVIGATION_SWAY_R_Y_M
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "sway.h5"
-        simulate(
-            SimulateConfig(
-                "sway",
-                path,
-                plan=scenarios.SwayPlan(static_s=120.0, segment_s=200.0),
-                rate_hz=200.0,
-                seed=4,
-                overrides={"lever_arm": {"d_y_m": [0.0, truth_m, 0.0]}, "accel_delay": {"enabled": True}},
-            )
-        )
+        write_navigation_sway(path)
         res = D.run(D.DiagnoseConfig(path, model_out=Path(tmp) / "m.toml"))
     d, doc = res.diagnosis, res.to_json()
     out = {

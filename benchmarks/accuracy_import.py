@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import sys
 import tempfile
@@ -35,29 +34,9 @@ from sizefx.io.telemetry import read_telemetry
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import add_output_options, emit  # (a sibling of this script)
 
-#: The real recordings (read where they lie, never copied): shared/ beside the checkout.
-REAL = Path(os.environ.get("SIZEFX_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
-
-IMUCAL = dict(
-    time="n_samples",
-    time_units="samples",
-    rate_hz=102.4,
-    gyro=("gyr_x", "gyr_y", "gyr_z"),
-    gyro_units="deg/s",
-    accel=("acc_x", "acc_y", "acc_z"),
-    accel_units="m/s^2",
-)
-#: name -> (format, file under REAL, import options): the files and options of docs/import.md
-FILES = {
-    "broad07": ("broad", "broad/07_undisturbed_fast_rotation_B.mat", {}),
-    "broad09": ("broad", "broad/09_undisturbed_fast_rotation_with_breaks_B.mat", {}),
-    "broad16": ("broad", "broad/16_undisturbed_fast_translation_B.mat", {}),
-    "broad21": ("broad", "broad/21_undisturbed_fast_combined.mat", {}),
-    "lasergyro": ("psins-imu", "psins/lasergyro.imu", {}),
-    "fog_mems": ("psins-mat", "psins/transfer_align_fog_mems.mat", {}),
-    "imucal": ("csv", "imucal/example_ferraris_session.csv", IMUCAL),
-    "px4": ("ulog", "px4/sample.ulg", {}),
-}
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+# the real recordings (read where they lie, never copied) and their import options, as the tests read them
+from support import IMUCAL, REAL, REAL_FILES
 
 #: The tilt check's figures as it prints them: "median residual 4.5 % over 5 tilt changes of 75-177 deg"
 TILT_DETAIL = re.compile(r"median residual ([\d.]+) % over (\d+) tilt changes of (\d+)-(\d+) deg")
@@ -107,7 +86,7 @@ def main(argv=None):
         return 2
     report = {"files": {}}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, (fmt, rel, opts) in FILES.items():
+        for name, (fmt, rel, opts) in REAL_FILES.items():
             h5 = Path(tmp) / f"{name}.h5"
             summary = run_import(fmt, REAL / rel, h5, **opts)
             units = summary["units_check"]
@@ -125,7 +104,7 @@ def main(argv=None):
                     report["ring_laser"] = ring_laser(tel)
                 else:
                     report["imucal_rotations_deg"] = imucal_rotations(tel)
-    broad = [report["files"][n] for n in FILES if n.startswith("broad")]
+    broad = [report["files"][n] for n in REAL_FILES if n.startswith("broad")]
     report["broad"] = {
         "accel_ratio": [b["accel"]["ratio"] for b in broad],
         "gyro_ratio": [b["gyro"]["ratio"] for b in broad],

@@ -49,7 +49,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "examples"))
 from make_example import SIMULATE  # noqa: E402  (the example's simulation, as the CSVs were made)
-from test_own_recording import README, check_steps, readme_commands  # noqa: E402  (the walk as the test reads it)
+from test_own_recording import (  # noqa: E402  (the walk as the test reads it)
+    README,
+    check_steps,
+    find_step,
+    readme_commands,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import add_output_options, emit  # noqa: E402  (a sibling of this script)
@@ -70,18 +75,6 @@ def run(argv: list, cwd: Path) -> subprocess.CompletedProcess:
 
 def option(argv: list, name: str) -> str:
     return argv[argv.index(name) + 1]
-
-
-def step(done: list, verb: str, has: str | None = None, lacks: str | None = None):
-    """The walk's ``(argv, result)`` of ``sizefx VERB`` (with option ``has``, without ``lacks``)."""
-    for argv, result in done:
-        if (
-            " ".join(argv[1:]).startswith(verb)
-            and (has is None or has in argv)
-            and (lacks is None or lacks not in argv)
-        ):
-            return argv, result
-    raise SystemExit(f"README walk has no 'sizefx {verb}'")
 
 
 def summary(path: Path) -> dict:
@@ -133,7 +126,7 @@ def walk(tmp: Path) -> dict:
     out = {"walk": [shlex.join(a) for a, _ in done], "walk_wall_s": sum(walls)}
 
     # import csv: its one-line summary (it writes no JSON)
-    argv, result = step(done, "import csv")
+    argv, result = find_step(done, "import csv")
     record = option(argv, "-o")
     out["import"] = {"printed": result.stdout.splitlines()[0]}
 
@@ -152,7 +145,7 @@ def walk(tmp: Path) -> dict:
     gaps = [(g["time_s"], g["time_s"] + g["duration_s"]) for g in info["gaps"]]
 
     # diagnose --json
-    argv, _ = step(done, "diagnose")
+    argv, _ = find_step(done, "diagnose")
     report = json.loads((tmp / option(argv, "--json")).read_text())
     found = {(e["id"], e["channel"]): e for e in report["effects"]}
     delay, arm = found[("accel_delay", None)], found[("lever_arm", "accel_y")]
@@ -178,7 +171,7 @@ def walk(tmp: Path) -> dict:
     }
 
     # calibrate --delay --json
-    cal_argv, _ = step(done, "calibrate")
+    cal_argv, _ = find_step(done, "calibrate")
     levers = json.loads((tmp / option(cal_argv, "--json")).read_text())
     r, s = arms(levers)
     z = np.abs(r - truth_r) / s
@@ -199,8 +192,8 @@ def walk(tmp: Path) -> dict:
 
     # navigate, twice: the solutions' summaries
     ref = read_telemetry(tmp / record).reference
-    plain_argv, _ = step(done, "navigate", lacks="--levers")
-    comp_argv, _ = step(done, "navigate", has="--levers")
+    plain_argv, _ = find_step(done, "navigate", lacks="--levers")
+    comp_argv, _ = find_step(done, "navigate", has="--levers")
     plain, comp = tmp / option(plain_argv, "-o"), tmp / option(comp_argv, "-o")
     every = comp_argv[: comp_argv.index("-o")] + ["--output-rate-hz", "0", "-o", "every_step.h5"]
     run(every, tmp)
@@ -212,7 +205,7 @@ def walk(tmp: Path) -> dict:
     }
 
     # compare --json
-    argv, _ = step(done, "compare")
+    argv, _ = find_step(done, "compare")
     doc = json.loads((tmp / option(argv, "--json")).read_text())
     names = {
         f"{comp.name} vs REF": "compensated_vs_reference",

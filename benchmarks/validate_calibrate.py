@@ -26,16 +26,13 @@ its residuals) is shown beside it. The achieved error is the RMS over the draws 
 ``(estimate - truth) / bound``: 1 when the fit reaches the bound, the efficiency its inverse.
 
 **Two seed ranges, never mixed**: ``--range dev`` (seeds 0, 1, ...) to tune on, ``--range
-validation`` (from :data:`VALIDATION_FIRST_SEED`) to report only.
+validation`` (from :data:`_validation.VALIDATION_FIRST_SEED`) to report only.
 """
 
 from __future__ import annotations
 
 import argparse
-import multiprocessing
-import os
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -48,10 +45,9 @@ from sizefx.plan import predict
 from sizefx.simulate import simulate_in_memory
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import add_output_options, emit  # (a sibling of this script)
+from _measure import add_output_options, emit  # (siblings of this script)
+from _validation import RANGES, plot_pit, run_jobs, seeds
 
-#: The first seed of the validation range; the development range is 0 .. VALIDATION_FIRST_SEED - 1.
-VALIDATION_FIRST_SEED = 1_000_000
 NAMES = [*PARAMS_R, "tilt_north", "tilt_east"]
 
 
@@ -159,53 +155,16 @@ def summarise(rows: list[dict]) -> dict:
     }
 
 
-def plot_pit(summary: dict, path: Path, title: str) -> None:
-    """Simulation-based calibration per parameter: the histogram of Phi(z) over the draws, with the
-    band a uniform histogram of that many values stays inside 99 % of the time (per bin)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from scipy.stats import binom, norm
-
-    rows = summary["rows"]
-    x, t, s = (np.array([r[k] for r in rows]) for k in ("estimate", "truth", "sigma"))
-    pit = norm.cdf((x - t) / s)
-    fig, axes = plt.subplots(3, 4, figsize=(12, 7))
-    bins = 10
-    lo, hi = binom.ppf([0.005, 0.995], len(rows), 1 / bins)
-    for ax, (j, name) in zip(axes.ravel(), enumerate(NAMES)):
-        ax.hist(pit[:, j], bins=bins, range=(0, 1), color="tab:blue", alpha=0.8)
-        ax.axhspan(lo, hi, color="grey", alpha=0.25, lw=0)
-        ax.set_title(name, fontsize=9)
-        ax.set_xlim(0, 1)
-    for ax in axes.ravel()[len(NAMES) :]:
-        ax.axis("off")
-    fig.suptitle(f"{title}: PIT of the truth under each stated error (uniform when the errors are right)")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--range", choices=("dev", "validation"), required=True, help="the seed range (see above)")
+    ap.add_argument("--range", choices=RANGES, required=True, help="the seed range (see above)")
     ap.add_argument("--draws", type=int, default=50, help="draws from the range's first seeds")
     ap.add_argument("--rate-hz", type=float, default=400.0, help="the records' sample rate")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")
     ap.add_argument("--plot", type=Path, help="write the simulation-based-calibration histograms here (PNG)")
     add_output_options(ap)
     args = ap.parse_args(argv)
-    first = 0 if args.range == "dev" else VALIDATION_FIRST_SEED
-    jobs = [(s, args.rate_hz) for s in range(first, first + args.draws)]
-    if args.jobs > 1:
-        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
-            os.environ[var] = "1"  # one thread per spawned worker
-        with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-            rows = list(pool.map(judge, jobs))
-    else:
-        rows = [judge(j) for j in jobs]
+    rows = run_jobs(judge, [(s, args.rate_hz) for s in seeds(args.range, args.draws)], args.jobs)
     summary = summarise(rows)
     print(f"{len(rows)} draws, seeds {summary['seeds'][0]}..{summary['seeds'][1]}, {args.rate_hz:.0f} Hz")
     nan = float("nan")
@@ -227,7 +186,9 @@ def main(argv=None) -> int:
     )
     code = emit(summary, args, __file__, argv, threads=args.jobs, show=False)
     if args.plot:
-        plot_pit(summary, args.plot, f"calibrate, {args.range} range, {len(rows)} draws")
+        x, t, sig = (np.array([r[k] for r in rows]) for k in ("estimate", "truth", "sigma"))
+        z = (x - t) / sig
+        plot_pit(dict(zip(NAMES, z.T)), args.plot, f"calibrate, {args.range} range, {len(rows)} draws")
     return code
 
 

@@ -10,7 +10,7 @@ every parameter of a finding is judged against the truth: ``z = (estimate - trut
 
 **Two seed ranges, never mixed.** ``--range dev`` draws records from seeds 0, 1, 2, ...: tune the
 error recipe, the selection and the thresholds on these. ``--range validation`` draws from
-:data:`VALIDATION_FIRST_SEED` on: report these, never tune on them. Every change to the estimator
+:data:`_validation.VALIDATION_FIRST_SEED` on: report these, never tune on them. Every change to the estimator
 re-runs both (``--record dev`` and ``--record validation`` write
 ``benchmarks/results/validate_diagnose-dev.json`` and ``-validation.json``), and the docs quote
 both.
@@ -49,15 +49,12 @@ the noise, the walk included, is what the error bars must cover.
 from __future__ import annotations
 
 import argparse
-import multiprocessing
-import os
+import functools
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 from scipy.signal import lfilter
-from scipy.stats import norm
 
 from sizefx import diagnose as D
 from sizefx import scenarios as S
@@ -67,10 +64,8 @@ from sizefx.geometry import preset_arms_m
 from sizefx.simulate import simulate_in_memory
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _measure import add_output_options, emit  # (a sibling of this script)
-
-#: The first seed of the validation range; the development range is 0 .. VALIDATION_FIRST_SEED - 1.
-VALIDATION_FIRST_SEED = 1_000_000
+from _measure import add_output_options, emit  # (siblings of this script)
+from _validation import RANGES, plot_pit, run_jobs, seeds
 
 #: Log-uniform size ranges (low, high) of each hidden effect's components, in the effect model's
 #: file units; each component gets its own size and sign. Navigation grade, wide enough that some
@@ -326,39 +321,9 @@ def summarise(rows: list[dict]) -> dict:
     }
 
 
-def plot_pit(summary: dict, path: Path, title: str) -> None:
-    """Simulation-based calibration: per effect kind, the histogram of Phi(z) with the band a
-    uniform histogram of that many values stays inside 99 % of the time (per bin)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from scipy.stats import binom
-
-    kinds = [k for k, e in summary["by_effect"].items() if e["parameters"] >= 5]
-    cols = 4
-    fig, axes = plt.subplots(max(1, -(-len(kinds) // cols)), cols, figsize=(12, 2.6 * max(1, -(-len(kinds) // cols))))
-    axes = np.atleast_1d(axes).ravel()
-    bins = 10
-    for ax, kind in zip(axes, kinds):
-        z = np.array([q["z"] for r in summary["rows"] for q in r["z"] if q["effect"] == kind])
-        ax.hist(norm.cdf(z), bins=bins, range=(0, 1), color="tab:blue", alpha=0.8)
-        lo, hi = binom.ppf([0.005, 0.995], z.size, 1 / bins)
-        ax.axhspan(lo, hi, color="grey", alpha=0.25, lw=0)
-        ax.set_title(f"{kind} ({z.size})", fontsize=9)
-        ax.set_xlim(0, 1)
-    for ax in axes[len(kinds) :]:
-        ax.axis("off")
-    fig.suptitle(f"{title}: PIT of the truth under each reported error (uniform when the errors are right)")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--range", choices=("dev", "validation"), required=True, help="the seed range (see above)")
+    ap.add_argument("--range", choices=RANGES, required=True, help="the seed range (see above)")
     ap.add_argument("--records", type=int, default=24, help="records drawn from the range's first seeds")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")
     ap.add_argument(
@@ -369,20 +334,10 @@ def main(argv=None) -> int:
     ap.add_argument("--plot", type=Path, help="write the simulation-based-calibration histograms here (PNG)")
     add_output_options(ap)
     args = ap.parse_args(argv)
-    first = 0 if args.range == "dev" else VALIDATION_FIRST_SEED
-    seeds = list(range(first, first + args.records))
     motions = tuple(args.motions.split(","))
     if set(motions) - set(MOTIONS) or not motions:
         ap.error(f"--motions {args.motions!r}: use some of {', '.join(MOTIONS)}")
-    if args.jobs > 1:
-        # One thread per worker: --jobs sets the parallelism, BLAS and Numba must not add theirs.
-        # The workers are spawned, so they read these before they import numpy.
-        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
-            os.environ[var] = "1"
-        with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-            rows = list(pool.map(judge, seeds, [motions] * len(seeds)))
-    else:
-        rows = [judge(s, motions) for s in seeds]
+    rows = run_jobs(functools.partial(judge, motions=motions), seeds(args.range, args.records), args.jobs)
     for r in rows:
         zs = np.array([q["z"] for q in r["z"]])
         print(
@@ -420,7 +375,9 @@ def main(argv=None) -> int:
         )
     code = emit(summary, args, __file__, argv, threads=args.jobs, show=False)
     if args.plot:
-        plot_pit(summary, args.plot, f"diagnose, {args.range} range, {len(rows)} records")
+        by_kind = {k: [q["z"] for r in rows for q in r["z"] if q["effect"] == k] for k in summary["by_effect"]}
+        by_kind = {k: z for k, z in by_kind.items() if len(z) >= 5}
+        plot_pit(by_kind, args.plot, f"diagnose, {args.range} range, {len(rows)} records")
     return code
 
 

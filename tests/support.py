@@ -27,6 +27,30 @@ RATE_HZ = 100.0
 N = 1000
 
 
+#: The imucal hand-rotation CSV's import options (its columns, units and rate).
+IMUCAL = dict(
+    time="n_samples",
+    time_units="samples",
+    rate_hz=102.4,
+    gyro=("gyr_x", "gyr_y", "gyr_z"),
+    gyro_units="deg/s",
+    accel=("acc_x", "acc_y", "acc_z"),
+    accel_units="m/s^2",
+)
+#: name -> (format, file under REAL, import options): the real recordings sizefx imports, as
+#: docs/import.md lists them (tests/test_importers.py, benchmarks/accuracy_import.py).
+REAL_FILES = {
+    "broad07": ("broad", "broad/07_undisturbed_fast_rotation_B.mat", {}),
+    "broad09": ("broad", "broad/09_undisturbed_fast_rotation_with_breaks_B.mat", {}),
+    "broad16": ("broad", "broad/16_undisturbed_fast_translation_B.mat", {}),
+    "broad21": ("broad", "broad/21_undisturbed_fast_combined.mat", {}),
+    "lasergyro": ("psins-imu", "psins/lasergyro.imu", {}),
+    "fog_mems": ("psins-mat", "psins/transfer_align_fog_mems.mat", {}),
+    "imucal": ("csv", "imucal/example_ferraris_session.csv", IMUCAL),
+    "px4": ("ulog", "px4/sample.ulg", {}),
+}
+
+
 def real_data(rel: str = "") -> Path:
     """A real data set (a file or folder under :data:`REAL`). Run by hand, a missing one skips the
     test with the reason; under .ci/run (``SIZEFX_REQUIRE_REAL_DATA=1``) it fails the test."""

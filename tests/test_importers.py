@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from support import REAL, real_data
+from support import IMUCAL, REAL, REAL_FILES, real_data
 
 from sizefx import earth
 from sizefx.constants import DEG, OMEGA_EARTH_RAD_S
@@ -21,26 +21,6 @@ from sizefx_cli.main import main
 
 #: a test that reads the real recordings: skipped with the reason when they are missing (failed under .ci/run)
 needs_real = pytest.mark.usefixtures("real_data_folder")
-
-IMUCAL = dict(
-    time="n_samples",
-    time_units="samples",
-    rate_hz=102.4,
-    gyro=("gyr_x", "gyr_y", "gyr_z"),
-    gyro_units="deg/s",
-    accel=("acc_x", "acc_y", "acc_z"),
-    accel_units="m/s^2",
-)
-REAL_FILES = {
-    "broad07": ("broad", "broad/07_undisturbed_fast_rotation_B.mat", {}),
-    "broad09": ("broad", "broad/09_undisturbed_fast_rotation_with_breaks_B.mat", {}),
-    "broad16": ("broad", "broad/16_undisturbed_fast_translation_B.mat", {}),
-    "broad21": ("broad", "broad/21_undisturbed_fast_combined.mat", {}),
-    "lasergyro": ("psins-imu", "psins/lasergyro.imu", {}),
-    "fog_mems": ("psins-mat", "psins/transfer_align_fog_mems.mat", {}),
-    "imucal": ("csv", "imucal/example_ferraris_session.csv", IMUCAL),
-    "px4": ("ulog", "px4/sample.ulg", {}),
-}
 
 
 @pytest.fixture(scope="module")

@@ -144,8 +144,9 @@ def walkthrough(tmp_path_factory):
     return cwd, done
 
 
-def _step(walkthrough, verb: str, has: str | None = None, lacks: str | None = None):
-    _, done = walkthrough
+def find_step(done: list, verb: str, has: str | None = None, lacks: str | None = None):
+    """The walk's ``(argv, result)`` of ``sizefx VERB`` (with option ``has``, without ``lacks``), from
+    the steps ``done`` (``[(argv, result)]``); AssertionError when it did not run."""
     for argv, result in done:
         if (
             " ".join(argv[1:]).startswith(verb)
@@ -154,6 +155,10 @@ def _step(walkthrough, verb: str, has: str | None = None, lacks: str | None = No
         ):
             return argv, result
     raise AssertionError(f"no 'sizefx {verb}' ran")
+
+
+def _step(walkthrough, verb: str, has: str | None = None, lacks: str | None = None):
+    return find_step(walkthrough[1], verb, has, lacks)
 
 
 @pytest.fixture(scope="module")
