@@ -639,7 +639,7 @@ def test_diagnose_span_by_span_equals_the_whole_record_at_once(monkeypatch, band
     few hundred samples at a time, no motion cached) finds what one span holding the whole record
     finds (the path before issue 15's last part). Tolerances: estimates within 1e-6 of their standard
     error and RMS within 1e-9 relative, far below anything the report shows; only sums are split."""
-    from sizefx.diagnose import fit, normal, predictor
+    from sizefx.diagnose import normal, predictor, residual
 
     tel, _ = record(
         {"lever_arm": HIDDEN["lever_arm"], "accel_delay": HIDDEN["accel_delay"], "accel_bias": HIDDEN["accel_bias"]},
@@ -648,7 +648,7 @@ def test_diagnose_span_by_span_equals_the_whole_record_at_once(monkeypatch, band
 
     def run(chunk, cache):
         monkeypatch.setattr(normal, "CHUNK_SAMPLES", chunk)
-        monkeypatch.setattr(fit, "CHUNK_SAMPLES", chunk)
+        monkeypatch.setattr(residual, "CHUNK_SAMPLES", chunk)
         monkeypatch.setattr(predictor, "_CACHE_BYTES", cache)
         return D.diagnose(tel, NOMINAL, bandwidth_hz=bandwidth_hz, grade="navigation")
 

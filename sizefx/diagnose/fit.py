@@ -47,9 +47,10 @@ from .candidates import CANDIDATES, PRIORITY, columns_between
 from .consistency import block_consistency, motion_groups
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
-from .normal import CHUNK_SAMPLES, Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
+from .normal import Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
+from .residual import per_sample, predicted, residual_under, rms, white
 from .selection import (
     FAMILY_ALPHA,
     Chosen,
@@ -156,57 +157,6 @@ def _noise(rows_of: Rows, rows, robust: bool):
     return sigma, kappa, weights
 
 
-def _rms(rows_of: Rows, rows):
-    return np.sqrt(np.mean(rows[rows_of.keep] ** 2, axis=0))
-
-
-def _white(rows_of: Rows, rows):
-    """Per channel: the rows' sample-to-sample noise, sqrt(mean(diff^2) / 2)."""
-    return np.sqrt(np.mean(np.diff(rows[rows_of.keep], axis=0) ** 2, axis=0) / 2.0)
-
-
-# --------------------------------------------------------------------------- the residual, span by span
-
-
-@dataclass
-class _Residual:
-    """Measured minus predicted under one model vector, as the fit holds it: its rows, and what the
-    report needs of the samples themselves (nothing else per sample is kept)."""
-
-    rows: np.ndarray | None  #: [m, 6] the rows of :class:`Rows` (SI), or None before the rows are known
-    ms_full: np.ndarray  #: [6] mean square over the usable samples, full band (SI^2)
-    series: np.ndarray | None = None  #: [n, 6] float32, for the plots only
-
-
-def _residual(pred: Predictor, rows_of: Rows | None, theta, *, series: bool = False) -> _Residual:
-    """The residual under ``theta``, span by span (:meth:`Rows.spans`): each span's prediction is
-    formed, reduced to its rows and its sums of squares, and dropped. ``rows_of`` None: the full-band
-    sums only. ``series``: keep the residual per sample in float32 (for the plots: 7 significant
-    digits of a residual drawn at 0.1 s means and as a spectrum, against 48 bytes per sample)."""
-    n = pred.n
-    rows = None if rows_of is None else np.zeros((rows_of.t.size, 6))
-    out = np.empty((n, 6), dtype=np.float32) if series else None
-    sumsq = np.zeros(6)
-    spans = (
-        rows_of.spans()
-        if rows_of is not None
-        else [(lo, min(n, lo + CHUNK_SAMPLES)) for lo in range(0, n, CHUNK_SAMPLES)]
-    )
-    L = 1 if rows_of is None else rows_of.L
-    for lo, hi in spans:
-        a, b = (lo, hi) if rows_of is None else rows_of.extended(lo, hi)
-        res = pred.measured_span(a, b) - pred.predict_span(theta, a, b)
-        inner = res[lo - a : hi - a]
-        sumsq += np.sum(inner[pred.mask[lo:hi]] ** 2, axis=0)
-        if out is not None:
-            out[lo:hi] = inner
-        if rows is not None:
-            assert rows_of is not None  # rows are made with rows_of
-            r = rows_of.span_rows(res, a, lo, hi)
-            rows[lo // L : lo // L + r.shape[0]] = r
-    return _Residual(rows, sumsq / max(1, int(pred.mask.sum())), out)
-
-
 # --------------------------------------------------------------------------- the Gauss-Newton loop
 
 
@@ -233,7 +183,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
     final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since).
     ``start``: the residual's rows at ``theta``, when already known. The residual is held as rows
     (``_State.residual``), the regressors are formed span by span."""
-    residual = _residual(pred, rows_of, theta).rows if start is None else start
+    residual = residual_under(pred, rows_of, theta).rows if start is None else start
     assert residual is not None  # _residual gives rows with rows_of
     first = residual[rows_of.keep]  # white-noise sigma from first differences to start
     sigma_c = np.maximum(np.sqrt(np.mean(np.diff(first, axis=0) ** 2, axis=0) / 2.0), 1e-300)
@@ -259,7 +209,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
         sig = np.sqrt(np.abs(np.diag(cov))) if free.size else np.zeros(0)
         step = float(np.max(np.abs(x) / np.maximum(sig, 1e-300))) if free.size else 0.0
         theta = new
-        final = _residual(pred, rows_of, theta)
+        final = residual_under(pred, rows_of, theta)
         residual = final.rows
         assert residual is not None  # _residual gives rows with rows_of
         sigma_c, kappa, row_w = _noise(rows_of, residual, robust=True)
@@ -298,10 +248,10 @@ def _errors(pred: Predictor, state: _State, theta0):
     parts, by_time = block_consistency(nrm, free, offset, sig, sig_white)
     cuts = [by_time]
     for split, stat in (
-        ("rate", _per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
+        ("rate", per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
         (
             "translation",
-            _per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1) - STANDARD_GRAVITY_MPS2)),
+            per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1) - STANDARD_GRAVITY_MPS2)),
         ),
     ):
         cuts.append(
@@ -352,7 +302,7 @@ def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_
         if band >= 0.8 * nyquist:
             continue
         rows_b = Rows(pred.t, pred.mask, pred.dt, band)
-        residual_b = _residual(pred, rows_b, state.theta).rows  # the final residual's rows in this band
+        residual_b = residual_under(pred, rows_b, state.theta).rows  # the final residual's rows in this band
         sigma_c, kappa, row_w = _noise(rows_b, residual_b, robust=True)
         nrm = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w)
         _, white, robust = covariance(nrm, free, offset)
@@ -377,24 +327,14 @@ def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_
     return sys_cov / len(bands), bands
 
 
-def _per_sample(pred: Predictor, stat) -> np.ndarray:
-    """``stat(lo, hi) -> [hi - lo]`` for every sample, span by span (8 bytes per sample, no temporaries
-    of the record's length)."""
-    out = np.empty(pred.n)
-    for lo in range(0, pred.n, CHUNK_SAMPLES):
-        hi = min(pred.n, lo + CHUNK_SAMPLES)
-        out[lo:hi] = stat(lo, hi)
-    return out
-
-
 def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
     """The residual's rows without effect ``c`` and the channels it acts on: where its contribution, in units
     of each channel's noise, is at least a tenth of its largest (the tilt acts on the gyros too,
     through Earth rate, but 1e5 times less)."""
     without = theta.copy()
     without[list(c.active)] = theta0[list(c.active)]
-    r_wo = _residual(pred, rows_of, without).rows
-    size = _rms(rows_of, r_wo - residual) / sigma_c
+    r_wo = residual_under(pred, rows_of, without).rows
+    size = rms(rows_of, r_wo - residual) / sigma_c
     chans = np.flatnonzero(size >= 0.1 * size.max()) if size.max() > 0 else np.arange(6)
     return r_wo, chans
 
@@ -402,8 +342,8 @@ def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
 def _share(rows_of, r_wo, residual, weights, chans, noise_power):
     """Share of the structure on ``chans`` (weighted residual power without the effect, minus the white
     noise's) that the effect removes: in [0, 1] by construction."""
-    p_wo = float(np.sum(weights[chans] * _rms(rows_of, r_wo)[chans] ** 2))
-    p_with = float(np.sum(weights[chans] * _rms(rows_of, residual)[chans] ** 2))
+    p_wo = float(np.sum(weights[chans] * rms(rows_of, r_wo)[chans] ** 2))
+    p_with = float(np.sum(weights[chans] * rms(rows_of, residual)[chans] ** 2))
     gain = max(0.0, p_wo - p_with)
     structure = max(p_wo - float(np.sum(weights[chans] * noise_power[chans])), gain)
     return gain / structure if structure > 0 else 0.0
@@ -463,7 +403,7 @@ def diagnose(
         band_reason = f"given: {bandwidth_hz:g} Hz"
     elif auto_bandwidth:
         finite = (
-            _per_sample(
+            per_sample(
                 pred,
                 lambda lo, hi: (
                     np.isfinite(pred.measured_span(lo, hi)).all(axis=1)
@@ -475,7 +415,7 @@ def diagnose(
         band = choose_bandwidth(
             pred.t,
             pred.measured_span,
-            functools.partial(_predicted, pred, theta0),
+            functools.partial(predicted, pred, theta0),
             pred.mask & finite,
             pred.dt,
             reference_dt_s=nominal_period_s(tel.reference.time_s) if tel.reference is not None else None,
@@ -485,13 +425,13 @@ def diagnose(
     else:
         band_reason = "full band (not measured)"
     rows_of = Rows(pred.t, pred.mask, pred.dt, bandwidth_hz)
-    before = _residual(pred, rows_of, theta0, series=keep_series)
+    before = residual_under(pred, rows_of, theta0, series=keep_series)
     log: list = []
     state = _iterate(pred, rows_of, theta0, theta0.copy(), log, progress=progress, start=before.rows)
     if progress is not None and state.passes < MAX_PASSES:
         progress(MAX_PASSES, MAX_PASSES)
     unrevealed = state.unrevealed
-    white_rows = _white(rows_of, state.residual)
+    white_rows = white(rows_of, state.residual)
     if grade is None:
         grade, grade_reason = infer_grade(noise_density(pred.measured_span, pred.mask, pred.dt))
     else:
@@ -684,8 +624,8 @@ def diagnose(
             "together, it is no longer significant; the extended model carries both",
         )
     structure = _structure(pred, rows_of, residual, white_rows, theta)
-    series_after = _residual(pred, None, theta, series=True).series if keep_series else None  # for the plots
-    rms_b, rms_a = _rms(rows_of, before.rows), _rms(rows_of, residual)
+    series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
+    rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)
     return Diagnosis(
         path=str(tel.path),
         effects=effects,
@@ -773,14 +713,4 @@ def _named(unrev: list, cand, params, reason: str) -> list:
             u = {**u, "parameters": rest}
         out.append(u)
     out.append({"id": cand.id, "channel": cand.channel, "parameters": labels, "reason": reason})
-    return out
-
-
-def _predicted(pred: Predictor, theta, lo: int, hi: int) -> np.ndarray:
-    """The prediction ``[hi - lo, 6]`` under ``theta`` of the samples ``lo:hi``, formed
-    :data:`CHUNK_SAMPLES` at a time (its terms take about 1 kB per sample; the result 48 bytes)."""
-    out = np.empty((hi - lo, 6))
-    for a in range(lo, hi, CHUNK_SAMPLES):
-        b = min(hi, a + CHUNK_SAMPLES)
-        out[a - lo : b - lo] = pred.predict_span(theta, a, b)
     return out
