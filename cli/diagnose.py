@@ -62,6 +62,16 @@ from .options import allow_gaps_option, force_option, segment_option, span
     help="On records of 10 minutes or more with reference position, also navigate with the start "
     "and the extended model and report the horizontal error.",
 )
+@click.option(
+    "--validate-on",
+    "validate_on",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    metavar="RECORD",
+    help="Another record of the same IMU (repeat for more) to measure the extended model on: its "
+    "residual RMS per channel with the start and the extended model, and its navigation error "
+    "when it is long enough to navigate. The record diagnosed is cross-validated in any case.",
+)
 @segment_option
 @allow_gaps_option
 @force_option
@@ -77,6 +87,7 @@ def diagnose(
     from_s,
     to_s,
     navigation,
+    validate_on,
     segment,
     allow_gaps,
     force,
@@ -112,6 +123,7 @@ def diagnose(
                 segment,
                 allow_gaps,
                 force,
+                validate_on,
             )
         ).report()
     )
@@ -132,6 +144,7 @@ def config_of(
     segment,
     allow_gaps,
     force,
+    validate_on=(),
 ):
     """The stage's config from the command's options (also ``sizefx batch diagnose``'s, per record)."""
     from sizefx.diagnose import DiagnoseConfig
@@ -150,5 +163,6 @@ def config_of(
         segment=segment,
         allow_gaps=allow_gaps,
         navigation=navigation,
+        validate_on=tuple(validate_on or ()),
         force=force,
     )

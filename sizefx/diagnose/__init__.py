@@ -26,6 +26,8 @@ The package, from the bottom up (each module imports only those above it in this
 - :mod:`.consistency`: the record's parts fitted alone against the stated errors;
 - :mod:`.structure`: what stays in the residual (lines, trends, steps, correlation with the motion);
 - :mod:`.naming`: each effect found, in its units and in one sentence;
+- :mod:`.residual`: the residual under one model, span by span, and its per-channel measures;
+- :mod:`.holdout`: the gain out of sample (blocked folds in time, other records);
 - :mod:`.fit`: the Gauss-Newton loop, :func:`diagnose` (one record in memory -> :class:`Diagnosis`);
 - :mod:`.report`: the extended model (``sizefx/effects/1``), the ``sizefx/diagnosis/2`` JSON (and the
   reader of versions 1 and 2), the text report, the plots;
@@ -37,7 +39,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +54,7 @@ from ..levers import nominal_levers
 from ..stage import preflight
 from .candidates import CANDIDATES, PRIORITY, Candidate, jacobian_columns, numeric_jacobian
 from .fit import KAPPA_BLOCK_S, MAX_PASSES, Diagnosis, diagnose
+from .holdout import HOLDOUT_FOLDS, OVERFIT_ALPHA, OutOfSample, validate_on
 from .naming import Effect
 from .normal import FOLDS, MAX_ROWS, TARGET_BLOCKS
 from .plausibility import GRADES, check_grade
@@ -111,6 +114,10 @@ __all__ = [
     "start_model",
     "navigation_gain",
     "NAVIGATION_MIN_S",
+    "OutOfSample",
+    "validate_on",
+    "HOLDOUT_FOLDS",
+    "OVERFIT_ALPHA",
     # the library under it
     "diagnose",
     "Diagnosis",
@@ -196,6 +203,8 @@ class DiagnoseConfig:
     segment: int | None = None  #: ``--segment``: one continuous segment of a record with gaps
     allow_gaps: bool = False  #: ``--allow-gaps``
     navigation: bool = True  #: ``--navigation/--no-navigation``: navigate before and after (long records)
+    #: ``--validate-on``: other records of the same IMU the extended model is measured on
+    validate_on: tuple = ()
     force: bool = False  #: ``--force``: replace existing outputs (never an input)
 
     def __post_init__(self):
@@ -225,7 +234,12 @@ class DiagnoseConfig:
 
     def inputs(self) -> dict:
         levers_file = self.nominal if self.nominal is not None and self.nominal not in PRESETS else None
-        return {"MEASURED": self.input, "--model": self.model, "--nominal": levers_file}
+        return {
+            "MEASURED": self.input,
+            "--model": self.model,
+            "--nominal": levers_file,
+            **{f"--validate-on {p}": p for p in self.validate_on},
+        }
 
     def outputs(self) -> dict:
         """Every file :func:`run` writes, by option: each plot too, once its folder exists (a folder
@@ -289,20 +303,47 @@ def navigation_gain(tel: Telemetry, theta0: np.ndarray, theta: np.ndarray) -> di
     Only for navigation-length records (:data:`NAVIGATION_MIN_S` or more, reference with
     position, no IMU gap). The models go to navigation in memory (:func:`model_document`).
     """
-    if tel.reference is None or not tel.reference.has_position or tel.duration_s < NAVIGATION_MIN_S:
+    if not _navigable(tel):
         return None
-    if any(g.dataset.startswith("/imu") for g in tel.gaps):
-        return None  # navigation cannot bridge an IMU gap; diagnose --segment K navigates one segment
+    return {"duration_s": float(tel.duration_s), **_navigation_errors(tel, before=theta0, after=theta)}
+
+
+def _navigable(tel: Telemetry) -> bool:
+    """A navigation-length record with reference position and no IMU gap (navigation cannot bridge
+    one; ``diagnose --segment K`` navigates one segment)."""
+    if tel.reference is None or not tel.reference.has_position or tel.duration_s < NAVIGATION_MIN_S:
+        return False
+    return not any(g.dataset.startswith("/imu") for g in tel.gaps)
+
+
+def _navigation_errors(tel: Telemetry, **models: np.ndarray) -> dict:
+    """{name: {"final_m", "max_m"}}: the free-inertial horizontal error of ``tel`` under each model vector."""
     from ..navigate import NavConfig, navigate
 
-    out: dict[str, float | dict[str, float]] = {"duration_s": float(tel.duration_s)}
-    for name, th in (("before", theta0), ("after", theta)):
+    out = {}
+    for name, th in models.items():
         model = load_effects(base=IDEAL, overrides=model_document(th))
         errors = navigate(tel, NavConfig(model=model)).errors
         assert errors is not None  # navigate compares with the reference it was given
         err = np.asarray(errors["horizontal_m"])
         out[name] = {"final_m": float(err[-1]), "max_m": float(np.max(err))}
     return out
+
+
+def _navigated_folds(tel: Telemetry, d: Diagnosis, theta0: np.ndarray) -> OutOfSample | None:
+    """The cross-validation with each fold of a navigation-length record navigated on its own: from
+    the reference at the fold's start, under the start model, the model fitted without the fold, and
+    the model fitted to the whole record."""
+    cv = d.out_of_sample
+    if cv is None or not _navigable(tel):
+        return cv
+    parts = []
+    for part in cv.parts:
+        assert part.theta is not None  # cross_validate keeps each fold's model
+        fold = crop(tel, part.t0_s, part.t1_s)
+        nav = _navigation_errors(fold, before=theta0, after=part.theta, in_sample=d.theta)
+        parts.append(replace(part, navigation={"duration_s": float(fold.duration_s), **nav}))
+    return replace(cv, parts=tuple(parts))
 
 
 def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
@@ -332,6 +373,13 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     d.model_path = str(model_out)
     if config.navigation:
         d.navigation = navigation_gain(tel, theta0, d.theta)
+        d.out_of_sample = _navigated_folds(crop(tel, config.from_s, config.to_s), d, theta0)
+    weights = 1.0 / (d.weights_sigma**2 * d.kappa)
+    for other in config.validate_on:
+        tel_o = read_telemetry(other, allow_gaps=config.allow_gaps)
+        require_reference(tel_o)
+        nav = navigation_gain(tel_o, theta0, d.theta) if config.navigation else None
+        d.validated_on.append(validate_on(tel_o, theta0, d.theta, d.bandwidth_hz, weights, navigation=nav))
     doc = to_json(d, start)
     if config.json_path:
         with atomic_output(config.json_path, inputs=inputs, force=config.force) as tmp:

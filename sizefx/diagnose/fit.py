@@ -45,6 +45,7 @@ from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .candidates import CANDIDATES, PRIORITY, columns_between
 from .consistency import block_consistency, motion_groups
+from .holdout import OutOfSample, cross_validate
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
 from .normal import Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
@@ -129,6 +130,11 @@ class Diagnosis:
     #: the arms split at the triad point, with errors (:func:`sizefx.diagnose.arms.split_arms`); None
     #: when no arm was estimated
     geometry: dict | None = None
+    #: blocked cross-validation in time (:func:`sizefx.diagnose.holdout.cross_validate`); None when
+    #: nothing was estimated
+    out_of_sample: OutOfSample | None = None
+    #: the extended model on other records (``--validate-on``, :func:`sizefx.diagnose.holdout.validate_on`)
+    validated_on: list = field(default_factory=list)
 
 
 # --------------------------------------------------------------------------- noise and weights
@@ -581,7 +587,8 @@ def diagnose(
     ]
     alias_keys |= {c.cand.key for c, _, _ in outside}
     alias_keys |= nuisance_keys | {c.cand.key for c, _, _ in weak}
-    effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in chosen if c.cand.key not in alias_keys]
+    reported = [c for c in chosen if c.cand.key not in alias_keys]
+    effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in reported]
     effects.sort(key=lambda e: -e.explained_fraction)
     unrev = [
         {"id": cand.id, "channel": cand.channel, "parameters": [PARAMS[j].label for j in hidden], "reason": reason}
@@ -626,6 +633,20 @@ def diagnose(
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)
+    out_of_sample = cross_validate(
+        pred,
+        rows_of,
+        nrm,
+        theta0,
+        theta,
+        free,
+        {c.cand.key: list(c.active) for c in reported},
+        1.0 / (state.sigma_c**2 * state.kappa),
+        before.rows,
+        residual,
+    )
+    if out_of_sample is not None:
+        warnings += _holdout_warnings(out_of_sample)
     return Diagnosis(
         path=str(tel.path),
         effects=effects,
@@ -665,7 +686,39 @@ def diagnose(
         sigma_white=sig_white,
         covariance=cov,
         geometry=geometry,
+        out_of_sample=out_of_sample,
     )
+
+
+def _holdout_warnings(cv: OutOfSample) -> list:
+    """A model, or a finding, whose gain on the held-out folds is not positive beyond chance."""
+    out = []
+    if cv.overfit:
+        out.append(
+            {
+                "kind": "overfit",
+                "time_s": None,
+                "size": cv.gain,
+                "unit": None,
+                "message": f"the extended model removes {100 * cv.gain_in_sample:.1f} % of the weighted residual "
+                f"power in sample but {100 * cv.gain:.1f} % on held-out folds (p = {cv.p:.2g}): it does not "
+                "predict data it was not fitted to better than the start model",
+            }
+        )
+    for e in cv.effects:
+        if not e.generalises and not cv.overfit:
+            out.append(
+                {
+                    "kind": "not_generalising",
+                    "time_s": None,
+                    "size": e.gain_held_out,
+                    "unit": None,
+                    "message": f"{e.key}: removes {100 * e.gain_in_sample:.2f} % of the weighted residual power "
+                    f"in sample, {100 * e.gain_held_out:.2f} % on held-out folds (p = {e.p:.2g}): not shown "
+                    "to predict data it was not fitted to",
+                }
+            )
+    return out
 
 
 def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):

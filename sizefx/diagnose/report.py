@@ -26,6 +26,7 @@ from ..io.schema import check_document, validate_input
 from ..io.toml import dumps_toml
 from ..sensor_model import SensorParams
 from .fit import Diagnosis
+from .holdout import OutOfSample
 from .normal import block_means
 from .selection import FAMILY_ALPHA
 from .theta import (
@@ -233,6 +234,10 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "navigation": d.navigation,
         "wall_s": d.wall_s,
     }
+    if d.out_of_sample is not None:
+        doc["out_of_sample"] = d.out_of_sample.as_dict()
+    if d.validated_on:
+        doc["validated_on"] = [o.as_dict() for o in d.validated_on]
     check_document(doc, DIAGNOSIS_SCHEMA)  # our writer against our contract: a bug if it fails
     return doc
 
@@ -399,9 +404,67 @@ def format_report(d: Diagnosis, start: str) -> str:
             f"horizontal error {nav['before']['final_m']:.2f} m -> {nav['after']['final_m']:.2f} m, "
             f"maximum {nav['before']['max_m']:.2f} m -> {nav['after']['max_m']:.2f} m"
         )
+    if d.out_of_sample is not None:
+        lines += _out_of_sample_lines(d.out_of_sample)
+    for other in d.validated_on:
+        lines += _out_of_sample_lines(other)
     if d.model_path:
         lines.append(f"extended model -> {d.model_path} (sizefx navigate/compensate/diagnose --model accept it)")
     return "\n".join(lines)
+
+
+def _percent(g: float) -> str:
+    return f"{100 * g:.1f} %"
+
+
+def _out_of_sample_lines(o: OutOfSample) -> list[str]:
+    """The gain on data the model was not fitted to (:mod:`.holdout`): the record's own folds, or
+    another record."""
+    test = f"positive beyond chance: one-sided p = {o.p:.2g} over the blocks"
+    if o.kind == "other record":
+        lines = [
+            f"validated on {o.record} (the extended model as fitted, in the same band): weighted residual "
+            f"power {_percent(o.gain)} lower than with the start model ({test})"
+            + ("; NOT a gain beyond chance: the model does not carry over to this record" if o.overfit else ""),
+            "  residual RMS per channel, start model -> extended model:",
+        ]
+        lines += ["  " + _rms_line(c, o.rms_before[c], o.rms_after[c]) for c in CHANNELS]
+        if o.navigation:
+            nav = o.navigation
+            lines.append(
+                f"  navigation over {nav['duration_s']:.0f} s: final horizontal error "
+                f"{nav['before']['final_m']:.2f} m -> {nav['after']['final_m']:.2f} m"
+            )
+        return lines
+    assert o.rms_in_sample is not None and o.gain_in_sample is not None  # folds carry the in-sample figures
+    lines = [
+        f"out of sample ({o.kind}, {len(o.parts)} folds; the selection kept, each fold's estimates fitted "
+        f"without it): weighted residual power removed {_percent(o.gain_in_sample)} in sample, "
+        f"{_percent(o.gain)} held out ({test})"
+        + ("; NOT a gain beyond chance: the extended model is overfit" if o.overfit else ""),
+        "  residual RMS per channel, start model -> in sample -> held out:",
+    ]
+    for c in CHANNELS:
+        k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (UG, "ug")
+        lines.append(
+            f"    {c:8s} {o.rms_before[c] / k:12.5g} -> {o.rms_in_sample[c] / k:12.5g} -> "
+            f"{o.rms_after[c] / k:12.5g} {unit}"
+        )
+    for e in o.effects:
+        lines.append(
+            f"  {e.key}: removes {_percent(e.gain_in_sample)} in sample, {_percent(e.gain_held_out)} held out "
+            f"(p = {e.p:.2g})" + ("" if e.generalises else ": not shown to generalise")
+        )
+    navigated = [p for p in o.parts if p.navigation]
+    if navigated:
+        lines.append("  navigation per fold, final horizontal error, start model -> held out -> in sample:")
+        for p in navigated:
+            nav = p.navigation
+            lines.append(
+                f"    {p.label} ({p.t0_s:.0f}-{p.t1_s:.0f} s): {nav['before']['final_m']:.2f} m -> "
+                f"{nav['after']['final_m']:.2f} m -> {nav['in_sample']['final_m']:.2f} m"
+            )
+    return lines
 
 
 def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
