@@ -633,6 +633,7 @@ def diagnose(
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)
+    assert before.rows is not None  # made with rows_of
     out_of_sample = cross_validate(
         pred,
         rows_of,
@@ -694,6 +695,7 @@ def _holdout_warnings(cv: OutOfSample) -> list:
     """A model, or a finding, whose gain on the held-out folds is not positive beyond chance."""
     out = []
     if cv.overfit:
+        assert cv.gain_in_sample is not None  # folds carry the in-sample figure
         out.append(
             {
                 "kind": "overfit",

@@ -79,7 +79,7 @@ class HeldOut:
     navigation: dict | None = None
 
     def as_dict(self) -> dict:
-        out = {
+        out: dict = {
             "label": self.label,
             "t0_s": self.t0_s,
             "t1_s": self.t1_s,
@@ -138,7 +138,7 @@ class OutOfSample:
     navigation: dict | None = None
 
     def as_dict(self) -> dict:
-        out = {
+        out: dict = {
             "kind": self.kind,
             **({"record": self.record} if self.record is not None else {}),
             "residual_rms_before": self.rms_before,
@@ -241,7 +241,8 @@ def cross_validate(
     N, b, yy = nrm.total()
     offset = theta0 - theta
     block_of_row = np.maximum(np.searchsorted(nrm.t0, rows_of.t, side="right") - 1, 0)
-    parts, gains, per_effect = [], [], {k: [] for k in effects}
+    parts, gains = [], []
+    per_effect: dict[str, list] = {k: [] for k in effects}
     pooled = np.zeros((3, 6))  # sums of squares before, held out, in sample
     counts = 0
     for k, g in enumerate(nrm.groups(folds)):
@@ -289,8 +290,8 @@ def cross_validate(
         in_sample[key] = (rss_without - rss_with) / ss_all if ss_all > 0 else 0.0
     t, p = _t_test(np.concatenate(gains))
     effect_gains = []
-    for key, d in per_effect.items():  # pooled over the folds as in sample; tested block by block
-        d = np.concatenate(d)
+    for key, per_fold in per_effect.items():  # pooled over the folds as in sample; tested block by block
+        d = np.concatenate(per_fold)
         te, pe = _t_test(d)
         held_out = float(d.sum()) / ss_all if ss_all > 0 else 0.0
         effect_gains.append(EffectGain(key, float(in_sample[key]), held_out, te, pe, pe <= OVERFIT_ALPHA))
