@@ -260,8 +260,8 @@ def broad():
                     for j in main
                 },
                 "effects": [f"{e.id}:{e.channel}" if e.channel else e.id for e in d.effects],
-                "rejected": [f"{r['id']}:{r['channel']}" for r in d.rejected],
-                "warnings": [w["kind"] for w in d.warnings],
+                "rejected": [f"{r.id}:{r.channel}" for r in d.rejected],
+                "warnings": [w.kind for w in d.warnings],
                 "unexplained": len(d.unexplained),
                 "geometry": d.geometry,
                 "arms_m": d.theta[D.LEVER].tolist(),
@@ -467,8 +467,8 @@ def psins():
         "bandwidth_reason": d.bandwidth_reason,
         "grade": d.grade,
         "effects": [f"{e.id}:{e.channel}" if e.channel else e.id for e in d.effects],
-        "rejected": [f"{r['id']}:{r['channel']}" if r["channel"] else r["id"] for r in d.rejected],
-        "warnings": [w["kind"] for w in d.warnings],
+        "rejected": [f"{r.id}:{r.channel}" if r.channel else r.id for r in d.rejected],
+        "warnings": [w.kind for w in d.warnings],
         "unexplained": len(d.unexplained),
         "indistinguishable": sorted(
             {

@@ -237,7 +237,7 @@ def judge(seed: int, motions=MOTIONS) -> dict:
     d = D.diagnose(tel, nominal, keep_series=False)
     hidden = sorted({p.effect for p in D.PARAMS if _effect_present(p.effect, truth, nominal)})
     found = sorted({e.id for e in d.effects})
-    unrevealed = sorted({u["id"] for u in d.unrevealed})
+    unrevealed = sorted({u.id for u in d.unrevealed})
     z = [
         {
             "effect": D.PARAMS[j].effect,

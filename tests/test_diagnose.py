@@ -93,7 +93,7 @@ def test_each_effect_is_found_within_3_sigma_and_nothing_else(effect):
     assert_within_3_sigma(d, truth, {effect})
     # the tumble excites everything; what it shows only nearly collinear with a finding (a z quadratic
     # beside a z scale factor) is fitted beside it and named, never the finding itself
-    assert all("fitted beside it" in u["reason"] and u["id"] != effect for u in d.unrevealed), d.unrevealed
+    assert all("fitted beside it" in u.reason and u.id != effect for u in d.unrevealed), d.unrevealed
     assert d.grade == "navigation"  # at 100 Hz too, its ranges judge the estimates (the module's note)
     for e in d.effects:
         assert e.sentence and 0.0 < e.explained_fraction <= 1.0
@@ -157,13 +157,13 @@ def test_accelerometer_delay_under_vertical_rotation_is_reported_not_guessed():
     tel, _ = record({"accel_delay": HIDDEN["accel_delay"]}, axes="z")
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert "accel_delay" not in {i for i, _ in found(d)}
-    hidden = {u["id"]: u for u in d.unrevealed}
-    assert "accel_delay" in hidden and "does not excite" in hidden["accel_delay"]["reason"]
+    hidden = {u.id: u for u in d.unrevealed}
+    assert "accel_delay" in hidden and "does not excite" in hidden["accel_delay"].reason
     text = D.format_report(d, "test")
     assert "not revealed by this record" in text and "accel_delay" in text
     # what rotation about z cannot show either: the vertical component of the horizontal arms
-    arms = [u for u in d.unrevealed if u["id"] == "lever_arm"]
-    assert any("r_x[z]" in u["parameters"] for u in arms)
+    arms = [u for u in d.unrevealed if u.id == "lever_arm"]
+    assert any("r_x[z]" in u.parameters for u in arms)
 
 
 def test_collinear_effects_are_named_as_indistinguishable():
@@ -173,7 +173,7 @@ def test_collinear_effects_are_named_as_indistinguishable():
     tel, truth = record({"accel_bias": {"enabled": True, "bias_ug": [0.0, 0.0, 50.0]}}, axes="z")
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert not found(d) & {("accel_bias", "accel_z"), ("accel_scale_factor", "accel_z")}
-    confused = {u["id"] for u in d.unrevealed if u["channel"] == "accel_z" and "on this motion" in u["reason"]}
+    confused = {u.id for u in d.unrevealed if u.channel == "accel_z" and "on this motion" in u.reason}
     assert {"accel_bias", "accel_scale_factor"} <= confused, d.unrevealed
     assert d.theta[D.A_BIAS[2]] == pytest.approx(truth[D.A_BIAS[2]], rel=0.05)
     assert d.rms_after["accel_z"] < 1.05 * d.white_sigma["accel_z"]
@@ -472,7 +472,7 @@ def test_navigation_length_record_reports_the_navigation_gain(tmp_path):
     assert [e.channel for e in lever] == ["accel_y"]
     j = D.LEVER[4]  # r_y[y]
     assert abs(d.theta[j] - NAVIGATION_SWAY_R_Y_M) < 3 * d.sigma_theta[j]
-    assert any(u["id"] == "accel_delay" for u in d.unrevealed)
+    assert any(u.id == "accel_delay" for u in d.unrevealed)
     nav = doc["navigation"]
     assert nav["duration_s"] == pytest.approx(720.0)
     assert nav["after"]["final_m"] < 0.5 * nav["before"]["final_m"], nav

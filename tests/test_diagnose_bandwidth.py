@@ -115,7 +115,7 @@ def test_a_fast_line_the_rows_cannot_resolve_is_cut_away():
     assert cut.bandwidth_hz == choice.bandwidth_hz
     assert not cut.effects and not cut.rejected, (cut.effects, cut.rejected)
     full = D.diagnose(tel, NOMINAL, keep_series=False, auto_bandwidth=False)
-    assert any(r["id"].startswith("gyro_") for r in full.rejected), full.rejected
+    assert any(r.id.startswith("gyro_") for r in full.rejected), full.rejected
 
 
 @pytest.mark.slow

@@ -53,7 +53,7 @@ def record(extra=None, *, seed=3, duration_s=30.0, decimation=REF_DECIMATION, tr
 
 
 def kinds(check):
-    return [w["kind"] for w in check.warnings]
+    return [w.kind for w in check.warnings]
 
 
 def test_clean_records_raise_nothing():
@@ -90,10 +90,10 @@ def test_single_row_attitude_glitches_are_found_at_their_times_and_masked():
     assert check.bad_rows.tolist() == rows
     assert check.breaks_s == ()
     for w, row, size in zip(check.warnings, rows, sizes_deg):
-        assert w["time_s"] == pytest.approx(ref.time_s[row])
-        assert w["unit"] == "rad" and w["quantity"] == "attitude"
-        assert w["size"] == pytest.approx(size * DEG, rel=0.05)  # one 5 ms step of rotation at most
-        assert "masked" in w["message"] and "deg" in w["message"]
+        assert w.time_s == pytest.approx(ref.time_s[row])
+        assert w.unit == "rad" and w.quantity == "attitude"
+        assert w.size == pytest.approx(size * DEG, rel=0.05)  # one 5 ms step of rotation at most
+        assert "masked" in w.message and "deg" in w.message
     cleaned = I.without_bad_rows(tel, check)
     assert cleaned.reference.time_s.size == ref.time_s.size - len(rows)
     assert I.check_reference(cleaned).warnings == []
@@ -123,7 +123,7 @@ def test_a_remount_is_one_discontinuity_and_the_split_motion_reproduces_the_gyro
     assert kinds(check) == ["reference_discontinuity"], check.warnings
     period_s = 1.0 / (RATE_HZ / REF_DECIMATION)
     assert len(check.breaks_s) == 1 and abs(check.breaks_s[0] - t_remount_s) <= period_s
-    assert check.warnings[0]["size"] == pytest.approx(90.0 * DEG, rel=0.01)  # the mount, plus one step's noise
+    assert check.warnings[0].size == pytest.approx(90.0 * DEG, rel=0.01)  # the mount, plus one step's noise
     assert check.bad_rows.size == 0
 
     def gyro_error_rad_s(tel, breaks_s):
@@ -156,8 +156,8 @@ def test_a_dropout_is_reported_as_a_gap():
     check = I.check_reference(tel)
     assert kinds(check) == ["reference_gap"], check.warnings
     w = check.warnings[0]
-    assert w["time_s"] == pytest.approx(8.0) and w["size"] == pytest.approx(0.25) and w["unit"] == "s"
-    assert "ms" in w["message"]
+    assert w.time_s == pytest.approx(8.0) and w.size == pytest.approx(0.25) and w.unit == "s"
+    assert "ms" in w.message
 
 
 def test_a_rate_change_is_reported():
@@ -171,8 +171,8 @@ def test_a_rate_change_is_reported():
     check = I.check_reference(tel)
     assert kinds(check) == ["reference_rate_change"], check.warnings
     w = check.warnings[0]
-    assert abs(w["time_s"] - 10.0) < 0.05  # within a running-median window (25 rows)
-    assert w["size"] == pytest.approx(2.5e-3)  # the period grows from 2.5 to 5 ms
+    assert abs(w.time_s - 10.0) < 0.05  # within a running-median window (25 rows)
+    assert w.size == pytest.approx(2.5e-3)  # the period grows from 2.5 to 5 ms
 
 
 def test_a_velocity_glitch_is_found():
@@ -183,7 +183,7 @@ def test_a_velocity_glitch_is_found():
     tel.reference = replace(ref, velocity_n_mps=v)
     check = I.check_reference(tel)
     assert kinds(check) == ["reference_velocity_glitch"], check.warnings
-    assert check.bad_rows.tolist() == [1234] and check.warnings[0]["unit"] == "m/s"
+    assert check.bad_rows.tolist() == [1234] and check.warnings[0].unit == "m/s"
 
 
 def test_without_breaks_the_motion_is_the_single_spline():
@@ -205,5 +205,5 @@ def test_broad_07_has_no_glitch_or_discontinuity(tmp_path):
     h5 = tmp_path / "broad07.h5"
     run_import("broad", trial, h5)
     check = I.check_reference(read_telemetry(h5, allow_gaps=True))
-    bad = [w for w in check.warnings if "glitch" in w["kind"] or "discontinuity" in w["kind"]]
+    bad = [w for w in check.warnings if "glitch" in w.kind or "discontinuity" in w.kind]
     assert bad == [] and check.breaks_s == (), bad

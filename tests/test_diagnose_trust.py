@@ -67,7 +67,7 @@ def test_reference_glitches_are_named_masked_and_move_nothing():
 
     tel.reference = replace(ref, quat_nb=q)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
-    glitches = [w for w in d.warnings if w["kind"] == "reference_glitch"]
+    glitches = [w for w in d.warnings if w.kind == "reference_glitch"]
     assert len(glitches) == len(rows), d.warnings
     assert ids(d) == {"lever_arm"}, d.log
     assert_within_3_sigma(d, truth, {"lever_arm"})
@@ -94,7 +94,7 @@ def test_the_issues_glitchy_sway_finds_the_arm_and_nothing_unexplained():
         q[row] = bad.as_quat()[[3, 0, 1, 2]]
     tel.reference = replace(tel.reference, quat_nb=q)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
-    assert [w["kind"] for w in d.warnings] == ["reference_glitch"] * 5, d.warnings
+    assert [w.kind for w in d.warnings] == ["reference_glitch"] * 5, d.warnings
     assert ids(d) == {"lever_arm"} and not d.rejected, (found(d), d.rejected)
     assert_within_3_sigma(d, truth, {"lever_arm"})
     for j, s in clean.sigma_theta.items():
@@ -129,9 +129,9 @@ def test_a_remount_splits_the_record_and_says_the_segments_share_one_model():
     tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=23, rate_hz=400.0, duration_s=24.0)
     tel = remount(tel, 12.0)
     d = D.diagnose(tel, NOMINAL, keep_series=True)
-    kinds = [w["kind"] for w in d.warnings]
+    kinds = [w.kind for w in d.warnings]
     assert kinds[:2] == ["reference_discontinuity", "segments_share_model"], d.warnings
-    assert "--from-s/--to-s" in d.warnings[1]["message"]
+    assert "--from-s/--to-s" in d.warnings[1].message
     t = d.t[d.mask]
     assert (t < 11.0).any() and (t > 13.0).any()
     assert not ((t > 11.95) & (t < 12.05)).any()  # the jump itself is left out
@@ -151,7 +151,7 @@ def test_lever_arms_without_rotation_are_not_revealed():
     tel, _ = simulated(traj, {"lever_arm": HIDDEN["lever_arm"]}, seed=24)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert "lever_arm" not in ids(d), d.log
-    hidden = {(u["id"], u["channel"]) for u in d.unrevealed}
+    hidden = {(u.id, u.channel) for u in d.unrevealed}
     assert {("lever_arm", f"accel_{a}") for a in "xyz"} <= hidden
 
 
@@ -164,7 +164,7 @@ def test_a_tilt_the_sway_cannot_tell_from_the_biases_is_no_finding():
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert ids(d) == {"accel_delay"}, (found(d), d.log)
     assert_within_3_sigma(d, truth, {"accel_delay"})
-    confused = {u["id"] for u in d.unrevealed if "on this motion" in u["reason"]}
+    confused = {u.id for u in d.unrevealed if "on this motion" in u.reason}
     assert {"level_tilt", "accel_bias"} <= confused, d.unrevealed
     # the model still carries what the record shows: the residual is at the noise
     for c in ("accel_x", "accel_y", "accel_z"):
@@ -178,9 +178,9 @@ def test_an_accelerometer_in_the_wrong_unit_is_rejected_not_reported():
     tel.accel_mps2 = tel.accel_mps2 * np.array([1.0, 1.0, 1.1])
     d = D.diagnose(tel, NOMINAL, keep_series=False, grade="navigation")
     assert "accel_scale_factor" not in ids(d)
-    rejected = [r for r in d.rejected if r["id"] == "accel_scale_factor" and r["channel"] == "accel_z"]
-    assert rejected and "navigation-grade" in rejected[0]["reason"], d.rejected
-    assert any(w["kind"] == "implausible_estimate" and "unit" in w["message"] for w in d.warnings)
+    rejected = [r for r in d.rejected if r.id == "accel_scale_factor" and r.channel == "accel_z"]
+    assert rejected and "navigation-grade" in rejected[0].reason, d.rejected
+    assert any(w.kind == "implausible_estimate" and "unit" in w.message for w in d.warnings)
 
 
 def test_effects_outside_the_candidates_are_named_on_their_channel():

@@ -113,7 +113,7 @@ def test_the_mount_is_found_within_3_sigma_and_not_taken_for_misalignments():
     assert 0.0 < mount.explained_fraction <= 1.0
     # the tumble reveals all three angles; what it shows only nearly collinear with the mount (a gyro
     # misalignment) is fitted beside it and named, never the mount itself
-    assert all("fitted beside it" in u["reason"] and u["id"] != "reference_mount" for u in d.unrevealed), d.unrevealed
+    assert all("fitted beside it" in u.reason and u.id != "reference_mount" for u in d.unrevealed), d.unrevealed
     # the extended model carries it, in arcsec, and loads back as the same vector
     doc = D.model_document(d.theta)
     assert doc["reference_mount"]["enabled"]
@@ -132,12 +132,10 @@ def test_rotation_about_the_vertical_cannot_tell_the_mount_from_misalignments_an
     tel, truth = record(HIDDEN, axes="z", duration_s=30.0, rate_hz=200.0)
     d = D.diagnose(tel, NOMINAL, keep_series=False)
     assert "reference_mount" not in {e.id for e in d.effects}, d.log
-    mount = {tuple(u["parameters"]): u["reason"] for u in d.unrevealed if u["id"] == "reference_mount"}
+    mount = {tuple(u.parameters): u.reason for u in d.unrevealed if u.id == "reference_mount"}
     assert "indistinguishable" in mount.get(("x", "y"), ""), d.unrevealed
     assert "does not excite" in mount.get(("z",), ""), d.unrevealed  # named apart, for its own reason
-    beside = {
-        u["channel"] for u in d.unrevealed if u["id"] == "gyro_misalignment" and "fitted beside it" in u["reason"]
-    }
+    beside = {u.channel for u in d.unrevealed if u.id == "gyro_misalignment" and "fitted beside it" in u.reason}
     assert beside == {"gyro_x", "gyro_y"}, d.unrevealed
     for j in MOUNT[:2]:
         assert abs(d.theta[j] - truth[j]) < 3.0 * d.sigma_theta[j], D.PARAMS[j]

@@ -51,6 +51,7 @@ from .naming import name_effect
 from .normal import Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
+from .records import NotRevealed, Rejection, ReportWarning, named
 from .residual import per_sample, predicted, residual_under, rms, white
 from .selection import (
     FAMILY_ALPHA,
@@ -93,7 +94,7 @@ class Diagnosis:
 
     path: str
     effects: list
-    unrevealed: list  #: [{"id", "channel", "parameters", "reason"}]
+    unrevealed: list  #: of :class:`~sizefx.diagnose.records.NotRevealed`
     rms_before: dict  #: channel -> SI RMS
     rms_after: dict
     theta_nominal: np.ndarray
@@ -117,8 +118,8 @@ class Diagnosis:
     white_sigma: dict | None = None  #: per channel: the residual's sample-to-sample (first-difference) noise
     rms_full_before: dict | None = None  #: full-band RMS (differs from rms_* when bandwidth_hz is set)
     rms_full_after: dict | None = None
-    warnings: list = field(default_factory=list)  #: [{"kind", "time_s", "size", "unit", "message"}]
-    rejected: list = field(default_factory=list)  #: [{"id", "channel", "parameters", "reason", "likely"}]
+    warnings: list = field(default_factory=list)  #: of :class:`~sizefx.diagnose.records.ReportWarning`
+    rejected: list = field(default_factory=list)  #: of :class:`~sizefx.diagnose.records.Rejection`
     unexplained: list = field(default_factory=list)  #: [{"channel", "kind", ..., "sentence"}]
     consistency: dict = field(default_factory=dict)  #: {"parts", "block_s", "parameters": [...]}
     grade: str | None = None
@@ -355,15 +356,15 @@ def _share(rows_of, r_wo, residual, weights, chans, noise_power):
     return gain / structure if structure > 0 else 0.0
 
 
-def _entry(c: Chosen, theta, reason, **extra):
-    return {
-        "id": c.cand.id,
-        "channel": c.cand.channel,
-        "parameters": {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
-        "unit": PARAMS[c.cand.idx[0]].unit,
-        "reason": reason,
-        **extra,
-    }
+def _rejection(c: Chosen, theta, reason, likely=None) -> Rejection:
+    return Rejection(
+        c.cand.id,
+        c.cand.channel,
+        {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
+        PARAMS[c.cand.idx[0]].unit,
+        reason,
+        likely,
+    )
 
 
 def diagnose(
@@ -391,17 +392,16 @@ def diagnose(
     if check.breaks_s:
         times = ", ".join(f"{b:.3f}" for b in check.breaks_s[:5]) + (" ..." if len(check.breaks_s) > 5 else "")
         warnings.append(
-            {
-                "kind": "segments_share_model",
-                "time_s": float(check.breaks_s[0]),
-                "size": float(len(check.breaks_s)),
-                "unit": None,
-                "message": f"the reference is split at {len(check.breaks_s)} discontinuit"
+            ReportWarning(
+                "segments_share_model",
+                f"the reference is split at {len(check.breaks_s)} discontinuit"
                 f"{'y' if len(check.breaks_s) == 1 else 'ies'} (t = {times} s) and its segments "
                 "are fitted with one model: if the IMU was turned or moved between them (a "
                 "re-mount), arms, biases and misalignments differ per segment; diagnose each "
                 "segment alone with --from-s/--to-s",
-            }
+                time_s=float(check.breaks_s[0]),
+                size=float(len(check.breaks_s)),
+            )
         )
     pred = Predictor(without_bad_rows(tel, check), breaks_s=check.breaks_s)
     theta0 = np.asarray(theta_nominal, dtype=float).copy()
@@ -451,15 +451,9 @@ def diagnose(
             why = judge(c.cand.id, state.theta[list(c.cand.idx)], grade)
             if why:
                 drop.add(c.cand.key)
-                rejected.append(_entry(c, state.theta, why, likely=likely_cause(c.cand.id)))
+                rejected.append(_rejection(c, state.theta, why, likely=likely_cause(c.cand.id)))
                 warnings.append(
-                    {
-                        "kind": "implausible_estimate",
-                        "time_s": None,
-                        "size": None,
-                        "unit": None,
-                        "message": f"{c.cand.key}: {why}; more likely {likely_cause(c.cand.id)}",
-                    }
+                    ReportWarning("implausible_estimate", f"{c.cand.key}: {why}; more likely {likely_cause(c.cand.id)}")
                 )
         if not drop:
             for i, k, rho in aliased_pairs(state.nrm, state.chosen, theta0 - state.theta, level):
@@ -478,7 +472,7 @@ def diagnose(
                 if share < MIN_SHARE:
                     drop.add(c.cand.key)
                     rejected.append(
-                        _entry(
+                        _rejection(
                             c,
                             state.theta,
                             f"explains {100 * share:.2f} % of the structure on its "
@@ -494,7 +488,7 @@ def diagnose(
                 if p > level:
                     drop.add(c.cand.key)
                     rejected.append(
-                        _entry(
+                        _rejection(
                             c,
                             state.theta,
                             f"not significant (p = {p:.2g}) once its errors are "
@@ -514,7 +508,7 @@ def diagnose(
     # candidates left out that are nearly collinear with a finding are fitted beside it, so that the
     # finding's error and estimate do not hang on their start values (selection.nuisance_aliases)
     findings = list(state.chosen)
-    rejected_keys = {f"{r['id']}:{r['channel']}" if r["channel"] else r["id"] for r in rejected}
+    rejected_keys = {r.key for r in rejected}
     paired = {c.cand.key for pair in aliased for c in pair[:2]}  # already no findings: their sum is carried
     nuisance = [n for n in nuisance_aliases(state.nrm, state.chosen, skip=rejected_keys) if n[1] not in paired]
     weak: list = []  # findings no longer significant beside their nuisance: (finding, nuisance, rho)
@@ -549,16 +543,14 @@ def diagnose(
         sig[j] *= factors[j]  # widened to the parts' scatter
         if entry["inflated"]:
             warnings.append(
-                {
-                    "kind": "inconsistent_blocks",
-                    "time_s": None,
-                    "size": entry["chi2_dof"],
-                    "unit": None,
-                    "message": f"{entry['effect']} {entry['parameter']}: the record's parts (by "
+                ReportWarning(
+                    "inconsistent_blocks",
+                    f"{entry['effect']} {entry['parameter']}: the record's parts (by "
                     f"{entry['split']}) disagree "
                     f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
                     f"error is multiplied by {entry['factor']:.2f}",
-                }
+                    size=entry["chi2_dof"],
+                )
             )
     systematic = None  # the band's and the selection's part (_band_systematic), in quadrature
     if sys_cov is not None:
@@ -591,7 +583,7 @@ def diagnose(
     effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in reported]
     effects.sort(key=lambda e: -e.explained_fraction)
     unrev = [
-        {"id": cand.id, "channel": cand.channel, "parameters": [PARAMS[j].label for j in hidden], "reason": reason}
+        NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
         for cand, hidden, reason in unrevealed.values()
     ]
     for keep, gone, rho in aliased:
@@ -605,7 +597,7 @@ def diagnose(
             )
     for c, cand, rho in outside:
         for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
-            if any((u["id"], u["channel"]) == (me.id, me.channel) and "on this motion" in u["reason"] for u in unrev):
+            if any((u.id, u.channel) == (me.id, me.channel) and "on this motion" in u.reason for u in unrev):
                 continue
             unrev = _named(
                 unrev,
@@ -697,28 +689,24 @@ def _holdout_warnings(cv: OutOfSample) -> list:
     if cv.overfit:
         assert cv.gain_in_sample is not None  # folds carry the in-sample figure
         out.append(
-            {
-                "kind": "overfit",
-                "time_s": None,
-                "size": cv.gain,
-                "unit": None,
-                "message": f"the extended model removes {100 * cv.gain_in_sample:.1f} % of the weighted residual "
+            ReportWarning(
+                "overfit",
+                f"the extended model removes {100 * cv.gain_in_sample:.1f} % of the weighted residual "
                 f"power in sample but {100 * cv.gain:.1f} % on held-out folds (p = {cv.p:.2g}): it does not "
                 "predict data it was not fitted to better than the start model",
-            }
+                size=cv.gain,
+            )
         )
     for e in cv.effects:
         if not e.generalises and not cv.overfit:
             out.append(
-                {
-                    "kind": "not_generalising",
-                    "time_s": None,
-                    "size": e.gain_held_out,
-                    "unit": None,
-                    "message": f"{e.key}: removes {100 * e.gain_in_sample:.2f} % of the weighted residual power "
+                ReportWarning(
+                    "not_generalising",
+                    f"{e.key}: removes {100 * e.gain_in_sample:.2f} % of the weighted residual power "
                     f"in sample, {100 * e.gain_held_out:.2f} % on held-out folds (p = {e.p:.2g}): not shown "
                     "to predict data it was not fitted to",
-                }
+                    size=e.gain_held_out,
+                )
             )
     return out
 
@@ -754,18 +742,6 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
 
 
 def _named(unrev: list, cand, params, reason: str) -> list:
-    """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``:
-    taken out of the entries that named them before (an entry left with none is dropped), so that a
-    component named for another reason (a mount's z the motion does not excite, beside its x and y
-    named indistinguishable) keeps its own entry."""
-    labels = [PARAMS[j].label for j in params]
-    out = []
-    for u in unrev:
-        if (u["id"], u["channel"]) == (cand.id, cand.channel):
-            rest = [p for p in u["parameters"] if p not in labels]
-            if not rest:
-                continue
-            u = {**u, "parameters": rest}
-        out.append(u)
-    out.append({"id": cand.id, "channel": cand.channel, "parameters": labels, "reason": reason})
-    return out
+    """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``
+    (:func:`sizefx.diagnose.records.named`)."""
+    return named(unrev, NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in params), reason))

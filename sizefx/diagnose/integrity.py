@@ -56,6 +56,7 @@ from .. import earth
 from ..constants import DEG
 from ..io.telemetry import Telemetry
 from ..rotation import quat_conjugate, quat_multiply
+from .records import ReportWarning
 from .reference import REFERENCE_GAP_FACTOR, require_reference
 
 __all__ = [
@@ -137,13 +138,14 @@ _QUANTITY = {  # quantity -> (glitch kind, discontinuity kind, unit, user unit, 
 class ReferenceCheck:
     """What :func:`check_reference` found.
 
-    ``warnings``: one dict per finding (see the module docstring), in time order.
+    ``warnings``: one :class:`~sizefx.diagnose.records.ReportWarning` per finding (see the module
+    docstring), in time order.
     ``bad_rows``: int indices of ``/reference`` rows to drop (isolated glitches), sorted, unique.
     ``breaks_s``: times [s] of discontinuities, midway between the last row before and the first
     row after each jump: :class:`~sizefx.diagnose.reference.ReferenceMotion` splits the motion there.
     """
 
-    warnings: list[dict] = field(default_factory=list)
+    warnings: list[ReportWarning] = field(default_factory=list)
     bad_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     breaks_s: tuple[float, ...] = ()
 
@@ -194,17 +196,15 @@ def check_reference(tel: Telemetry) -> ReferenceCheck:
             breaks += k
     bad_rows = np.unique(np.asarray(bad, dtype=int))
     breaks_s = tuple(sorted(_merge(breaks, float(np.median(np.diff(rt))) * MAX_GLITCH_ROWS))) if breaks else ()
-    return ReferenceCheck(
-        warnings=_capped(sorted(warnings, key=lambda w: w["time_s"])), bad_rows=bad_rows, breaks_s=breaks_s
-    )
+    return ReferenceCheck(warnings=_capped(sorted(warnings, key=_time)), bad_rows=bad_rows, breaks_s=breaks_s)
 
 
 # --------------------------------------------------------------------------- timing
 
 
-def _timing(rt: np.ndarray) -> list[dict]:
+def _timing(rt: np.ndarray) -> list[ReportWarning]:
     """Gaps (steps over REFERENCE_GAP_FACTOR median periods) and changes of the running median period."""
-    out: list[dict] = []
+    out: list[ReportWarning] = []
     if rt.size < 2:
         return out
     steps = np.diff(rt)
@@ -475,7 +475,7 @@ def _classify(quantity, e, ok, rt, row_of_step, floor, allowance):
     norm = np.linalg.norm(e, axis=1)
     thr = _threshold(norm, ok, floor) + allowance
     suspect = np.flatnonzero(ok & (norm > thr))
-    warnings: list[dict] = []
+    warnings: list[ReportWarning] = []
     bad: list[int] = []
     breaks: list[float] = []
     if suspect.size == 0:
@@ -500,7 +500,7 @@ def _classify(quantity, e, ok, rt, row_of_step, floor, allowance):
             w = _glitch(quantity, rt[rows[0]], float(norm[s0]), rows) if norm[s0] >= floor else None
         elif bridge is not None and quantity == "position":
             w = _position(bridge, cum, rt, row_of_step, thr, breaks)
-            rows = [] if w is None or w["kind"].endswith("discontinuity") else _position_rows(bridge, row_of_step)
+            rows = [] if w is None or w.kind.endswith("discontinuity") else _position_rows(bridge, row_of_step)
         elif bridge is not None:
             lo, hi = bridge
             rows = list(range(int(row_of_step[lo]) + 1, int(row_of_step[hi]) + 1))
@@ -554,7 +554,7 @@ def _position(bridge, cum, rt, row_of_step, thr, breaks):
     return _jump("position", t_break, final)
 
 
-def _glitch(quantity, time_s, size, rows) -> dict:
+def _glitch(quantity, time_s, size, rows) -> ReportWarning:
     kind, _, unit, user_unit, to_user = _QUANTITY[quantity]
     n = len(rows)
     return _warning(
@@ -568,7 +568,7 @@ def _glitch(quantity, time_s, size, rows) -> dict:
     )
 
 
-def _jump(quantity, time_s, size) -> dict:
+def _jump(quantity, time_s, size) -> ReportWarning:
     _, kind, unit, user_unit, to_user = _QUANTITY[quantity]
     return _warning(
         kind,
@@ -592,38 +592,37 @@ def _merge(times, within_s):
     return out
 
 
-def _warning(kind, quantity, time_s, size, unit, message) -> dict:
-    return {
-        "kind": kind,
-        "quantity": quantity,
-        "time_s": float(time_s),
-        "size": float(size),
-        "unit": unit,
-        "message": message,
-    }
+def _warning(kind, quantity, time_s, size, unit, message) -> ReportWarning:
+    return ReportWarning(kind, message, time_s=float(time_s), size=float(size), unit=unit, quantity=quantity)
 
 
-def _capped(warnings: list[dict]) -> list[dict]:
+def _time(w: ReportWarning) -> float:
+    assert w.time_s is not None  # every reference warning is at a moment
+    return w.time_s
+
+
+def _capped(warnings: list[ReportWarning]) -> list[ReportWarning]:
     """At most MAX_WARNINGS_PER_KIND of each kind, then one that counts the rest (all still acted on)."""
-    out: list[dict] = []
+    out: list[ReportWarning] = []
     seen: dict[str, int] = {}
     for w in warnings:
-        seen[w["kind"]] = seen.get(w["kind"], 0) + 1
-        if seen[w["kind"]] <= MAX_WARNINGS_PER_KIND:
+        seen[w.kind] = seen.get(w.kind, 0) + 1
+        if seen[w.kind] <= MAX_WARNINGS_PER_KIND:
             out.append(w)
     for kind, count in seen.items():
         if count > MAX_WARNINGS_PER_KIND:
-            rest = [w for w in warnings if w["kind"] == kind][MAX_WARNINGS_PER_KIND:]
+            rest = [w for w in warnings if w.kind == kind][MAX_WARNINGS_PER_KIND:]
+            largest = max(w.size for w in rest if w.size is not None)
             out.append(
                 _warning(
                     kind,
-                    rest[0]["quantity"],
-                    rest[0]["time_s"],
-                    max(w["size"] for w in rest),
-                    rest[0]["unit"],
+                    rest[0].quantity,
+                    rest[0].time_s,
+                    largest,
+                    rest[0].unit,
                     f"{count - MAX_WARNINGS_PER_KIND} more {kind.replace('_', ' ')}s "
-                    f"from t = {rest[0]['time_s']:.3f} s on, not listed one by one (largest "
-                    f"{max(w['size'] for w in rest):.3g} {rest[0]['unit']}); all acted on",
+                    f"from t = {_time(rest[0]):.3f} s on, not listed one by one (largest "
+                    f"{largest:.3g} {rest[0].unit}); all acted on",
                 )
             )
     return out

@@ -189,7 +189,7 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "sizefx_version": __version__,
         "record": d.path,
         "start_model": start,
-        "warnings": d.warnings,
+        "warnings": [w.as_dict() for w in d.warnings],
         "unexplained": d.unexplained,
         "effects": [
             {
@@ -204,8 +204,8 @@ def to_json(d: Diagnosis, start: str) -> dict:
             }
             for e in d.effects
         ],
-        "rejected": d.rejected,
-        "not_revealed": d.unrevealed,
+        "rejected": [r.as_dict() for r in d.rejected],
+        "not_revealed": [u.as_dict() for u in d.unrevealed],
         "consistency": cons,
         "geometry": d.geometry,
         "grade": d.grade,
@@ -307,7 +307,7 @@ def format_report(d: Diagnosis, start: str) -> str:
     lines = [f"sizefx diagnose {d.path}: {d.samples} samples{how}; start: {start}"]
     if d.warnings:
         lines.append(f"WARNINGS ({len(d.warnings)}):")
-        lines += [f"  ! {w['kind']}: {w['message']}" for w in d.warnings]
+        lines += [f"  ! {w.kind}: {w.message}" for w in d.warnings]
     if d.unexplained:
         lines.append(f"UNEXPLAINED by the extended model ({len(d.unexplained)}):")
         lines += [f"  ? {u['channel']} {u['kind']}: {u['sentence']}" for u in d.unexplained]
@@ -348,13 +348,13 @@ def format_report(d: Diagnosis, start: str) -> str:
     if d.rejected:
         lines.append("rejected (selected, but not a finding):")
         for r in d.rejected:
-            where = r["id"] + (f" {r['channel']}" if r["channel"] else "")
-            lines.append(f"  - {where}: {r['reason']}" + (f"; more likely {r['likely']}" if r.get("likely") else ""))
+            where = r.id + (f" {r.channel}" if r.channel else "")
+            lines.append(f"  - {where}: {r.reason}" + (f"; more likely {r.likely}" if r.likely else ""))
     if d.unrevealed:
         lines.append("not revealed by this record (kept at the start model; record more motion to see them):")
         for u in d.unrevealed:
-            where = u["id"] + (f" {u['channel']}" if u["channel"] else "")
-            lines.append(f"  - {where} ({', '.join(u['parameters'])}): {u['reason']}")
+            where = u.id + (f" {u.channel}" if u.channel else "")
+            lines.append(f"  - {where} ({', '.join(u.parameters)}): {u.reason}")
     if d.geometry:
         lines += _geometry_lines(d.geometry)
     lines.append(f"band: {d.bandwidth_reason}; {d.grade_reason}")
@@ -495,8 +495,8 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
         for res, label, lw in ((d.residual_before, "start model", 0.6), (d.residual_after, "extended model", 0.8)):
             ax.plot(block_means(t, L), block_means(res[m, c], L) * scale[c], lw=lw, label=label)
         for w in d.warnings:  # where the reference is at fault, on every channel
-            if w.get("time_s") is not None:
-                ax.axvline(w["time_s"], color="red", lw=0.8, alpha=0.6)
+            if w.time_s is not None:
+                ax.axvline(w.time_s, color="red", lw=0.8, alpha=0.6)
         ax.set_ylabel(f"{CHANNELS[c]} [{units[c]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
@@ -543,7 +543,7 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
 
 def _plot_notes(d: Diagnosis, most: int = 8) -> list[str]:
     """The warnings and the unexplained structure, first lines of the residual plot (at most ``most``)."""
-    notes = [f"WARNING {w['kind']}: {w['message']}" for w in d.warnings]
+    notes = [f"WARNING {w.kind}: {w.message}" for w in d.warnings]
     notes += [f"UNEXPLAINED {u['channel']}: {u['sentence']}" for u in d.unexplained]
     if len(notes) > most:
         notes = notes[: most - 1] + [f"... and {len(notes) - most + 1} more (see the report)"]
