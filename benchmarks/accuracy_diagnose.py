@@ -371,7 +371,7 @@ def broad_checks():
     if not REAL.is_dir():
         print(f"  real data folder {REAL} not found: skipped")
         return None
-    from sizefx.diagnose.fit import BAND_NEIGHBOURS
+    from sizefx.diagnose.budget import BAND_NEIGHBOURS
     from sizefx.importers import run_import
     from sizefx.io.telemetry import read_telemetry
 

@@ -26,7 +26,9 @@ The package, from the bottom up (each module imports only those above it in this
 - :mod:`.consistency`: the record's parts fitted alone against the stated errors;
 - :mod:`.structure`: what stays in the residual (lines, trends, steps, correlation with the motion);
 - :mod:`.naming`: each effect found, in its units and in one sentence;
-- :mod:`.residual`: the residual under one model, span by span, and its per-channel measures;
+- :mod:`.records`: warnings, rejections and not-revealed entries, as typed records;
+- :mod:`.residual`: the residual under one model, span by span, its noise and per-channel measures;
+- :mod:`.budget`: the error budget in named parts (white, sandwich, parts, aliases, band);
 - :mod:`.holdout`: the gain out of sample (blocked folds in time, other records);
 - :mod:`.fit`: the Gauss-Newton loop, :func:`diagnose` (one record in memory -> :class:`Diagnosis`);
 - :mod:`.report`: the extended model (``sizefx/effects/1``), the ``sizefx/diagnosis/2`` JSON (and the
@@ -53,7 +55,7 @@ from ..io.toml import write_toml
 from ..levers import nominal_levers
 from ..stage import preflight
 from .candidates import CANDIDATES, PRIORITY, Candidate, jacobian_columns, numeric_jacobian
-from .fit import KAPPA_BLOCK_S, MAX_PASSES, Diagnosis, diagnose
+from .fit import MAX_PASSES, Diagnosis, diagnose
 from .holdout import HOLDOUT_FOLDS, OVERFIT_ALPHA, OutOfSample, validate_on
 from .naming import Effect
 from .normal import FOLDS, MAX_ROWS, TARGET_BLOCKS
@@ -84,6 +86,7 @@ from .report import (
     read_diagnosis,
     to_json,
 )
+from .residual import KAPPA_BLOCK_S
 from .theta import (
     A_BIAS,
     A_K2,

@@ -15,7 +15,7 @@ and the parameter is flagged.
 
 The same check runs on parts cut by motion instead of time (:func:`motion_groups`: quartiles of
 rotation rate and of translation); the level is shared by the three cuts (Bonferroni). How the
-cuts widen an error is :func:`sizefx.diagnose.fit._errors`' choice (the largest sqrt(chi2/dof)).
+cuts widen an error is :func:`sizefx.diagnose.budget.parts_scatter`' choice (the largest sqrt(chi2/dof)).
 """
 
 from __future__ import annotations

@@ -13,18 +13,20 @@
    sigma from the median absolute deviation, kappa the variance inflation of block means) and
    per row by Huber's weights (iteratively re-weighted least squares, from the second pass on):
    a few bad samples move no estimate by more than a fraction of its standard error.
-5. **Judge** what was selected, until nothing changes: an estimate outside its grade's range
-   (:mod:`.plausibility`) is rejected with the reason; of two selected effects the record cannot
-   tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding (the model
-   keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE` of the
-   structure on its channels is rejected; so is one no longer significant once its errors are
-   widened to the scatter of the record's parts, cut in time, by rotation rate and by translation
-   (a selection must be stable across them). The survivors are refitted with the selection fixed,
-   and with the candidates left out that are nearly collinear with one of them
-   (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves.
-6. **Errors**: the block sandwich (never under the white one), widened to those parts' scatter
-   (:mod:`.consistency`, :func:`_errors`).
-7. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
+5. **Judge** what was selected (:func:`_judge`), until nothing changes: an estimate outside its
+   grade's range (:mod:`.plausibility`) is rejected with the reason; of two selected effects the
+   record cannot tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding
+   (the model keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE`
+   of the structure on its channels is rejected; so is one no longer significant once its errors
+   are widened to the scatter of the record's parts, cut in time, by rotation rate and by
+   translation (a selection must be stable across them). The survivors are refitted with the
+   selection fixed, and with the candidates left out that are nearly collinear with one of them
+   (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves;
+   the same checks then judge the findings beside them again.
+6. **Errors** (:mod:`.budget`): the block sandwich (never under the white one), widened to those
+   parts' scatter, plus the band's and the selection's part.
+7. **Out of sample** (:mod:`.holdout`): the gain cross-validated in blocked folds in time.
+8. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
    the motion left in each channel's final residual.
 """
 
@@ -37,28 +39,26 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..constants import STANDARD_GRAVITY_MPS2
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
+from .budget import Parts, error_budget, parts_scatter
 from .candidates import CANDIDATES, PRIORITY, columns_between
-from .consistency import block_consistency, motion_groups
 from .holdout import OutOfSample, cross_validate
 from .integrity import check_reference, without_bad_rows
 from .naming import name_effect
-from .normal import Normal, Rows, block_means, covariance, huber_weights, normal_equations, solve
+from .normal import Normal, Rows, normal_equations, solve
 from .plausibility import infer_grade, judge, likely_cause, noise_density
 from .predictor import Predictor
 from .records import NotRevealed, Rejection, ReportWarning, named
-from .residual import per_sample, predicted, residual_under, rms, white
+from .residual import noise_of, per_sample, predicted, residual_under, rms, white
 from .selection import (
     FAMILY_ALPHA,
     Chosen,
     aliased_pairs,
     aliases_outside,
-    honest,
     nuisance_aliases,
     robust_p,
     select,
@@ -66,11 +66,8 @@ from .selection import (
 from .structure import unexplained as unexplained_structure
 from .theta import CHANNELS, LEVER, PARAMS
 
-__all__ = ["Diagnosis", "diagnose", "KAPPA_BLOCK_S", "MAX_PASSES", "MIN_SHARE"]
+__all__ = ["Diagnosis", "diagnose", "MAX_PASSES", "MIN_SHARE"]
 
-#: Shortest block for the variance inflation kappa of a channel's residual [s]; longer ones, by
-#: factors of 4, up to a twentieth of the record.
-KAPPA_BLOCK_S = 0.5
 #: With a bandwidth, spectral lines are looked for up to this share of it (:func:`_structure`).
 LINE_BAND = 0.5
 #: Gauss-Newton passes at most; selection and estimates settle in two or three.
@@ -81,10 +78,6 @@ REFIT_PASSES = 3
 #: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
 #: more likely a side effect of something else than a finding.
 MIN_SHARE = 0.01
-#: The measured band is resolved to a third of an octave (:mod:`.bandwidth`'s bands, then rounded
-#: down to a readable value): the fit is redone at the neighbouring bands a third of an octave
-#: below and above, with the selection redone there (:func:`_band_systematic`).
-BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
 
 
 @dataclass
@@ -136,32 +129,6 @@ class Diagnosis:
     out_of_sample: OutOfSample | None = None
     #: the extended model on other records (``--validate-on``, :func:`sizefx.diagnose.holdout.validate_on`)
     validated_on: list = field(default_factory=list)
-
-
-# --------------------------------------------------------------------------- noise and weights
-
-
-def _noise(rows_of: Rows, rows, robust: bool):
-    """Per channel: sigma (1.4826 MAD) and kappa (variance inflation of block means); per row: Huber
-    weights (all 1 unless ``robust``).
-
-    kappa is 1 for white noise and grows with colour (drift, unmodelled slow terms, a low-pass):
-    the weights ``1 / (sigma^2 kappa)`` then count a coloured channel as fewer samples. Rows beyond
-    Huber's constant are clipped before kappa is measured, so that a glitch does not pass for colour.
-    """
-    r = rows[rows_of.keep]
-    med = np.median(r, axis=0)
-    sigma = np.maximum(1.4826 * np.median(np.abs(r - med), axis=0), 1e-300)
-    u = (rows - med) / sigma
-    weights = huber_weights(u) if robust else np.ones_like(u)
-    clipped = np.clip(u[rows_of.keep], -3.0, 3.0) * sigma
-    clipped -= clipped.mean(axis=0)
-    kappa = np.ones(6)
-    B = max(2, round(KAPPA_BLOCK_S / rows_of.dt))
-    while clipped.shape[0] // B >= 20:  # 0.5 s, 2 s, 8 s, ...: a random walk shows only in the long blocks
-        kappa = np.maximum(kappa, block_means(clipped, B).var(axis=0) * B / sigma**2)
-        B *= 4
-    return sigma, kappa, weights
 
 
 # --------------------------------------------------------------------------- the Gauss-Newton loop
@@ -219,7 +186,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
         final = residual_under(pred, rows_of, theta)
         residual = final.rows
         assert residual is not None  # _residual gives rows with rows_of
-        sigma_c, kappa, row_w = _noise(rows_of, residual, robust=True)
+        sigma_c, kappa, row_w = noise_of(rows_of, residual, robust=True)
         history.append(tuple(sorted(c.cand.key for c in chosen)))
         if progress is not None:
             progress(passes, MAX_PASSES)
@@ -231,107 +198,6 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
 
 
 # --------------------------------------------------------------------------- judging the selection
-
-
-def _errors(pred: Predictor, state: _State, theta0):
-    """The selection's honest covariance (block sandwich, never under white) at ``state``, and the
-    factor each parameter's error is widened by after the parts of the record are fitted alone
-    (:mod:`.consistency`: in time, by rotation rate, by translation).
-
-    The factor is the largest sqrt(chi2/dof) of the three cuts, when above 1: an error is never
-    smaller than what any cut of the record shows. With honest errors this widens them by 10-20 %
-    (the white-noise recovery's z-scores have RMS 0.45-1.3 per effect); pooling the cuts instead, or
-    widening only beyond chance, left coloured-noise z-scores at RMS 1.28-1.40 and the BROAD trials'
-    cross-trial chi2/dof at 7.9 (``benchmarks/accuracy_diagnose.py``).
-
-    Returns (cov, factors {param: factor}, sigma {param: SI}, white sigma, (parts, entries)); the
-    entries are, per parameter, the cut that disagrees most, with the pooled figures added."""
-    nrm, free = state.nrm, _free(state.chosen)
-    offset = theta0 - state.theta
-    _, white, robust = covariance(nrm, free, offset)
-    cov = honest(white, robust)
-    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(cov)))))
-    sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
-    parts, by_time = block_consistency(nrm, free, offset, sig, sig_white)
-    cuts = [by_time]
-    for split, stat in (
-        ("rate", per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
-        (
-            "translation",
-            per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1) - STANDARD_GRAVITY_MPS2)),
-        ),
-    ):
-        cuts.append(
-            block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat), split=split)[1]
-        )
-    factors, entries = {}, {}
-    for j in free.tolist():
-        mine = [c[j] for c in cuts if j in c]
-        if not mine:
-            continue
-        dof = sum(e["dof"] for e in mine)
-        pooled = sum(e["chi2_dof"] * e["dof"] for e in mine) / dof
-        worst = max(mine, key=lambda e: (e["inflated"], e["chi2_dof"]))
-        factors[j] = max(np.sqrt(max(1.0, e["chi2_dof"])) for e in mine)
-        entries[j] = {**worst, "pooled_chi2_dof": pooled, "pooled_dof": dof, "factor": float(factors[j])}
-    return cov, factors, sig, sig_white, (parts, entries)
-
-
-def _band_systematic(pred: Predictor, rows_of: Rows, state: _State, theta0, cov_free, grade):
-    """The errors' systematic part from the choice of band and of the model selected in it.
-
-    The band is measured to a third of an octave, and which marginal effects the selection takes
-    beside the arms (an accelerometer-z bias, scale factor or misalignment beside r_z[z]) can change
-    from one band to the next: the standard errors, conditional on the band and the selection, do
-    not carry that. At each neighbouring band (:data:`BAND_NEIGHBOURS`) the normal equations are
-    formed at the final estimate, the selection is redone there (:func:`select`, then the
-    plausibility judgement) and the selected model solved (one Gauss-Newton step: the arms and
-    delays are linear in the prediction to well below their errors). The shift ``D`` of each
-    parameter from the final estimate (to its start value where the neighbour does not select it)
-    is part noise, as the bands see different data: of ``D^2`` the part beyond the variance of the
-    difference of the two band's estimates of the final model, ``|s_band^2 - s^2|`` (Hausman's
-    variance of a difference of estimates of one parameter from nested data), is systematic. The
-    covariance added is the mean over the neighbours of ``(c D)(c D)'``, ``c`` scaling each
-    component so that the diagonal is that systematic part.
-
-    Returns (cov_sys [free, free], entries): None when the record was fitted in its full band."""
-    if rows_of.bandwidth_hz is None:
-        return None, None
-    free = _free(state.chosen)
-    offset = theta0 - state.theta
-    var0 = np.abs(np.diag(cov_free))
-    cols = columns_between(state.theta, functools.partial(pred.terms_span, state.theta), pred.t)  # span by span
-    nyquist = 0.5 / pred.dt
-    sys_cov = np.zeros((free.size, free.size))
-    bands = []
-    for fac in BAND_NEIGHBOURS:
-        band = rows_of.bandwidth_hz * fac
-        if band >= 0.8 * nyquist:
-            continue
-        rows_b = Rows(pred.t, pred.mask, pred.dt, band)
-        residual_b = residual_under(pred, rows_b, state.theta).rows  # the final residual's rows in this band
-        sigma_c, kappa, row_w = _noise(rows_b, residual_b, robust=True)
-        nrm = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w)
-        _, white, robust = covariance(nrm, free, offset)
-        var_b = np.abs(np.diag(honest(white, robust)))
-        chosen, _, _ = select(nrm, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)))
-        while True:  # implausible values say the band's model is wrong: drop them as the judging does
-            f2 = _free(chosen)
-            x, _, _ = solve(*nrm.total(), f2, offset)
-            theta_b = theta0.copy()
-            theta_b[f2] = state.theta[f2] + x
-            bad = [c for c in chosen if judge(c.cand.id, theta_b[list(c.cand.idx)], grade)]
-            if not bad:
-                break
-            chosen = [c for c in chosen if c not in bad]
-        shift = theta_b[free] - state.theta[free]
-        excess = np.maximum(shift**2 - np.abs(var_b - var0), 0.0)
-        c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
-        sys_cov += np.outer(c * shift, c * shift)
-        bands.append({"bandwidth_hz": float(band), "selected": sorted(ch.cand.key for ch in chosen)})
-    if not bands:
-        return None, None
-    return sys_cov / len(bands), bands
 
 
 def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
@@ -365,6 +231,85 @@ def _rejection(c: Chosen, theta, reason, likely=None) -> Rejection:
         reason,
         likely,
     )
+
+
+@dataclass
+class _Verdict:
+    """One round of the checks on a selection (:func:`_judge`)."""
+
+    #: key -> (reason, likely cause, implausible) of each effect that is no finding; reason None for
+    #: the member of an aliased pair the model keeps
+    reasons: dict
+    aliased: list  #: (kept, gone, rho): selected pairs the motion cannot tell apart
+    shares: dict  #: key -> share of the structure on its channels the effect explains
+    parts: Parts | None  #: the parts' scatter of this state, when the checks got that far
+
+
+def _judge(
+    pred: Predictor, rows_of: Rows, state: _State, theta0, grade, level, white_rows, beside=(), every_check=False
+) -> _Verdict:
+    """The checks on the selection ``state.chosen`` but the keys ``beside`` (candidates fitted beside
+    the findings, no findings themselves), in order, the later ones only when the earlier pass
+    (unless ``every_check``):
+
+    1. plausible for the grade (:func:`sizefx.diagnose.plausibility.judge`): an implausible value says
+       the reference or the model is wrong, not the sensor;
+    2. separable from the other selected effects (:func:`sizefx.diagnose.selection.aliased_pairs`):
+       of a pair the motion cannot tell apart neither is a finding, the model keeps their sum as the
+       more common one (:data:`sizefx.diagnose.candidates.PRIORITY`);
+    3. of consequence: it explains at least :data:`MIN_SHARE` of the structure on its channels;
+    4. stable across the record's parts: still significant with the errors widened to their scatter
+       (:func:`sizefx.diagnose.budget.parts_scatter`).
+    """
+    judged = {c.cand.key for c in state.chosen} - set(beside)
+    reasons: dict = {}
+    aliased: list = []
+    shares: dict = {}
+    parts = None
+    offset = theta0 - state.theta
+    for c in state.chosen:
+        why = judge(c.cand.id, state.theta[list(c.cand.idx)], grade) if c.cand.key in judged else None
+        if why:
+            reasons[c.cand.key] = (why, likely_cause(c.cand.id), True)
+    if not reasons or every_check:
+        for i, k, rho in aliased_pairs(state.nrm, state.chosen, offset, level):
+            a, b = state.chosen[i], state.chosen[k]
+            if not {a.cand.key, b.cand.key} <= judged:
+                continue  # a finding and what is fitted beside it: alike by construction
+            keep, gone = (a, b) if PRIORITY.index(a.cand.id) <= PRIORITY.index(b.cand.id) else (b, a)
+            if keep.cand.key in reasons or gone.cand.key in reasons:
+                continue
+            reasons[gone.cand.key] = (
+                (None, None, False) if not every_check else (f"indistinguishable from {keep.cand.key}", None, False)
+            )
+            aliased.append((keep, gone, rho))
+    if not reasons or every_check:
+        weights = 1.0 / (state.sigma_c**2 * state.kappa)
+        for c in state.chosen:
+            if c.cand.key not in judged:
+                continue
+            r_wo, chans = _channels_of(pred, rows_of, state.theta, theta0, c, state.residual, state.sigma_c)
+            share = shares[c.cand.key] = _share(rows_of, r_wo, state.residual, weights, chans, white_rows**2)
+            if share < MIN_SHARE and c.cand.key not in reasons:
+                reasons[c.cand.key] = (
+                    f"explains {100 * share:.2f} % of the structure on its channels, under the "
+                    f"{100 * MIN_SHARE:g} % a finding needs",
+                    "a side effect of another effect or of the noise's colour",
+                    False,
+                )
+    if not reasons or every_check:
+        parts = parts_scatter(pred, state.nrm, _free(state.chosen), offset)
+        for i, c in enumerate(state.chosen):
+            if c.cand.key not in judged or c.cand.key in reasons:
+                continue
+            p = robust_p(state.nrm, state.chosen, offset, which=i, factors=parts.factors)
+            if p > level:
+                reasons[c.cand.key] = (
+                    f"not significant (p = {p:.2g}) once its errors are widened to the scatter of the record's parts",
+                    "the noise's colour or an effect that changes along the record",
+                    False,
+                )
+    return _Verdict(reasons, aliased, shares, parts)
 
 
 def diagnose(
@@ -445,130 +390,65 @@ def diagnose(
     rejected, aliased = [], []
     level = FAMILY_ALPHA / len(CANDIDATES)  # the selection's family-wise level, per candidate
     while True:  # each round removes at least one effect from a finite selection, or ends the loop
-        drop = set()
-        # implausible values first: they say the reference or the model is wrong, not the sensor
+        verdict = _judge(pred, rows_of, state, theta0, grade, level, white_rows)
+        aliased += verdict.aliased
         for c in state.chosen:
-            why = judge(c.cand.id, state.theta[list(c.cand.idx)], grade)
-            if why:
-                drop.add(c.cand.key)
-                rejected.append(_rejection(c, state.theta, why, likely=likely_cause(c.cand.id)))
-                warnings.append(
-                    ReportWarning("implausible_estimate", f"{c.cand.key}: {why}; more likely {likely_cause(c.cand.id)}")
-                )
-        if not drop:
-            for i, k, rho in aliased_pairs(state.nrm, state.chosen, theta0 - state.theta, level):
-                a, b = state.chosen[i], state.chosen[k]
-                keep, gone = (a, b) if PRIORITY.index(a.cand.id) <= PRIORITY.index(b.cand.id) else (b, a)
-                if keep.cand.key in drop or gone.cand.key in drop:
+            if c.cand.key in verdict.reasons:
+                why, likely, implausible = verdict.reasons[c.cand.key]
+                if why is None:  # the pair's other member: the model carries their sum (aliased)
                     continue
-                drop.add(gone.cand.key)
-                aliased.append((keep, gone, rho))
-        if not drop:
-            weights = 1.0 / (state.sigma_c**2 * state.kappa)
-            shares = {}
-            for c in state.chosen:
-                r_wo, chans = _channels_of(pred, rows_of, state.theta, theta0, c, state.residual, state.sigma_c)
-                share = shares[c.cand.key] = _share(rows_of, r_wo, state.residual, weights, chans, white_rows**2)
-                if share < MIN_SHARE:
-                    drop.add(c.cand.key)
-                    rejected.append(
-                        _rejection(
-                            c,
-                            state.theta,
-                            f"explains {100 * share:.2f} % of the structure on its "
-                            f"channels, under the {100 * MIN_SHARE:g} % a finding needs",
-                            likely="a side effect of another effect or of the noise's colour",
-                        )
-                    )
-        if not drop:
-            # stable across the record's parts: still significant with the errors widened to their scatter
-            errors = _errors(pred, state, theta0)
-            for i, c in enumerate(state.chosen):
-                p = robust_p(state.nrm, state.chosen, theta0 - state.theta, which=i, factors=errors[1])
-                if p > level:
-                    drop.add(c.cand.key)
-                    rejected.append(
-                        _rejection(
-                            c,
-                            state.theta,
-                            f"not significant (p = {p:.2g}) once its errors are "
-                            "widened to the scatter of the record's parts",
-                            likely="the noise's colour or an effect that changes along the record",
-                        )
-                    )
-        if not drop:
+                rejected.append(_rejection(c, state.theta, why, likely))
+                if implausible:
+                    warnings.append(ReportWarning("implausible_estimate", f"{c.cand.key}: {why}; more likely {likely}"))
+        if not verdict.reasons:
             break
-        kept = [c for c in state.chosen if c.cand.key not in drop]
+        kept = [c for c in state.chosen if c.cand.key not in verdict.reasons]
         theta = state.theta.copy()
         for c in state.chosen:
-            if c.cand.key in drop:
+            if c.cand.key in verdict.reasons:
                 theta[list(c.cand.idx)] = theta0[list(c.cand.idx)]
-        log.append("refit without " + ", ".join(sorted(drop)))
+        log.append("refit without " + ", ".join(sorted(verdict.reasons)))
         state = _iterate(pred, rows_of, theta0, theta, log, fixed=kept)
     # candidates left out that are nearly collinear with a finding are fitted beside it, so that the
-    # finding's error and estimate do not hang on their start values (selection.nuisance_aliases)
+    # finding's error and estimate do not hang on their start values (selection.nuisance_aliases);
+    # the findings beside them are judged again, by the same checks
     findings = list(state.chosen)
     rejected_keys = {r.key for r in rejected}
     paired = {c.cand.key for pair in aliased for c in pair[:2]}  # already no findings: their sum is carried
     nuisance = [n for n in nuisance_aliases(state.nrm, state.chosen, skip=rejected_keys) if n[1] not in paired]
-    weak: list = []  # findings no longer significant beside their nuisance: (finding, nuisance, rho)
+    weak: list = []  # findings no longer a finding beside their nuisance: (finding, nuisance, rho, why)
     if nuisance:
         log.append(
             "refit with "
             + ", ".join(f"{n.cand.key} (beside {of}, canonical correlation {rho:.3f})" for n, of, rho in nuisance)
         )
         state = _iterate(pred, rows_of, theta0, state.theta, log, fixed=findings + [n for n, _, _ in nuisance])
-        errors = _errors(pred, state, theta0)
-        for i, c in enumerate(findings):
-            mates = [(n, rho) for n, of, rho in nuisance if of == c.cand.key]
-            if mates and robust_p(state.nrm, state.chosen, theta0 - state.theta, which=i, factors=errors[1]) > level:
-                weak.append((c, *max(mates, key=lambda m: m[1])))
+        mates: dict = {}  # finding -> its most collinear nuisance and their canonical correlation
+        for n, of, rho in nuisance:
+            if of not in mates or rho > mates[of][1]:
+                mates[of] = (n, rho)
+        beside = {n.cand.key for n, _, _ in nuisance}
+        verdict = _judge(pred, rows_of, state, theta0, grade, level, white_rows, beside=beside, every_check=True)
+        # a finding with no nuisance beside it was judged on nearly this state in the last round
+        for c in findings:
+            if c.cand.key in verdict.reasons and c.cand.key in mates:
+                why = verdict.reasons[c.cand.key][0] or "indistinguishable from another finding"
+                weak.append((c, *mates[c.cand.key], why))
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     offset = theta0 - theta
-    # the last round judged this very state: its shares and errors stand
-    cov_free, factors, sig, sig_white, (parts, cons) = errors
-    free = _free(chosen)
-    widen = np.array([factors.get(j, 1.0) for j in free.tolist()])
+    shares = verdict.shares
+    # the last round judged this very state: its parts stand
+    budget = error_budget(pred, rows_of, nrm, theta, chosen, theta0, grade, parts=verdict.parts)
+    free = budget.free
     cov = np.zeros((theta.size, theta.size))
-    cov[np.ix_(free, free)] = cov_free * np.outer(widen, widen)
-    sys_cov, sys_bands = _band_systematic(pred, rows_of, state, theta0, cov_free, grade)
-    if sys_cov is not None:
-        cov[np.ix_(free, free)] += sys_cov
+    cov[np.ix_(free, free)] = budget.covariance()
+    sig, sig_white = budget.sigma(), budget.sigma_white()
+    warnings += budget.warnings()
     geometry = (
         split_arms(theta[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)], SensorParams.from_vector(theta).accel_axes())
         if np.intersect1d(free, LEVER).size
         else None
     )
-    for j, entry in cons.items():
-        sig[j] *= factors[j]  # widened to the parts' scatter
-        if entry["inflated"]:
-            warnings.append(
-                ReportWarning(
-                    "inconsistent_blocks",
-                    f"{entry['effect']} {entry['parameter']}: the record's parts (by "
-                    f"{entry['split']}) disagree "
-                    f"(chi2/dof {entry['chi2_dof']:.1f} over {entry['dof']}); its standard "
-                    f"error is multiplied by {entry['factor']:.2f}",
-                    size=entry["chi2_dof"],
-                )
-            )
-    systematic = None  # the band's and the selection's part (_band_systematic), in quadrature
-    if sys_cov is not None:
-        sys_sigma = np.sqrt(np.diag(sys_cov))
-        for pos, j in enumerate(free.tolist()):
-            sig[j] = float(np.hypot(sig[j], sys_sigma[pos]))
-        systematic = {
-            "bands": sys_bands,
-            "parameters": [
-                {
-                    "parameter": PARAMS[j].label,
-                    "effect": PARAMS[j].effect,
-                    "sigma_selection": float(sys_sigma[pos] / PARAMS[j].per_unit),
-                    "unit": PARAMS[j].unit,
-                }
-                for pos, j in enumerate(free.tolist())
-            ],
-        }
     # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed
     alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
     nuisance_keys = {n.cand.key for n, _, _ in nuisance}
@@ -578,7 +458,7 @@ def diagnose(
         if chosen[i].cand.key not in alias_keys | nuisance_keys  # a nuisance is no finding to begin with
     ]
     alias_keys |= {c.cand.key for c, _, _ in outside}
-    alias_keys |= nuisance_keys | {c.cand.key for c, _, _ in weak}
+    alias_keys |= nuisance_keys | {w[0].cand.key for w in weak}
     reported = [c for c in chosen if c.cand.key not in alias_keys]
     effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in reported]
     effects.sort(key=lambda e: -e.explained_fraction)
@@ -614,13 +494,13 @@ def diagnose(
             f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
             f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
         )
-    for c, n, rho in weak:
+    for c, n, rho, why in weak:
         unrev = _named(
             unrev,
             c.cand,
             c.active,
-            f"indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): fitted "
-            "together, it is no longer significant; the extended model carries both",
+            f"nearly indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): "
+            f"fitted together, it is no longer a finding ({why}); the extended model carries both",
         )
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
@@ -667,12 +547,7 @@ def diagnose(
         warnings=warnings,
         rejected=rejected,
         unexplained=structure,
-        consistency={
-            "parts": parts,
-            "block_s": nrm.block_s,
-            "parameters": [cons[j] for j in sorted(cons)],
-            **({"systematic": systematic} if systematic else {}),
-        },
+        consistency=budget.consistency(nrm.block_s),
         grade=grade,
         grade_reason=grade_reason,
         bandwidth_reason=band_reason,

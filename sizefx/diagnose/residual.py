@@ -12,10 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .normal import CHUNK_SAMPLES, Rows
+from .normal import CHUNK_SAMPLES, Rows, block_means, huber_weights
 from .predictor import Predictor
 
-__all__ = ["Residual", "residual_under", "rms", "white", "per_sample", "predicted"]
+__all__ = ["Residual", "residual_under", "noise_of", "rms", "white", "per_sample", "predicted", "KAPPA_BLOCK_S"]
+
+#: Shortest block for the variance inflation kappa of a channel's residual [s]; longer ones, by
+#: factors of 4, up to a twentieth of the record.
+KAPPA_BLOCK_S = 0.5
 
 
 @dataclass
@@ -64,6 +68,29 @@ def residual_under(
             r = rows_of.span_rows(res, a, lo, hi)
             rows[lo // L : lo // L + r.shape[0]] = r
     return Residual(rows, sumsq / max(1, count), out)
+
+
+def noise_of(rows_of: Rows, rows, robust: bool):
+    """Per channel: sigma (1.4826 MAD) and kappa (variance inflation of block means); per row: Huber
+    weights (all 1 unless ``robust``).
+
+    kappa is 1 for white noise and grows with colour (drift, unmodelled slow terms, a low-pass):
+    the weights ``1 / (sigma^2 kappa)`` then count a coloured channel as fewer samples. Rows beyond
+    Huber's constant are clipped before kappa is measured, so that a glitch does not pass for colour.
+    """
+    r = rows[rows_of.keep]
+    med = np.median(r, axis=0)
+    sigma = np.maximum(1.4826 * np.median(np.abs(r - med), axis=0), 1e-300)
+    u = (rows - med) / sigma
+    weights = huber_weights(u) if robust else np.ones_like(u)
+    clipped = np.clip(u[rows_of.keep], -3.0, 3.0) * sigma
+    clipped -= clipped.mean(axis=0)
+    kappa = np.ones(6)
+    B = max(2, round(KAPPA_BLOCK_S / rows_of.dt))
+    while clipped.shape[0] // B >= 20:  # 0.5 s, 2 s, 8 s, ...: a random walk shows only in the long blocks
+        kappa = np.maximum(kappa, block_means(clipped, B).var(axis=0) * B / sigma**2)
+        B *= 4
+    return sigma, kappa, weights
 
 
 def rms(rows_of: Rows, rows, keep=None):

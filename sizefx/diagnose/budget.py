@@ -1,0 +1,236 @@
+"""The error budget of a diagnosis: each estimate's error, in named parts.
+
+A standard error is a promise about how far the estimate would move on another record of the same
+set-up. Its parts, in the order they are formed (all in SI, over the parameters ``free`` the model
+estimates, findings and the nuisance fitted beside them):
+
+- **white**: ``N^-1`` of the weighted normal equations (:func:`sizefx.diagnose.normal.covariance`),
+  right if the weights were the inverse noise variances and the noise white;
+- **sandwich**: the block sandwich, for residuals coloured within a block, never under the white
+  one (:func:`sizefx.diagnose.selection.honest`);
+- **parts**: the record's parts fitted alone, cut in time, by rotation rate and by translation
+  (:mod:`.consistency`); each parameter's error is widened by the largest ``sqrt(chi2/dof)`` of the
+  three cuts when above 1 (:func:`parts_scatter`). With honest errors this widens them by 10-20 %;
+  pooling the cuts instead, or widening only beyond chance, left coloured-noise z-scores at RMS
+  1.28-1.40 and the BROAD trials' cross-trial chi2/dof at 7.9 (``benchmarks/accuracy_diagnose.py``);
+- **aliases**: the candidates nearly collinear with a finding are fitted beside it
+  (:func:`sizefx.diagnose.selection.nuisance_aliases`), so they are in ``free`` and in every part
+  above; a finding resolved from an alias by plausibility (:mod:`.aliases`) carries the error the
+  alternative would bring anywhere in its plausible range;
+- **band**: the choice of band and of the model selected in it (:func:`band_part`).
+
+:meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + band`` with ``f`` the
+parts' factors.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..constants import STANDARD_GRAVITY_MPS2
+from .candidates import columns_between
+from .consistency import block_consistency, motion_groups
+from .normal import Normal, Rows, covariance, normal_equations, solve
+from .plausibility import judge
+from .predictor import Predictor
+from .records import ReportWarning
+from .residual import noise_of, per_sample, residual_under
+from .selection import honest, select
+from .theta import PARAMS
+
+__all__ = ["ErrorBudget", "Parts", "band_part", "error_budget", "parts_scatter", "BAND_NEIGHBOURS"]
+
+#: The measured band is resolved to a third of an octave (:mod:`.bandwidth`'s bands, then rounded
+#: down to a readable value): the fit is redone at the neighbouring bands a third of an octave
+#: below and above, with the selection redone there (:func:`band_part`).
+BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
+
+
+@dataclass(frozen=True)
+class Parts:
+    """The record's parts fitted alone (:func:`parts_scatter`)."""
+
+    white: np.ndarray  #: [f, f] N^-1
+    sandwich: np.ndarray  #: [f, f] the block sandwich, never under white
+    factors: dict  #: param -> the widening to the parts' scatter (>= 1)
+    entries: dict  #: param -> the cut that disagrees most, with the pooled figures
+    count: int  #: contiguous parts in time
+
+
+@dataclass(frozen=True)
+class ErrorBudget:
+    """Each estimate's error in named parts (module docstring), over the parameters ``free``."""
+
+    free: np.ndarray  #: [f] indices into theta
+    parts: Parts
+    aliases: np.ndarray | None = None  #: [f, f] the plausible range of the alternatives of resolved aliases
+    band: np.ndarray | None = None  #: [f, f] the band's and the selection's systematic part
+    bands: list | None = None  #: the neighbouring bands and what was selected there
+
+    @property
+    def factors(self) -> np.ndarray:
+        return np.array([self.parts.factors.get(j, 1.0) for j in self.free.tolist()])
+
+    def covariance(self) -> np.ndarray:
+        """[f, f]: the sandwich widened to the parts, plus the aliases' and the band's parts."""
+        f = self.factors
+        cov = self.parts.sandwich * np.outer(f, f)
+        for extra in (self.aliases, self.band):
+            if extra is not None:
+                cov = cov + extra
+        return cov
+
+    def sigma(self) -> dict:
+        """param -> standard error (SI), all parts in."""
+        return dict(zip(self.free.tolist(), np.sqrt(np.abs(np.diag(self.covariance())))))
+
+    def sigma_white(self) -> dict:
+        """param -> the white-noise standard error (SI), for comparison."""
+        return dict(zip(self.free.tolist(), np.sqrt(np.abs(np.diag(self.parts.white)))))
+
+    def warnings(self) -> list:
+        """A parameter whose parts disagree beyond chance, and by how much its error is widened."""
+        return [
+            ReportWarning(
+                "inconsistent_blocks",
+                f"{e['effect']} {e['parameter']}: the record's parts (by {e['split']}) disagree "
+                f"(chi2/dof {e['chi2_dof']:.1f} over {e['dof']}); its standard error is multiplied by "
+                f"{e['factor']:.2f}",
+                size=e["chi2_dof"],
+            )
+            for e in self.parts.entries.values()
+            if e["inflated"]
+        ]
+
+    def consistency(self, block_s: float) -> dict:
+        """The report's ``consistency`` field: the parts' checks, and the band's part when there is one."""
+        out: dict = {
+            "parts": self.parts.count,
+            "block_s": block_s,
+            "parameters": [self.parts.entries[j] for j in sorted(self.parts.entries)],
+        }
+        if self.band is not None:
+            sys_sigma = np.sqrt(np.diag(self.band))
+            out["systematic"] = {
+                "bands": self.bands,
+                "parameters": [
+                    {
+                        "parameter": PARAMS[j].label,
+                        "effect": PARAMS[j].effect,
+                        "sigma_selection": float(sys_sigma[pos] / PARAMS[j].per_unit),
+                        "unit": PARAMS[j].unit,
+                    }
+                    for pos, j in enumerate(self.free.tolist())
+                ],
+            }
+        return out
+
+
+def parts_scatter(pred: Predictor, nrm: Normal, free, offset) -> Parts:
+    """The white and sandwich covariances of ``free`` at the normal equations ``nrm`` (``offset``:
+    the start model minus the estimate), and the widening each parameter's error takes from the
+    record's parts fitted alone (:mod:`.consistency`: in time, by rotation rate, by translation)."""
+    free = np.asarray(free, dtype=int)
+    _, white, robust = covariance(nrm, free, offset)
+    sandwich = honest(white, robust)
+    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(sandwich)))))
+    sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
+    count, by_time = block_consistency(nrm, free, offset, sig, sig_white)
+    cuts = [by_time]
+    for split, stat in (
+        ("rate", per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
+        (
+            "translation",
+            per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1) - STANDARD_GRAVITY_MPS2)),
+        ),
+    ):
+        cuts.append(
+            block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat), split=split)[1]
+        )
+    factors, entries = {}, {}
+    for j in free.tolist():
+        mine = [c[j] for c in cuts if j in c]
+        if not mine:
+            continue
+        dof = sum(e["dof"] for e in mine)
+        pooled = sum(e["chi2_dof"] * e["dof"] for e in mine) / dof
+        worst = max(mine, key=lambda e: (e["inflated"], e["chi2_dof"]))
+        factors[j] = max(np.sqrt(max(1.0, e["chi2_dof"])) for e in mine)
+        entries[j] = {**worst, "pooled_chi2_dof": pooled, "pooled_dof": dof, "factor": float(factors[j])}
+    return Parts(white, sandwich, factors, entries, count)
+
+
+def band_part(pred: Predictor, rows_of: Rows, theta, chosen, theta0, sandwich, grade):
+    """The errors' systematic part from the choice of band and of the model selected in it.
+
+    The band is measured to a third of an octave, and which marginal effects the selection takes
+    beside the arms (an accelerometer-z bias, scale factor or misalignment beside r_z[z]) can change
+    from one band to the next: the standard errors, conditional on the band and the selection, do
+    not carry that. At each neighbouring band (:data:`BAND_NEIGHBOURS`) the normal equations are
+    formed at the final estimate ``theta``, the selection is redone there (:func:`select`, then the
+    plausibility judgement) and the selected model solved (one Gauss-Newton step: the arms and
+    delays are linear in the prediction to well below their errors). The shift ``D`` of each
+    parameter from the final estimate (to its start value where the neighbour does not select it)
+    is part noise, as the bands see different data: of ``D^2`` the part beyond the variance of the
+    difference of the two band's estimates of the final model, ``|s_band^2 - s^2|`` (Hausman's
+    variance of a difference of estimates of one parameter from nested data), is systematic. The
+    covariance added is the mean over the neighbours of ``(c D)(c D)'``, ``c`` scaling each
+    component so that the diagonal is that systematic part.
+
+    ``chosen``: the model's effects (:class:`sizefx.diagnose.selection.Chosen`); ``sandwich``: their
+    covariance in the measured band. Returns (cov [free, free], bands): (None, None) when the record
+    was fitted in its full band."""
+    if rows_of.bandwidth_hz is None:
+        return None, None
+    free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
+    offset = theta0 - theta
+    var0 = np.abs(np.diag(sandwich))
+    cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)  # span by span
+    nyquist = 0.5 / pred.dt
+    sys_cov = np.zeros((free.size, free.size))
+    bands = []
+    for fac in BAND_NEIGHBOURS:
+        band = rows_of.bandwidth_hz * fac
+        if band >= 0.8 * nyquist:
+            continue
+        rows_b = Rows(pred.t, pred.mask, pred.dt, band)
+        residual_b = residual_under(pred, rows_b, theta).rows  # the final residual's rows in this band
+        sigma_c, kappa, row_w = noise_of(rows_b, residual_b, robust=True)
+        nrm = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w)
+        _, white, robust = covariance(nrm, free, offset)
+        var_b = np.abs(np.diag(honest(white, robust)))
+        selected, _, _ = select(nrm, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)))
+        while True:  # implausible values say the band's model is wrong: drop them as the judging does
+            f2 = np.array(sorted({j for c in selected for j in c.active}), dtype=int)
+            x, _, _ = solve(*nrm.total(), f2, offset)
+            theta_b = theta0.copy()
+            theta_b[f2] = theta[f2] + x
+            bad = [c for c in selected if judge(c.cand.id, theta_b[list(c.cand.idx)], grade)]
+            if not bad:
+                break
+            selected = [c for c in selected if c not in bad]
+        shift = theta_b[free] - theta[free]
+        excess = np.maximum(shift**2 - np.abs(var_b - var0), 0.0)
+        c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
+        sys_cov += np.outer(c * shift, c * shift)
+        bands.append({"bandwidth_hz": float(band), "selected": sorted(ch.cand.key for ch in selected)})
+    if not bands:
+        return None, None
+    return sys_cov / len(bands), bands
+
+
+def error_budget(
+    pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0, grade, parts: Parts | None = None, aliases=None
+) -> ErrorBudget:
+    """The budget of the model ``chosen`` at the estimate ``theta`` with normal equations ``nrm``;
+    ``parts``: :func:`parts_scatter` of this very state when the judging already formed it;
+    ``aliases``: the [free, free] part of resolved aliases (:mod:`.aliases`), if any."""
+    free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
+    if parts is None:
+        parts = parts_scatter(pred, nrm, free, theta0 - theta)
+    band, bands = band_part(pred, rows_of, theta, chosen, theta0, parts.sandwich, grade)
+    return ErrorBudget(free, parts, aliases, band, bands)
