@@ -42,6 +42,7 @@ import numpy as np
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
+from .aliases import library_normals, resolve, separating_motions
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .budget import Parts, error_budget, parts_scatter
@@ -437,9 +438,35 @@ def diagnose(
     theta, chosen, residual, nrm = state.theta, state.chosen, state.residual, state.nrm
     offset = theta0 - theta
     shares = verdict.shares
+    # the pairs the motion cannot tell apart: of those the grade resolves the plausible one is the
+    # finding, with its alternative beside it and an error that holds wherever the alternative is
+    # in its plausible range (aliases.resolve); the others go to not_revealed
+    alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
+    nuisance_keys = {n.cand.key for n, _, _ in nuisance}
+    outside = [
+        (chosen[i], cand, seen, rho)
+        for i, cand, seen, rho in aliases_outside(nrm, chosen, offset, level)
+        if chosen[i].cand.key not in alias_keys | nuisance_keys  # a nuisance is no finding to begin with
+    ]
+    free = _free(chosen)
+    resolved: dict = {}  # finding key -> Alternative
+    alias_cov = np.zeros((free.size, free.size))
+    pairs = [(keep, gone.cand, gone.active, rho) for keep, gone, rho in aliased]
+    pairs += [(c, cand, seen, rho) for c, cand, seen, rho in outside]
+    for finding, alt, seen, rho in pairs:
+        if finding.cand.key in resolved:
+            continue
+        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho)
+        if got is not None:
+            resolved[finding.cand.key] = got[0]
+            alias_cov += got[1]
+            log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
+    aliased = [a for a in aliased if a[0].cand.key not in resolved]
+    outside = [o for o in outside if o[0].cand.key not in resolved]
     # the last round judged this very state: its parts stand
-    budget = error_budget(pred, rows_of, nrm, theta, chosen, theta0, grade, parts=verdict.parts)
-    free = budget.free
+    budget = error_budget(
+        pred, rows_of, nrm, theta, chosen, theta0, grade, parts=verdict.parts, aliases=alias_cov if resolved else None
+    )
     cov = np.zeros((theta.size, theta.size))
     cov[np.ix_(free, free)] = budget.covariance()
     sig, sig_white = budget.sigma(), budget.sigma_white()
@@ -449,24 +476,32 @@ def diagnose(
         if np.intersect1d(free, LEVER).size
         else None
     )
-    # the findings: selected, plausible, separable; the pairs the motion cannot tell apart go to not_revealed
+    # the findings: selected, plausible, separable (or resolved by the grade); the rest of the pairs
+    # the motion cannot tell apart go to not_revealed, with the motions that would separate them
     alias_keys = {g.cand.key for _, g, _ in aliased} | {k.cand.key for k, _, _ in aliased}
-    nuisance_keys = {n.cand.key for n, _, _ in nuisance}
-    outside = [
-        (chosen[i], cand, rho)
-        for i, cand, rho in aliases_outside(nrm, chosen, offset, level)
-        if chosen[i].cand.key not in alias_keys | nuisance_keys  # a nuisance is no finding to begin with
-    ]
-    alias_keys |= {c.cand.key for c, _, _ in outside}
+    alias_keys |= {c.cand.key for c, _, _, _ in outside}
     alias_keys |= nuisance_keys | {w[0].cand.key for w in weak}
     reported = [c for c in chosen if c.cand.key not in alias_keys]
-    effects = [name_effect(c, theta, theta0, sig, shares[c.cand.key]) for c in reported]
+    effects = [
+        name_effect(c, theta, theta0, sig, shares[c.cand.key], alternative=resolved.get(c.cand.key)) for c in reported
+    ]
     effects.sort(key=lambda e: -e.explained_fraction)
     unrev = [
         NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
         for cand, hidden, reason in unrevealed.values()
     ]
+    normals: dict = {}  # the library's normal matrices (aliases.library_normals), formed once if need be
+    N_record = nrm.N.sum(0)
+
+    def separated_by(a, b):
+        """The motions that would tell the parameter groups ``a`` and ``b`` apart, beside this record."""
+        if not normals:
+            normals.update(library_normals(theta, 1.0 / (state.sigma_c**2 * state.kappa)))
+        rest = np.setdiff1d(free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
+        return separating_motions(N_record, nrm.rows, list(a), list(b), rest, normals)
+
     for keep, gone, rho in aliased:
+        motions = separated_by(keep.active, gone.active)
         for me, other in ((keep, gone), (gone, keep)):
             unrev = _named(
                 unrev,
@@ -474,8 +509,10 @@ def diagnose(
                 me.active,
                 f"indistinguishable from {other.cand.key} on this motion (canonical correlation {rho:.4f}); "
                 f"the extended model carries their sum as {keep.cand.key}",
+                motions,
             )
-    for c, cand, rho in outside:
+    for c, cand, seen, rho in outside:
+        motions = separated_by(c.active, seen)
         for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
             if any((u.id, u.channel) == (me.id, me.channel) and "on this motion" in u.reason for u in unrev):
                 continue
@@ -485,7 +522,9 @@ def diagnose(
                 params,
                 f"indistinguishable from {other} on this motion (canonical correlation {rho:.4f}); "
                 f"the extended model carries it as {c.cand.key}",
+                motions,
             )
+    finding_of = {c.cand.key: c for c in chosen}
     for n, of, rho in nuisance:
         unrev = _named(
             unrev,
@@ -493,6 +532,7 @@ def diagnose(
             n.active,
             f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
             f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
+            separated_by(n.active, finding_of[of].active),
         )
     for c, n, rho, why in weak:
         unrev = _named(
@@ -501,6 +541,7 @@ def diagnose(
             c.active,
             f"nearly indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): "
             f"fitted together, it is no longer a finding ({why}); the extended model carries both",
+            separated_by(c.active, n.active),
         )
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
@@ -616,7 +657,9 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
 
 
-def _named(unrev: list, cand, params, reason: str) -> list:
+def _named(unrev: list, cand, params, reason: str, separated_by=()) -> list:
     """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``
-    (:func:`sizefx.diagnose.records.named`)."""
-    return named(unrev, NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in params), reason))
+    (:func:`sizefx.diagnose.records.named`), and the motions that would separate it."""
+    return named(
+        unrev, NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in params), reason, tuple(separated_by))
+    )

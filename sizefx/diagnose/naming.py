@@ -34,6 +34,8 @@ class Effect:
     explained_fraction: float
     sentence: str
     hidden: list = field(default_factory=list)  #: components the record cannot reveal (kept at nominal)
+    #: what the motion cannot tell it from, ruled out by the grade (:class:`sizefx.diagnose.aliases.Alternative`)
+    alternative: Any = None
 
 
 def _fmt(v, s, unit, digits=None):
@@ -43,9 +45,10 @@ def _fmt(v, s, unit, digits=None):
     return f"{v:.{digits}f} +- {s:.{digits}f} {unit}"
 
 
-def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
+def name_effect(c: Chosen, theta, theta0, sig, frac, alternative=None) -> Effect:
     """The effect ``c`` at the estimate ``theta`` (start ``theta0``, standard errors ``sig`` by parameter,
-    ``frac`` of the residual it explains): parameters in the JSON's names and units, and the sentence."""
+    ``frac`` of the residual it explains): parameters in the JSON's names and units, and the sentence;
+    ``alternative``: what the motion cannot tell it from, ruled out by the grade, said after it."""
     idx = list(c.cand.idx)
     ps = [PARAMS[j] for j in idx]
     val = [float(theta[j]) for j in idx]
@@ -152,4 +155,12 @@ def name_effect(c: Chosen, theta, theta0, sig, frac) -> Effect:
         sentence = f"gyro {axis} responds to specific force: " + ", ".join(parts)
     else:  # pragma: no cover - every candidate id is handled above
         raise AssertionError(eid)
-    return Effect(eid, c.cand.channel, params, sigma, nominal, frac, sentence, hidden)
+    if alternative is not None:
+        values = ", ".join(f"{k} = {v:+.4g}" for k, v in alternative.parameters.items())
+        added = ", ".join(f"{k} +- {v:.3g}" for k, v in alternative.sigma_added.items())
+        sentence += (
+            f"; the motion cannot tell it from {alternative.key} (canonical correlation {alternative.rho:.4f}), "
+            f"but that would need {values} {alternative.unit}: {alternative.reason}; the errors include "
+            f"what it could be within that range ({added} {alternative.finding_unit})"
+        )
+    return Effect(eid, c.cand.channel, params, sigma, nominal, frac, sentence, hidden, alternative)

@@ -201,6 +201,7 @@ def to_json(d: Diagnosis, start: str) -> dict:
                 "explained_fraction": e.explained_fraction,
                 "sentence": e.sentence,
                 "not_revealed": e.hidden,
+                **({"alternative": e.alternative.as_dict()} if e.alternative is not None else {}),
             }
             for e in d.effects
         ],
@@ -322,10 +323,12 @@ def format_report(d: Diagnosis, start: str) -> str:
                 f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
                 "structure in its channels]"
             )
+    elif _changed_without_finding(d):
+        lines.append(_changed_without_finding(d))
     else:
         white = d.white_sigma or {}
         loud = [c for c in CHANNELS if white and d.rms_after[c] > 1.5 * white[c]]
-        channels_flagged = sorted({u["channel"] for u in d.unexplained})
+        channels_flagged = sorted({u["channel"] for u in d.unexplained})  # unexplained: dicts of structure.py
         if loud or channels_flagged or d.warnings:
             parts = [f"{c} ({d.rms_after[c] / white[c]:.1f} times its sample-to-sample noise)" for c in loud]
             parts += [f"{c} (structure above)" for c in channels_flagged if c not in loud]
@@ -355,6 +358,9 @@ def format_report(d: Diagnosis, start: str) -> str:
         for u in d.unrevealed:
             where = u.id + (f" {u.channel}" if u.channel else "")
             lines.append(f"  - {where} ({', '.join(u.parameters)}): {u.reason}")
+            if u.separated_by:
+                motion, rho = u.separated_by[0]
+                lines.append(f"      would be told apart by {motion} (canonical correlation {rho:.2f} with it)")
     if d.geometry:
         lines += _geometry_lines(d.geometry)
     lines.append(f"band: {d.bandwidth_reason}; {d.grade_reason}")
@@ -411,6 +417,32 @@ def format_report(d: Diagnosis, start: str) -> str:
     if d.model_path:
         lines.append(f"extended model -> {d.model_path} (sizefx navigate/compensate/diagnose --model accept it)")
     return "\n".join(lines)
+
+
+def _changed_without_finding(d: Diagnosis) -> str:
+    """With no effect named, what the extended model still changed: the channels whose residual it
+    lowers on held-out data beyond chance, and the effects the motion cannot tell apart that could be
+    the cause (empty when it changed nothing beyond chance)."""
+    o = d.out_of_sample
+    if d.effects or o is None or o.overfit:
+        return ""
+    lower = [c for c in CHANNELS if o.rms_after[c] < o.rms_before[c] * (1.0 - 1e-3)]
+    if not lower:
+        return ""
+    could = sorted({u.key for u in d.unrevealed if "on this motion" in u.reason})
+    return (
+        "found no effect this record can name, but the extended model lowers the residual beyond chance (held out: "
+        f"{_percent(o.gain)} of the weighted power, p = {o.p:.2g}) on "
+        + ", ".join(f"{c} ({_gain(o.rms_before[c], o.rms_after[c])})" for c in lower)
+        + (
+            ": it could be "
+            + (", ".join(could[:-1]) + " or " if len(could) > 1 else "")
+            + could[-1]
+            + ", which this motion cannot tell apart (see 'not revealed' for a motion that would)"
+            if could
+            else ""
+        )
+    )
 
 
 def _percent(g: float) -> str:

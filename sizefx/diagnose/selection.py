@@ -191,16 +191,17 @@ def _collinear_left_out(nrm: Normal, chosen, skip=()):
 
 
 def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
-    """``(i, candidate, rho)``: a selected effect ``chosen[i]`` that is no longer significant (robust
+    """``(i, candidate, seen, rho)``: a selected effect ``chosen[i]`` that is no longer significant (robust
     Wald p above ``level``) once a candidate the selection did *not* take is fitted with it, their
     regressors being nearly collinear on this motion. The selection took one of two explanations the
     record cannot tell apart (a level tilt or the horizontal accelerometer biases on a sway): the one
-    it took is no finding."""
+    it took is no finding, unless the grade rules the other out (:mod:`.aliases`). ``seen``: the
+    candidate's parameters the record reveals beside the others."""
     out = []
     for i, cand, seen, rho in _collinear_left_out(nrm, chosen):
         trial = chosen + [Chosen(cand, tuple(seen), ())]
         if rho >= ALIAS_CORRELATION or robust_p(nrm, trial, offset, which=i) > level:
-            out.append((i, cand, rho))
+            out.append((i, cand, tuple(seen), rho))
     return out
 
 

@@ -1,0 +1,203 @@
+"""Two explanations the record cannot tell apart: resolved by plausibility where one is absurd, and
+the motion that would tell them apart.
+
+On a pitch sway at one frequency an accelerometer-x arm shifted along z and an accelerometer-x
+scale factor leave the same trace: the arm's tangential term ``r * omega_dot`` and the scale
+factor's ``k * f_x`` both follow the pitch angle (``omega_dot = -(2 pi f)^2 theta``,
+``f_x = -g sin theta``). The record alone cannot say which it sees. The grade often can: 2.1 mm of
+arm is an ordinary assembly tolerance, the equivalent ``r (2 pi f)^2 / g`` = 2 100 ppm is beyond any
+navigation-grade accelerometer.
+
+- :func:`alone`: what each member of a pair would be if it alone explained what the pair explains
+  (the other held at its start value, the rest of the model refitted), from the normal equations.
+- :func:`resolve`: when the finding is plausible for the grade and its alternative alone is not,
+  the finding stands, with the alternative and its implausible value beside it, and an error that
+  holds wherever in its plausible range the alternative really is (:func:`alias_covariance`: a
+  uniform prior over the grade's range, propagated through the pair's normal equations).
+- :func:`separating_motions`: for a pair that stays unresolved (or nearly collinear), the motions
+  of a small library (:data:`LIBRARY`: sways at two frequencies about each body axis, a turntable
+  with each axis vertical in turn, a tumble) that would tell the two apart if recorded as long
+  again, with the canonical correlation the pair would then have: computed from the Jacobian of
+  the model at the record's estimate on each motion, noise-free.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..constants import DEG
+from .normal import Rows, canonical_correlation, normal_equations, solve
+from .plausibility import GRADES, RANGES, judge
+from .theta import PARAMS
+
+__all__ = [
+    "Alternative",
+    "alias_covariance",
+    "alone",
+    "library_normals",
+    "resolve",
+    "separating_motions",
+    "LIBRARY",
+    "SEPARATED_CORRELATION",
+]
+
+#: A pair whose canonical correlation falls under this with a motion added is told apart by it: the
+#: correlation from which :func:`sizefx.diagnose.selection.nuisance_aliases` calls two effects nearly
+#: collinear (errors 2.3 times those of the orthogonal case at most).
+SEPARATED_CORRELATION = 0.9
+#: The motions :func:`separating_motions` tries, each a few tens of seconds, noise-free, at
+#: :data:`LIBRARY_RATE_HZ`: (what the report calls it, how it is made).
+LIBRARY = (
+    ("a roll sway at two frequencies (0.5 and 1.3 Hz, about body x)", ("sway", "x")),
+    ("a pitch sway at two frequencies (0.5 and 1.3 Hz, about body y)", ("sway", "y")),
+    ("a heading sway at two frequencies (0.5 and 1.3 Hz, about body z)", ("sway", "z")),
+    ("a turntable with each body axis vertical in turn (rotations at 20 deg/s, static dwells)", ("turntable", "")),
+    ("a tumble through all attitudes", ("tumble", "")),
+)
+LIBRARY_RATE_HZ = 100.0
+LIBRARY_S = 40.0
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """What a finding could be instead on this motion, and why it is not."""
+
+    key: str  #: the other candidate (``accel_scale_factor:accel_x``)
+    parameters: dict  #: label -> its value (report unit) were it alone to explain the data
+    unit: str
+    reason: str  #: why that value is implausible for the grade
+    rho: float  #: the pair's canonical correlation on this motion
+    #: label -> how far the finding's parameters could move (``finding_unit``, 1 sigma) with the
+    #: alternative anywhere in its plausible range
+    sigma_added: dict
+    finding_unit: str
+
+    def as_dict(self) -> dict:
+        return {
+            "effect": self.key,
+            "parameters": dict(self.parameters),
+            "unit": self.unit,
+            "reason": self.reason,
+            "canonical_correlation": self.rho,
+            "sigma_added": dict(self.sigma_added),
+            "sigma_added_unit": self.finding_unit,
+        }
+
+
+def alone(nrm, free, group, theta, theta0) -> np.ndarray:
+    """The values (SI, ``theta``'s layout) of the parameters ``group`` were they to explain the data
+    with the parameters ``free`` (the rest of the model, ``group`` excluded) refitted and every other
+    parameter at its start value: one Gauss-Newton step at ``theta`` on the normal equations ``nrm``."""
+    group = np.asarray(group, dtype=int)
+    together = np.union1d(np.setdiff1d(np.asarray(free, dtype=int), group), group)
+    N, b, yy = nrm.total()
+    x, _, _ = solve(N, b, yy, together, theta0 - theta)
+    out = theta0.copy()
+    out[together] = theta[together] + x
+    return out[group]
+
+
+def _range_sigma(cand_id: str, idx, grade: str) -> np.ndarray:
+    """Per parameter [SI]: the standard deviation of a uniform distribution over the grade's range."""
+    per_unit, _, ranges = RANGES[cand_id]
+    half = ranges[GRADES.index(grade)] * per_unit
+    return np.full(len(idx), half / np.sqrt(3.0))
+
+
+def alias_covariance(nrm, free, alt_idx, alt_sigma) -> np.ndarray:
+    """[free, free]: how much the estimates of ``free`` move with the parameters ``alt_idx`` (not in
+    the model) anywhere in their range (standard deviations ``alt_sigma`` [SI]): ``S Sigma S'``,
+    ``S = -N_ff^-1 N_fa`` the shift of the estimates per unit of the alternative."""
+    N = nrm.N.sum(0)
+    free = np.asarray(free, dtype=int)
+    alt = np.asarray(alt_idx, dtype=int)
+    S = -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
+    return S @ np.diag(np.asarray(alt_sigma) ** 2) @ S.T
+
+
+def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho):
+    """``finding`` (a :class:`sizefx.diagnose.selection.Chosen` in the model ``free``) against the
+    candidate ``alt_cand`` (its parameters ``alt_idx`` not in the model) the motion cannot tell from
+    it: (:class:`Alternative`, covariance [free, free] to add) when the finding is plausible and the
+    alternative alone is not, else None."""
+    if judge(finding.cand.id, theta[list(finding.cand.idx)], grade):
+        return None
+    rest = np.setdiff1d(np.asarray(free, dtype=int), finding.active)
+    values = theta0[list(alt_cand.idx)].copy()
+    values[[list(alt_cand.idx).index(j) for j in alt_idx]] = alone(nrm, rest, alt_idx, theta, theta0)
+    why = judge(alt_cand.id, values, grade)
+    if not why:
+        return None
+    cov = alias_covariance(nrm, free, alt_idx, _range_sigma(alt_cand.id, alt_idx, grade))
+    pos = {j: k for k, j in enumerate(np.asarray(free, dtype=int).tolist())}
+    added = {PARAMS[j].label: float(np.sqrt(cov[pos[j], pos[j]]) / PARAMS[j].per_unit) for j in finding.active}
+    alt = Alternative(
+        alt_cand.key,
+        {PARAMS[j].label: float(v / PARAMS[j].per_unit) for j, v in zip(alt_cand.idx, values)},
+        PARAMS[alt_cand.idx[0]].unit,
+        why,
+        float(rho),
+        added,
+        PARAMS[finding.active[0]].unit,
+    )
+    return alt, cov
+
+
+def _trajectory(kind: str, axis: str):
+    from .. import scenarios
+    from ..motion import RotationChain, Sinusoids, StaticSite, Trajectory
+
+    if kind == "tumble":
+        return scenarios.tumble(LIBRARY_S, freqs_hz=(0.05, 0.083, 0.117))
+    if kind == "turntable":
+        plan = scenarios.TurntablePlan(
+            static_s=2.0, seconds_per_axis=12.0, cycles=1, reposition_s=3.0, settle_s=1.0, accel_dps2=40.0
+        )
+        return scenarios.turntable(plan)[0]
+    lat, lon, h = scenarios.PAPER_AIRFIELD.radians()
+    still = Sinusoids([0.0], [0.1], [0.0])
+    sway = Sinusoids([5.0 * DEG, 2.0 * DEG], [0.5, 1.3], [0.0, 1.0])
+    # z-y-x Euler chain: heading about down, pitch about east, roll about north (body axes at rest)
+    profiles = [sway if axis == "z" else still, sway if axis == "y" else still, sway if axis == "x" else still]
+    chain = RotationChain([scenarios.E_DOWN, scenarios.E_EAST, scenarios.E_NORTH], profiles)
+    return Trajectory(StaticSite(lat, lon, h), chain, LIBRARY_S, name="sway", segments=[("sway", 0.0, LIBRARY_S)])
+
+
+def library_normals(theta, weights) -> dict:
+    """name -> ([NP, NP], rows): the noise-free normal matrix of every parameter on each motion of
+    :data:`LIBRARY`, at the model ``theta`` with the per-channel ``weights`` of the record's rows, and
+    the number of rows it sums."""
+    from ..effects import IDEAL, load_effects
+    from ..simulate import simulate_in_memory
+    from .candidates import columns_between
+    from .predictor import Predictor
+
+    out = {}
+    for name, (kind, axis) in LIBRARY:
+        tel = simulate_in_memory(_trajectory(kind, axis), load_effects(base=IDEAL), rate_hz=LIBRARY_RATE_HZ, seed=0)
+        pred = Predictor(tel)
+        rows_of = Rows(pred.t, pred.mask, pred.dt)
+        cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)
+        nrm = normal_equations(rows_of, np.zeros((rows_of.t.size, 6)), cols, weights)
+        out[name] = (nrm.N.sum(0), nrm.rows)
+    return out
+
+
+def separating_motions(N_record, rows_record: int, a, b, rest, normals: dict) -> tuple:
+    """``((motion, rho), ...)``: the motions of ``normals`` (:func:`library_normals`) that, recorded
+    beside this record (``N_record`` over ``rows_record`` rows) for as long again, would bring the
+    canonical correlation of the parameter groups ``a`` and ``b`` (given ``rest``) under
+    :data:`SEPARATED_CORRELATION`; best first.
+
+    The record's rows are weighted ``1 / sigma^2`` with ``sigma`` its per-row noise; a motion's rows,
+    formed at another rate with the same weights, count as the record's once scaled by the ratio
+    of the row counts (white noise: the information per second does not depend on the row rate)."""
+    out = []
+    for name, (N, rows) in normals.items():
+        rho = canonical_correlation(N_record + N * (rows_record / rows), a, b, rest)
+        if rho < SEPARATED_CORRELATION:
+            out.append((name, float(rho)))
+    return tuple(sorted(out, key=lambda m: m[1]))

@@ -1,0 +1,105 @@
+"""Aliases (:mod:`sizefx.diagnose.aliases`): two explanations one motion cannot tell apart, resolved
+by the sensor grade where one is absurd, and the motion that would tell them apart named.
+
+The case: a pitch sway at a single frequency, accelerometer x 2.1 mm lower (+z) than the nominal
+geometry. Its tangential term r_z * omega_dot follows the pitch angle exactly as a scale factor's
+k * f_x does (omega_dot = -(2 pi f)^2 theta, f_x = -g sin theta): the equivalent scale factor is
+r_z (2 pi f)^2 / g = -2 100 ppm at 0.5 Hz, beyond the 1 000 ppm of a navigation-grade part."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_diagnose import NOMINAL, found, record
+
+from sizefx import diagnose as D
+from sizefx import scenarios
+from sizefx.effects import IDEAL, load_effects
+from sizefx.motion import RotationChain, Sinusoids, StaticSite, Trajectory
+from sizefx.simulate import simulate_in_memory
+
+R_Z_M = 0.0021  #: accelerometer x below where the nominal geometry puts it [m]
+
+
+@pytest.fixture(scope="module")
+def pitch_sway():
+    """60 s of pitch sway at 0.5 Hz (5 deg), 200 Hz, navigation-grade noise; the truth of r_x[z]."""
+    lat, lon, h = scenarios.PAPER_AIRFIELD.radians()
+    still = Sinusoids([0.0], [0.1], [0.0])
+    chain = RotationChain(
+        [scenarios.E_DOWN, scenarios.E_EAST, scenarios.E_NORTH],
+        [still, Sinusoids([np.radians(5.0)], [0.5], [0.0]), still],
+    )
+    traj = Trajectory(StaticSite(lat, lon, h), chain, 60.0, name="pitch", segments=[("pitch", 0.0, 60.0)])
+    fx = load_effects(
+        base=IDEAL,
+        overrides={
+            "lever_arm": {"enabled": True, "preset": "high-precision", "d_x_m": [0.0249, 0.0, R_Z_M]},
+            "accel_noise": {"enabled": True},
+            "gyro_noise": {"enabled": True},
+        },
+    )
+    return simulate_in_memory(traj, fx, rate_hz=200.0, seed=3)
+
+
+def test_the_grade_resolves_an_arm_from_an_absurd_scale_factor(pitch_sway):
+    d = D.diagnose(pitch_sway, NOMINAL, grade="navigation", keep_series=False)
+    assert found(d) == {("lever_arm", "accel_x")}
+    (arm,) = d.effects
+    alt = arm.alternative
+    assert alt is not None and alt.key == "accel_scale_factor:accel_x"
+    # the scale factor alone would have to be r_z (2 pi f)^2 / g: -2 100 ppm, twice the grade's range
+    assert alt.parameters["x"] == pytest.approx(-R_Z_M * (2 * np.pi * 0.5) ** 2 / 9.80665 * 1e6, rel=0.05)
+    assert "navigation-grade" in alt.reason and alt.rho > 0.999
+    j = D.LEVER[2]  # r_x[z]
+    # the error holds wherever in its +-1 000 ppm the scale factor is: 1 000 ppm is 1.0 mm of arm, and
+    # a uniform distribution over +-1.0 mm has sigma 1.0 / sqrt(3) = 0.58 mm, beside a statistical 0.005 mm
+    assert d.sigma_theta[j] == pytest.approx(0.001 / np.sqrt(3.0), rel=0.1)
+    assert alt.sigma_added["r_x[z]"] == pytest.approx(d.sigma_theta[j] * 1e3, rel=0.01)
+    assert abs(d.theta[j] - R_Z_M) < 3 * d.sigma_theta[j]
+    text = D.format_report(d, "test")
+    assert "cannot tell it from accel_scale_factor:accel_x" in text and "found nothing" not in text
+    doc = D.to_json(d, "test")
+    assert doc["effects"][0]["alternative"]["effect"] == "accel_scale_factor:accel_x"
+
+
+def test_where_the_grade_allows_both_they_are_not_revealed_and_the_separating_motion_is_named(pitch_sway):
+    """A tactical-grade part may show 2 100 ppm: neither explanation is a finding. The headline says
+    what the extended model still changed, and each is named with the motions that would separate
+    them: a pitch sway at a second frequency among them (the arm's term scales with (2 pi f)^2, the
+    scale factor's does not)."""
+    d = D.diagnose(pitch_sway, NOMINAL, grade="tactical", keep_series=False)
+    assert not d.effects
+    pair = {u.key: u for u in d.unrevealed if "on this motion" in u.reason}
+    assert {"lever_arm:accel_x", "accel_scale_factor:accel_x"} <= set(pair)
+    motions = [m for m, _ in pair["lever_arm:accel_x"].separated_by]
+    assert any("pitch sway at two frequencies" in m for m in motions), motions
+    assert all(rho < 0.9 for _, rho in pair["lever_arm:accel_x"].separated_by)
+    text = D.format_report(d, "test")
+    assert "found no effect this record can name, but the extended model lowers the residual" in text
+    assert "accel_x" in text.split("\n")[1] and "would be told apart by" in text
+    doc = D.to_json(d, "test")
+    D.check_diagnosis(doc)
+    assert any(u.get("separated_by") for u in doc["not_revealed"])
+
+
+def test_rotation_about_the_vertical_names_the_table_that_separates_bias_and_scale_factor():
+    """z bias and z scale factor under constant gravity: a table with each axis vertical in turn
+    separates them, a heading sway does not."""
+    tel, _ = record({"accel_bias": {"enabled": True, "bias_ug": [0.0, 0.0, 50.0]}}, axes="z", duration_s=30.0)
+    d = D.diagnose(tel, NOMINAL, grade="navigation", keep_series=False)
+    (bias,) = [u for u in d.unrevealed if u.key == "accel_bias:accel_z"]
+    motions = [m for m, _ in bias.separated_by]
+    assert motions and ("turntable" in motions[0] or "tumble" in motions[0]), motions
+    assert not any("heading sway" in m for m in motions), motions
+
+
+def test_separating_motions_from_the_normal_matrices():
+    """Two columns collinear on the record; a motion that excites one alone separates them, one that
+    excites both alike does not."""
+    from sizefx.diagnose.aliases import separating_motions
+
+    N_record = np.array([[1.0, 1.0], [1.0, 1.0]]) * 100.0
+    normals = {"apart": (np.diag([1.0, 0.0]) * 100.0, 10), "alike": (N_record.copy(), 10)}
+    got = separating_motions(N_record, 10, [0], [1], [], normals)
+    assert [m for m, _ in got] == ["apart"] and got[0][1] < 0.9
