@@ -20,6 +20,7 @@ to ``dt^4``).
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -195,15 +196,27 @@ class Predictor:
         out += self.dt**2 / 24.0 * np.gradient(np.gradient(out, t, axis=0), t, axis=0)
         return out[lo - a : hi - a]
 
+    @contextlib.contextmanager
+    def uncached(self):
+        """Within it, the reference motion at a new shift is evaluated span by span and not cached: for
+        a prediction of a few spans under a model met once (a held-out fold's), where evaluating and
+        keeping the whole record's motion would cost more than the spans themselves."""
+        kept, self._cached_shifts = self._cached_shifts, 0
+        try:
+            yield self
+        finally:
+            self._cached_shifts = kept
+
     def _kin_span(self, shift: float, lo: int, hi: int) -> dict:
         key = round(shift, 12)
-        if self._cached_shifts:
-            if key not in self._kin:
-                if len(self._kin) >= self._cached_shifts:
-                    self._kin.pop(next(iter(self._kin)))
-                tt = np.clip(self.t + shift, self.motion.t[0], self.motion.t[-1])
-                self._kin[key] = self.motion.evaluate(tt)
+        if key in self._kin:  # cached earlier, even inside uncached()
             whole = self._kin[key]
+            return whole if (lo, hi) == (0, self.n) else {k: v[lo:hi] for k, v in whole.items()}
+        if self._cached_shifts:
+            if len(self._kin) >= self._cached_shifts:
+                self._kin.pop(next(iter(self._kin)))
+            tt = np.clip(self.t + shift, self.motion.t[0], self.motion.t[-1])
+            whole = self._kin[key] = self.motion.evaluate(tt)
             return whole if (lo, hi) == (0, self.n) else {k: v[lo:hi] for k, v in whole.items()}
         return self.motion.evaluate(np.clip(self.t[lo:hi] + shift, self.motion.t[0], self.motion.t[-1]))
 
