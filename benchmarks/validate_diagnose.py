@@ -246,6 +246,17 @@ def judge(seed: int, motions=MOTIONS) -> dict:
         }
         for j in finding_parameters(d)
     ]
+    cv = d.out_of_sample
+    held_out = [
+        {
+            "effect": g.key,
+            "true": g.key.split(":")[0] in hidden,
+            "generalises": g.generalises,
+            "gain_in_sample": g.gain_in_sample,
+            "gain_held_out": g.gain_held_out,
+        }
+        for g in (cv.effects if cv is not None else ())
+    ]
     return {
         "seed": seed,
         "motion": motion,
@@ -256,6 +267,13 @@ def judge(seed: int, motions=MOTIONS) -> dict:
         "false": sorted(set(found) - set(hidden)),
         "missed": sorted(set(hidden) - set(found) - set(unrevealed)),
         "z": z,
+        "held_out": held_out,
+        "overfit": bool(cv is not None and cv.overfit),
+        "resolved": [
+            {"effect": e.id, "true": e.id in hidden, "alternative": e.alternative.key}
+            for e in d.effects
+            if e.alternative is not None
+        ],
     }
 
 
@@ -311,6 +329,20 @@ def summarise(rows: list[dict]) -> dict:
         else {},
         "records_with_false_findings": sum(bool(r["false"]) for r in rows),
         "false_findings_per_record": sum(len(r["false"]) for r in rows) / max(len(rows), 1),
+        # the cross-validated gain (sizefx.diagnose.holdout): how often it flags a finding as not
+        # generalising, among true findings and among false ones, and records flagged overfit
+        "held_out": {
+            "true_findings": sum(h["true"] for r in rows for h in r.get("held_out", [])),
+            "true_flagged": sum(h["true"] and not h["generalises"] for r in rows for h in r.get("held_out", [])),
+            "false_findings": sum(not h["true"] for r in rows for h in r.get("held_out", [])),
+            "false_flagged": sum(not h["true"] and not h["generalises"] for r in rows for h in r.get("held_out", [])),
+            "records_overfit": sum(r.get("overfit", False) for r in rows),
+        },
+        # findings the grade resolved from an alias (sizefx.diagnose.aliases): how many were the truth
+        "resolved_aliases": {
+            "findings": sum(len(r.get("resolved", [])) for r in rows),
+            "true": sum(q["true"] for r in rows for q in r.get("resolved", [])),
+        },
         "targets": {
             "rms_z": [0.85, 1.2],
             "abs_mean_z": 0.2,
@@ -373,6 +405,12 @@ def main(argv=None) -> int:
             f"  {motion:9s}: {m['records']} records, {m['parameters']} parameters, z RMS {m['rms_z'] or 0:.2f}, "
             f"95 % {m['coverage_95'] or 0:.2f}, false findings in {m['records_with_false_findings']}"
         )
+    h, res = summary["held_out"], summary["resolved_aliases"]
+    print(
+        f"held out: {h['true_flagged']} of {h['true_findings']} true findings and {h['false_flagged']} of "
+        f"{h['false_findings']} false ones flagged as not generalising; {h['records_overfit']} records overfit; "
+        f"{res['findings']} findings resolved from an alias by the grade, {res['true']} of them true"
+    )
     code = emit(summary, args, __file__, argv, threads=args.jobs, show=False)
     if args.plot:
         by_kind = {k: [q["z"] for r in rows for q in r["z"] if q["effect"] == k] for k in summary["by_effect"]}
