@@ -601,6 +601,9 @@ def broad_holdout():
         "held_out_over_in_sample_min": min(
             e["gain_held_out_pct"] / e["gain_in_sample_pct"] for k, e in out.items() if k in BROAD_TRIALS
         ),
+        "validated_gain_min_pct": min(o["gain_pct"] for o in carried),
+        "validated_gain_max_pct": max(o["gain_pct"] for o in carried),
+        "not_generalising": {k: e["not_generalising"] for k, e in out.items() if k in BROAD_TRIALS},
     }
     return out
 

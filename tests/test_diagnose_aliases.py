@@ -103,3 +103,13 @@ def test_separating_motions_from_the_normal_matrices():
     normals = {"apart": (np.diag([1.0, 0.0]) * 100.0, 10), "alike": (N_record.copy(), 10)}
     got = separating_motions(N_record, 10, [0], [1], [], normals)
     assert [m for m, _ in got] == ["apart"] and got[0][1] < 0.9
+
+
+def test_significance_within_the_alternatives_range():
+    """A deviation of 3 with error 0.1: an alternative that can shift it by at most 1 leaves 2 (20
+    sigma); one that can shift it by 3.5 explains it all."""
+    from sizefx.diagnose.aliases import significant_within
+
+    x, cov, S = np.array([3.0]), np.array([[0.01]]), np.array([[1.0]])
+    assert significant_within(x, cov, S, np.array([1.0])) < 1e-50
+    assert significant_within(x, cov, S, np.array([3.5])) == pytest.approx(1.0)

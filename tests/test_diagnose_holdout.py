@@ -15,7 +15,7 @@ from test_diagnose import HIDDEN, NOMINAL, record
 
 from sizefx import diagnose as D
 from sizefx.diagnose.candidates import columns_between
-from sizefx.diagnose.holdout import OVERFIT_ALPHA, cross_validate, validate_on
+from sizefx.diagnose.holdout import HOLDOUT_FOLDS, OVERFIT_ALPHA, cross_validate, validate_on
 from sizefx.diagnose.normal import Rows, normal_equations, solve
 from sizefx.diagnose.predictor import Predictor
 from sizefx.diagnose.residual import residual_under
@@ -51,7 +51,7 @@ def test_a_real_effect_generalises_and_a_spurious_one_does_not():
     free = np.array(sorted(arm + sf))
     pred, rows_of, nrm, theta, weights, before, final = _fit(tel, free)
     cv = cross_validate(pred, rows_of, nrm, NOMINAL, theta, free, {"arm": arm, "sf": sf}, weights, before, final)
-    assert cv is not None and len(cv.parts) == 5
+    assert cv is not None and len(cv.parts) == HOLDOUT_FOLDS and all(p.determined for p in cv.parts)
     gains = {e.key: e for e in cv.effects}
     assert gains["arm"].generalises and gains["arm"].p < 1e-6
     assert gains["arm"].gain_held_out == pytest.approx(gains["arm"].gain_in_sample, rel=0.05)
@@ -75,7 +75,7 @@ def test_a_model_fitted_to_noise_alone_is_flagged_overfit():
     assert cv.overfit and cv.p > OVERFIT_ALPHA
     doc = cv.as_dict()
     json.dumps(doc, allow_nan=False)  # JSON without inf or nan
-    assert doc["overfit"] is True and len(doc["parts"]) == 5
+    assert doc["overfit"] is True and len(doc["parts"]) == HOLDOUT_FOLDS
 
 
 def test_nothing_estimated_is_not_cross_validated():

@@ -334,19 +334,19 @@ def _navigation_errors(tel: Telemetry, **models: np.ndarray) -> dict:
 
 
 def _navigated_folds(tel: Telemetry, d: Diagnosis, theta0: np.ndarray) -> OutOfSample | None:
-    """The cross-validation with each fold of a navigation-length record navigated on its own: from
-    the reference at the fold's start, under the start model, the model fitted without the fold, and
-    the model fitted to the whole record."""
+    """The cross-validation with a navigation-length record navigated over each of its windows
+    (:data:`sizefx.diagnose.holdout.NAVIGATION_WINDOWS`) on its own, from the reference at the
+    window's start: under the start model, the model fitted without the window, and the model
+    fitted to the whole record."""
     cv = d.out_of_sample
-    if cv is None or not _navigable(tel):
+    if cv is None or not cv.windows or not _navigable(tel):
         return cv
-    parts = []
-    for part in cv.parts:
-        assert part.theta is not None  # cross_validate keeps each fold's model
-        fold = crop(tel, part.t0_s, part.t1_s)
-        nav = _navigation_errors(fold, before=theta0, after=part.theta, in_sample=d.theta)
-        parts.append(replace(part, navigation={"duration_s": float(fold.duration_s), **nav}))
-    return replace(cv, parts=tuple(parts))
+    windows = []
+    for t0, t1, theta in cv.windows:
+        part = crop(tel, t0, t1)
+        nav = _navigation_errors(part, before=theta0, after=theta, in_sample=d.theta)
+        windows.append({"t0_s": t0, "t1_s": t1, "duration_s": float(part.duration_s), **nav})
+    return replace(cv, navigation={"windows": windows})
 
 
 def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:

@@ -10,10 +10,11 @@ navigation-grade accelerometer.
 
 - :func:`alone`: what each member of a pair would be if it alone explained what the pair explains
   (the other held at its start value, the rest of the model refitted), from the normal equations.
-- :func:`resolve`: when the finding is plausible for the grade and its alternative alone is not,
-  the finding stands, with the alternative and its implausible value beside it, and an error that
-  holds wherever in its plausible range the alternative really is (:func:`alias_covariance`: a
-  uniform prior over the grade's range, propagated through the pair's normal equations).
+- :func:`resolve`: when the finding is plausible for the grade, its alternative alone is not, and
+  the finding stays significant whatever the alternative is within its plausible range
+  (:func:`significant_within`), the finding stands, with the alternative and its implausible value
+  beside it, and an error that holds wherever in that range the alternative really is (a uniform
+  distribution over the grade's range, propagated through the pair's normal equations).
 - :func:`separating_motions`: for a pair that stays unresolved (or nearly collinear), the motions
   of a small library (:data:`LIBRARY`: sways at two frequencies about each body axis, a turntable
   with each axis vertical in turn, a tumble) that would tell the two apart if recorded as long
@@ -40,6 +41,7 @@ __all__ = [
     "library_normals",
     "resolve",
     "separating_motions",
+    "significant_within",
     "LIBRARY",
     "SEPARATED_CORRELATION",
 ]
@@ -100,40 +102,66 @@ def alone(nrm, free, group, theta, theta0) -> np.ndarray:
     return out[group]
 
 
-def _range_sigma(cand_id: str, idx, grade: str) -> np.ndarray:
-    """Per parameter [SI]: the standard deviation of a uniform distribution over the grade's range."""
+def _half_range(cand_id: str, count: int, grade: str) -> np.ndarray:
+    """Per parameter [SI]: half the width of the grade's plausible range (:data:`RANGES`)."""
     per_unit, _, ranges = RANGES[cand_id]
-    half = ranges[GRADES.index(grade)] * per_unit
-    return np.full(len(idx), half / np.sqrt(3.0))
+    return np.full(count, ranges[GRADES.index(grade)] * per_unit)
+
+
+def _shift(nrm, free, alt_idx) -> np.ndarray:
+    """[free, alt]: how much the estimates of ``free`` move per unit of the parameters ``alt_idx``
+    (not in the model): ``-N_ff^-1 N_fa``."""
+    N = nrm.N.sum(0)
+    free = np.asarray(free, dtype=int)
+    alt = np.asarray(alt_idx, dtype=int)
+    return -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
 
 
 def alias_covariance(nrm, free, alt_idx, alt_sigma) -> np.ndarray:
     """[free, free]: how much the estimates of ``free`` move with the parameters ``alt_idx`` (not in
     the model) anywhere in their range (standard deviations ``alt_sigma`` [SI]): ``S Sigma S'``,
     ``S = -N_ff^-1 N_fa`` the shift of the estimates per unit of the alternative."""
-    N = nrm.N.sum(0)
-    free = np.asarray(free, dtype=int)
-    alt = np.asarray(alt_idx, dtype=int)
-    S = -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
+    S = _shift(nrm, free, alt_idx)
     return S @ np.diag(np.asarray(alt_sigma) ** 2) @ S.T
 
 
-def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho):
+def significant_within(x, cov, S, half) -> float:
+    """p-value of the finding's deviation ``x`` [k] from its start value (covariance ``cov`` [k, k])
+    with an alternative anywhere in the box ``[-half, half]`` (shifting the finding by ``S a``,
+    ``S`` [k, m]): the chi-square of the deviation the alternative leaves at best (box-constrained
+    least squares on the whitened deviation), on ``k`` degrees of freedom."""
+    from scipy.optimize import lsq_linear
+    from scipy.stats import chi2
+
+    W = np.linalg.cholesky(np.linalg.pinv(cov)).T  # W'W = cov^-1
+    best = lsq_linear(W @ S, W @ x, bounds=(-half, half))
+    return float(chi2.sf(2.0 * best.cost, x.size))
+
+
+def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho, cov, level):
     """``finding`` (a :class:`sizefx.diagnose.selection.Chosen` in the model ``free``) against the
     candidate ``alt_cand`` (its parameters ``alt_idx`` not in the model) the motion cannot tell from
-    it: (:class:`Alternative`, covariance [free, free] to add) when the finding is plausible and the
-    alternative alone is not, else None."""
+    it: (:class:`Alternative`, covariance [free, free] to add) when the finding is plausible, the
+    alternative alone is not, and the finding stays significant at ``level`` (its covariance ``cov``
+    [free, free] without the alias) with the alternative anywhere in its plausible range
+    (:func:`significant_within`: else a third cause may explain what the two share); None otherwise."""
     if judge(finding.cand.id, theta[list(finding.cand.idx)], grade):
         return None
-    rest = np.setdiff1d(np.asarray(free, dtype=int), finding.active)
+    free = np.asarray(free, dtype=int)
+    rest = np.setdiff1d(free, finding.active)
     values = theta0[list(alt_cand.idx)].copy()
     values[[list(alt_cand.idx).index(j) for j in alt_idx]] = alone(nrm, rest, alt_idx, theta, theta0)
     why = judge(alt_cand.id, values, grade)
     if not why:
         return None
-    cov = alias_covariance(nrm, free, alt_idx, _range_sigma(alt_cand.id, alt_idx, grade))
-    pos = {j: k for k, j in enumerate(np.asarray(free, dtype=int).tolist())}
-    added = {PARAMS[j].label: float(np.sqrt(cov[pos[j], pos[j]]) / PARAMS[j].per_unit) for j in finding.active}
+    half = _half_range(alt_cand.id, len(alt_idx), grade)
+    S = _shift(nrm, free, alt_idx)
+    pos = np.searchsorted(free, finding.active)
+    x = (theta - theta0)[list(finding.active)]
+    if significant_within(x, cov[np.ix_(pos, pos)], S[pos], half) > level:
+        return None
+    added_cov = S @ np.diag((half / np.sqrt(3.0)) ** 2) @ S.T  # a uniform distribution over the range
+    added = {PARAMS[j].label: float(np.sqrt(added_cov[p, p]) / PARAMS[j].per_unit) for j, p in zip(finding.active, pos)}
     alt = Alternative(
         alt_cand.key,
         {PARAMS[j].label: float(v / PARAMS[j].per_unit) for j, v in zip(alt_cand.idx, values)},
@@ -143,7 +171,7 @@ def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho):
         added,
         PARAMS[finding.active[0]].unit,
     )
-    return alt, cov
+    return alt, added_cov
 
 
 def _trajectory(kind: str, axis: str):

@@ -453,10 +453,12 @@ def diagnose(
     alias_cov = np.zeros((free.size, free.size))
     pairs = [(keep, gone.cand, gone.active, rho) for keep, gone, rho in aliased]
     pairs += [(c, cand, seen, rho) for c, cand, seen, rho in outside]
+    parts = verdict.parts if verdict.parts is not None else parts_scatter(pred, nrm, free, offset)
+    widened = parts.sandwich * np.outer(*(2 * [np.array([parts.factors.get(j, 1.0) for j in free.tolist()])]))
     for finding, alt, seen, rho in pairs:
         if finding.cand.key in resolved:
             continue
-        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho)
+        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho, widened, level)
         if got is not None:
             resolved[finding.cand.key] = got[0]
             alias_cov += got[1]
@@ -465,7 +467,7 @@ def diagnose(
     outside = [o for o in outside if o[0].cand.key not in resolved]
     # the last round judged this very state: its parts stand
     budget = error_budget(
-        pred, rows_of, nrm, theta, chosen, theta0, grade, parts=verdict.parts, aliases=alias_cov if resolved else None
+        pred, rows_of, nrm, theta, chosen, theta0, grade, parts=parts, aliases=alias_cov if resolved else None
     )
     cov = np.zeros((theta.size, theta.size))
     cov[np.ix_(free, free)] = budget.covariance()

@@ -48,13 +48,25 @@ __all__ = [
     "cross_validate",
     "validate_on",
     "HOLDOUT_FOLDS",
+    "NAVIGATION_WINDOWS",
+    "EXTRAPOLATION_RATIO",
     "OVERFIT_ALPHA",
 ]
 
-#: Contiguous folds of blocked cross-validation (and parts of a record validated on): five folds
-#: of 20 blocks each (:data:`sizefx.diagnose.normal.TARGET_BLOCKS`), each a fifth of the record, so
-#: that a fold is long beside the correlation time of the noise the blocks already absorb.
-HOLDOUT_FOLDS = 5
+#: Contiguous folds of blocked cross-validation: 20 folds of 5 blocks each
+#: (:data:`sizefx.diagnose.normal.TARGET_BLOCKS`), each a twentieth of the record and at least
+#: 1.25 s (:data:`sizefx.diagnose.normal.MIN_BLOCK_S`): small enough that holding one out rarely
+#: takes away what a parameter is seen in (a table plan turns about each axis in one stretch of the
+#: record; with five folds a fold held a whole axis), and made of whole blocks, which the block
+#: sandwich already takes as independent.
+HOLDOUT_FOLDS = 20
+#: Contiguous stretches a record long enough to navigate is navigated over, each with the model
+#: fitted without it, and the parts a record validated on is cut into for the table.
+NAVIGATION_WINDOWS = 5
+#: A fold whose absence multiplies a parameter's variance by more than this (the fold holds over
+#: three quarters of what the record shows of it) cannot be predicted from the others: it is
+#: reported, but left out of the held-out gain and its test.
+EXTRAPOLATION_RATIO = 4.0
 #: One-sided level of the t-test that the held-out gain is positive: above it the model, or the
 #: effect, is flagged as not shown to generalise (a flag, not a rejection: an effect near its
 #: detection limit gains little on a fold, and one test in twenty flags a true effect by chance).
@@ -75,8 +87,8 @@ class HeldOut:
     gain_in_sample: float | None = None
     #: the model vector fitted without this part [NP] (folds: for the navigation over the fold)
     theta: np.ndarray | None = field(default=None, repr=False, compare=False)
-    #: free-inertial horizontal error over the part, {"before", "after", "in_sample"}: {"final_m", "max_m"}
-    navigation: dict | None = None
+    #: the other folds determine the model (:data:`EXTRAPOLATION_RATIO`); False: left out of the test
+    determined: bool = True
 
     def as_dict(self) -> dict:
         out: dict = {
@@ -86,12 +98,11 @@ class HeldOut:
             "residual_rms_before": self.rms_before,
             "residual_rms_after": self.rms_after,
             "gain": self.gain,
+            "determined": self.determined,
         }
         if self.rms_in_sample is not None:
             out["residual_rms_in_sample"] = self.rms_in_sample
             out["gain_in_sample"] = self.gain_in_sample
-        if self.navigation is not None:
-            out["navigation"] = self.navigation
         return out
 
 
@@ -134,8 +145,12 @@ class OutOfSample:
     effects: tuple = ()  #: of :class:`EffectGain` (folds only)
     record: str | None = None  #: the other record's path
     #: the other record's free-inertial horizontal error, {"duration_s", "before", "after"}
-    #: (:func:`sizefx.diagnose.navigation_gain`); None for a record too short to navigate
+    #: (:func:`sizefx.diagnose.navigation_gain`); None for a record too short to navigate; folds: the
+    #: navigation windows', {"windows": [{"t0_s", "t1_s", "duration_s", "before", "after", "in_sample"}]}
     navigation: dict | None = None
+    #: folds: (t0_s, t1_s, theta) of :data:`NAVIGATION_WINDOWS` stretches, each with the model
+    #: fitted without it (for the navigation over it)
+    windows: tuple = field(default=(), repr=False, compare=False)
 
     def as_dict(self) -> dict:
         out: dict = {
@@ -147,6 +162,7 @@ class OutOfSample:
             "t": _number(self.t),
             "p": self.p,
             "overfit": self.overfit,
+            "parts_tested": sum(p.determined for p in self.parts),
             "parts": [p.as_dict() for p in self.parts],
         }
         if self.rms_in_sample is not None:
@@ -240,31 +256,28 @@ def cross_validate(
         return None
     N, b, yy = nrm.total()
     offset = theta0 - theta
+    var_all = np.abs(np.diag(solve(N, b, yy, free, offset)[2]))
     block_of_row = np.maximum(np.searchsorted(nrm.t0, rows_of.t, side="right") - 1, 0)
     parts, gains = [], []
     per_effect: dict[str, list] = {k: [] for k in effects}
-    pooled = np.zeros((3, 6))  # sums of squares before, held out, in sample
+    pooled = np.zeros((3, 6))  # sums of squares before, held out, in sample, over the folds tested
     counts = 0
     for k, g in enumerate(nrm.groups(folds)):
         Ng, bg, yyg = nrm.N[g].sum(0), nrm.b[g].sum(0), float(nrm.yy[g].sum())
-        step = _step(N - Ng, b - bg, yy - yyg, free, offset)
+        x, _, cov = solve(N - Ng, b - bg, yy - yyg, free, offset)
+        step = offset.copy()
+        step[free] = x
         th = theta + step
+        # a fold that holds most of what the record shows of a parameter (a table's only turn about
+        # one axis) cannot be predicted from the others: that is extrapolation, not generalisation
+        determined = bool(np.all(np.abs(np.diag(cov)) <= EXTRAPOLATION_RATIO * var_all))
         t0, t1, sel = _fold_rows(rows_of, nrm, g)
-        with pred.uncached():  # a model met once, on a fifth of the record
+        with pred.uncached():  # a model met once, on a fold of the record
             held = residual_under(pred, rows_of, th, within=(t0, t1 if np.isfinite(t1) else pred.t[-1] + 1.0)).rows
         assert held is not None  # rows_of given
         ss_before, rms_before = _power(before_rows, sel, weights)
         ss_after, rms_after = _power(held, sel, weights)
         ss_in, rms_in = _power(final_rows, sel, weights)
-        gains.append(
-            (
-                _block_power(before_rows, sel, block_of_row, nrm.blocks, weights)
-                - _block_power(held, sel, block_of_row, nrm.blocks, weights)
-            )[g]
-        )
-        n = int(sel.sum())
-        pooled += np.array([rms_before, rms_after, rms_in]) ** 2 * n
-        counts += n
         parts.append(
             HeldOut(
                 label=f"fold {k + 1} of {folds}",
@@ -276,14 +289,29 @@ def cross_validate(
                 rms_in_sample=_channels(rms_in),
                 gain_in_sample=1.0 - ss_in / ss_before if ss_before > 0 else 0.0,
                 theta=th,
+                determined=determined,
             )
         )
+        if not determined:
+            continue
+        gains.append(
+            (
+                _block_power(before_rows, sel, block_of_row, nrm.blocks, weights)
+                - _block_power(held, sel, block_of_row, nrm.blocks, weights)
+            )[g]
+        )
+        n = int(sel.sum())
+        pooled += np.array([rms_before, rms_after, rms_in]) ** 2 * n
+        counts += n
         for key, idx in effects.items():  # the effect's own part: the model without it, refitted alike
             without = _step(N - Ng, b - bg, yy - yyg, np.setdiff1d(free, idx), offset)
             per_effect[key].append(
                 _fold_power(nrm.N[g], nrm.b[g], nrm.yy[g], without) - _fold_power(nrm.N[g], nrm.b[g], nrm.yy[g], step)
             )
-    ss_all = float(np.sum(weights * pooled[0]))
+    if not gains:
+        return None  # no fold can be predicted from the others
+    ss_tested = float(np.sum(weights * pooled[0]))
+    ss_all, _ = _power(before_rows, rows_of.keep, weights)
     in_sample = {}
     _, rss_with, _ = solve(N, b, yy, free, offset)
     for key, idx in effects.items():
@@ -294,21 +322,27 @@ def cross_validate(
     for key, per_fold in per_effect.items():  # pooled over the folds as in sample; tested block by block
         d = np.concatenate(per_fold)
         te, pe = _t_test(d)
-        held_out = float(d.sum()) / ss_all if ss_all > 0 else 0.0
+        held_out = float(d.sum()) / ss_tested if ss_tested > 0 else 0.0
         effect_gains.append(EffectGain(key, float(in_sample[key]), held_out, te, pe, pe <= OVERFIT_ALPHA))
     rms_pooled = np.sqrt(pooled / max(counts, 1))
+    windows = []  # NAVIGATION_WINDOWS stretches, each with the model fitted without it
+    for g in nrm.groups(NAVIGATION_WINDOWS):
+        Ng, bg, yyg = nrm.N[g].sum(0), nrm.b[g].sum(0), float(nrm.yy[g].sum())
+        t0, t1, _ = _fold_rows(rows_of, nrm, g)
+        windows.append((t0, float(min(t1, pred.t[-1])), theta + _step(N - Ng, b - bg, yy - yyg, free, offset)))
     return OutOfSample(
         kind="blocked folds in time",
         parts=tuple(parts),
         rms_before=_channels(rms_pooled[0]),
         rms_after=_channels(rms_pooled[1]),
-        gain=1.0 - float(np.sum(weights * pooled[1])) / ss_all if ss_all > 0 else 0.0,
+        gain=1.0 - float(np.sum(weights * pooled[1])) / ss_tested if ss_tested > 0 else 0.0,
         t=t,
         p=p,
         overfit=p > OVERFIT_ALPHA,
         rms_in_sample=_channels(rms_pooled[2]),
-        gain_in_sample=1.0 - float(np.sum(weights * pooled[2])) / ss_all if ss_all > 0 else 0.0,
+        gain_in_sample=1.0 - float(np.sum(weights * pooled[2])) / ss_tested if ss_tested > 0 else 0.0,
         effects=tuple(effect_gains),
+        windows=tuple(windows),
     )
 
 
@@ -318,7 +352,7 @@ def validate_on(
     theta: np.ndarray,
     bandwidth_hz: float | None,
     weights: np.ndarray,
-    parts: int = HOLDOUT_FOLDS,
+    parts: int = NAVIGATION_WINDOWS,
     navigation: dict | None = None,
 ) -> OutOfSample:
     """The extended model ``theta`` on another record ``tel``, against the start model ``theta0``.

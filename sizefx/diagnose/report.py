@@ -469,9 +469,11 @@ def _out_of_sample_lines(o: OutOfSample) -> list[str]:
             )
         return lines
     assert o.rms_in_sample is not None and o.gain_in_sample is not None  # folds carry the in-sample figures
+    tested = sum(p.determined for p in o.parts)
+    untested = "" if tested == len(o.parts) else f"; {len(o.parts) - tested} not predictable from the others, left out"
     lines = [
-        f"out of sample ({o.kind}, {len(o.parts)} folds; the selection kept, each fold's estimates fitted "
-        f"without it): weighted residual power removed {_percent(o.gain_in_sample)} in sample, "
+        f"out of sample ({o.kind}, {len(o.parts)} folds{untested}; the selection kept, each fold's estimates "
+        f"fitted without it): weighted residual power removed {_percent(o.gain_in_sample)} in sample, "
         f"{_percent(o.gain)} held out ({test})"
         + ("; NOT a gain beyond chance: the extended model is overfit" if o.overfit else ""),
         "  residual RMS per channel, start model -> in sample -> held out:",
@@ -487,14 +489,15 @@ def _out_of_sample_lines(o: OutOfSample) -> list[str]:
             f"  {e.key}: removes {_percent(e.gain_in_sample)} in sample, {_percent(e.gain_held_out)} held out "
             f"(p = {e.p:.2g})" + ("" if e.generalises else ": not shown to generalise")
         )
-    navigated = [p for p in o.parts if p.navigation]
-    if navigated:
-        lines.append("  navigation per fold, final horizontal error, start model -> held out -> in sample:")
-        for p in navigated:
-            nav = p.navigation
+    if o.navigation and o.navigation.get("windows"):
+        lines.append(
+            "  navigation over each fifth of the record, from the reference at its start (final horizontal error, "
+            "start model -> fitted without it -> fitted to the whole record):"
+        )
+        for w in o.navigation["windows"]:
             lines.append(
-                f"    {p.label} ({p.t0_s:.0f}-{p.t1_s:.0f} s): {nav['before']['final_m']:.2f} m -> "
-                f"{nav['after']['final_m']:.2f} m -> {nav['in_sample']['final_m']:.2f} m"
+                f"    {w['t0_s']:.0f}-{w['t1_s']:.0f} s: {w['before']['final_m']:.2f} m -> "
+                f"{w['after']['final_m']:.2f} m -> {w['in_sample']['final_m']:.2f} m"
             )
     return lines
 

@@ -39,8 +39,8 @@ def residual_under(
     formed, reduced to its rows and its sums of squares, and dropped. ``rows_of`` None: the full-band
     sums only. ``series``: keep the residual per sample in float32 (for the plots: 7 significant
     digits of a residual drawn at 0.1 s means and as a spectrum, against 48 bytes per sample).
-    ``within=(t0, t1)`` [s]: only the spans that hold samples in that window are formed (the other
-    rows stay zero, and ``ms_full`` covers those spans only)."""
+    ``within=(t0, t1)`` [s]: only the samples of that window are formed, from the first whole row on
+    (the other rows stay zero, and ``ms_full`` covers the window only)."""
     n = pred.n
     rows = None if rows_of is None else np.zeros((rows_of.t.size, 6))
     out = np.empty((n, 6), dtype=np.float32) if series else None
@@ -51,9 +51,12 @@ def residual_under(
         if rows_of is not None
         else [(lo, min(n, lo + CHUNK_SAMPLES)) for lo in range(0, n, CHUNK_SAMPLES)]
     )
-    if within is not None:
-        spans = [(lo, hi) for lo, hi in spans if pred.t[hi - 1] >= within[0] and pred.t[lo] < within[1]]
     L = 1 if rows_of is None else rows_of.L
+    if within is not None:
+        a = int(np.searchsorted(pred.t, within[0])) // L * L
+        b = min(n, -(-int(np.searchsorted(pred.t, within[1])) // L) * L)
+        step = spans[0][1] - spans[0][0] if spans else n
+        spans = [(lo, min(b, lo + step)) for lo in range(a, b, step)]
     for lo, hi in spans:
         a, b = (lo, hi) if rows_of is None else rows_of.extended(lo, hi)
         res = pred.measured_span(a, b) - pred.predict_span(theta, a, b)
