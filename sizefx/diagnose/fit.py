@@ -562,6 +562,23 @@ def diagnose(
         residual,
     )
     if out_of_sample is not None:
+        # a finding the grade resolved from an alias must also predict held-out data: the grade rules
+        # the alternative out, not a third cause the two may share
+        gains = {g.key: g for g in out_of_sample.effects}
+        for c in reported:
+            alt, g = resolved.get(c.cand.key), gains.get(c.cand.key)
+            if alt is None or g is None or g.generalises:
+                continue
+            effects = [e for e in effects if (e.id, e.channel) != (c.cand.id, c.cand.channel)]
+            unrev = _named(
+                unrev,
+                c.cand,
+                c.active,
+                f"indistinguishable from {alt.key} on this motion (canonical correlation {alt.rho:.4f}), which alone "
+                f"would be implausible ({alt.reason}); but it does not predict held-out data beyond chance "
+                f"(p = {g.p:.2g}), so something else may explain what the two share; the extended model carries it",
+            )
+            log.append(f"{c.cand.key} not kept against {alt.key}: it does not generalise (p = {g.p:.2g})")
         warnings += _holdout_warnings(out_of_sample)
     return Diagnosis(
         path=str(tel.path),
