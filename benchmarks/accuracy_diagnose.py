@@ -470,13 +470,7 @@ def psins():
         "rejected": [f"{r.id}:{r.channel}" if r.channel else r.id for r in d.rejected],
         "warnings": [w.kind for w in d.warnings],
         "unexplained": len(d.unexplained),
-        "indistinguishable": sorted(
-            {
-                f"{u['id']}:{u['channel']}" if u["channel"] else u["id"]
-                for u in d.unrevealed
-                if "indistinguishable" in u["reason"]
-            }
-        ),
+        "indistinguishable": sorted({u.key for u in d.unrevealed if "indistinguishable" in u.reason}),
         "reference_delay_ms": value(D.TAU_R, 1e3),
         "reference_mount_arcsec": None
         if mount is None
