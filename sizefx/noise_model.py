@@ -290,6 +290,7 @@ def fit_state(series) -> StateNoise:
         )
         if best is None or fit.cost < best.cost:
             best = fit
+    assert best is not None  # four starts were tried
     r, v, phi, q = (float(a) for a in best.x)
     r = max(r, 1e-6 * var)  # some white noise always: the filter divides by it
     s_gm = v * (1.0 - phi**2)

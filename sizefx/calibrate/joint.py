@@ -522,7 +522,7 @@ def information(
     (:class:`sizefx.noise_model.StateNoise`, the walk restarting with each bias window)."""
     bias_index, n_bias, names = _layout(records, bias_window_s, with_tilt, with_delay)
     segments = _rows(records, bias_index, with_tilt, with_delay, chunk, None)
-    noise = []
+    noise: list[list] = []
     for rec in records:
         dt = float(np.median(np.diff(rec.t)))
         var = density_mps2_per_sqrt_hz**2 / dt
@@ -575,7 +575,7 @@ def joint_fit(
     steps = [steps_in_angular_acceleration(rec) for rec in records]
     left_out = steps if with_delay else None
     segments = _rows(records, bias_index, with_tilt, with_delay, chunk, interval_s, left_out=left_out)
-    noise = [[WHITE] * 3 for _ in records]
+    noise: list[list] = [[WHITE] * 3 for _ in records]
     for step in range(3):
         N, b = _normal_equations(segments, noise, p, n_bias, with_tilt, with_delay)
         eigval = _check_observable(N, names, with_delay)
