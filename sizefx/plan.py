@@ -248,7 +248,12 @@ def _sway_record(sway: scenarios.SwayPlan) -> Record:
 
 
 def _fisher(
-    plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, bias_window_s="fit", sway=None, turntable_record=None
+    plan: scenarios.TurntablePlan,
+    noise_ug_per_sqrt_hz: float,
+    bias_window_s="fit",
+    sway=None,
+    turntable_record=None,
+    colour: dict | None = None,
 ):
     """``(names, Fisher information)`` of the joint fit's parameters on the plan's motion (with the
     delay's sway, a record of its own, and then the delay); the bias windows the fit's (``"fit"``)
@@ -258,7 +263,9 @@ def _fisher(
     records = [_plan_record(plan) if turntable_record is None else turntable_record] + (
         [_sway_record(sway)] if sway is not None else []
     )
-    return information(records, noise_ug_per_sqrt_hz * MICRO_G, with_delay=sway is not None, **windows)
+    return information(
+        records, noise_ug_per_sqrt_hz * MICRO_G, with_delay=sway is not None, **windows, **(colour or {})
+    )
 
 
 def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
@@ -275,17 +282,30 @@ def _sigmas(names, fisher, plan_axes: str) -> np.ndarray:
 
 
 def predict(
-    plan: scenarios.TurntablePlan, noise_ug_per_sqrt_hz: float, sway: scenarios.SwayPlan | None = None
+    plan: scenarios.TurntablePlan,
+    noise_ug_per_sqrt_hz: float,
+    sway: scenarios.SwayPlan | None = None,
+    *,
+    markov_ug_per_sqrt_hz: float = 0.0,
+    markov_correlation_s: float = 1.0,
+    bias_rw_ug_per_sqrt_h: float = 0.0,
 ) -> Prediction:
     """The arms' and the tilt's (and with ``sway``, the delay's) standard errors a calibration on
-    ``plan`` (and the sway's record) will state, the accelerometers' noise white with this density.
+    ``plan`` (and the sway's record) will state, the accelerometers' noise white with this density,
+    plus, when given, a first-order Gauss-Markov part and a bias random walk (the
+    ``accel_noise`` section's ``markov_*`` and ``bias_rw_*``: the Cramer-Rao bound for that noise).
     Raises :class:`PlanError` naming what the plan leaves unobservable."""
     plan.check()
     duration = plan.duration_s
     if sway is not None:
         sway.check()
         duration += sway.duration_s
-    names, fisher = _fisher(plan, noise_ug_per_sqrt_hz, sway=sway)
+    colour = {
+        "markov_density_mps2_per_sqrt_hz": markov_ug_per_sqrt_hz * MICRO_G,
+        "markov_correlation_s": markov_correlation_s,
+        "bias_rw_mps2_per_sqrt_s": bias_rw_ug_per_sqrt_h * MICRO_G / 60.0,
+    }
+    names, fisher = _fisher(plan, noise_ug_per_sqrt_hz, sway=sway, colour=colour)
     sigma = _sigmas(names, fisher, plan.axes)
     tilt = [names.index("tilt_north"), names.index("tilt_east")]
     return Prediction(
