@@ -323,8 +323,9 @@ def flight(plan: FlightPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajector
     t_out_min = (60.0 + 5 * weave_T if weave else 0.0) + 30.0
     if end_time(t_out_min) > plan.duration_s:
         raise ConfigError(
-            f"flight: {plan.duration_s:.0f} s is too short for alignment, take-off, a turn and "
-            f"landing (at least {end_time(t_out_min):.0f} s); lengthen it"
+            f"flight: {plan.duration_s:.0f} s (--duration-h {plan.duration_s / 3600.0:g}) is too short for "
+            f"{plan.align_s:g} s of alignment (--align-s), take-off, a turn and landing (at least "
+            f"{end_time(t_out_min):.0f} s in all); lengthen --duration-h or shorten --align-s"
         )
     from scipy.optimize import brentq  # here: scipy.optimize costs 0.3 s at start-up
 
