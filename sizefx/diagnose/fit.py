@@ -449,20 +449,8 @@ def diagnose(
         if chosen[i].cand.key not in alias_keys | nuisance_keys  # a nuisance is no finding to begin with
     ]
     free = _free(chosen)
-    resolved: dict = {}  # finding key -> Alternative
-    alias_cov = np.zeros((free.size, free.size))
-    pairs = [(keep, gone.cand, gone.active, rho) for keep, gone, rho in aliased]
-    pairs += [(c, cand, seen, rho) for c, cand, seen, rho in outside]
     parts = verdict.parts if verdict.parts is not None else parts_scatter(pred, nrm, free, offset)
-    widened = parts.sandwich * np.outer(*(2 * [np.array([parts.factors.get(j, 1.0) for j in free.tolist()])]))
-    for finding, alt, seen, rho in pairs:
-        if finding.cand.key in resolved:
-            continue
-        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho, widened, level)
-        if got is not None:
-            resolved[finding.cand.key] = got[0]
-            alias_cov += got[1]
-            log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
+    resolved, alias_cov = _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts, log)
     aliased = [a for a in aliased if a[0].cand.key not in resolved]
     outside = [o for o in outside if o[0].cand.key not in resolved]
     # the last round judged this very state: its parts stand
@@ -488,63 +476,8 @@ def diagnose(
         name_effect(c, theta, theta0, sig, shares[c.cand.key], alternative=resolved.get(c.cand.key)) for c in reported
     ]
     effects.sort(key=lambda e: -e.explained_fraction)
-    unrev = [
-        NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
-        for cand, hidden, reason in unrevealed.values()
-    ]
-    normals: dict = {}  # the library's normal matrices (aliases.library_normals), formed once if need be
-    N_record = nrm.N.sum(0)
-
-    def separated_by(a, b):
-        """The motions that would tell the parameter groups ``a`` and ``b`` apart, beside this record."""
-        if not normals:
-            normals.update(library_normals(theta, 1.0 / (state.sigma_c**2 * state.kappa)))
-        rest = np.setdiff1d(free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
-        return separating_motions(N_record, nrm.rows, list(a), list(b), rest, normals)
-
-    for keep, gone, rho in aliased:
-        motions = separated_by(keep.active, gone.active)
-        for me, other in ((keep, gone), (gone, keep)):
-            unrev = _named(
-                unrev,
-                me.cand,
-                me.active,
-                f"indistinguishable from {other.cand.key} on this motion (canonical correlation {rho:.4f}); "
-                f"the extended model carries their sum as {keep.cand.key}",
-                motions,
-            )
-    for c, cand, seen, rho in outside:
-        motions = separated_by(c.active, seen)
-        for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
-            if any((u.id, u.channel) == (me.id, me.channel) and "on this motion" in u.reason for u in unrev):
-                continue
-            unrev = _named(
-                unrev,
-                me,
-                params,
-                f"indistinguishable from {other} on this motion (canonical correlation {rho:.4f}); "
-                f"the extended model carries it as {c.cand.key}",
-                motions,
-            )
-    finding_of = {c.cand.key: c for c in chosen}
-    for n, of, rho in nuisance:
-        unrev = _named(
-            unrev,
-            n.cand,
-            n.active,
-            f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
-            f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
-            separated_by(n.active, finding_of[of].active),
-        )
-    for c, n, rho, why in weak:
-        unrev = _named(
-            unrev,
-            c.cand,
-            c.active,
-            f"nearly indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): "
-            f"fitted together, it is no longer a finding ({why}); the extended model carries both",
-            separated_by(c.active, n.active),
-        )
+    weights = 1.0 / (state.sigma_c**2 * state.kappa)
+    unrev = _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights)
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)
@@ -557,7 +490,7 @@ def diagnose(
         theta,
         free,
         {c.cand.key: list(c.active) for c in reported},
-        1.0 / (state.sigma_c**2 * state.kappa),
+        weights,
         before.rows,
         residual,
     )
@@ -674,6 +607,95 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
     return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
+
+
+def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: Parts, log):
+    """The findings the grade resolves from their aliases (:func:`sizefx.diagnose.aliases.resolve`):
+    ``({finding key: Alternative}, the budget's aliases part [free, free])``. ``aliased``: selected
+    pairs, the first kept; ``outside``: a selected effect and a candidate left out; ``parts``: the
+    errors' sandwich and the parts' factors, against which a finding must stay significant."""
+    resolved: dict = {}
+    alias_cov = np.zeros((free.size, free.size))
+    factors = np.array([parts.factors.get(j, 1.0) for j in free.tolist()])
+    widened = parts.sandwich * np.outer(factors, factors)
+    pairs = [(keep, gone.cand, gone.active, rho) for keep, gone, rho in aliased]
+    pairs += [(c, cand, seen, rho) for c, cand, seen, rho in outside]
+    for finding, alt, seen, rho in pairs:
+        if finding.cand.key in resolved:
+            continue
+        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho, widened, level)
+        if got is not None:
+            resolved[finding.cand.key] = got[0]
+            alias_cov += got[1]
+            log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
+    return resolved, alias_cov
+
+
+def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights) -> list:
+    """What the record cannot reveal, as :class:`~sizefx.diagnose.records.NotRevealed` entries: the
+    parameters the motion does not excite (``unrevealed``, from the selection); the pairs it cannot
+    tell apart (``aliased``: both selected, the model carrying their sum as the first; ``outside``:
+    a selected effect and a candidate left out); the candidates fitted beside a finding
+    (``nuisance``) and the findings no longer one beside them (``weak``). Each alias names the
+    motions that would separate it (:func:`sizefx.diagnose.aliases.separating_motions`, the
+    library's normal matrices formed once, at the model ``theta`` with the record's ``weights``)."""
+    unrev = [
+        NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
+        for cand, hidden, reason in unrevealed.values()
+    ]
+    normals: dict = {}
+    N_record = nrm.N.sum(0)
+
+    def separated_by(a, b):
+        if not normals:
+            normals.update(library_normals(theta, weights))
+        rest = np.setdiff1d(free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
+        return separating_motions(N_record, nrm.rows, list(a), list(b), rest, normals)
+
+    for keep, gone, rho in aliased:
+        motions = separated_by(keep.active, gone.active)
+        for me, other in ((keep, gone), (gone, keep)):
+            unrev = _named(
+                unrev,
+                me.cand,
+                me.active,
+                f"indistinguishable from {other.cand.key} on this motion (canonical correlation {rho:.4f}); "
+                f"the extended model carries their sum as {keep.cand.key}",
+                motions,
+            )
+    for c, cand, seen, rho in outside:
+        motions = separated_by(c.active, seen)
+        for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
+            if any((u.id, u.channel) == (me.id, me.channel) and "on this motion" in u.reason for u in unrev):
+                continue
+            unrev = _named(
+                unrev,
+                me,
+                params,
+                f"indistinguishable from {other} on this motion (canonical correlation {rho:.4f}); "
+                f"the extended model carries it as {c.cand.key}",
+                motions,
+            )
+    finding_of = {c.cand.key: c for c in chosen}
+    for n, of, rho in nuisance:
+        unrev = _named(
+            unrev,
+            n.cand,
+            n.active,
+            f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
+            f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
+            separated_by(n.active, finding_of[of].active),
+        )
+    for c, n, rho, why in weak:
+        unrev = _named(
+            unrev,
+            c.cand,
+            c.active,
+            f"nearly indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): "
+            f"fitted together, it is no longer a finding ({why}); the extended model carries both",
+            separated_by(c.active, n.active),
+        )
+    return unrev
 
 
 def _named(unrev: list, cand, params, reason: str, separated_by=()) -> list:
