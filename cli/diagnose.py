@@ -102,7 +102,8 @@ def diagnose(
     term, g-sensitivity) with robust tests and honest errors, rejects what is
     implausible for the sensor grade or cannot be told apart on this motion,
     names what the model still cannot explain, writes the extended model and
-    reports the residual RMS per channel before and after.
+    reports the residual RMS per channel before and after, in sample and on
+    blocked folds held out in time (and on --validate-on records).
     """
     from sizefx.diagnose import run
 
