@@ -113,3 +113,18 @@ def test_significance_within_the_alternatives_range():
     x, cov, S = np.array([3.0]), np.array([[0.01]]), np.array([[1.0]])
     assert significant_within(x, cov, S, np.array([1.0])) < 1e-50
     assert significant_within(x, cov, S, np.array([3.5])) == pytest.approx(1.0)
+
+
+def test_a_group_the_rest_already_explains_is_no_alias_of_anything():
+    """A gyro's g-sensitivity to f_z under near-constant gravity is the gyro's bias over again: once
+    the bias is in the model, that column is degenerate by itself and its canonical correlation with
+    any other group is meaningless (it read 1, and every finding beside it went to not revealed)."""
+    from sizefx.diagnose.normal import canonical_correlation
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(500, 3))
+    X = np.column_stack([X, 2.0 * X[:, 2]])  # column 3 is column 2 twice
+    N = X.T @ X
+    assert np.isnan(canonical_correlation(N, [0], [3], [2]))
+    assert canonical_correlation(N, [0], [3], [1]) < 0.2  # without its twin in the rest, a group like any other
+    assert canonical_correlation(N, [2], [3]) == pytest.approx(1.0)

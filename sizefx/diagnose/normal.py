@@ -50,6 +50,7 @@ __all__ = [
     "TARGET_BLOCKS",
     "MIN_BLOCK_S",
     "HUBER_K",
+    "DEGENERATE",
 ]
 
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
@@ -70,6 +71,9 @@ CHUNK_SAMPLES = 32_768
 #: spans' rows then equal the whole series' to rounding (its slowest pole to the power of
 #: :attr:`Rows.margin`; 2800 samples at 10 Hz in a 1600 Hz record).
 FILTER_SETTLE = 1e-18
+#: A regressor that keeps under this share of its energy once others are fitted is degenerate
+#: given them (its residual RMS under 3e-5 of its own): :func:`canonical_correlation`'s NaN.
+DEGENERATE = 1e-9
 #: Huber's constant in units of the channel's robust sigma: 3 leaves Gaussian rows untouched
 #: (0.3 % of them are down-weighted, by at most a few percent) and caps a glitch's pull.
 HUBER_K = 3.0
@@ -393,13 +397,19 @@ def canonical_correlation(N: np.ndarray, a, b, rest=()) -> float:
     after both are regressed on the group ``rest``, from the normal matrix ``N`` alone.
 
     1 means some combination of ``a`` is a combination of ``b`` on this motion: the record cannot
-    say which of the two it sees. Computed from the Schur complements of ``rest``.
+    say which of the two it sees. Computed from the Schur complements of ``rest``. NaN when a
+    parameter of either group is degenerate by itself given ``rest`` (keeps under
+    :data:`DEGENERATE` of its regressor's energy once ``rest`` is fitted): it is confounded with
+    ``rest``, not with the other group, whose correlation with it means nothing.
     """
     a, b, rest = (np.asarray(g, dtype=int) for g in (a, b, rest))
     ab = np.concatenate([a, b])
     S = N[np.ix_(ab, ab)]
     if rest.size:
         S = S - N[np.ix_(ab, rest)] @ _inverse(N[np.ix_(rest, rest)]) @ N[np.ix_(rest, ab)]
+    raw = np.diag(N)[ab]
+    if np.any(np.diag(S) <= DEGENERATE * np.where(raw > 0, raw, 1.0)):
+        return float("nan")
     na = a.size
     Saa, Sbb, Sab = S[:na, :na], S[na:, na:], S[:na, na:]
     try:

@@ -180,9 +180,11 @@ def _collinear_left_out(nrm: Normal, chosen, skip=()):
         for cand in CANDIDATES:
             if cand in taken or cand.key in skip:
                 continue
-            seen = [
-                j for j in cand.idx if j not in rest and excitation(nrm, np.array([j]))[j] >= PARAMS[j].min_excitation
-            ]
+            # only what the rest of the model leaves revealed of the candidate: a part the rest already
+            # hides (an accelerometer-z quadratic term under constant gravity, beside the z bias; a gyro's
+            # g-sensitivity to f_z beside its bias) is degenerate whatever chosen[i] is, no alias of it
+            # (its canonical correlation with any group would read 1)
+            seen = [j for j in revealed(nrm, np.asarray(rest, dtype=int), cand)[0] if j not in rest]
             if not seen:
                 continue
             rho = canonical_correlation(N, c.active, seen, rest)
