@@ -14,6 +14,7 @@ from test_diagnose import NOMINAL, found, record
 
 from sizefx import diagnose as D
 from sizefx import scenarios
+from sizefx.constants import ARCSEC
 from sizefx.effects import IDEAL, load_effects
 from sizefx.motion import RotationChain, Sinusoids, StaticSite, Trajectory
 from sizefx.simulate import simulate_in_memory
@@ -128,3 +129,35 @@ def test_a_group_the_rest_already_explains_is_no_alias_of_anything():
     assert np.isnan(canonical_correlation(N, [0], [3], [2]))
     assert canonical_correlation(N, [0], [3], [1]) < 0.2  # without its twin in the rest, a group like any other
     assert canonical_correlation(N, [2], [3]) == pytest.approx(1.0)
+
+
+def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausible_range():
+    """The z gyro's misalignment towards x, hidden as indistinguishable, shifts the x gyro's towards z
+    one for one: that finding's error takes the hidden one's range (300 arcsec at navigation grade,
+    uniform: 173 arcsec); a hidden parameter the motion does not excite moves nothing."""
+    from sizefx.diagnose.aliases import hidden_covariance
+    from sizefx.diagnose.candidates import CANDIDATES
+    from sizefx.diagnose.normal import Normal
+
+    x_to_z = next(c for c in CANDIDATES if c.key == "gyro_misalignment:gyro_x")
+    z_cand = next(c for c in CANDIDATES if c.key == "gyro_misalignment:gyro_z")
+    j, h = x_to_z.idx[1], z_cand.idx[0]  # x->z and z->x
+    other = D.A_BIAS[0]
+    rng = np.random.default_rng(1)
+    X = np.zeros((400, D.NP))
+    X[:, j] = rng.normal(size=400)
+    X[:, h] = X[:, j] + 1e-3 * rng.normal(size=400)  # seen only together
+    X[:, other] = rng.normal(size=400)
+    N = X.T @ X
+    nrm = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
+    free = np.array(sorted([j, other]))
+    cov = hidden_covariance(
+        nrm, free, {z_cand.key: (z_cand, (h,), "indistinguishable in this record from x")}, "navigation"
+    )
+    sigma = np.sqrt(np.diag(cov))
+    assert sigma[list(free).index(j)] == pytest.approx(300.0 * ARCSEC / np.sqrt(3.0), rel=0.01)
+    assert sigma[list(free).index(other)] < 1e-3 * sigma[list(free).index(j)]
+    quiet = hidden_covariance(
+        nrm, free, {z_cand.key: (z_cand, (h,), "the motion in this record does not excite it")}, "navigation"
+    )
+    assert not quiet.any()

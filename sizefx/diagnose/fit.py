@@ -42,7 +42,7 @@ import numpy as np
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
-from .aliases import library_normals, resolve, separating_motions
+from .aliases import hidden_covariance, library_normals, resolve, separating_motions
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .budget import Parts, error_budget, parts_scatter
@@ -451,11 +451,12 @@ def diagnose(
     free = _free(chosen)
     parts = verdict.parts if verdict.parts is not None else parts_scatter(pred, nrm, free, offset)
     resolved, alias_cov = _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts, log)
+    alias_cov = alias_cov + hidden_covariance(nrm, free, unrevealed, grade, skip={a.key for a in resolved.values()})
     aliased = [a for a in aliased if a[0].cand.key not in resolved]
     outside = [o for o in outside if o[0].cand.key not in resolved]
     # the last round judged this very state: its parts stand
     budget = error_budget(
-        pred, rows_of, nrm, theta, chosen, theta0, grade, parts=parts, aliases=alias_cov if resolved else None
+        pred, rows_of, nrm, theta, chosen, theta0, grade, parts=parts, aliases=alias_cov if alias_cov.any() else None
     )
     cov = np.zeros((theta.size, theta.size))
     cov[np.ix_(free, free)] = budget.covariance()
