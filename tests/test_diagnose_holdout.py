@@ -124,3 +124,20 @@ def test_cli_validate_on_reports_each_record_and_refuses_a_missing_one(tmp_path)
     result = CliRunner().invoke(main, [*args, "--force", "--validate-on", str(missing)])
     assert result.exit_code == 2
     assert str(missing) in result.output and "Traceback" not in result.output
+
+
+def test_cli_validate_on_a_record_too_slow_for_the_band_is_refused_in_one_line(tmp_path):
+    from sizefx.io.writer import write_telemetry
+
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    write_telemetry(a, record({"lever_arm": HIDDEN["lever_arm"]}, duration_s=30.0, seed=13)[0])
+    write_telemetry(b, record({"lever_arm": HIDDEN["lever_arm"]}, duration_s=30.0, seed=14, rate_hz=50.0)[0])
+    model = tmp_path / "a.model.toml"
+    result = CliRunner().invoke(
+        main,
+        ["diagnose", str(a), "--grade", "navigation", "--bandwidth-hz", "30", "--validate-on", str(b)],
+    )
+    assert result.exit_code == 2, result.output
+    assert str(b) in result.output and "--validate-on" in result.output and "Traceback" not in result.output
+    assert len(result.output.strip().splitlines()) == 1
+    assert not model.exists()  # refused before anything is written

@@ -50,6 +50,7 @@ from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
 from ..geometry import PRESETS
 from ..io.files import atomic_output
+from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry, read_telemetry
 from ..io.toml import write_toml
 from ..levers import nominal_levers
@@ -360,6 +361,12 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force, folders={"--plots": config.plots})
     theta0, start = start_model(config.nominal, None if config.model is None else str(config.model))
     path = config.input
+    rates = {}  # the --validate-on records, checked before the fit (and read again after it: one at a time)
+    for other in config.validate_on:
+        tel_o = read_telemetry(other, allow_gaps=config.allow_gaps)
+        require_reference(tel_o)
+        rates[other] = 1.0 / nominal_period_s(tel_o.time_s)
+        del tel_o
     tel = read_telemetry(path, allow_gaps=config.allow_gaps, segment=config.segment)
     require_reference(tel)
     d = diagnose(
@@ -370,6 +377,13 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
         keep_series=bool(config.plots),
         progress=progress,
     )
+    for other, rate_hz in rates.items():  # before anything is written
+        if d.bandwidth_hz is not None and not d.bandwidth_hz < 0.4 * rate_hz:
+            raise ConfigError(
+                f"{other} (--validate-on): the model was fitted below {d.bandwidth_hz:g} Hz, which this "
+                f"{rate_hz:g} Hz record cannot resolve (0.8 times its Nyquist frequency: {0.4 * rate_hz:g} Hz); "
+                "validate on a record at the rate of the one diagnosed, or diagnose it with a lower --bandwidth-hz"
+            )
     inputs = [p for p in config.inputs().values() if p is not None]
     model_out = config.model_out_path
     write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs, force=config.force)
@@ -380,7 +394,6 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     weights = 1.0 / (d.weights_sigma**2 * d.kappa)
     for other in config.validate_on:
         tel_o = read_telemetry(other, allow_gaps=config.allow_gaps)
-        require_reference(tel_o)
         nav = navigation_gain(tel_o, theta0, d.theta) if config.navigation else None
         d.validated_on.append(validate_on(tel_o, theta0, d.theta, d.bandwidth_hz, weights, navigation=nav))
     doc = to_json(d, start)
