@@ -36,7 +36,6 @@ __all__ = [
     "ARNoise",
     "StateNoise",
     "ChainedNoise",
-    "ar_log_likelihood",
     "state_log_likelihood",
     "fit_ar",
     "fit_state",
@@ -317,8 +316,3 @@ def state_log_likelihood(series, model: StateNoise) -> float:
     """The Gaussian log-likelihood of the residual ``series`` under ``model`` (each series' level free)."""
     series = [np.asarray(e, dtype=float) for e in series if np.asarray(e).size > 2]
     return _state_log_likelihood(series, model.q_rw, model.phi, model.s_gm, model.r)[0]
-
-
-def ar_log_likelihood(model: ARNoise, n: int) -> float:
-    """The conditional Gaussian log-likelihood of ``n`` rows under ``model`` (its innovation variance)."""
-    return -0.5 * n * (np.log(2.0 * np.pi * model.innovation_var) + 1.0) if model.innovation_var > 0 else 0.0

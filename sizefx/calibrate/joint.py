@@ -385,7 +385,7 @@ def _noise_model(series) -> ChainedNoise:
     floor = NOISE_FLOOR_MPS2**2
     if not state.r >= floor:  # residuals of rounding size (a simulation without noise)
         return ChainedNoise(StateNoise(0.0, 0.0, 0.0, floor), ARNoise(np.zeros(0), 1.0, 1.0))
-    white = StateNoise(0.0, 0.0, 0.0, state.variance() + 0.0)
+    white = StateNoise(0.0, 0.0, 0.0, state.variance())
     ll_white = state_log_likelihood(series, white)
     if 2.0 * (state.log_likelihood - ll_white) < STATE_LR_THRESHOLD:
         state = white  # no walk nor Gauss-Markov part beyond chance

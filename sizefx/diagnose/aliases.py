@@ -36,7 +36,6 @@ from .theta import PARAMS
 
 __all__ = [
     "Alternative",
-    "alias_covariance",
     "hidden_covariance",
     "alone",
     "library_normals",
@@ -118,12 +117,10 @@ def _shift(nrm, free, alt_idx) -> np.ndarray:
     return -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
 
 
-def alias_covariance(nrm, free, alt_idx, alt_sigma) -> np.ndarray:
-    """[free, free]: how much the estimates of ``free`` move with the parameters ``alt_idx`` (not in
-    the model) anywhere in their range (standard deviations ``alt_sigma`` [SI]): ``S Sigma S'``,
-    ``S = -N_ff^-1 N_fa`` the shift of the estimates per unit of the alternative."""
-    S = _shift(nrm, free, alt_idx)
-    return S @ np.diag(np.asarray(alt_sigma) ** 2) @ S.T
+def _spread(S, half) -> np.ndarray:
+    """``S Sigma S'``: the covariance the shifts ``S`` [k, m] per unit of parameters spread uniformly
+    over ``[-half, half]`` [m] give (a uniform distribution's variance, ``half^2 / 3``)."""
+    return S @ np.diag(np.asarray(half) ** 2 / 3.0) @ S.T
 
 
 def significant_within(x, cov, S, half) -> float:
@@ -159,8 +156,7 @@ def hidden_covariance(nrm, free, unrevealed: dict, grade: str, skip=()) -> np.nd
     cov = np.zeros((free.size, free.size))
     for cand, params in hidden:
         if params and cand.id in RANGES:
-            S = _shift(nrm, free, params)
-            cov += S @ np.diag((_half_range(cand.id, len(params), grade) / np.sqrt(3.0)) ** 2) @ S.T
+            cov += _spread(_shift(nrm, free, params), _half_range(cand.id, len(params), grade))
     return cov
 
 
@@ -186,7 +182,7 @@ def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho, co
     x = (theta - theta0)[list(finding.active)]
     if significant_within(x, cov[np.ix_(pos, pos)], S[pos], half) > level:
         return None
-    added_cov = S @ np.diag((half / np.sqrt(3.0)) ** 2) @ S.T  # a uniform distribution over the range
+    added_cov = _spread(S, half)
     added = {PARAMS[j].label: float(np.sqrt(added_cov[p, p]) / PARAMS[j].per_unit) for j, p in zip(finding.active, pos)}
     alt = Alternative(
         alt_cand.key,

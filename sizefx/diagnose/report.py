@@ -323,8 +323,8 @@ def format_report(d: Diagnosis, start: str) -> str:
                 f"  {k}. {e.sentence} [{where}; explains {100 * e.explained_fraction:.1f} % of the "
                 "structure in its channels]"
             )
-    elif _changed_without_finding(d):
-        lines.append(_changed_without_finding(d))
+    elif changed := _changed_without_finding(d):
+        lines.append(changed)
     else:
         white = d.white_sigma or {}
         loud = [c for c in CHANNELS if white and d.rms_after[c] > 1.5 * white[c]]

@@ -96,10 +96,9 @@ def noise_of(rows_of: Rows, rows, robust: bool):
     return sigma, kappa, weights
 
 
-def rms(rows_of: Rows, rows, keep=None):
-    """Per channel: the RMS of the rows ``rows_of.keep`` (and ``keep``, when given)."""
-    sel = rows_of.keep if keep is None else rows_of.keep & keep
-    return np.sqrt(np.mean(rows[sel] ** 2, axis=0))
+def rms(rows_of: Rows, rows):
+    """Per channel: the RMS of the rows ``rows_of.keep``."""
+    return np.sqrt(np.mean(rows[rows_of.keep] ** 2, axis=0))
 
 
 def white(rows_of: Rows, rows):
