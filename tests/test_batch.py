@@ -110,8 +110,17 @@ def test_rerun_skips_what_is_unchanged(campaign, tmp_path):
     result = _batch("inspect", runs, "--out", out, *one)
     assert "2 ok, 1 unchanged" in result.output, result.output
     assert {e["name"]: e["sha256"] for e in _manifest(out)["records"]}["run1"] == sha256_of(runs / "run1.h5")
-    assert "3 ok, 0 unchanged" in _batch("inspect", runs, "--out", out, "--redo", *one).output
-    result = _batch("inspect", runs, "--out", out, "--no-units-check", *one)  # other options: run again
+
+
+# long tier: three more batch runs, each starting its worker (about a second each); the fast tier's
+# test above keeps the skipping itself
+@pytest.mark.slow
+def test_redo_and_other_options_run_every_record_again(campaign, tmp_path):
+    out = tmp_path / "out"
+    one = ("--workers", "1")
+    assert _batch("inspect", campaign, "--out", out, *one).exit_code == 0
+    assert "3 ok, 0 unchanged" in _batch("inspect", campaign, "--out", out, "--redo", *one).output
+    result = _batch("inspect", campaign, "--out", out, "--no-units-check", *one)  # other options: run again
     assert "3 ok, 0 unchanged" in result.output, result.output
 
 

@@ -258,14 +258,23 @@ def test_a_resume_reruns_records_whose_outputs_it_cannot_verify(runs, tmp_path):
     out = tmp_path / "out"
     one = ("--workers", "1")
     assert _sizefx("batch", "inspect", runs, "--out", out, *one).exit_code == 0
-    assert "0 ok, 2 unchanged" in _sizefx("batch", "inspect", runs, "--out", out, *one).output
     with sqlite3.connect(out / "manifest.sqlite") as db:  # edited by hand: an ok record with no outputs
         (key, text), *_ = db.execute("SELECT input, entry FROM records ORDER BY input").fetchall()
         db.execute(
             "UPDATE records SET entry = ? WHERE input = ?", (json.dumps({**json.loads(text), "outputs": {}}), key)
         )
     assert "1 ok, 1 unchanged" in _sizefx("batch", "inspect", runs, "--out", out, *one).output
-    # a folder with only its manifest.json (made by hand): read from it, and edited the same way
+
+
+# long tier: four batch runs, each starting its worker (about a second each); the fast tier's test
+# above keeps the manifest edited by hand
+@pytest.mark.slow
+def test_a_resume_from_a_json_manifest_or_a_copied_folder_reruns_what_it_cannot_verify(runs, tmp_path):
+    out = tmp_path / "out"
+    one = ("--workers", "1")
+    assert _sizefx("batch", "inspect", runs, "--out", out, *one).exit_code == 0
+    assert "0 ok, 2 unchanged" in _sizefx("batch", "inspect", runs, "--out", out, *one).output
+    # a folder with only its manifest.json (made by hand): read from it, and edited by hand
     for name in ("manifest.sqlite", "manifest.sqlite-wal", "manifest.sqlite-shm"):
         (out / name).unlink(missing_ok=True)
     manifest = json.loads((out / "manifest.json").read_text())

@@ -37,6 +37,10 @@ from support import long_tier_selected
 #: Hypothesis examples per property: each is one forked run (~0.1-1 s), and the file must stay
 #: under a minute on two cores.
 EXAMPLES = 12
+#: The numeric options' property in the fast tier: its runs include whole navigations (up to 1.5 s
+#: each), so it keeps 6 examples there and its long-tier twin draws :data:`LONG_EXAMPLES`.
+OPTION_EXAMPLES = 6
+LONG_EXAMPLES = 48
 #: No shrinking: each example is a forked sizefx run, and shrinking one failure took 106 s
 #: (measured); the failure message names the generated case, which is what a developer needs.
 PHASES = (Phase.explicit, Phase.reuse, Phase.generate)
@@ -382,11 +386,7 @@ _OPTION_VALUES = st.one_of(
 )
 
 
-@settings(max_examples=EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck))
-@given(option=st.sampled_from(hc.numeric_options()), value=_OPTION_VALUES)
-def test_numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
-    """Any value for any numeric option (click introspection): non-finite values are refused
-    with one line naming the option; others are refused or run, within the limits."""
+def _numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
     root, _ = corpus
     path, flag, _kind = option
     name = f"hyp-option-{'-'.join(path)}{flag}-{value[:40]}-{time.monotonic_ns()}"
@@ -394,6 +394,24 @@ def test_numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
     o = hc.run_cases([case], tmp_path_factory.mktemp("option-runs"))[name]
     broken = hc.broken_promises(o, limit_s=hc.IN_PROCESS_LIMIT_S)
     assert not broken, hc.describe(o, broken)
+
+
+@settings(
+    max_examples=OPTION_EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck)
+)
+@given(option=st.sampled_from(hc.numeric_options()), value=_OPTION_VALUES)
+def test_numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
+    """Any value for any numeric option (click introspection): non-finite values are refused
+    with one line naming the option; others are refused or run, within the limits."""
+    _numeric_option_keeps_promises(corpus, tmp_path_factory, option, value)
+
+
+@pytest.mark.slow
+@settings(max_examples=LONG_EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck))
+@given(option=st.sampled_from(hc.numeric_options()), value=_OPTION_VALUES)
+def test_numeric_option_keeps_promises_long(corpus, tmp_path_factory, option, value):
+    """The fast tier's property over :data:`LONG_EXAMPLES` examples."""
+    _numeric_option_keeps_promises(corpus, tmp_path_factory, option, value)
 
 
 # long tier: allocates and measures a child's memory (5 s); the fast tier's hostile cases keep their own memory check
