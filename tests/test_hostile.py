@@ -407,7 +407,9 @@ def test_numeric_option_keeps_promises(corpus, tmp_path_factory, option, value):
 
 
 @pytest.mark.slow
-@settings(max_examples=LONG_EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck))
+@settings(
+    max_examples=LONG_EXAMPLES, deadline=None, database=None, phases=PHASES, suppress_health_check=list(HealthCheck)
+)
 @given(option=st.sampled_from(hc.numeric_options()), value=_OPTION_VALUES)
 def test_numeric_option_keeps_promises_long(corpus, tmp_path_factory, option, value):
     """The fast tier's property over :data:`LONG_EXAMPLES` examples."""
