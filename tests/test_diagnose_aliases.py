@@ -134,10 +134,13 @@ def test_a_group_the_rest_already_explains_is_no_alias_of_anything():
 def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausible_range():
     """The z gyro's misalignment towards x, hidden as indistinguishable, shifts the x gyro's towards z
     one for one: that finding's error takes the hidden one's range (300 arcsec at navigation grade,
-    uniform: 173 arcsec); a hidden parameter the motion does not excite moves nothing."""
-    from sizefx.diagnose.aliases import hidden_covariance
+    uniform: 173 arcsec), and the finding could be it whole; a parameter hidden because the motion
+    does not excite it is left out, unless its excitation is measured on some channels only (the
+    reference's mount, on the gyros): it still acts on the others."""
+    from sizefx.diagnose.aliases import hidden_fit, hidden_parameters, masked_by_hidden
     from sizefx.diagnose.candidates import CANDIDATES
     from sizefx.diagnose.normal import Normal
+    from sizefx.diagnose.selection import Chosen
 
     x_to_z = next(c for c in CANDIDATES if c.key == "gyro_misalignment:gyro_x")
     z_cand = next(c for c in CANDIDATES if c.key == "gyro_misalignment:gyro_z")
@@ -151,13 +154,29 @@ def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausib
     N = X.T @ X
     nrm = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
     free = np.array(sorted([j, other]))
-    cov = hidden_covariance(
-        nrm, free, {z_cand.key: (z_cand, (h,), "indistinguishable in this record from x")}, "navigation"
-    )
+    bias = next(c for c in CANDIDATES if other in c.idx)
+    chosen = [Chosen(x_to_z, (j,), ()), Chosen(bias, (other,), ())]
+    indistinct = {z_cand.key: (z_cand, (h,), "indistinguishable in this record from x")}
+    hidden = hidden_parameters(nrm, chosen, indistinct)
+    dx, dh, cov = hidden_fit(nrm, free, hidden, "navigation", np.zeros(D.NP))
+    assert not dx.any() and not dh.any()  # no residual to explain: nothing moves
     sigma = np.sqrt(np.diag(cov))
     assert sigma[list(free).index(j)] == pytest.approx(300.0 * ARCSEC / np.sqrt(3.0), rel=0.01)
     assert sigma[list(free).index(other)] < 1e-3 * sigma[list(free).index(j)]
-    quiet = hidden_covariance(
-        nrm, free, {z_cand.key: (z_cand, (h,), "the motion in this record does not excite it")}, "navigation"
-    )
-    assert not quiet.any()
+    # an estimate of 100 arcsec at +-1 arcsec: the hidden one (range +-300) explains it whole; 1000 it cannot
+    pos = list(free).index(j)
+    for estimate, masked in ((100.0, True), (1000.0, False)):
+        p = masked_by_hidden([estimate * ARCSEC], np.array([[ARCSEC**2]]), cov[pos : pos + 1, pos : pos + 1], 1e-3)
+        assert (p is not None) == masked, (estimate, p)
+    unexcited = {z_cand.key: (z_cand, (h,), "the motion in this record does not excite it")}
+    assert hidden_parameters(nrm, chosen, unexcited) == []
+    # a mount's excitation is measured on the gyros: hidden as not excited there, it counts where it
+    # is nearly collinear with a finding (here with x->z), and not where it is not
+    mount = next(c for c in CANDIDATES if c.id == "reference_mount")
+    m = mount.idx[2]
+    for twin, counted in ((X[:, j] + 0.1 * rng.normal(size=400), True), (rng.normal(size=400), False)):
+        X[:, m] = twin
+        N = X.T @ X
+        nrm_m = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
+        unexcited = {mount.key: (mount, (m,), "the motion in this record does not excite it")}
+        assert hidden_parameters(nrm_m, chosen, unexcited) == ([(mount, [m], True)] if counted else [])

@@ -30,13 +30,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constants import DEG
-from .normal import Rows, canonical_correlation, normal_equations, solve
+from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge
+from .selection import honest
 from .theta import PARAMS
 
 __all__ = [
     "Alternative",
-    "hidden_covariance",
+    "hidden_fit",
+    "hidden_parameters",
+    "masked_by_hidden",
+    "hidden_reach",
     "alone",
     "library_normals",
     "resolve",
@@ -136,28 +140,118 @@ def significant_within(x, cov, S, half) -> float:
     return float(chi2.sf(2.0 * best.cost, x.size))
 
 
-def hidden_covariance(nrm, free, unrevealed: dict, grade: str, skip=()) -> np.ndarray:
-    """[free, free]: how far the estimates of ``free`` could move with the parameters the selection
-    hid because the record cannot tell them from what it selected (``unrevealed``: key -> (candidate,
-    hidden parameters, reason), those whose reason is "indistinguishable ..."; ``skip``: candidate keys
-    already counted, the alternatives of resolved aliases), each anywhere in its grade's plausible
-    range (a uniform distribution), held at its start value by the fit.
+def hidden_parameters(nrm, chosen, unrevealed: dict, skip=()) -> list:
+    """``[(candidate, [param], fitted)]``: the parameters the selection hid (``unrevealed``: key -> (candidate,
+    hidden parameters, reason)) that may still move the estimates of the model ``chosen`` (its
+    :class:`~sizefx.diagnose.selection.Chosen` effects), held at their start values by the fit
+    (``skip``: candidate keys already counted, the alternatives of resolved aliases):
+
+    - those hidden because the record cannot tell them from what it selected (a reason
+      "indistinguishable ...");
+    - those whose excitation is measured on some channels only (:attr:`Param.primary`: the
+      reference's mount and delay, on the gyros), hidden as not excited there, that the model's
+      findings nearly explain on the others together (canonical correlation with all of them of
+      :data:`sizefx.diagnose.selection.NUISANCE_CORRELATION` or more, as a candidate left out is
+      fitted beside a finding): the findings take them up. A mount about z on a flight that
+      only turns about the vertical: the gyros do not show it, the accelerometers see it as a
+      misalignment of x towards y (a development-range flight: 140.6 arcsec of mount reported as
+      that misalignment, 140.6 +- 0.84 against a truth of 0). These are ``fitted``: what the record
+      says of them moves the estimates (:func:`hidden_fit`), as a nuisance's does."""
+    from .selection import NUISANCE_CORRELATION
+
+    N = nrm.N.sum(0)
+    free = sorted({j for c in chosen for j in c.active})
+    out = []
+    for cand, params, reason in unrevealed.values():
+        if cand.key in skip or cand.id not in RANGES:
+            continue
+        mine = [j for j in params if j not in free]
+        fitted = not reason.startswith("indistinguishable")
+        if fitted:
+            mine = [
+                j
+                for j in mine
+                if free and PARAMS[j].primary and canonical_correlation(N, free, [j]) >= NUISANCE_CORRELATION
+            ]
+        if mine:
+            out.append((cand, mine, fitted))
+    return out
+
+
+def hidden_fit(nrm, free, hidden: list, grade: str, offset):
+    """The model ``free`` beside the ``hidden`` parameters (:func:`hidden_parameters`), each with its
+    grade's plausible range as a prior (a uniform distribution's variance, ``half^2 / 3``, about its
+    start value): ``(dx [free], dh [fitted], added [free, free])``: the steps of the estimates and of
+    the hidden parameters marked ``fitted``, from the normal equations ``nrm`` (formed at the current
+    estimate; ``offset``: the start model minus it), and what all the hidden parameters add to the
+    covariance of ``free``.
+
+    With ``S = -N_ff^-1 N_fh`` the shift of the estimates per unit of the hidden ones and ``P`` the
+    priors' precisions:
+
+    - a parameter held at its start value (hidden as indistinguishable) may be anywhere in its
+      range: it adds ``S P^-1 S'``;
+    - a ``fitted`` one is estimated beside ``free`` with its prior: with
+      ``C = N_hh - N_hf N_ff^-1 N_fh`` what the record still says of it once ``free`` is fitted,
+      ``dh = (C + P)^-1 (b_h - N_hf N_ff^-1 b_f)``, ``dx = S dh``, and it adds ``S (C_r + P)^-1 S'``,
+      ``C_r`` the inverse of its block of the long-run sandwich covariance
+      (:func:`sizefx.diagnose.normal.covariance`) of ``free`` and the fitted ones together: where
+      the residual is coloured (a bias walk) the weighted normal equations promise far more than
+      the record holds.
 
     A mount about z and the gyros' antisymmetric misalignment are one rotation to a record: with
     the z gyro's misalignment towards x hidden, the x gyro's towards z comes out as their sum, and
     its error, conditional on the hidden one being zero, said nothing of it (a development-range
     tumble: 0.24 +- 0.004 arcsec against a truth of -1.4)."""
     free = np.asarray(free, dtype=int)
-    hidden = [
-        (cand, [j for j in params if j not in set(free.tolist())])
-        for cand, params, reason in unrevealed.values()
-        if reason.startswith("indistinguishable") and cand.key not in skip
-    ]
-    cov = np.zeros((free.size, free.size))
-    for cand, params in hidden:
-        if params and cand.id in RANGES:
-            cov += _spread(_shift(nrm, free, params), _half_range(cand.id, len(params), grade))
-    return cov
+    added = np.zeros((free.size, free.size))
+    held = [(cand, params) for cand, params, fitted in hidden if not fitted]
+    beside = [(cand, params) for cand, params, fitted in hidden if fitted]
+    for cand, params in held:
+        added += _spread(_shift(nrm, free, params), _half_range(cand.id, len(params), grade))
+    idx = np.array([j for _, params in beside for j in params], dtype=int)
+    if idx.size == 0 or free.size == 0:
+        return np.zeros(free.size), np.zeros(idx.size), added
+    half = np.concatenate([_half_range(cand.id, len(params), grade) for cand, params in beside])
+    prior = np.diag(3.0 / half**2)
+    N, b, _ = nrm.total()
+    S = _shift(nrm, free, idx)  # [free, fitted]
+    C = N[np.ix_(idx, idx)] + N[np.ix_(idx, free)] @ S
+    dh = np.linalg.pinv(0.5 * (C + C.T) + prior) @ (b[idx] + S.T @ b[free])
+    joint = np.concatenate([free, idx])
+    order = np.argsort(joint)
+    _, white, robust = covariance(nrm, joint[order], offset)
+    at = np.searchsorted(joint[order], idx)
+    V = honest(white, robust)[np.ix_(at, at)]
+    C_r = np.linalg.pinv(0.5 * (V + V.T), rcond=1e-12, hermitian=True)
+    return S @ dh, dh, added + S @ np.linalg.pinv(C_r + prior) @ S.T
+
+
+def masked_by_hidden(x, cov, added, level: float) -> float | None:
+    """The p-value of a finding's deviation ``x`` [k] from its start values under its covariance
+    ``cov`` [k, k] widened by the hidden parameters' part ``added`` [k, k] (:func:`hidden_fit`) when
+    it is beyond ``level``: with the hidden parameters anywhere in their plausible ranges, the
+    record no longer shows the finding. None when it stays a finding."""
+    from scipy.stats import chi2
+
+    x = np.asarray(x, dtype=float)
+    p = float(chi2.sf(x @ np.linalg.pinv(cov + added) @ x, x.size))
+    return p if p > level else None
+
+
+def hidden_reach(nrm, free, active, cov, hidden: list, grade: str) -> list:
+    """The hidden candidates (:func:`hidden_parameters`) that could move the finding with parameters
+    ``active`` (covariance ``cov`` [k, k]) by its own standard error or more within their plausible
+    ranges, largest first, as ``candidate key:parameters``."""
+    free = np.asarray(free, dtype=int)
+    pos = np.searchsorted(free, active)
+    sig = np.sqrt(np.abs(np.diag(cov)))
+    reach = {}
+    for cand, params, _ in hidden:
+        S = _shift(nrm, free, params)[pos]
+        size = float(np.max(np.abs(S) * _half_range(cand.id, len(params), grade) / sig[:, None]))
+        reach[cand.key + ":" + ",".join(PARAMS[j].label for j in params)] = size
+    return [k for k, v in sorted(reach.items(), key=lambda kv: -kv[1]) if v >= 1.0]
 
 
 def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho, cov, level):

@@ -8,19 +8,22 @@ estimates, findings and the nuisance fitted beside them):
   right if the weights were the inverse noise variances and the noise white;
 - **sandwich**: the block sandwich, for residuals coloured within a block, never under the white
   one (:func:`sizefx.diagnose.selection.honest`);
-- **parts**: the record's parts fitted alone, cut in time, by rotation rate and by translation
-  (:mod:`.consistency`); each parameter's error is widened by the largest ``sqrt(chi2/dof)`` of the
-  three cuts when above 1 (:func:`parts_scatter`). With honest errors this widens them by 10-20 %;
-  pooling the cuts instead, or widening only beyond chance, left coloured-noise z-scores at RMS
-  1.28-1.40 and the BROAD trials' cross-trial chi2/dof at 7.9 (``benchmarks/accuracy_diagnose.py``);
+- **parts**: the record's contiguous parts fitted alone (:mod:`.consistency`): the variance of an
+  effect of each part beyond its noise, estimated from their scatter (a random effect,
+  DerSimonian-Laird), widens each error by what it adds to the whole record's estimate
+  (:func:`parts_scatter`). The parts cut by rotation rate and by translation are checks: their
+  disagreement says the model lacks an effect that follows the motion, and is reported as such;
 - **aliases**: the candidates nearly collinear with a finding are fitted beside it
   (:func:`sizefx.diagnose.selection.nuisance_aliases`), so they are in ``free`` and in every part
   above; a finding resolved from an alias by plausibility (:mod:`.aliases`) carries the error the
   alternative would bring anywhere in its plausible range;
+- **hidden**: the parameters the selection hid but which still move the estimates (a mount about z
+  on a flight, :func:`sizefx.diagnose.aliases.hidden_parameters`), each anywhere in its plausible
+  range; a finding they could explain whole is no finding;
 - **band**: the choice of band and of the model selected in it (:func:`band_part`).
 
-:meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + band`` with ``f`` the
-parts' factors.
+:meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + hidden + band`` with
+``f`` the parts' factors.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ class Parts:
 
     white: np.ndarray  #: [f, f] N^-1
     sandwich: np.ndarray  #: [f, f] the block sandwich, never under white
-    factors: dict  #: param -> the widening to the parts' scatter (>= 1)
+    factors: dict  #: param -> the widening the random effect of the parts in time gives (>= 1)
     entries: dict  #: param -> the cut that disagrees most, with the pooled figures
     count: int  #: contiguous parts in time
 
@@ -68,6 +71,7 @@ class ErrorBudget:
     free: np.ndarray  #: [f] indices into theta
     parts: Parts
     aliases: np.ndarray | None = None  #: [f, f] the plausible range of the alternatives of resolved aliases
+    hidden: np.ndarray | None = None  #: [f, f] the plausible range of hidden parameters that move the estimates
     band: np.ndarray | None = None  #: [f, f] the band's and the selection's systematic part
     bands: list | None = None  #: the neighbouring bands and what was selected there
 
@@ -79,7 +83,7 @@ class ErrorBudget:
         """[f, f]: the sandwich widened to the parts, plus the aliases' and the band's parts."""
         f = self.factors
         cov = self.parts.sandwich * np.outer(f, f)
-        for extra in (self.aliases, self.band):
+        for extra in (self.aliases, self.hidden, self.band):
             if extra is not None:
                 cov = cov + extra
         return cov
@@ -98,8 +102,12 @@ class ErrorBudget:
             ReportWarning(
                 "inconsistent_blocks",
                 f"{e['effect']} {e['parameter']}: the record's parts (by {e['split']}) disagree "
-                f"(chi2/dof {e['chi2_dof']:.1f} over {e['dof']}); its standard error is multiplied by "
-                f"{e['factor']:.2f}",
+                f"(chi2/dof {e['chi2_dof']:.1f} over {e['dof']}); "
+                + (
+                    f"the scatter of its parts in time multiplies its standard error by {e['factor']:.2f}"
+                    if e["split"] == "time"
+                    else "an effect the model lacks may follow the motion"
+                ),
                 size=e["chi2_dof"],
             )
             for e in self.parts.entries.values()
@@ -159,7 +167,7 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset) -> Parts:
         dof = sum(e["dof"] for e in mine)
         pooled = sum(e["chi2_dof"] * e["dof"] for e in mine) / dof
         worst = max(mine, key=lambda e: (e["inflated"], e["chi2_dof"]))
-        factors[j] = max(np.sqrt(max(1.0, e["chi2_dof"])) for e in mine)
+        factors[j] = by_time[j]["factor"] if j in by_time else 1.0
         entries[j] = {**worst, "pooled_chi2_dof": pooled, "pooled_dof": dof, "factor": float(factors[j])}
     return Parts(white, sandwich, factors, entries, count)
 
@@ -224,13 +232,23 @@ def band_part(pred: Predictor, rows_of: Rows, theta, chosen, theta0, sandwich, g
 
 
 def error_budget(
-    pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0, grade, parts: Parts | None = None, aliases=None
+    pred: Predictor,
+    rows_of: Rows,
+    nrm: Normal,
+    theta,
+    chosen,
+    theta0,
+    grade,
+    parts: Parts | None = None,
+    aliases=None,
+    hidden=None,
 ) -> ErrorBudget:
     """The budget of the model ``chosen`` at the estimate ``theta`` with normal equations ``nrm``;
     ``parts``: :func:`parts_scatter` of this very state when the judging already formed it;
-    ``aliases``: the [free, free] part of resolved aliases (:mod:`.aliases`), if any."""
+    ``aliases``, ``hidden``: the [free, free] parts of resolved aliases and of hidden parameters
+    (:mod:`.aliases`), if any."""
     free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
     if parts is None:
         parts = parts_scatter(pred, nrm, free, theta0 - theta)
     band, bands = band_part(pred, rows_of, theta, chosen, theta0, parts.sandwich, grade)
-    return ErrorBudget(free, parts, aliases, band, bands)
+    return ErrorBudget(free, parts, aliases, hidden, band, bands)

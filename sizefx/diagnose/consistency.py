@@ -8,14 +8,19 @@ each part alone and compares the spread of the part estimates with their stated 
     chi2_j = sum_k (x_kj - xbar_j)^2 / sigma_kj^2,   dof = K' - 1   (K' parts that determine j)
 
 ``sigma_kj`` is the part's white standard error scaled by the whole record's ratio of honest
-(block-sandwich) to white error, so that chi2/dof is near 1 when the errors are honest. Beyond
-the chi-square point of :data:`CONSISTENCY_LEVEL` the disagreement is no chance (a drifting
-sensor, a reference that changes, an effect outside the model): ``factor`` is then sqrt(chi2/dof)
-and the parameter is flagged.
+(long-run sandwich) to white error, so that chi2/dof is near 1 when the errors are honest.
+
+Parts of one record that disagree beyond their noise (a drifting sensor, a reference that changes,
+an effect outside the model) have each an effect of their own: a random effect of variance
+``tau^2`` (DerSimonian and Laird 1986: ``tau^2 = max(0, (chi2 - dof) / (S1 - S2 / S1))`` with
+``S1``, ``S2`` the sums of the parts' weights and of their squares). The whole record's estimate
+weighs the parts by their information and carries ``tau^2 S2 / S1^2`` of it: ``factor`` is the
+widening of its standard error that this gives, ``sqrt(1 + tau^2 S2 / S1^2 / sigma^2)``. Beyond the
+chi-square point of :data:`CONSISTENCY_LEVEL` the parameter is flagged as well.
 
 The same check runs on parts cut by motion instead of time (:func:`motion_groups`: quartiles of
 rotation rate and of translation); the level is shared by the three cuts (Bonferroni). How the
-cuts widen an error is :func:`sizefx.diagnose.budget.parts_scatter`' choice (the largest sqrt(chi2/dof)).
+cuts enter an error is :func:`sizefx.diagnose.budget.parts_scatter`' choice.
 """
 
 from __future__ import annotations
@@ -59,7 +64,8 @@ def block_consistency(
     nrm: Normal, free, offset, sigma: dict, white_sigma: dict, groups=None, split: str = "time"
 ) -> tuple[int, dict]:
     """The number of parts K, and per parameter of ``free``: ``{"parameter", "effect", "split", "chi2_dof",
-    "dof", "factor", "inflated"}`` (parameters fewer than two parts determine are left out).
+    "dof", "tau", "factor", "inflated"}`` (``tau`` in report units; parameters fewer than two parts
+    determine are left out).
 
     ``sigma``, ``white_sigma``: the whole record's honest and white standard errors by parameter.
     ``groups``: the parts as lists of blocks (default :data:`PARTS` contiguous ones); ``split`` names them.
@@ -77,21 +83,25 @@ def block_consistency(
     for pos, j in enumerate(free.tolist()):
         ratio = sigma[j] / white_sigma[j] if white_sigma[j] > 0 else 1.0
         s = ss[:, pos] * ratio
-        seen = s <= _SEEN * np.sqrt(K) * sigma[j]
+        seen = (s > 0) & (s <= _SEEN * np.sqrt(K) * sigma[j])
         if seen.sum() < 2:
             continue
         w = 1.0 / s[seen] ** 2
-        xbar = float(np.sum(w * xs[seen, pos]) / np.sum(w))
+        sw, sw2 = float(np.sum(w)), float(np.sum(w**2))
+        xbar = float(np.sum(w * xs[seen, pos]) / sw)
         c2 = float(np.sum(w * (xs[seen, pos] - xbar) ** 2))
         dof = int(seen.sum()) - 1
-        bad = c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof)
+        # DerSimonian-Laird: the variance tau^2 of an effect of each part beyond its own noise, and
+        # what it adds to the whole record's estimate, whose parts weigh in by their information
+        tau2 = max(0.0, (c2 - dof) / (sw - sw2 / sw))
         out[j] = {
             "parameter": PARAMS[j].label,
             "effect": PARAMS[j].effect,
             "split": split,
             "chi2_dof": c2 / dof,
             "dof": dof,
-            "factor": float(np.sqrt(c2 / dof)) if bad else 1.0,
-            "inflated": bool(bad),
+            "tau": float(np.sqrt(tau2) / PARAMS[j].per_unit),
+            "factor": float(np.sqrt(1.0 + tau2 * sw2 / sw**2 / sigma[j] ** 2)) if sigma[j] > 0 else 1.0,
+            "inflated": bool(c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof)),
         }
     return K, out

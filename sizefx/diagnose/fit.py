@@ -42,7 +42,15 @@ import numpy as np
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
-from .aliases import hidden_covariance, library_normals, resolve, separating_motions
+from .aliases import (
+    hidden_fit,
+    hidden_parameters,
+    hidden_reach,
+    library_normals,
+    masked_by_hidden,
+    resolve,
+    separating_motions,
+)
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .budget import Parts, error_budget, parts_scatter
@@ -451,12 +459,39 @@ def diagnose(
     free = _free(chosen)
     parts = verdict.parts if verdict.parts is not None else parts_scatter(pred, nrm, free, offset)
     resolved, alias_cov = _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts, log)
-    alias_cov = alias_cov + hidden_covariance(nrm, free, unrevealed, grade, skip={a.key for a in resolved.values()})
+    # the parameters hidden from the selection that still move its estimates (aliases.hidden_fit):
+    # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
+    # plausible ranges as priors; every one adds to the errors what the record cannot say of it
+    hidden = hidden_parameters(nrm, chosen, unrevealed, skip={a.key for a in resolved.values()})
+    ms_full = state.ms_full
+    fitted_hidden = [h for h in hidden if h[2]]
+    if fitted_hidden:
+        dx, dh, _ = hidden_fit(nrm, free, fitted_hidden, grade, offset)
+        theta = theta.copy()
+        theta[free] += dx
+        theta[[j for _, params, _ in fitted_hidden for j in params]] += dh
+        after = residual_under(pred, rows_of, theta)
+        assert after.rows is not None  # made with rows_of
+        residual, ms_full = after.rows, after.ms_full
+        log.append(
+            "fitted fitted_hidden the findings: "
+            + ", ".join(f"{c.key}:{','.join(PARAMS[j].label for j in params)}" for c, params, _ in fitted_hidden)
+        )
+    _, _, hidden_cov = hidden_fit(nrm, free, hidden, grade, offset)
     aliased = [a for a in aliased if a[0].cand.key not in resolved]
     outside = [o for o in outside if o[0].cand.key not in resolved]
     # the last round judged this very state: its parts stand
     budget = error_budget(
-        pred, rows_of, nrm, theta, chosen, theta0, grade, parts=parts, aliases=alias_cov if alias_cov.any() else None
+        pred,
+        rows_of,
+        nrm,
+        theta,
+        chosen,
+        theta0,
+        grade,
+        parts=parts,
+        aliases=alias_cov if alias_cov.any() else None,
+        hidden=hidden_cov if hidden_cov.any() else None,
     )
     cov = np.zeros((theta.size, theta.size))
     cov[np.ix_(free, free)] = budget.covariance()
@@ -473,12 +508,19 @@ def diagnose(
     alias_keys |= {c.cand.key for c, _, _, _ in outside}
     alias_keys |= nuisance_keys | {w[0].cand.key for w in weak}
     reported = [c for c in chosen if c.cand.key not in alias_keys]
+    # a finding is significant under the error it is reported with, or no finding: a hidden parameter
+    # may explain it anywhere in its plausible range
+    masked = _masked(nrm, free, reported, theta, theta0, budget, hidden, grade, level, log)
+    reported = [c for c in reported if c.cand.key not in masked]
     effects = [
         name_effect(c, theta, theta0, sig, shares[c.cand.key], alternative=resolved.get(c.cand.key)) for c in reported
     ]
     effects.sort(key=lambda e: -e.explained_fraction)
     weights = 1.0 / (state.sigma_c**2 * state.kappa)
     unrev = _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights)
+    for c in chosen:
+        if c.cand.key in masked:
+            unrev = _named(unrev, c.cand, c.active, masked[c.cand.key])
     structure = _structure(pred, rows_of, residual, white_rows, theta)
     series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)
@@ -528,7 +570,7 @@ def diagnose(
         bandwidth_hz=bandwidth_hz,
         white_sigma=dict(zip(CHANNELS, white_rows.tolist())),
         rms_full_before=dict(zip(CHANNELS, np.sqrt(before.ms_full).tolist())),
-        rms_full_after=dict(zip(CHANNELS, np.sqrt(state.ms_full).tolist())),
+        rms_full_after=dict(zip(CHANNELS, np.sqrt(ms_full).tolist())),
         weights_sigma=state.sigma_c,
         kappa=state.kappa,
         passes=state.passes,
@@ -630,6 +672,38 @@ def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: P
             alias_cov += got[1]
             log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
     return resolved, alias_cov
+
+
+def _masked(nrm, free, reported, theta, theta0, budget, hidden, grade, level, log) -> dict:
+    """``{finding key: reason}``: the findings of ``reported`` not significant at the selection's
+    ``level`` under the error they are reported with, every part of the budget in but that of a
+    resolved alias (:func:`sizefx.diagnose.aliases.masked_by_hidden`): most often a parameter the
+    record does not reveal could explain them anywhere in its plausible range, and the reason names
+    it."""
+    # a finding resolved from its alias by the grade passed its own test with the alternative anywhere
+    # in its range (aliases.significant_within): that part is not counted twice
+    added = budget.hidden if budget.hidden is not None else np.zeros((free.size, free.size))
+    cov = budget.covariance() - added - (budget.aliases if budget.aliases is not None else 0.0)
+    out = {}
+    for c in reported:
+        pos = np.searchsorted(free, c.active)
+        x = (theta - theta0)[list(c.active)]
+        p = masked_by_hidden(x, cov[np.ix_(pos, pos)], added[np.ix_(pos, pos)], level)
+        if p is None:
+            continue
+        which = ", ".join(hidden_reach(nrm, free, c.active, cov[np.ix_(pos, pos)], hidden, grade))
+        if which:
+            out[c.cand.key] = (
+                f"could be {which}, which the record does not reveal: within its plausible range it "
+                f"would explain this (p = {p:.2g}); the extended model carries it as {c.cand.key}"
+            )
+        else:
+            out[c.cand.key] = (
+                f"not significant once its error takes every part of the budget (p = {p:.2g}); the "
+                f"extended model carries it"
+            )
+        log.append(f"{c.cand.key} no finding: {out[c.cand.key]}")
+    return out
 
 
 def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights) -> list:

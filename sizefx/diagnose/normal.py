@@ -51,6 +51,9 @@ __all__ = [
     "MIN_BLOCK_S",
     "HUBER_K",
     "DEGENERATE",
+    "HAC_MAX_RHO",
+    "hac_lag",
+    "long_run_meat",
 ]
 
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
@@ -74,6 +77,9 @@ FILTER_SETTLE = 1e-18
 #: A regressor that keeps under this share of its energy once others are fitted is degenerate
 #: given them (its residual RMS under 3e-5 of its own): :func:`canonical_correlation`'s NaN.
 DEGENERATE = 1e-9
+#: The largest first-order autocorrelation of block scores :func:`hac_lag` takes (Andrews' 0.97):
+#: beyond it the plug-in lag runs to the record's length and the estimate to noise.
+HAC_MAX_RHO = 0.97
 #: Huber's constant in units of the channel's robust sigma: 3 leaves Gaussian rows untouched
 #: (0.3 % of them are down-weighted, by at most a few percent) and caps a glitch's pull.
 HUBER_K = 3.0
@@ -330,9 +336,50 @@ def covariance(nrm: Normal, free, offset, blocks=None):
         - np.einsum("bij,j->bi", Nb[:, free][:, :, pinned], c)
         - np.einsum("bij,j->bi", Nb[:, free][:, :, free], x)
     )
+    at = np.arange(s.shape[0]) if blocks is None else np.asarray(blocks, dtype=int)
+    return x, inv, inv @ long_run_meat(s, at) @ inv
+
+
+def hac_lag(scores) -> int:
+    """Andrews' (1991) plug-in lag for the Bartlett kernel from AR(1) fits of each score component:
+    ``L = 1.1447 (alpha B)^(1/3)``, ``alpha = sum 4 rho^2 s^4 / ((1-rho)^6 (1+rho)^2) / sum s^4 / (1-rho)^4``
+    (``s^2`` the AR(1) innovation variance; ``rho`` kept within +-:data:`HAC_MAX_RHO`)."""
+    B = scores.shape[0]
+    if B < 3:
+        return 0
+    z = scores / np.maximum(scores.std(axis=0), 1e-300)
+    a, b = z[:-1], z[1:]
+    rho = np.clip(np.sum(a * b, axis=0) / np.maximum(np.sum(a * a, axis=0), 1e-300), -HAC_MAX_RHO, HAC_MAX_RHO)
+    s4 = np.mean((b - rho * a) ** 2, axis=0) ** 2
+    num = np.sum(4.0 * rho**2 * s4 / ((1 - rho) ** 6 * (1 + rho) ** 2))
+    den = np.sum(s4 / (1 - rho) ** 4)
+    alpha = num / den if den > 0 else 0.0
+    return int(min(B - 1, math.floor(1.1447 * (alpha * B) ** (1.0 / 3.0))))
+
+
+def long_run_meat(scores, at=None):
+    """The long-run covariance of block scores ``s_b`` [B, f]: ``B/(B-1) sum_l w_l sum_b s_b s_{b+l}'``
+    over lags ``l`` of ``-L..L`` with Bartlett weights ``w_l = 1 - |l| / (L + 1)`` (Newey-West), ``L``
+    from :func:`hac_lag`.
+
+    Scores a block or more apart stay correlated when the residual's colour outlasts a block (a bias
+    walk, flicker noise): their plain sum of squares would under-state the variance. ``at``: the
+    blocks' indices in the record, when the scores are those of some of its blocks (a part of the
+    record, or blocks gathered by motion); a lag counts blocks of the record, so blocks far apart in
+    time never pair."""
+    s = np.asarray(scores, dtype=float)
     B = s.shape[0]
-    meat = s.T @ s * (B / max(B - 1, 1))
-    return x, inv, inv @ meat @ inv
+    at = np.arange(B) if at is None else np.asarray(at, dtype=int)
+    if B > 1 and np.any(np.diff(at) != 1):  # blocks gathered from the record: zeros between them
+        full = np.zeros((int(at.max() - at.min()) + 1, s.shape[1]))
+        full[at - at.min()] = s
+        s = full
+    meat = s.T @ s
+    lag = hac_lag(s)
+    for k in range(1, lag + 1):
+        g = s[k:].T @ s[:-k]
+        meat = meat + (1.0 - k / (lag + 1.0)) * (g + g.T)
+    return meat * (B / max(B - 1, 1))
 
 
 def wald(x, cov, group) -> float:

@@ -1,0 +1,85 @@
+"""The error budget's estimators (:mod:`sizefx.diagnose.normal`, :mod:`sizefx.diagnose.consistency`):
+the long-run sandwich of correlated block scores and the random effect of the record's parts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from sizefx import diagnose as D
+from sizefx.diagnose.consistency import block_consistency
+from sizefx.diagnose.normal import Normal, hac_lag, long_run_meat
+
+
+def _ar1(rng, rho, size):
+    return lfilter([1.0], [1.0, -rho], rng.normal(size=size), axis=0)
+
+
+def test_the_long_run_meat_sees_the_correlation_of_neighbouring_blocks():
+    """AR(1) scores with rho = 0.8 over 400 blocks: the plain sum of squares gives 1 / (1 - rho^2) =
+    2.8 per block, the long-run variance is 1 / (1 - rho)^2 = 25; over 200 draws the Bartlett
+    estimate's mean lies within its known downward bias (Andrews 1991: about 25 % at this length),
+    far from the plain sum. White scores keep the plain sum (lag 0 or close to it)."""
+    rng = np.random.default_rng(5)
+    ratios, plain = [], []
+    for _ in range(200):
+        s = _ar1(rng, 0.8, (400, 1))
+        s -= s.mean()
+        ratios.append(float(long_run_meat(s)[0, 0]) / 400 / 25.0)
+        plain.append(float((s.T @ s)[0, 0]) / 400 / 25.0)
+    assert 0.65 < np.mean(ratios) <= 1.05, np.mean(ratios)
+    assert np.mean(plain) < 0.15
+    white = rng.normal(size=(400, 3))
+    assert hac_lag(white) <= 2
+    assert np.allclose(np.diag(long_run_meat(white)) / np.diag(white.T @ white * 400 / 399), 1.0, atol=0.2)
+
+
+def test_blocks_gathered_from_the_record_pair_only_with_their_neighbours_in_time():
+    """Scores of blocks 0, 1 and 50, 51: the lag products pair 0 with 1 and 50 with 51, never 1
+    with 50 (they are far apart in time), whatever the order the blocks are given in."""
+    s = np.array([[1.0], [1.0], [1.0], [-1.0]])
+    a = long_run_meat(s, at=[0, 1, 50, 51])
+    b = long_run_meat(s[[2, 0, 3, 1]], at=[50, 0, 51, 1])
+    assert a == pytest.approx(b)
+    far = long_run_meat(s, at=[0, 10, 20, 30])  # no neighbours at all: the plain sum
+    assert far == pytest.approx(s.T @ s * 4 / 3)
+
+
+def _parts_normal(estimates, info):
+    """Normal equations of one parameter over blocks, each block of information ``info`` whose
+    own estimate is ``estimates[k]``: N_k = info, b_k = info * x_k."""
+    B = estimates.size
+    N = np.zeros((B, D.NP, D.NP))
+    b = np.zeros((B, D.NP))
+    j = D.A_BIAS[0]
+    N[:, j, j] = info
+    b[:, j] = info * estimates
+    for k in range(D.NP):  # the other parameters pinned: give them some information so N is regular
+        if k != j:
+            N[:, k, k] = 1.0
+    return Normal(N, b, np.zeros(B), B, np.ones(D.NP), 1.0, np.arange(B, dtype=float)), j
+
+
+def test_parts_that_agree_widen_nothing_and_parts_with_an_effect_each_widen_by_it():
+    """Eight parts, each the mean of 10 blocks of unit noise: parts whose estimates scatter as
+    their noise says give a factor near 1 and never below it; parts each shifted by an effect of
+    its own with sigma 3 times a part's error give the DerSimonian-Laird widening, close to
+    sqrt(1 + 9) for the whole record's estimate (each part weighs 1/8, a part's variance is 8 times
+    the record's)."""
+    rng = np.random.default_rng(2)
+    info = 1.0
+    factors_null, factors_effect = [], []
+    for _ in range(100):
+        noise = rng.normal(size=80)  # each block's estimate: unit variance
+        nrm, j = _parts_normal(noise, info)
+        sigma = {j: 1.0 / np.sqrt(80.0)}
+        _, out = block_consistency(nrm, np.array([j]), np.zeros(D.NP), sigma, sigma)
+        factors_null.append(out[j]["factor"])
+        part_sigma = 1.0 / np.sqrt(10.0)
+        shifts = np.repeat(rng.normal(scale=3.0 * part_sigma, size=8), 10)
+        nrm, j = _parts_normal(noise + shifts, info)
+        _, out = block_consistency(nrm, np.array([j]), np.zeros(D.NP), sigma, sigma)
+        factors_effect.append(out[j]["factor"])
+    assert min(factors_null) >= 1.0 and np.median(factors_null) < 1.2
+    assert 2.4 < np.median(factors_effect) < 3.8, np.median(factors_effect)
