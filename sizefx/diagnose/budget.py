@@ -168,7 +168,8 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset) -> Parts:
         pooled = sum(e["chi2_dof"] * e["dof"] for e in mine) / dof
         worst = max(mine, key=lambda e: (e["inflated"], e["chi2_dof"]))
         factors[j] = by_time[j]["factor"] if j in by_time else 1.0
-        entries[j] = {**worst, "pooled_chi2_dof": pooled, "pooled_dof": dof, "factor": float(factors[j])}
+        tau = by_time[j]["tau"] if j in by_time else 0.0
+        entries[j] = {**worst, "pooled_chi2_dof": pooled, "pooled_dof": dof, "factor": float(factors[j]), "tau": tau}
     return Parts(white, sandwich, factors, entries, count)
 
 

@@ -18,13 +18,14 @@
    record cannot tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding
    (the model keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE`
    of the structure on its channels is rejected; so is one no longer significant once its errors
-   are widened to the scatter of the record's parts, cut in time, by rotation rate and by
-   translation (a selection must be stable across them). The survivors are refitted with the
+   take the random effect of the record's parts in time (a selection must be stable across them). The survivors are refitted with the
    selection fixed, and with the candidates left out that are nearly collinear with one of them
    (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves;
    the same checks then judge the findings beside them again.
-6. **Errors** (:mod:`.budget`): the block sandwich (never under the white one), widened to those
-   parts' scatter, plus the band's and the selection's part.
+6. **Errors** (:mod:`.budget`): the long-run block sandwich (never under the white one), widened by
+   the parts' random effect, plus the resolved aliases', the hidden parameters' (fitted beside the
+   findings where they take them up, :func:`sizefx.diagnose.aliases.hidden_fit`) and the band's
+   parts; a finding not significant under that error goes to ``not_revealed``.
 7. **Out of sample** (:mod:`.holdout`): the gain cross-validated in blocked folds in time.
 8. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
    the motion left in each channel's final residual.
@@ -267,7 +268,7 @@ def _judge(
        of a pair the motion cannot tell apart neither is a finding, the model keeps their sum as the
        more common one (:data:`sizefx.diagnose.candidates.PRIORITY`);
     3. of consequence: it explains at least :data:`MIN_SHARE` of the structure on its channels;
-    4. stable across the record's parts: still significant with the errors widened to their scatter
+    4. stable across the record's parts: still significant with the errors widened by their random effect
        (:func:`sizefx.diagnose.budget.parts_scatter`).
     """
     judged = {c.cand.key for c in state.chosen} - set(beside)
@@ -314,7 +315,7 @@ def _judge(
             p = robust_p(state.nrm, state.chosen, offset, which=i, factors=parts.factors)
             if p > level:
                 reasons[c.cand.key] = (
-                    f"not significant (p = {p:.2g}) once its errors are widened to the scatter of the record's parts",
+                    f"not significant (p = {p:.2g}) once its errors take the scatter of the record's parts",
                     "the noise's colour or an effect that changes along the record",
                     False,
                 )

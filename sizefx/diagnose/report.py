@@ -369,15 +369,10 @@ def format_report(d: Diagnosis, start: str) -> str:
     if cons.get("parameters"):
         worst = max(cons["parameters"], key=lambda p: p["chi2_dof"])
         lines.append(
-            f"standard errors: block sandwich over {cons['block_s']:.2g} s blocks, checked on {cons['parts']} "
-            f"parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, {worst['effect']} "
-            f"{worst['parameter']})"
-            + (
-                f"; {len(flagged)} disagree beyond chance, their errors widened "
-                "to the parts' scatter (see the warnings)"
-                if flagged
-                else ""
-            )
+            f"standard errors: long-run block sandwich over {cons['block_s']:.2g} s blocks, widened by the "
+            f"random effect of {cons['parts']} parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, "
+            f"{worst['effect']} {worst['parameter']})"
+            + (f"; {len(flagged)} disagree beyond chance (see the warnings)" if flagged else "")
         )
     systematic = cons.get("systematic")
     if systematic:  # the parameter whose error the band's and the selection's part takes most of
