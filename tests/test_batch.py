@@ -124,6 +124,9 @@ def test_redo_and_other_options_run_every_record_again(campaign, tmp_path):
     assert "3 ok, 0 unchanged" in result.output, result.output
 
 
+# long tier: navigates the three records (3 s); fast twin:
+# test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason
+@pytest.mark.slow
 def test_one_bad_record_is_refused_alone(campaign, tmp_path):
     runs = tmp_path / "runs"
     shutil.copytree(campaign, runs)
