@@ -215,6 +215,9 @@ def test_gauss_markov_noise_is_what_the_effects_file_says():
     np.testing.assert_array_equal(accel(only, chunk=777), coloured)
 
 
+# long tier: three 800 Hz records fitted jointly (2 s); fast twin:
+# tests/test_sizeeffect.py::test_accelerometer_delay_is_recovered_with_rotations_about_horizontal_axes
+@pytest.mark.slow
 def test_delay_with_a_large_offset_is_unbiased():
     """0.5 ms of accelerometer delay, 0.1 m from the table's centre, a turntable and a minute of roll
     and of pitch sway, no noise: arms, tilt and delay within 0.3 sigma. The delay's column carries

@@ -265,6 +265,9 @@ def test_a_wrong_column_in_the_import_fails(walkthrough, tmp_path):
 # --------------------------------------------------------------------------- the example files
 
 
+# long tier: regenerates the example's files (1.5 s); the walkthrough's fast checks read them
+# (test_parser_reads_continuations_comments_and_every_block, test_example_folder_is_small)
+@pytest.mark.slow
 def test_example_regenerates_bit_for_bit(tmp_path):
     subprocess.run([sys.executable, str(EXAMPLES / "make_example.py"), "--out", str(tmp_path)], check=True, timeout=300)
     for name in EXAMPLE_FILES:

@@ -75,6 +75,9 @@ def test_offset_to_the_table_centre_does_not_rectify(tmp_path):
     assert errors["off axis"] < 5.0 and abs(errors["off axis"] - errors["on axis"]) < 2.0, errors
 
 
+# long tier: two sway experiments, figures drawn once (2 s); fast twin:
+# test_t2_law_holds_early_and_the_schuler_loop_bounds_it (the closed form it is held to)
+@pytest.mark.slow
 def test_sway_experiment_takes_the_seed_and_agrees_with_its_closed_form(tmp_path, monkeypatch):
     from sizefx.experiments import paper
     from sizefx.experiments.paper import SIZES, Size, sway_experiment

@@ -55,6 +55,9 @@ def test_budget_search_beats_the_paper_in_its_time():
     assert design.plan.peak_rate_dps <= 20.0 and design.plan.accel_dps2 <= 10.0
 
 
+# long tier: a plan search (1.3 s), beside test_least_time_search_is_minimal; fast twin:
+# test_prediction_is_what_the_fit_states
+@pytest.mark.slow
 def test_least_time_search_meets_its_target():
     target = 0.06
     design = design_plan(PlanRequest(NOISE_UG, TableLimits(), target_sigma_mm=target, static_s=10.0))
