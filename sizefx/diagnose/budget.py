@@ -6,8 +6,9 @@ estimates, findings and the nuisance fitted beside them):
 
 - **white**: ``N^-1`` of the weighted normal equations (:func:`sizefx.diagnose.normal.covariance`),
   right if the weights were the inverse noise variances and the noise white;
-- **sandwich**: the block sandwich, for residuals coloured within a block, never under the white
-  one (:func:`sizefx.diagnose.selection.honest`);
+- **sandwich**: the long-run block sandwich (:func:`sizefx.diagnose.normal.covariance`: each block's
+  scores summed with its neighbours', Newey-West), for residuals coloured within and across
+  blocks, never under the white one (:func:`sizefx.diagnose.selection.honest`);
 - **parts**: the record's contiguous parts fitted alone (:mod:`.consistency`): the variance of an
   effect of each part beyond its noise, estimated from their scatter (a random effect,
   DerSimonian-Laird), widens each error by what it adds to the whole record's estimate
@@ -17,9 +18,10 @@ estimates, findings and the nuisance fitted beside them):
   (:func:`sizefx.diagnose.selection.nuisance_aliases`), so they are in ``free`` and in every part
   above; a finding resolved from an alias by plausibility (:mod:`.aliases`) carries the error the
   alternative would bring anywhere in its plausible range;
-- **hidden**: the parameters the selection hid but which still move the estimates (a mount about z
-  on a flight, :func:`sizefx.diagnose.aliases.hidden_parameters`), each anywhere in its plausible
-  range; a finding they could explain whole is no finding;
+- **hidden**: the parameters the selection hid but which still move the estimates
+  (:func:`sizefx.diagnose.aliases.hidden_fit`): one hidden as indistinguishable anywhere in its
+  plausible range, one fitted beside the findings (a mount about z on a flight) with what the
+  record cannot say of it; a finding not significant with them in is no finding;
 - **band**: the choice of band and of the model selected in it (:func:`band_part`).
 
 :meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + hidden + band`` with
@@ -80,7 +82,8 @@ class ErrorBudget:
         return np.array([self.parts.factors.get(j, 1.0) for j in self.free.tolist()])
 
     def covariance(self) -> np.ndarray:
-        """[f, f]: the sandwich widened to the parts, plus the aliases' and the band's parts."""
+        """[f, f]: the sandwich widened to the parts, plus the aliases', the hidden parameters' and the
+        band's parts."""
         f = self.factors
         cov = self.parts.sandwich * np.outer(f, f)
         for extra in (self.aliases, self.hidden, self.band):
