@@ -32,7 +32,7 @@ import numpy as np
 from ..constants import DEG
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge
-from .selection import honest
+from .selection import NUISANCE_CORRELATION, honest
 from .theta import PARAMS
 
 __all__ = [
@@ -40,6 +40,7 @@ __all__ = [
     "hidden_fit",
     "hidden_parameters",
     "masked_by_hidden",
+    "not_significant",
     "hidden_reach",
     "alone",
     "library_normals",
@@ -157,8 +158,6 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, skip=()) -> list:
       misalignment of x towards y (a development-range flight: 140.6 arcsec of mount reported as
       that misalignment, 140.6 +- 0.84 against a truth of 0). These are ``fitted``: what the record
       says of them moves the estimates (:func:`hidden_fit`), as a nuisance's does."""
-    from .selection import NUISANCE_CORRELATION
-
     N = nrm.N.sum(0)
     free = sorted({j for c in chosen for j in c.active})
     out = []
@@ -252,6 +251,38 @@ def hidden_reach(nrm, free, active, cov, hidden: list, grade: str) -> list:
         size = float(np.max(np.abs(S) * _half_range(cand.id, len(params), grade) / sig[:, None]))
         reach[cand.key + ":" + ",".join(PARAMS[j].label for j in params)] = size
     return [k for k, v in sorted(reach.items(), key=lambda kv: -kv[1]) if v >= 1.0]
+
+
+def not_significant(nrm, free, reported, theta, theta0, budget, hidden: list, grade: str, level: float) -> dict:
+    """``{finding key: reason}``: the findings of ``reported`` (:class:`~sizefx.diagnose.selection.Chosen`
+    effects of the model ``free``) not significant at the selection's ``level`` under the error they
+    are reported with (``budget``: :class:`sizefx.diagnose.budget.ErrorBudget`), every part in but
+    that of a resolved alias (:func:`masked_by_hidden`): most often a ``hidden`` parameter
+    (:func:`hidden_parameters`) could explain them anywhere in its plausible range, and the reason
+    names it (:func:`hidden_reach`)."""
+    # a finding resolved from its alias by the grade passed its own test with the alternative anywhere
+    # in its range (significant_within): that part is not counted twice
+    added = budget.hidden if budget.hidden is not None else np.zeros((free.size, free.size))
+    cov = budget.covariance() - added - (budget.aliases if budget.aliases is not None else 0.0)
+    out = {}
+    for c in reported:
+        pos = np.searchsorted(free, c.active)
+        x = (theta - theta0)[list(c.active)]
+        p = masked_by_hidden(x, cov[np.ix_(pos, pos)], added[np.ix_(pos, pos)], level)
+        if p is None:
+            continue
+        which = ", ".join(hidden_reach(nrm, free, c.active, cov[np.ix_(pos, pos)], hidden, grade))
+        if which:
+            out[c.cand.key] = (
+                f"could be {which}, which the record does not reveal: within its plausible range it "
+                f"would explain this (p = {p:.2g}); the extended model carries it as {c.cand.key}"
+            )
+        else:
+            out[c.cand.key] = (
+                f"not significant once its error takes every part of the budget (p = {p:.2g}); the "
+                f"extended model carries it"
+            )
+    return out
 
 
 def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho, cov, level):

@@ -46,9 +46,8 @@ from ..sensor_model import SensorParams
 from .aliases import (
     hidden_fit,
     hidden_parameters,
-    hidden_reach,
     library_normals,
-    masked_by_hidden,
+    not_significant,
     resolve,
     separating_motions,
 )
@@ -464,21 +463,20 @@ def diagnose(
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
     # plausible ranges as priors; every one adds to the errors what the record cannot say of it
     hidden = hidden_parameters(nrm, chosen, unrevealed, skip={a.key for a in resolved.values()})
+    dx, dh, hidden_cov = hidden_fit(nrm, free, hidden, grade, offset)
     ms_full = state.ms_full
-    fitted_hidden = [h for h in hidden if h[2]]
-    if fitted_hidden:
-        dx, dh, _ = hidden_fit(nrm, free, fitted_hidden, grade, offset)
+    if dh.size:
+        fitted = [(c, params) for c, params, beside in hidden if beside]
         theta = theta.copy()
         theta[free] += dx
-        theta[[j for _, params, _ in fitted_hidden for j in params]] += dh
+        theta[[j for _, params in fitted for j in params]] += dh
         after = residual_under(pred, rows_of, theta)
         assert after.rows is not None  # made with rows_of
         residual, ms_full = after.rows, after.ms_full
         log.append(
-            "fitted fitted_hidden the findings: "
-            + ", ".join(f"{c.key}:{','.join(PARAMS[j].label for j in params)}" for c, params, _ in fitted_hidden)
+            "fitted beside the findings: "
+            + ", ".join(f"{c.key}:{','.join(PARAMS[j].label for j in params)}" for c, params in fitted)
         )
-    _, _, hidden_cov = hidden_fit(nrm, free, hidden, grade, offset)
     aliased = [a for a in aliased if a[0].cand.key not in resolved]
     outside = [o for o in outside if o[0].cand.key not in resolved]
     # the last round judged this very state: its parts stand
@@ -511,7 +509,8 @@ def diagnose(
     reported = [c for c in chosen if c.cand.key not in alias_keys]
     # a finding is significant under the error it is reported with, or no finding: a hidden parameter
     # may explain it anywhere in its plausible range
-    masked = _masked(nrm, free, reported, theta, theta0, budget, hidden, grade, level, log)
+    masked = not_significant(nrm, free, reported, theta, theta0, budget, hidden, grade, level)
+    log += [f"{key} no finding: {why}" for key, why in masked.items()]
     reported = [c for c in reported if c.cand.key not in masked]
     effects = [
         name_effect(c, theta, theta0, sig, shares[c.cand.key], alternative=resolved.get(c.cand.key)) for c in reported
@@ -673,38 +672,6 @@ def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: P
             alias_cov += got[1]
             log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
     return resolved, alias_cov
-
-
-def _masked(nrm, free, reported, theta, theta0, budget, hidden, grade, level, log) -> dict:
-    """``{finding key: reason}``: the findings of ``reported`` not significant at the selection's
-    ``level`` under the error they are reported with, every part of the budget in but that of a
-    resolved alias (:func:`sizefx.diagnose.aliases.masked_by_hidden`): most often a parameter the
-    record does not reveal could explain them anywhere in its plausible range, and the reason names
-    it."""
-    # a finding resolved from its alias by the grade passed its own test with the alternative anywhere
-    # in its range (aliases.significant_within): that part is not counted twice
-    added = budget.hidden if budget.hidden is not None else np.zeros((free.size, free.size))
-    cov = budget.covariance() - added - (budget.aliases if budget.aliases is not None else 0.0)
-    out = {}
-    for c in reported:
-        pos = np.searchsorted(free, c.active)
-        x = (theta - theta0)[list(c.active)]
-        p = masked_by_hidden(x, cov[np.ix_(pos, pos)], added[np.ix_(pos, pos)], level)
-        if p is None:
-            continue
-        which = ", ".join(hidden_reach(nrm, free, c.active, cov[np.ix_(pos, pos)], hidden, grade))
-        if which:
-            out[c.cand.key] = (
-                f"could be {which}, which the record does not reveal: within its plausible range it "
-                f"would explain this (p = {p:.2g}); the extended model carries it as {c.cand.key}"
-            )
-        else:
-            out[c.cand.key] = (
-                f"not significant once its error takes every part of the budget (p = {p:.2g}); the "
-                f"extended model carries it"
-            )
-        log.append(f"{c.cand.key} no finding: {out[c.cand.key]}")
-    return out
 
 
 def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights) -> list:
