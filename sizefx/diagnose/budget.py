@@ -22,10 +22,15 @@ estimates, findings and the nuisance fitted beside them):
   (:func:`sizefx.diagnose.aliases.hidden_fit`): one hidden as indistinguishable anywhere in its
   plausible range, one fitted beside the findings (a mount about z on a flight) with what the
   record cannot say of it; a finding not significant with them in is no finding;
+- **walk**: a random walk of the biases (:mod:`.drift`), measured beside the model: what it adds to
+  the estimates' covariance, ``N^-1 H'WZ Q Z'WH N^-1``, large for a parameter whose regressor is as
+  slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. The
+  sandwich holds the part of the walk faster than its lags; the walk's part counts it again, an
+  over-statement bounded by that share;
 - **band**: the choice of band and of the model selected in it (:func:`band_part`).
 
-:meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + hidden + band`` with
-``f`` the parts' factors.
+:meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + hidden + walk + band``
+with ``f`` the parts' factors.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ import numpy as np
 from ..constants import STANDARD_GRAVITY_MPS2
 from .candidates import columns_between
 from .consistency import block_consistency, motion_groups
+from .drift import walk_covariance
 from .normal import Normal, Rows, covariance, normal_equations, solve
 from .plausibility import judge
 from .predictor import Predictor
@@ -74,6 +80,7 @@ class ErrorBudget:
     parts: Parts
     aliases: np.ndarray | None = None  #: [f, f] the plausible range of the alternatives of resolved aliases
     hidden: np.ndarray | None = None  #: [f, f] the plausible range of hidden parameters that move the estimates
+    walk: np.ndarray | None = None  #: [f, f] the biases' random walk
     band: np.ndarray | None = None  #: [f, f] the band's and the selection's systematic part
     bands: list | None = None  #: the neighbouring bands and what was selected there
 
@@ -82,11 +89,11 @@ class ErrorBudget:
         return np.array([self.parts.factors.get(j, 1.0) for j in self.free.tolist()])
 
     def covariance(self) -> np.ndarray:
-        """[f, f]: the sandwich widened to the parts, plus the aliases', the hidden parameters' and the
-        band's parts."""
+        """[f, f]: the sandwich widened to the parts, plus the aliases', the hidden parameters', the
+        walk's and the band's parts."""
         f = self.factors
         cov = self.parts.sandwich * np.outer(f, f)
-        for extra in (self.aliases, self.hidden, self.band):
+        for extra in (self.aliases, self.hidden, self.walk, self.band):
             if extra is not None:
                 cov = cov + extra
         return cov
@@ -255,4 +262,5 @@ def error_budget(
     if parts is None:
         parts = parts_scatter(pred, nrm, free, theta0 - theta)
     band, bands = band_part(pred, rows_of, theta, chosen, theta0, parts.sandwich, grade)
-    return ErrorBudget(free, parts, aliases, hidden, band, bands)
+    walk = walk_covariance(nrm.drift, free, parts.white) if free.size else None
+    return ErrorBudget(free, parts, aliases, hidden, walk, band, bands)

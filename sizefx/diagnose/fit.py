@@ -109,6 +109,8 @@ class Diagnosis:
     passes: int
     log: list
     wall_s: float
+    #: [6] the walk of each channel's bias, sqrt of its intensity (SI per sqrt(s); :mod:`.drift`), 0 where none
+    bias_walk: np.ndarray = field(default_factory=lambda: np.zeros(6))
     #: [n, 6] float32 (SI): measured minus predicted per sample, kept for the plots (``keep_series``)
     residual_before: np.ndarray | None = None
     residual_after: np.ndarray | None = None
@@ -202,7 +204,7 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
         if passes >= 2 and history[-1] == history[-2] and step < 1e-3:
             break
     weights = 1.0 / (sigma_c**2 * kappa)
-    nrm = normal_equations(rows_of, residual, cols, weights, row_w)
+    nrm = normal_equations(rows_of, residual, cols, weights, row_w, walk=True)
     return _State(theta, chosen, unrevealed, residual, nrm, sigma_c, kappa, passes, final.ms_full)
 
 
@@ -573,6 +575,7 @@ def diagnose(
         rms_full_after=dict(zip(CHANNELS, np.sqrt(ms_full).tolist())),
         weights_sigma=state.sigma_c,
         kappa=state.kappa,
+        bias_walk=np.sqrt(state.nrm.drift.q),
         passes=state.passes,
         log=log,
         wall_s=time.perf_counter() - started,

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
+from .drift import NO_DRIFT, TERMS, Drift, basis, intensity
 from .theta import NP, PARAMS
 
 __all__ = [
@@ -193,6 +194,7 @@ class Normal:
     excitation: np.ndarray  #: [P] RMS of each regressor over its primary channels (SI)
     block_s: float  #: block length [s]
     t0: np.ndarray  #: [B] start time of each block [s]
+    drift: Drift = NO_DRIFT  #: the walk of each channel's bias and the regressors' sums against its basis
 
     @property
     def blocks(self) -> int:
@@ -216,7 +218,7 @@ def huber_weights(u: np.ndarray, k: float = HUBER_K) -> np.ndarray:
     return np.where(a > k, k / np.maximum(a, 1e-300), 1.0)
 
 
-def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Normal:
+def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bool = False) -> Normal:
     """The weighted normal equations of the residual on the Jacobian columns ``cols``
     (:func:`sizefx.diagnose.candidates.jacobian_columns`), one set per block; ``weights`` [6] per
     channel, ``row_weights`` [m, 6] per row of :class:`Rows` (robust weights; None: all 1).
@@ -224,7 +226,11 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
     ``y``: the residual's rows ``[m, 6]`` (``rows_of``'s, all of them: ``rows_of(residual)`` of a
     per-sample residual, or built span by span). ``cols`` is the columns' dict for all samples, or a function
     ``(lo, hi) -> dict`` for the samples ``lo:hi``, called span by span (:meth:`Rows.spans`) so that
-    only one span of regressors is held at a time."""
+    only one span of regressors is held at a time.
+
+    ``walk``: measure the walk of each channel's bias (:func:`sizefx.diagnose.drift.intensity`) and
+    keep the regressors' sums against the walk's basis (:attr:`Normal.drift`), from which
+    :func:`sizefx.diagnose.drift.walk_covariance` gives the error the walk adds to the estimates."""
     keep = rows_of.keep
     rows = np.flatnonzero(keep)
     t = rows_of.t[rows]
@@ -246,6 +252,13 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
     yy = np.zeros(B)
     L = rows_of.L
     cols_of = cols if callable(cols) else (lambda lo, hi: {j: (ch, x[lo:hi]) for j, (ch, x) in cols.items()})
+    t0, span_s = (float(t[0]), span) if t.size else (0.0, 0.0)
+    walking = list(range(6)) if walk and span_s > 0 else []
+    K = TERMS
+    NU = {c: np.zeros((NP, K)) for c in walking}
+    UU = {c: np.zeros((K, K)) for c in walking}
+    bU = {c: np.zeros(K) for c in walking}
+    rows_in = {c: 0 for c in walking}
     for lo, hi in rows_of.spans():
         a, z = np.searchsorted(rows, [lo // L, -(-hi // L)])  # the kept rows inside [lo, hi)
         if z <= a:
@@ -256,10 +269,18 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
         bl = block_of[a:z]
         ks = np.arange(bl[0], bl[-1] + 1)  # every block between holds rows here: blocks are contiguous
         le = np.searchsorted(bl, np.append(ks, ks[-1] + 1))
+        Z = basis(t[a:z], t0, span_s) if walking else None
         for c in range(6):
             js = [j for j in range(NP) if c in cc[j][0]]
             if not js:
                 continue
+            w = weights[c] * rw[a:z, c]
+            if c in walking:  # the walk's basis against itself and the residual (yy counts these channels only)
+                assert Z is not None
+                Zw = Z * w[:, None]
+                UU[c] += Zw.T @ Z
+                bU[c] += Zw.T @ yb[a:z, c]
+                rows_in[c] += z - a
             H = rows_of.span_rows(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]), ea, lo, hi)[
                 local
             ]
@@ -267,7 +288,6 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
                 if not PARAMS[j].primary or c in PARAMS[j].primary:
                     sumsq[j] += H[:, k] @ H[:, k]
                     count[j] += H.shape[0]
-            w = weights[c] * rw[a:z, c]
             Hw = H * w[:, None]
             G = np.empty((ks.size, len(js), len(js)))  # per block, then one scatter into N per channel
             for i in range(ks.size):
@@ -277,7 +297,13 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
             N[np.ix_(ks, jx, jx)] += G
             b[np.ix_(ks, jx)] += np.add.reduceat(Hw * yb[a:z, c : c + 1], le[:-1], axis=0)
             yy[ks] += np.add.reduceat(w * yb[a:z, c] ** 2, le[:-1])
+            if c in walking:
+                NU[c][jx] += Hw.T @ Z
         del cc
+    drift = NO_DRIFT
+    if walking:
+        walking = [c for c in walking if rows_in[c] > 0]  # channels the model acts on
+        drift = intensity(N.sum(0), b.sum(0), NU, UU, bU, walking, t0, span_s)
     return Normal(
         N,
         b,
@@ -286,6 +312,7 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None) -> Norma
         np.sqrt(sumsq / np.maximum(count, 1)),
         block_s,
         t[edges[:-1]] if t.size else np.zeros(B),
+        drift,
     )
 
 

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -230,6 +231,7 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "block_samples": d.block,
         "noise_sigma": dict(zip(CHANNELS, d.weights_sigma.tolist())),
         "kappa": dict(zip(CHANNELS, d.kappa.tolist())),
+        "bias_walk": dict(zip(CHANNELS, d.bias_walk.tolist())),
         "passes": d.passes,
         "selection_log": d.log,
         "navigation": d.navigation,
@@ -364,6 +366,9 @@ def format_report(d: Diagnosis, start: str) -> str:
     if d.geometry:
         lines += _geometry_lines(d.geometry)
     lines.append(f"band: {d.bandwidth_reason}; {d.grade_reason}")
+    walking = _walk_words(d.bias_walk)
+    if walking:
+        lines.append(f"bias walk measured beside the model (it widens the errors of slow parameters): {walking}")
     cons = d.consistency or {}
     flagged = [p for p in cons.get("parameters", []) if p["inflated"]]
     if cons.get("parameters"):
@@ -584,3 +589,16 @@ def _save(fig, path: Path, force: bool) -> str:
     with atomic_output(path, force=force) as tmp:  # run()'s pre-flight checked each file against the inputs
         fig.savefig(tmp, dpi=100, format="png")
     return str(path)
+
+
+def _walk_words(walk) -> str:
+    """The channels whose bias walks, in the units a data sheet gives: deg/h/sqrt(h) for a gyro's rate
+    random walk, ug/sqrt(h) for an accelerometer's bias walk."""
+    words = []
+    for c, name in enumerate(CHANNELS):
+        if walk[c] > 0:
+            if c < 3:
+                words.append(f"{name} {math.degrees(walk[c]) * 3600 * 60:.3g} deg/h/sqrt(h)")
+            else:
+                words.append(f"{name} {walk[c] / STANDARD_GRAVITY_MPS2 * 1e6 * 60:.3g} ug/sqrt(h)")
+    return ", ".join(words)

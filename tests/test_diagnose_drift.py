@@ -1,0 +1,65 @@
+"""The walk of a bias (sizefx.diagnose.drift): its series, its measure and its marginalisation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sizefx.diagnose import drift as D
+
+
+def test_the_sine_series_holds_the_walks_variance():
+    """Brownian motion of intensity q has variance q t; the series' first TERMS terms hold
+    sum_k 2T/((k-1/2) pi)^2 sin^2(...) of it: 97.5 % at the span's end, zero at its start."""
+    span = 300.0
+    t = np.array([0.0, 75.0, 150.0, 300.0])
+    var = (D.basis(t, 0.0, span) ** 2) @ D.prior_variances(span)
+    assert var[0] == 0.0
+    # the tail beyond TERMS terms holds under 3 % of the variance at the end, more in the middle (the
+    # high terms' sines peak there): 6 % is the bound at t = T/4 for 8 terms
+    np.testing.assert_allclose(var[1:], t[1:], rtol=0.06)
+    assert var[-1] == pytest.approx(0.975 * span, rel=0.002)
+
+
+def _equations(rng, q, m=600, span=120.0, white=0.5):
+    """A small regression with a walk: the normal equations of H (a constant, a slow sine and a
+    fast one) and of the walk's basis, as sizefx.diagnose.normal.normal_equations sums them."""
+    t = np.linspace(0.0, span, m)
+    H = np.column_stack([np.ones(m), np.sin(2 * np.pi * t / 90.0), np.sin(2 * np.pi * t / 2.0)])
+    Z = D.basis(t, 0.0, span)
+    walk = np.concatenate([[0.0], np.cumsum(rng.normal(size=m - 1))]) * np.sqrt(q * span / (m - 1))
+    y = H @ np.array([0.3, -0.2, 0.1]) + walk + rng.normal(size=m) * white
+    W = 1.0 / white**2
+    return H, Z, y, W * H.T @ H, W * H.T @ y, W * H.T @ Z, W * Z.T @ Z, W * Z.T @ y
+
+
+def test_the_walks_intensity_is_measured_beside_the_model():
+    """Over 40 draws, the maximum-likelihood intensity's median is within 35 % of the drawn one
+    (one record holds about 8 coefficients' worth of the walk: a single draw scatters by a factor
+    of two); with no walk, most draws measure none and the rest little."""
+    found, none = [], []
+    for seed in range(40):
+        for q, out in ((0.02, found), (0.0, none)):
+            _, _, _, N, b, NU, UU, bU = _equations(np.random.default_rng(seed + (1000 if q == 0 else 0)), q)
+            out.append(D.intensity(N, b, {0: NU}, {0: UU}, {0: bU}, [0], 0.0, 120.0).q[0])
+    assert np.median(found) == pytest.approx(0.02, rel=0.35)
+    assert np.mean(np.array(none) == 0.0) >= 0.5
+    assert np.median(none) < 0.002
+
+
+def test_the_walks_part_is_the_estimates_scatter_under_a_walk():
+    """Least squares under white noise and a true walk (a cumulative sum, not the series): over 400
+    draws, the estimates scatter as N^-1 plus the walk's part, within the 10 % the draws allow
+    (sqrt(2/400) = 7 % per variance); the fast regressor's error takes little from the walk."""
+    q = 0.02
+    est = []
+    for seed in range(400):
+        H, Z, y, N, b, NU, UU, bU = _equations(np.random.default_rng(seed), q)
+        est.append(np.linalg.solve(N, b))
+    inv = np.linalg.inv(N)
+    walk = D.walk_covariance(D.Drift(np.array([q, 0, 0, 0, 0, 0]), 0.0, 120.0, {0: NU}), [0, 1, 2], inv)
+    predicted = np.diag(inv + walk)
+    np.testing.assert_allclose(np.var(est, axis=0), predicted, rtol=0.15)
+    assert np.diag(walk)[0] > 10 * np.diag(inv)[0]  # the constant is the walk's own
+    assert np.diag(walk)[2] < 0.15 * np.diag(inv)[2]  # a sine of 60 periods leaks little onto the slow basis
+    assert D.walk_covariance(D.NO_DRIFT, [0, 1, 2], inv) is None
