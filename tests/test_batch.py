@@ -674,7 +674,8 @@ def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campa
     from support import write_tiny_flight
 
     runs = tmp_path / "runs"
-    shutil.copytree(campaign, runs)
+    runs.mkdir()
+    shutil.copy(campaign / "run0.h5", runs)  # one good record beside it is enough to see it run
     write_tiny_flight(runs / "tiny.h5", 5)
     out = tmp_path / "out"
     result = _batch("navigate", runs, "--out", out, "--plots", "--workers", "1")
@@ -682,4 +683,4 @@ def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campa
     entries = {e["name"]: e for e in _manifest(out)["records"]}
     assert entries["tiny"]["status"] == "refused" and entries["tiny"]["outputs"] == {}
     assert "5 samples give 1 navigation step of 0.04 s" in entries["tiny"]["reason"]
-    assert all(entries[f"run{k}"]["status"] == "ok" for k in range(3))
+    assert entries["run0"]["status"] == "ok"
