@@ -63,3 +63,32 @@ def test_the_walks_part_is_the_estimates_scatter_under_a_walk():
     assert np.diag(walk)[0] > 10 * np.diag(inv)[0]  # the constant is the walk's own
     assert np.diag(walk)[2] < 0.15 * np.diag(inv)[2]  # a sine of 60 periods leaks little onto the slow basis
     assert D.walk_covariance(D.NO_DRIFT, [0, 1, 2], inv) is None
+
+
+# long tier: a diagnosis (1.1 s); fast twin: test_the_walks_intensity_is_measured_beside_the_model
+@pytest.mark.slow
+def test_diagnose_measures_an_accelerometer_bias_walk():
+    """A one-minute tumble with a bias walk of 300 ug/sqrt(h) on the accelerometers: diagnose reports
+    each accelerometer's walk within a factor of 4. One record holds about 8 coefficients' worth of
+    a walk, fewer beside the parameters fitted with them, so that the measure scatters: seeds 4, 5
+    and 6 gave 76-361 ug/sqrt(h). A walk ten times too small or large, or none, fails."""
+    from sizefx import diagnose as Dg
+    from sizefx import scenarios
+    from sizefx.effects import IDEAL, load_effects
+    from sizefx.simulate import simulate_in_memory
+
+    walk_ug = 300.0
+    fx = load_effects(
+        base=IDEAL,
+        overrides={
+            "lever_arm": {"enabled": True, "preset": "high-precision", "d_y_m": [0.003, 0.0274, -0.002]},
+            "accel_noise": {"enabled": True, "bias_rw_ug_per_sqrt_h": walk_ug},
+            "gyro_noise": {"enabled": True, "rrw_deg_per_h_per_sqrt_h": 0.0},
+        },
+    )
+    tel = simulate_in_memory(scenarios.tumble(60.0, axes="zyx"), fx, rate_hz=100.0, form="rates", seed=4)
+    nominal = Dg.theta_from_model(load_effects(base=IDEAL, overrides={"lever_arm": {"enabled": True}}))
+    d = Dg.diagnose(tel, nominal, keep_series=False)
+    accel_ug = d.bias_walk[3:] / 9.80665e-6 * 60.0  # m/s^2/sqrt(s) -> ug/sqrt(h)
+    assert np.all((accel_ug > walk_ug / 4) & (accel_ug < walk_ug * 4)), accel_ug
+    assert "lever_arm" in {e.id for e in d.effects}

@@ -48,10 +48,6 @@ class Drift:
     span_s: float  #: T [s]
     cross: dict = field(default_factory=dict)  #: channel -> [P, TERMS] H'WZ, for the channels that walk
 
-    @property
-    def any(self) -> bool:
-        return bool(np.any(self.q > 0)) and self.span_s > 0
-
 
 #: No walk anywhere (the fit as under white noise).
 NO_DRIFT = Drift(np.zeros(6), 0.0, 0.0)
