@@ -383,12 +383,10 @@ def test_cli_writes_report_model_and_plots(tumble_file, tmp_path):
     sc = g["triad_point_sigma_m"]
     assert all(s > 0 for s in g["d_sigma_m"][1]) and sc[0] > 0 and sc[2] > 0 and sc[1] == 0
     assert (plots / "residuals.png").stat().st_size > 10_000 and (plots / "spectra.png").stat().st_size > 10_000
-    # the written model is accepted by diagnose --model (and finds nothing more)
-    again = CliRunner().invoke(
-        main, ["diagnose", str(tumble_file), "--model", str(model), "--model-out", str(tmp_path / "m2.toml")]
-    )
-    assert again.exit_code == 0, again.output
-    assert "found nothing beyond the start model" in again.output
+    # the written model is what diagnose --model reads back (the second pass on it finding nothing more
+    # is test_model_file_round_trip_and_second_pass_finds_nothing's, a diagnosis less here)
+    back = D.theta_from_model(load_effects(model, base=IDEAL))
+    assert back[D.LEVER][3:6] == pytest.approx(lever["parameters"]["r_m"], abs=1e-12)  # accelerometer y's arm
 
 
 def test_cli_bad_input_is_one_line(tmp_path):
