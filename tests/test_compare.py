@@ -409,20 +409,10 @@ def cli():
     return SizefxGroup("sizefx", commands=[compare_command])
 
 
-def test_cli_with_reference_json_and_plots(flight_files, tmp_path):
+def test_cli_with_reference_and_json(flight_files, tmp_path):
     f = flight_files
-    out_json, plots = tmp_path / "cmp.json", tmp_path / "figs"
-    args = [
-        "compare",
-        str(f["a"]),
-        str(f["b"]),
-        "--reference",
-        str(f["ref"]),
-        "--json",
-        str(out_json),
-        "--plots",
-        str(plots),
-    ]
+    out_json = tmp_path / "cmp.json"
+    args = ["compare", str(f["a"]), str(f["b"]), "--reference", str(f["ref"]), "--json", str(out_json)]
     result = CliRunner().invoke(cli(), args)
     assert result.exit_code == 0, result.output
     doc = json.loads(out_json.read_text())
@@ -435,16 +425,28 @@ def test_cli_with_reference_json_and_plots(flight_files, tmp_path):
     assert by["A vs B"]["cross_track_m"]["final"] == pytest.approx(-f["cross_final_m"], abs=0.01)
     assert by["A vs B"]["attitude_deg"]["heading"]["final"] == pytest.approx(-2.0, abs=1e-6)
     assert by["A vs B"]["attitude_deg"]["total"]["max"] == pytest.approx(2.0, abs=1e-6)
-    names = sorted(p.name for p in plots.iterdir())
-    assert names == ["attitude.png", "horizontal_error.png", "trajectories.png", "velocity.png"]
-    for p in plots.iterdir():
-        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
-    assert sorted(doc["plots"]) == sorted(str(p) for p in plots.iterdir())
     assert "A and B diverge by" in result.stdout and "nmi/h" in result.stdout
     # outputs exist: refused without --force (one line, exit 2), replaced with it
     again = CliRunner().invoke(cli(), args)
     assert again.exit_code == 2 and len(again.stderr.strip().splitlines()) == 1 and "--force" in again.stderr
     assert CliRunner().invoke(cli(), [*args, "--force"]).exit_code == 0
+
+
+# long tier: four plots (a second and a half of drawing); fast twins: test_cli_with_reference_and_json,
+# and the demo's compare plot that .ci/run checks
+@pytest.mark.slow
+def test_cli_draws_the_comparison(flight_files, tmp_path):
+    f = flight_files
+    out_json, plots = tmp_path / "cmp.json", tmp_path / "figs"
+    args = ["compare", str(f["a"]), str(f["b"]), "--reference", str(f["ref"]), "--json", str(out_json)]
+    result = CliRunner().invoke(cli(), [*args, "--plots", str(plots)])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out_json.read_text())
+    names = sorted(p.name for p in plots.iterdir())
+    assert names == ["attitude.png", "horizontal_error.png", "trajectories.png", "velocity.png"]
+    for p in plots.iterdir():
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
+    assert sorted(doc["plots"]) == sorted(str(p) for p in plots.iterdir())
 
 
 def test_cli_without_reference_and_no_overwrite_of_inputs(flight_files):

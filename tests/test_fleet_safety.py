@@ -254,6 +254,9 @@ def test_a_chain_with_a_bad_input_at_its_second_step_leaves_nothing(runs, tmp_pa
 # -- a resume trusts only what it can verify --------------------------------------------------------
 
 
+# long tier: two batch runs, each starting its worker (about 1.8 s each); fast twin:
+# tests/test_batch.py::test_rerun_skips_what_is_unchanged, which reruns a record whose output is lost
+@pytest.mark.slow
 def test_a_resume_reruns_records_whose_outputs_it_cannot_verify(runs, tmp_path):
     out = tmp_path / "out"
     one = ("--workers", "1")
@@ -266,8 +269,7 @@ def test_a_resume_reruns_records_whose_outputs_it_cannot_verify(runs, tmp_path):
     assert "1 ok, 1 unchanged" in _sizefx("batch", "inspect", runs, "--out", out, *one).output
 
 
-# long tier: four batch runs, each starting its worker (about a second each); the fast tier's test
-# above keeps the manifest edited by hand
+# long tier: four batch runs, each starting its worker (about a second each); fast twin as above
 @pytest.mark.slow
 def test_a_resume_from_a_json_manifest_or_a_copied_folder_reruns_what_it_cannot_verify(runs, tmp_path):
     out = tmp_path / "out"
@@ -414,6 +416,9 @@ def test_a_scheduler_address_that_is_none_is_one_line_at_once(runs, tmp_path, ad
     assert not out.exists()
 
 
+# long tier: a second of waiting on the connection's bound; fast twin:
+# tests/test_batch.py::test_an_unreachable_scheduler_is_one_line_and_writes_nothing
+@pytest.mark.slow
 def test_a_server_that_is_no_scheduler_is_one_line_within_seconds(runs, tmp_path, monkeypatch):
     """A server that accepts the connection and then says nothing (as an HTTP server waits for its
     request): refused after the connection's bound, not waited on for ever."""
