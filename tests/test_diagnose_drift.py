@@ -1,4 +1,4 @@
-"""The walk of a bias (sizefx.diagnose.drift): its series, its measure and its marginalisation."""
+"""The walk of a bias (sizefx.diagnose.drift): its series, its measure and its share of the estimates' covariance."""
 
 from __future__ import annotations
 
@@ -92,3 +92,15 @@ def test_diagnose_measures_an_accelerometer_bias_walk():
     accel_ug = d.bias_walk[3:] / 9.80665e-6 * 60.0  # m/s^2/sqrt(s) -> ug/sqrt(h)
     assert np.all((accel_ug > walk_ug / 4) & (accel_ug < walk_ug * 4)), accel_ug
     assert "lever_arm" in {e.id for e in d.effects}
+
+
+def test_the_report_gives_the_walk_in_a_data_sheets_units():
+    """rad/s/sqrt(s) and m/s^2/sqrt(s) inside; deg/h/sqrt(h) and ug/sqrt(h) in the text, channels
+    that do not walk left out."""
+    from sizefx.diagnose.report import _walk_words
+
+    walk = np.zeros(6)
+    walk[1] = 0.19 * np.pi / 180 / 3600 / 60  # 0.19 deg/h/sqrt(h)
+    walk[5] = 15.3 * 9.80665e-6 / 60  # 15.3 ug/sqrt(h)
+    assert _walk_words(walk) == "gyro_y 0.19 deg/h/sqrt(h), accel_z 15.3 ug/sqrt(h)"
+    assert _walk_words(np.zeros(6)) == ""

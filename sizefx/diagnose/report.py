@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -597,8 +596,9 @@ def _walk_words(walk) -> str:
     words = []
     for c, name in enumerate(CHANNELS):
         if walk[c] > 0:
+            # per sqrt(h) is per 60 sqrt(s)
             if c < 3:
-                words.append(f"{name} {math.degrees(walk[c]) * 3600 * 60:.3g} deg/h/sqrt(h)")
+                words.append(f"{name} {walk[c] / (DEG_PER_H / 60.0):.3g} deg/h/sqrt(h)")
             else:
-                words.append(f"{name} {walk[c] / STANDARD_GRAVITY_MPS2 * 1e6 * 60:.3g} ug/sqrt(h)")
+                words.append(f"{name} {walk[c] / (UG / 60.0):.3g} ug/sqrt(h)")
     return ", ".join(words)
