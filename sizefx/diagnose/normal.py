@@ -258,7 +258,6 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
     NU = {c: np.zeros((NP, K)) for c in walking}
     UU = {c: np.zeros((K, K)) for c in walking}
     bU = {c: np.zeros(K) for c in walking}
-    rows_in = {c: 0 for c in walking}
     for lo, hi in rows_of.spans():
         a, z = np.searchsorted(rows, [lo // L, -(-hi // L)])  # the kept rows inside [lo, hi)
         if z <= a:
@@ -275,12 +274,11 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
             if not js:
                 continue
             w = weights[c] * rw[a:z, c]
-            if c in walking:  # the walk's basis against itself and the residual (yy counts these channels only)
+            if c in walking:  # the walk's basis against itself and the residual, on the channels the model acts on
                 assert Z is not None
                 Zw = Z * w[:, None]
                 UU[c] += Zw.T @ Z
                 bU[c] += Zw.T @ yb[a:z, c]
-                rows_in[c] += z - a
             H = rows_of.span_rows(np.column_stack([cc[j][1][:, list(cc[j][0]).index(c)] for j in js]), ea, lo, hi)[
                 local
             ]
@@ -302,7 +300,7 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
         del cc
     drift = NO_DRIFT
     if walking:
-        walking = [c for c in walking if rows_in[c] > 0]  # channels the model acts on
+        walking = [c for c in walking if UU[c].any()]  # the channels the model acts on
         drift = intensity(N.sum(0), b.sum(0), NU, UU, bU, walking, t0, span_s)
     return Normal(
         N,

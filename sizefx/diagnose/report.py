@@ -594,11 +594,8 @@ def _walk_words(walk) -> str:
     """The channels whose bias walks, in the units a data sheet gives: deg/h/sqrt(h) for a gyro's rate
     random walk, ug/sqrt(h) for an accelerometer's bias walk."""
     words = []
-    for c, name in enumerate(CHANNELS):
-        if walk[c] > 0:
-            # per sqrt(h) is per 60 sqrt(s)
-            if c < 3:
-                words.append(f"{name} {walk[c] / (DEG_PER_H / 60.0):.3g} deg/h/sqrt(h)")
-            else:
-                words.append(f"{name} {walk[c] / (UG / 60.0):.3g} ug/sqrt(h)")
+    for c, w in zip(CHANNELS, walk):
+        if w > 0:
+            k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (UG, "ug")
+            words.append(f"{c} {w / (k / 60.0):.3g} {unit}/sqrt(h)")  # per sqrt(h): per 60 sqrt(s)
     return ", ".join(words)
