@@ -324,11 +324,23 @@ def pair_inputs(records: list[Path], given, option: str) -> dict[Path, Path]:
 
 
 def _option_readers() -> dict:
-    """Option -> the reader that owns its file (imported here: the readers load NumPy and the schemas)."""
-    from ..correct import load_model
-    from ..levers import nominal_levers, read_levers
+    """Option -> the reader that owns its file, imported when an option names a file (the readers load
+    NumPy, the schemas and, for a model, Numba)."""
 
-    return {"--levers": read_levers, "--nominal": nominal_levers, "--model": load_model}
+    def load_model(path):
+        from ..correct import load_model
+
+        return load_model(path)
+
+    def levers(name):
+        def read(path):
+            from .. import levers
+
+            return getattr(levers, name)(path)
+
+        return read
+
+    return {"--levers": levers("read_levers"), "--nominal": levers("nominal_levers"), "--model": load_model}
 
 
 def check_option_files(option_files: dict) -> None:

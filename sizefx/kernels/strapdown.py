@@ -43,6 +43,7 @@ import numpy as np
 from ..constants import OMEGA_EARTH_RAD_S
 from .earth import gravity_ned, radii_m
 from .jit import kernel
+from .modes import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
 
 __all__ = [
     "coning_coefficients",
@@ -58,10 +59,6 @@ __all__ = [
 #: q[0:4], v_n[4:7], lat, lon, h [7:10], lat_prev, h_prev [10:12], v_prev [12:15], have_prev [15],
 #: Kahan compensation of lat, lon [16:18]
 STATE_SIZE = 18
-
-VERTICAL_FREE = 0  #: integrate the vertical channel (unstable over minutes, like any INS)
-VERTICAL_HELD = 1  #: height fixed at a known value, vertical velocity zero (turntable, sway, a site)
-VERTICAL_REFERENCE = 2  #: height and vertical velocity replaced by the reference at each step
 
 #: Coning coefficients k_ij (i < j), optimal for pure coning: Miller 1983 (2 and 3
 #: sub-samples as in Ignagni 1990), Lee et al. 1990 (4 sub-samples).

@@ -14,20 +14,17 @@ The package, from the bottom up:
 
 from __future__ import annotations
 
+import importlib
 import json
+import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import ConfigError
 from ..io.files import atomic_output
-from ..io.navigation import NavigationWriter, write_navigation
 from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
-from .initial import coarse_alignment
-from .loop import navigate, navigate_file, navigate_source
-from .output import check_plottable, plot_errors
 from .result import NavResult, format_summary
-from .steps import increments_of
 
 __all__ = [
     "NavConfig",
@@ -45,6 +42,25 @@ __all__ = [
     "CHUNK_SAMPLES",
     "GAPS_WHY",
 ]
+
+
+#: The names this package gives from its modules that load Numba, imported when first used (PEP 562),
+#: so that the options and the config are read without it (``sizefx batch`` decides a re-run from them).
+_LAZY = {
+    "navigate": ".loop",
+    "navigate_file": ".loop",
+    "navigate_source": ".loop",
+    "coarse_alignment": ".initial",
+    "check_plottable": ".output",
+    "plot_errors": ".output",
+    "increments_of": ".steps",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)
@@ -79,6 +95,11 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
     ``chunk_samples=0`` reads it whole and navigates in memory (:func:`navigate`): the same
     loop with one chunk, the same figures.
     """
+    started = time.perf_counter()
+    from ..io.navigation import NavigationWriter, write_navigation
+    from .loop import navigate, navigate_file
+    from .output import check_plottable, plot_errors
+
     cfg = config.options
     if cfg.levers and (config.model is not None or cfg.model is not None):  # the options first, then the files
         raise ConfigError(
@@ -97,6 +118,7 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
         from ..io.telemetry import read_telemetry
 
         res = navigate(read_telemetry(path, allow_gaps=cfg.allow_gaps, segment=cfg.segment), cfg, outputs=outputs)
+        published = time.perf_counter()
         if config.plot:
             check_plottable(res)
         if config.output:
@@ -107,6 +129,7 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
             res = navigate_file(
                 path, cfg, chunk_samples=config.chunk_samples, progress=progress, writer=writer, outputs=outputs
             )
+            published = time.perf_counter()
             if config.plot:  # before the solution is published: a refusal leaves nothing behind
                 check_plottable(res)
         except BaseException as exc:
@@ -126,4 +149,8 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
         plot_errors(res, config.plot, f"{Path(path).name}: free-inertial position error")
         written["--plot"] = config.plot
     res.written = written
+    if res.phases_s is not None:  # the stage's own time around the loop's phases
+        ended = time.perf_counter()
+        res.phases_s["write"] += ended - published
+        res.phases_s = {"open_checks": ended - started - sum(res.phases_s.values()), **res.phases_s}
     return res

@@ -6,9 +6,12 @@ The constants that decide how a record is navigated live here too, each with its
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from ..effects import EffectModel
-from ..kernels.strapdown import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
+from ..kernels.modes import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
+
+if TYPE_CHECKING:  # the options are read without loading the effect model's code (Numba)
+    from ..effects import EffectModel
 
 __all__ = [
     "NavConfig",
