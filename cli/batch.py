@@ -133,6 +133,12 @@ def batch_params(record_plots: bool, chain: bool = False) -> list:
             help="Run every record again, even those whose input, options and outputs match the manifest.",
         ),
         click.Option(
+            ["--rehash"],
+            is_flag=True,
+            help="Hash every input and output again instead of trusting a file whose size, times and "
+            "inode are those it had when hashed (a file system whose clock cannot be trusted).",
+        ),
+        click.Option(
             ["--scheduler"],
             metavar="tcp://HOST:PORT",
             help="Run on this Dask scheduler's cluster instead of local workers (the 'distributed' "
@@ -173,7 +179,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
         *batch_params(bool(spec.plots)),
     ]
 
-    def callback(inputs, out_dir, workers, memory_mib, redo, scheduler, json_progress, quiet, plots=False, **options):
+    def callback(
+        inputs, out_dir, workers, memory_mib, redo, rehash, scheduler, json_progress, quiet, plots=False, **options
+    ):
         from sizefx.batch import BatchJob, expand_inputs, output_names, run_batch
         from sizefx.batch.inputs import check_out_dir, check_stage_options, pair_inputs
         from sizefx.batch.manifest import Manifest, canonical_options
@@ -217,7 +225,9 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 option_files = {k: str(v) for k, v in config.inputs().items() if str(k).startswith("-") and v}
                 if not jobs:  # every record would refuse the same bad option: refused once, before any work
                     check_stage_options(config)  # its options, and its option files by their readers
-                    if scheduler is None:  # the workers start while the other configs are built
+                    # the workers start while the other configs are built; not for a re-run or a
+                    # resume, whose records the stat cache may find done without any worker
+                    if scheduler is None and (redo or rehash or not previous.has_entries()):
                         pool = start_workers(name, local_workers(workers, len(records)), memory_mib)
                 jobs.append(
                     BatchJob(
@@ -246,6 +256,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                 plots=plots,
                 memory_mib=memory_mib,
                 pool=pool,
+                rehash=rehash,
             )
         finally:  # a refusal before the run: the workers, still starting, are let go
             if pool is not None:
@@ -261,7 +272,8 @@ def _make(name: str, spec: _Stage) -> click.Command:
         f"outputs are named after it in --out, with manifest.json (sizefx/batch/1): per record the input's "
         f"SHA-256, the options, the outputs, the status (ok, refused with its reason, failed), duration, "
         f"peak memory and headline figures. A re-run skips records whose input, options and outputs "
-        f"match (--redo to force). Exit code 0 when every record succeeded, 1 otherwise, 2 for bad input."
+        f"match (--redo to force), deciding from each file's stat where it is the one the file had when "
+        f"hashed (--rehash to hash them all again). Exit code 0 when every record succeeded, 1 otherwise, 2 for bad input."
     )
     return quiet_option(
         click.Command(

@@ -263,7 +263,7 @@ def batch_run(**_):
 
 
 @batch_run.result_callback()
-def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_progress, plots, quiet):
+def _execute_batch(steps, out_dir, workers, memory_mib, redo, rehash, scheduler, json_progress, plots, quiet):
     from sizefx.batch.manifest import Manifest
     from sizefx.batch.runner import dask_client
 
@@ -274,7 +274,7 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
     )  # refused before calibrate runs or anything is written
     try:
         result = _batch_chain(
-            chain, nav, flights, out, previous, client, workers, memory_mib, redo, json_progress, plots, quiet
+            chain, nav, flights, out, previous, client, workers, memory_mib, redo, rehash, json_progress, plots, quiet
         )
     finally:
         if client is not None:
@@ -284,7 +284,9 @@ def _execute_batch(steps, out_dir, workers, memory_mib, redo, scheduler, json_pr
         sys.exit(1)
 
 
-def _batch_chain(chain, nav, flights, out, previous, client, workers, memory_mib, redo, json_progress, plots, quiet):
+def _batch_chain(
+    chain, nav, flights, out, previous, client, workers, memory_mib, redo, rehash, json_progress, plots, quiet
+):
     """calibrate once into ``out`` (if in the chain), then the chain per flight as a batch."""
     from sizefx import chain as chain_stage
     from sizefx.batch import BatchJob, output_names, run_batch
@@ -361,6 +363,7 @@ def _batch_chain(chain, nav, flights, out, previous, client, workers, memory_mib
             memory_mib=memory_mib,
             locked=True,
             own=own,
+            rehash=rehash,
         )
 
 

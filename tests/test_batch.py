@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sizefx.batch import BatchJob, BatchResult, RecordOutcome, output_names, run_batch, runner
+from sizefx.batch import BatchJob, BatchResult, RecordOutcome, digests, output_names, run_batch, runner
 from sizefx.batch.fleet import headline, recurring_findings
 from sizefx.batch.manifest import canonical_options
 from sizefx.batch.runner import LOCK_NAME, default_memory_mib, folder_lock
@@ -97,19 +97,33 @@ def test_inspect_batch_writes_one_output_per_record_and_a_manifest(inspected):
         assert entry["peak_memory_mib"] > 0 and entry["duration_s"] > 0
 
 
-def test_rerun_skips_what_is_unchanged(campaign, tmp_path):
+def test_rerun_skips_what_is_unchanged(campaign, tmp_path, monkeypatch):
+    """A re-run of a finished batch decides from the stat cache alone: no worker starts and no file is
+    hashed. A changed input and an output changed in place (same size) run again (a lost output and a
+    changed paired file: tests/test_batch_digests.py)."""
     runs = tmp_path / "runs"
     shutil.copytree(campaign, runs)
     out = tmp_path / "out"
-    one = ("--workers", "1")  # each run starts its workers, even when it reuses every record
+    one = ("--workers", "1")
     assert _batch("inspect", runs, "--out", out, *one).exit_code == 0
-    result = _batch("inspect", runs, "--out", out, *one)
+
+    def refused(*_, **__):
+        raise AssertionError("a re-run of an unchanged batch started a worker or hashed a file")
+
+    with monkeypatch.context() as m:
+        m.setattr(runner, "_pool", refused)
+        m.setattr(runner, "start_workers", refused)
+        m.setattr(digests, "sha256_of", refused)
+        result = _batch("inspect", runs, "--out", out, *one)
     assert "0 ok, 3 unchanged" in result.output, result.output
     _record(runs / "run1.h5", seed=11)  # a changed input
-    (out / "run2.inspect.json").unlink()  # a lost output
+    summary = out / "run2.inspect.json"  # an output changed in place, its size kept
+    text = summary.read_text()
+    summary.write_text(text.replace('"samples"', '"SAMPLES"'))
     result = _batch("inspect", runs, "--out", out, *one)
     assert "2 ok, 1 unchanged" in result.output, result.output
     assert {e["name"]: e["sha256"] for e in _manifest(out)["records"]}["run1"] == sha256_of(runs / "run1.h5")
+    assert json.loads(summary.read_text())["samples"] == 24001
 
 
 # long tier: three more batch runs, each starting its worker (about a second each); the fast tier's
@@ -684,3 +698,52 @@ def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campa
     assert entries["tiny"]["status"] == "refused" and entries["tiny"]["outputs"] == {}
     assert "5 samples give 1 navigation step of 0.04 s" in entries["tiny"]["reason"]
     assert entries["run0"]["status"] == "ok"
+
+
+def test_each_record_says_where_its_time_went(navigated):
+    """navigate's own phases add up to its stage time; the entry names its worker and its samples."""
+    for entry in _manifest(navigated)["records"]:
+        phases = entry["phases_s"]
+        own = ("open_checks", "initial", "read", "kernels", "write", "other")
+        assert set(phases) == {"hash", "stage", "outputs", *own}, phases
+        assert sum(phases[k] for k in own) == pytest.approx(phases["stage"], abs=1e-3)  # each rounded to 0.1 ms
+        assert phases["stage"] + phases["outputs"] <= entry["duration_s"]
+        assert entry["samples"] == 24001 and "pid" in entry["worker"]
+
+
+def test_throughput_counts_the_records_run_and_each_workers_busy_share():
+    def outcome(name, worker, duration, reused=False):
+        entry = {
+            "input": name,
+            "name": name,
+            "status": "ok",
+            "duration_s": duration,
+            "peak_memory_mib": 1.0,
+            "headline": {},
+            "worker": worker,
+            "samples": 1000,
+            "phases_s": {"stage": duration},
+        }
+        return RecordOutcome(entry, reused=reused)
+
+    result = BatchResult(
+        "inspect",
+        [outcome("a", "w1", 3.0), outcome("b", "w1", 1.0), outcome("c", "w2", 2.0), outcome("d", "w1", 9.0, True)],
+        wall_s=5.0,
+        workers=2,
+    )
+    pace = result.throughput()
+    assert pace["records_run"] == 3 and pace["records_per_s"] == pytest.approx(0.6)
+    assert pace["samples_per_s"] == pytest.approx(600.0)
+    assert pace["busy"] == pytest.approx({"w1": 0.8, "w2": 0.4}) and pace["busy_mean"] == pytest.approx(0.6)
+    assert "3 records run: 0.6 records/s, 600 samples/s; 2 workers busy 40-80 %" in result.report()
+
+
+# long tier: two batch runs, the second starting its worker (1.5 s); fast twin: test_rerun_skips_what_is_unchanged
+@pytest.mark.slow
+def test_rehash_trusts_no_stat_and_still_skips_what_is_unchanged(campaign, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    assert _batch("inspect", campaign, "--out", out, "--workers", "1").exit_code == 0
+    monkeypatch.setattr(runner, "_unchanged", lambda *_: pytest.fail("--rehash consulted the stat cache"))
+    result = _batch("inspect", campaign, "--out", out, "--workers", "1", "--rehash")
+    assert "0 ok, 3 unchanged" in result.output, result.output

@@ -6,7 +6,9 @@ Two files in the batch folder:
   mode): one row per record, keyed by its input path, written as each record finishes. A write
   is one row, whatever the batch's size, and a transaction: killed at any instant (SIGKILL, a
   machine switched off), the store holds every record finished before and the next run reads it.
-  A resume looks each record up by its path; nothing holds the whole manifest in memory.
+  A resume looks each record up by its path; nothing holds the whole manifest in memory. The store
+  also keeps the batch's stat cache (:mod:`.digests`): each SHA-256 it computed with the file's stat
+  then, so that a re-run hashes only the files whose stat changed.
 - ``manifest.json`` (``sizefx/batch/1``, ``data-schemas/batch-1.json``): the same records as one
   JSON document for people and tools, written atomically from the store when a batch ends
   (however it ends, short of SIGKILL; the next run rewrites it then). A folder that has only a
@@ -31,6 +33,7 @@ from ..errors import ConfigError
 from ..io.documents import read_json
 from ..io.files import atomic_output, file_kind, sha256_of
 from ..io.schema import check_document, validate_input
+from .digests import DigestCache
 
 __all__ = [
     "BATCH_SCHEMA",
@@ -125,6 +128,7 @@ class Manifest:
                 db.execute("PRAGMA synchronous=NORMAL")
                 db.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
                 db.execute("CREATE TABLE IF NOT EXISTS records (input TEXT PRIMARY KEY, entry TEXT NOT NULL)")
+                db.execute(DigestCache.TABLE)
             meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
         except sqlite3.Error as exc:
             raise self._fail(exc) from None
@@ -158,6 +162,21 @@ class Manifest:
             raise self._fail(exc) from None
         self._writable = True
         return self
+
+    def has_entries(self) -> bool:
+        """Whether the folder holds an entry of any record (a re-run or a resume, not a new batch)."""
+        if self._db is None:
+            return bool(self._legacy)
+        try:
+            return self._db.execute("SELECT 1 FROM records LIMIT 1").fetchone() is not None
+        except sqlite3.Error as exc:
+            raise self._fail(exc) from None
+
+    @property
+    def digests(self) -> DigestCache:
+        """The folder's stat cache (:mod:`.digests`), kept in the store; empty until
+        :meth:`open_for_writing`."""
+        return DigestCache(self._db if self._writable else None)
 
     def entry(self, record: str) -> dict | None:
         """The entry of the record whose input is ``record`` (its resolved path), or None."""
@@ -230,13 +249,16 @@ def read_manifest(out_dir, stage: str) -> dict | None:
     return doc
 
 
-def reusable(entry: dict | None, sha256: str, options: dict, paired: dict | None = None, expected=None) -> bool:
+def reusable(
+    entry: dict | None, sha256: str, options: dict, paired: dict | None = None, expected=None, digest=sha256_of
+) -> bool:
     """Whether a previous run's ``entry`` for a record stands: it succeeded, on the same input bytes,
     options and paired files (``{option: {"path", "sha256"}}``), and its outputs are still there with
     the sizes and hashes it wrote. ``expected`` (option -> path, what this run would write): the entry
     must list an output for each, at that path (a file) or inside it (a folder's files, listed as
     ``option/...``), and nothing else; a manifest copied with its folder or edited by hand names
-    files elsewhere, or none, and the record runs again."""
+    files elsewhere, or none, and the record runs again. ``digest(path)``: an output's SHA-256 (the
+    batch's stat cache, :meth:`.digests.DigestCache.digest`, hashes only a file whose stat changed)."""
     if not entry or entry.get("status") != "ok" or entry.get("sha256") != sha256 or entry.get("options") != options:
         return False
     if entry.get("paired", {}) != (paired or {}):
@@ -254,6 +276,6 @@ def reusable(entry: dict | None, sha256: str, options: dict, paired: dict | None
                 return False
     for out in outputs.values():
         path = Path(out["path"])
-        if not path.is_file() or path.stat().st_size != out["bytes"] or sha256_of(path) != out["sha256"]:
+        if not path.is_file() or path.stat().st_size != out["bytes"] or digest(path) != out["sha256"]:
             return False
     return True

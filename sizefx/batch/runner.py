@@ -24,6 +24,7 @@ import multiprocessing
 import os
 import resource
 import signal
+import socket
 import stat
 import sys
 import threading
@@ -39,9 +40,10 @@ import numpy as np
 
 from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
-from ..io.files import ABANDONED, file_kind, remove_stale_temporaries, remove_stale_temporaries_below, sha256_of
+from ..io.files import ABANDONED, file_kind, remove_stale_temporaries, remove_stale_temporaries_below
 from ..io.schema import as_json
 from ..stage import use_helper_threads
+from .digests import DigestCache, hash_file
 from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
 from .inputs import check_writes, make_out_dir
 from .manifest import MANIFEST_NAME, STORE_FILES, Manifest, reusable
@@ -102,6 +104,8 @@ class RecordOutcome:
 
     entry: dict
     reused: bool = False
+    #: path -> (signature or None, sha256) of the files the worker hashed, for the folder's stat cache
+    digests: dict = field(default_factory=dict)
 
     @property
     def status(self) -> str:
@@ -183,9 +187,58 @@ class BatchResult:
                 "  runs that disagree with the others (|z| > 3.3): "
                 + (", ".join(f"{name} ({z:.1f} sigma)" for name, z in combined["disagree"]) or "none")
             )
+        pace = self.throughput()
+        if pace["records_run"]:
+            busy = list(pace["busy"].values())
+            lines.append(
+                f"  {pace['records_run']} records run: {pace['records_per_s']:.3g} records/s, "
+                f"{pace['samples_per_s']:.3g} samples/s"
+                + (
+                    f"; {len(busy)} workers busy {100 * min(busy):.0f}-{100 * max(busy):.0f} % of the wall time "
+                    f"(mean {100 * pace['busy_mean']:.0f} %)"
+                    if busy
+                    else ""
+                )
+            )
+            phases, total = pace["phases_s"], pace["records_s"]
+            if total > 0 and phases.get("stage"):
+                own = [k for k in phases if k not in ("hash", "stage", "outputs")]
+                lines.append(
+                    f"  the records' {total:.3g} s: stage {100 * phases['stage'] / total:.0f} %"
+                    + (f" ({', '.join(f'{k} {100 * phases[k] / total:.0f}' for k in own)})" if own else "")
+                    + f", outputs {100 * phases.get('outputs', 0.0) / total:.0f} %"
+                    + f"; hashing beside the stage {100 * phases.get('hash', 0.0) / total:.0f} %"
+                )
         if self.fleet_plot:
             lines.append(f"  figures across the records -> {self.fleet_plot}")
         return "\n".join(lines)
+
+    def throughput(self) -> dict:
+        """This run's pace, over the records it ran (not those skipped): how many, records and IMU
+        samples per second of the batch's wall time, each worker's busy fraction (the seconds it spent
+        on records over the wall time: where more workers stop helping, it falls) and their mean,
+        the records' durations summed (``records_s``) and their phases summed [s] (``hash`` runs beside
+        the stage; the stage's own phases, where it keeps them, add up to ``stage``)."""
+        run = [o.entry for o in self.outcomes if not o.reused]
+        wall = self.wall_s if self.wall_s > 0 else float("nan")
+        busy: dict[str, float] = {}
+        phases: dict[str, float] = {}
+        for e in run:
+            if e.get("worker"):
+                busy[e["worker"]] = busy.get(e["worker"], 0.0) + e["duration_s"] / wall
+            for k, v in (e.get("phases_s") or {}).items():
+                phases[k] = phases.get(k, 0.0) + v
+        samples = sum(e.get("samples") or 0 for e in run if e["status"] == "ok")
+        return {
+            "records_run": len(run),
+            "wall_s": self.wall_s,
+            "records_per_s": len(run) / wall,
+            "samples_per_s": samples / wall,
+            "busy": busy,
+            "busy_mean": float(np.mean(list(busy.values()))) if busy else float("nan"),
+            "records_s": sum(e["duration_s"] for e in run),
+            "phases_s": phases,
+        }
 
     def combined(self) -> dict | None:
         """Calibrations across the runs combined, with the consistency test (:func:`.fleet.combine_arms`)."""
@@ -198,6 +251,7 @@ class BatchResult:
             "wall_s": self.wall_s,
             "workers": self.workers,
             "counts": self.counts(),
+            "throughput": self.throughput(),
             "records": [o.entry for o in self.outcomes],
             **({"combined_arms": self.combined()} if self.stage == "calibrate" else {}),
         }
@@ -266,16 +320,20 @@ def _peak_memory_mib(reset: bool) -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _collect(outputs: dict) -> dict:
+def _collect(outputs: dict, digests: dict) -> dict:
     """``{option: {path, bytes, sha256}}`` of the files the stage wrote (a folder's files each as
-    ``option/relative/path``)."""
+    ``option/relative/path``); each digest also into ``digests`` (path -> (signature, sha256), for the
+    folder's stat cache: :func:`.digests.hash_file`, which waits out the racy window of a file just
+    written where it is short)."""
     found = {}
     for option, path in sorted(outputs.items()):
         p = Path(path)
         files = sorted(q for q in p.rglob("*") if q.is_file()) if p.is_dir() else ([p] if p.is_file() else [])
         for q in files:
             key = f"{option}/{q.relative_to(p).as_posix()}" if p.is_dir() else option
-            found[key] = {"path": str(q), "bytes": q.stat().st_size, "sha256": sha256_of(q)}
+            digest, sig = hash_file(q, wait=True)
+            digests[str(q)] = (sig, digest)
+            found[key] = {"path": str(q), "bytes": q.stat().st_size, "sha256": digest}
     return found
 
 
@@ -283,32 +341,38 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _paired_hashes(paired: dict) -> dict:
+def _paired_hashes(paired: dict, digests: dict) -> dict:
     """``{option: {"path", "sha256"}}`` of a job's paired files ("" for one that cannot be read: the
-    stage says why)."""
+    stage says why); each digest also into ``digests`` (as :func:`_collect`)."""
     out = {}
     for option, path in sorted(paired.items()):
         digest = ""
         with contextlib.suppress(OSError):
-            digest = sha256_of(path)
+            digest, sig = hash_file(path)
+            digests[str(path)] = (sig, digest)
         out[option] = {"path": str(path), "sha256": digest}
     return out
 
 
 class _Hashing(threading.Thread):
     """The SHA-256 of a record and of its paired files, computed in a thread of its own while the
-    stage runs."""
+    stage runs; ``seconds``: how long that took."""
 
     def __init__(self, path, paired: dict):
         super().__init__(daemon=True)
         self.path, self.paired, self.digest = path, paired, ""
         self.paired_digests: dict[str, dict] = {}
+        self.digests: dict = {}
+        self.seconds = 0.0
         self.start()
 
     def run(self):
+        t0 = time.perf_counter()
         with contextlib.suppress(OSError):
-            self.digest = sha256_of(self.path)
-        self.paired_digests = _paired_hashes(self.paired)
+            self.digest, sig = hash_file(self.path)
+            self.digests[str(self.path)] = (sig, self.digest)
+        self.paired_digests = _paired_hashes(self.paired, self.digests)
+        self.seconds = time.perf_counter() - t0
 
     def result(self) -> tuple[str, dict]:
         self.join()
@@ -382,29 +446,47 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
         "peak_memory_mib": 0.0,
         "headline": {},
     }
+    digests: dict = {}  # path -> (signature, sha256) of every file hashed here, for the stat cache
+    phases: dict[str, float] = {}  # where the record's time went [s]
     may_reuse = not job.redo and job.previous is not None and job.previous.get("status") == "ok"
-    if may_reuse:  # the hashes decide whether the record runs at all
+    if may_reuse:  # the stat cache could not tell (a file's stat changed): the hashes decide
         assert job.previous is not None  # may_reuse says so
-        paired = _paired_hashes(job.paired)
+        started = time.perf_counter()
+        paired = _paired_hashes(job.paired, digests)
+
+        def output_digest(path) -> str:
+            digest, sig = hash_file(path)
+            digests[str(path)] = (sig, digest)
+            return digest
+
         try:
-            entry["sha256"] = sha256_of(job.input)
+            entry["sha256"], sig = hash_file(job.input)
+            digests[job.input] = (sig, entry["sha256"])
             expected = {**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})}
-            if reusable(job.previous, entry["sha256"], job.options, paired, expected):
-                return RecordOutcome(job.previous, reused=True)
+            if reusable(job.previous, entry["sha256"], job.options, paired, expected, output_digest):
+                return RecordOutcome(job.previous, reused=True, digests=digests)
         except OSError:  # the input (or an output) cannot be read now: the stage runs and says why
             entry["sha256"] = ""
         if paired:
             entry["paired"] = paired
         hashing = None
+        phases["hash"] = time.perf_counter() - started
     else:  # it runs anyway: hash beside the stage (hashlib releases the GIL; the stage waits on its reads)
         hashing = _Hashing(job.input, job.paired)
     try:
+        started = time.perf_counter()
         result = importlib.import_module(STAGES.get(job.stage, job.stage)).run(job.config)
+        phases["stage"] = time.perf_counter() - started
+        phases.update(getattr(result, "phases_s", None) or {})  # the stage's own account, where it keeps one
+        started = time.perf_counter()
         doc = as_json(result.to_json())
         if job.summary_path:
             write_json(job.summary_path, doc, inputs=[job.input], force=True)
         entry["headline"] = headline(job.stage, doc)
-        entry["outputs"] = _collect({**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})})
+        entry["outputs"] = _collect(
+            {**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})}, digests
+        )
+        phases["outputs"] = time.perf_counter() - started
     except SizefxError as exc:
         entry["status"], entry["reason"] = "refused", _one_line(exc)
     except MemoryError as exc:  # beyond the worker's bound (or the machine's): this record only
@@ -421,11 +503,29 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
     if hashing is not None:
         entry["sha256"], paired = hashing.result()  # "" if a file could not be read (the stage said why)
+        digests.update(hashing.digests)
+        phases["hash"] = hashing.seconds
         if paired:
             entry["paired"] = paired
     entry["duration_s"] = time.perf_counter() - t0
     entry["peak_memory_mib"] = _peak_memory_mib(reset)
-    return RecordOutcome(entry)
+    entry["worker"] = f"{socket.gethostname()} pid {os.getpid()}"
+    entry["phases_s"] = {k: round(v, 4) for k, v in phases.items()}
+    samples = _samples_of(job.input) if entry["status"] == "ok" else None
+    if samples is not None:
+        entry["samples"] = samples
+    return RecordOutcome(entry, digests=digests)
+
+
+def _samples_of(path) -> int | None:
+    """IMU samples in the record ``path`` (the length of ``/imu/time``), for the batch's samples per
+    second; None where it has none (a stage's input that is no telemetry record)."""
+    with contextlib.suppress(Exception):
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            return int(f["imu/time"].shape[0])
+    return None
 
 
 # --------------------------------------------------------------------------- in the parent
@@ -757,6 +857,7 @@ def run_batch(
     pool: ProcessPoolExecutor | None = None,
     client=None,
     own: dict | None = None,
+    rehash: bool = False,
 ) -> BatchResult:
     """Run ``jobs`` (one per record, in input order) in ``workers`` processes (default: the cores), or
     on the Dask cluster whose scheduler is at ``scheduler``, and keep ``out_dir``'s manifest as they
@@ -772,7 +873,13 @@ def run_batch(
     (:func:`dask_client`, by a caller that writes before the batch). Both are closed here in any case.
 
     Before anything is written, every path the jobs write is checked against every input and the
-    folder's own files (:func:`check_batch_writes`; ``own``: more of them, name -> what it is)."""
+    folder's own files (:func:`check_batch_writes`; ``own``: more of them, name -> what it is).
+
+    A record whose entry stands is skipped here, before any worker: the folder's stat cache
+    (:mod:`.digests`) gives the digests of its input, paired files and outputs while their stat is
+    unchanged, and only an output whose stat changed is hashed again. A record whose input or paired
+    file changed stat goes to a worker, which hashes them and skips the record if the bytes are the
+    same. ``rehash``: trust no stat, hash every file again (in the workers)."""
     try:
         if client is None and scheduler is not None:
             client = dask_client(scheduler)  # refused before anything is written
@@ -795,6 +902,7 @@ def run_batch(
                 plots=plots,
                 memory_mib=memory_mib or default_memory_mib(workers),
                 pool=None if client is not None else pool,
+                rehash=rehash,
             )
     finally:
         if pool is not None:  # unused (a refusal, a Dask run), or done with
@@ -821,24 +929,50 @@ def check_batch_writes(out_dir, jobs: list[BatchJob], own: dict | None = None) -
 
 
 def _run_locked(
-    stage, jobs, out_dir, options, *, workers, previous, progress, client, plots, memory_mib, pool=None
+    stage, jobs, out_dir, options, *, workers, previous, progress, client, plots, memory_mib, pool=None, rehash=False
 ) -> BatchResult:
     store = (previous if previous is not None else Manifest(out_dir, stage)).open_for_writing(options)
     try:
-        return _run_stored(stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool)
+        return _run_stored(
+            stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool, rehash
+        )
     finally:  # however the batch ends (short of SIGKILL): the JSON manifest of what is done
         store.export(options)
         store.close()
 
 
-def _run_stored(stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool):
+def _unchanged(job: BatchJob, cache: DigestCache) -> bool:
+    """Whether ``job``'s previous entry stands, decided from the stat cache: its input and paired files
+    unchanged since they were hashed (nothing read), its outputs too (one whose stat changed is
+    hashed again). False where the cache cannot tell: a worker then hashes and decides."""
+    previous = job.previous
+    if job.redo or not previous or previous.get("status") != "ok":
+        return False
+    if cache.known(job.input) != previous.get("sha256"):
+        return False
+    paired = {}
+    for option, path in sorted(job.paired.items()):
+        digest = cache.known(path)
+        if digest is None:
+            return False
+        paired[option] = {"path": str(path), "sha256": digest}
+    expected = {**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})}
+    try:
+        return reusable(previous, previous["sha256"], job.options, paired, expected, cache.digest)
+    except OSError:  # an output cannot be read now: the record runs again
+        return False
+
+
+def _run_stored(stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool, rehash):
     outcomes: dict[str, RecordOutcome] = {}
     counts = {"ok": 0, "refused": 0, "failed": 0, "skipped": 0}
     t0 = time.perf_counter()
+    cache = store.digests
 
     def finished(job: BatchJob, outcome: RecordOutcome):
         outcomes[job.input] = outcome
         counts["skipped" if outcome.reused else outcome.status] += 1
+        cache.keep(outcome.digests)
         if not outcome.reused:
             store.record(outcome.entry, options)
         if progress is not None:
@@ -858,9 +992,15 @@ def _run_stored(stage, jobs, out_dir, store, options, workers, progress, client,
                 }
             )
 
+    left = []
+    for job in jobs:  # the records whose entry stands are done before any worker starts
+        if not rehash and _unchanged(job, cache):
+            finished(job, RecordOutcome(job.previous, reused=True))
+        else:
+            left.append(job)
     if client is not None:
-        _run_dask(client, jobs, finished)
-    pending: list[BatchJob] = [] if client is not None else list(jobs)
+        _run_dask(client, left, finished)
+    pending: list[BatchJob] = [] if client is not None else left
     suspects: list[BatchJob] = []
     started = pool  # the first round's workers, if the caller started them
     while pending:

@@ -174,13 +174,16 @@ def navigate_source(
     bounds = [(j0, min(j0 + chunk, n_steps * n_sub)) for j0 in range(0, n_steps * n_sub, chunk)]
     out: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "q", "v", "lat", "lon", "h")}
     errors = Errors(ref, approximate, T)
-    kernel_s = 0.0
+    kernel_s = read_s = write_s = 0.0
+    loop_started = _time.perf_counter()
     step0 = 0
     pool = ThreadPoolExecutor(max_workers=1) if threads and len(bounds) > 1 else None
     try:
         pending = pool.submit(prep.increments, *bounds[0]) if pool else None
         for c, (j0, j1) in enumerate(bounds):
+            r_started = _time.perf_counter()
             t_end, dtheta, dvel = pending.result() if pending is not None else prep.increments(j0, j1)
+            read_s += _time.perf_counter() - r_started
             if pool and c + 1 < len(bounds):
                 pending = pool.submit(prep.increments, *bounds[c + 1])
             steps = (j1 - j0) // n_sub
@@ -199,7 +202,9 @@ def navigate_source(
                 np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0) if stride > 1 else np.arange(steps)
             )
             if writer is not None:
+                w_started = _time.perf_counter()
                 writer.append(t_nav[rows], lat[rows], lon[rows], h[rows], v[rows], q[rows])
+                write_s += _time.perf_counter() - w_started
             for key, x in zip(("t", "q", "v", "lat", "lon", "h"), (t_nav, q, v, lat, lon, h)):
                 if writer is None:
                     out[key].append(x[rows] if stride > 1 else x)
@@ -263,6 +268,13 @@ def navigate_source(
     res.summary["kernel_s"] = kernel_s
     res.summary["wall_s"] = _time.perf_counter() - started
     res.errors = errors.errors()
+    res.phases_s = {
+        "initial": loop_started - started,
+        "read": read_s,
+        "kernels": kernel_s,
+        "write": write_s,
+        "other": res.summary["wall_s"] - (loop_started - started) - read_s - kernel_s - write_s,
+    }
     return res
 
 

@@ -28,6 +28,12 @@ class NavResult:
     errors: dict | None = None
     path: str | None = None  #: the record navigated
     written: dict | None = None  #: option -> path of each file the stage wrote
+    #: where the run's time went [s] (never written to an output): open_checks (the record opened and
+    #: checked), initial (the initial state), read (the loop waiting for a chunk's increments: read,
+    #: checked and corrected, in a helper thread where one runs), kernels, write (the solution's rows
+    #: and its file published), other (the errors against /reference, the loop's bookkeeping); a batch
+    #: keeps them per record in its manifest
+    phases_s: dict | None = None
 
     def report(self) -> str:
         """The lines ``sizefx navigate`` prints."""
