@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from ..io.files import atomic_output
 from ..io.schema import as_json
 
@@ -110,6 +108,8 @@ def recurring_findings(entries: list[dict]) -> list[tuple[str, int]]:
 
 
 def _weighted(values, sigmas):
+    import numpy as np
+
     w = 1.0 / sigmas**2
     mean = (w * values).sum(axis=0) / w.sum(axis=0)
     return mean, 1.0 / np.sqrt(w.sum(axis=0))
@@ -122,6 +122,8 @@ def combine_arms(entries: list[dict]) -> dict | None:
     runs = [e for e in entries if e["status"] == "ok" and "r_x_m" in e.get("headline", {})]
     if len(runs) < 2:
         return None
+    import numpy as np  # here: a batch that combines nothing (a re-run of any other stage) never loads it
+
     r = np.array([[e["headline"][f"r_{a}_m"] for a in "xyz"] for e in runs])  # [n, 3, 3]
     s = np.array([[e["headline"][f"sigma_{a}_m"] for a in "xyz"] for e in runs])
     mean, sigma = _weighted(r, s)
@@ -174,6 +176,8 @@ def plot_fleet(stage: str, entries: list[dict], path) -> Path | None:
                 panels.append((key, pts, None))
     if not panels:
         return None
+    import numpy as np
+
     plt = pyplot()
     cols = 3 if len(panels) > 3 else 1
     rows = -(-len(panels) // cols)

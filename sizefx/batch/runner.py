@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import errno
 import fcntl
 import importlib
@@ -34,15 +35,14 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
+from statistics import fmean, stdev
 from typing import Any
-
-import numpy as np
 
 from ..errors import ConfigError, SizefxError
 from ..io.documents import write_json
 from ..io.files import ABANDONED, file_kind, remove_stale_temporaries, remove_stale_temporaries_below
 from ..io.schema import as_json
-from ..stage import use_helper_threads
+from ..stage import helper_threads, use_helper_threads
 from .digests import DigestCache, hash_file
 from .fleet import FLEET_PLOT, combine_arms, headline, plot_fleet, recurring_findings, table_figures
 from .inputs import check_writes, make_out_dir
@@ -96,6 +96,9 @@ class BatchJob:
     #: other files this record's run reads, option -> path (compare's B and reference, a chain's lever
     #: arms): hashed into the manifest like the input, so that a change to one runs the record again
     paired: dict = field(default_factory=dict)
+    #: path -> SHA-256 of the input and paired files whose stat the folder's stat cache knows (set by
+    #: the batch): not hashed again
+    known: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -159,8 +162,8 @@ class BatchResult:
             ]
             if len(values) > 1:
                 lines.append(
-                    f"  {k} across {len(values)} records: mean {np.mean(values):.4g}, "
-                    f"std {np.std(values, ddof=1):.3g}, min {min(values):.4g}, max {max(values):.4g}"
+                    f"  {k} across {len(values)} records: mean {fmean(values):.4g}, "
+                    f"std {stdev(values):.3g}, min {min(values):.4g}, max {max(values):.4g}"
                 )
         if self.stage == "diagnose":
             ok = sum(o.status == "ok" for o in self.outcomes)
@@ -171,6 +174,8 @@ class BatchResult:
             )
         combined = self.combined()
         if combined:
+            import numpy as np
+
             mm = np.array(combined["arms_m"]) * 1e3
             lines.append(
                 f"  arms of {combined['runs']} runs combined (inverse-variance) [mm], +- sigma, chi2/dof across runs:"
@@ -207,7 +212,7 @@ class BatchResult:
                     f"  the records' {total:.3g} s: stage {100 * phases['stage'] / total:.0f} %"
                     + (f" ({', '.join(f'{k} {100 * phases[k] / total:.0f}' for k in own)})" if own else "")
                     + f", outputs {100 * phases.get('outputs', 0.0) / total:.0f} %"
-                    + f"; hashing beside the stage {100 * phases.get('hash', 0.0) / total:.0f} %"
+                    + f"; hashing {100 * phases.get('hash', 0.0) / total:.0f} % (beside the stage where a core is free)"
                 )
         if self.fleet_plot:
             lines.append(f"  figures across the records -> {self.fleet_plot}")
@@ -235,7 +240,7 @@ class BatchResult:
             "records_per_s": len(run) / wall,
             "samples_per_s": samples / wall,
             "busy": busy,
-            "busy_mean": float(np.mean(list(busy.values()))) if busy else float("nan"),
+            "busy_mean": fmean(busy.values()) if busy else float("nan"),
             "records_s": sum(e["duration_s"] for e in run),
             "phases_s": phases,
         }
@@ -341,41 +346,51 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _paired_hashes(paired: dict, digests: dict) -> dict:
+def _digest(path, known: dict, digests: dict) -> str:
+    """``path``'s SHA-256: from ``known`` (the stat cache's, passed with the job), else hashed and put
+    into ``digests`` (as :func:`_collect`). Raises ``OSError`` for a file that cannot be read."""
+    if str(path) in known:
+        return known[str(path)]
+    digest, sig = hash_file(path)
+    digests[str(path)] = (sig, digest)
+    return digest
+
+
+def _paired_hashes(paired: dict, known: dict, digests: dict) -> dict:
     """``{option: {"path", "sha256"}}`` of a job's paired files ("" for one that cannot be read: the
-    stage says why); each digest also into ``digests`` (as :func:`_collect`)."""
+    stage says why), by :func:`_digest`."""
     out = {}
     for option, path in sorted(paired.items()):
         digest = ""
         with contextlib.suppress(OSError):
-            digest, sig = hash_file(path)
-            digests[str(path)] = (sig, digest)
+            digest = _digest(path, known, digests)
         out[option] = {"path": str(path), "sha256": digest}
     return out
 
 
 class _Hashing(threading.Thread):
     """The SHA-256 of a record and of its paired files, computed in a thread of its own while the
-    stage runs; ``seconds``: how long that took."""
+    stage runs (``start``; else the caller calls :meth:`run` itself); ``seconds``: how long that took."""
 
-    def __init__(self, path, paired: dict):
+    def __init__(self, path, paired: dict, known: dict, start: bool = True):
         super().__init__(daemon=True)
-        self.path, self.paired, self.digest = path, paired, ""
+        self.path, self.paired, self.known, self.digest = path, paired, known, ""
         self.paired_digests: dict[str, dict] = {}
         self.digests: dict = {}
         self.seconds = 0.0
-        self.start()
+        if start:
+            self.start()
 
     def run(self):
         t0 = time.perf_counter()
         with contextlib.suppress(OSError):
-            self.digest, sig = hash_file(self.path)
-            self.digests[str(self.path)] = (sig, self.digest)
-        self.paired_digests = _paired_hashes(self.paired, self.digests)
+            self.digest = _digest(self.path, self.known, self.digests)
+        self.paired_digests = _paired_hashes(self.paired, self.known, self.digests)
         self.seconds = time.perf_counter() - t0
 
     def result(self) -> tuple[str, dict]:
-        self.join()
+        if self.is_alive():
+            self.join()
         return self.digest, self.paired_digests
 
 
@@ -452,7 +467,7 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
     if may_reuse:  # the stat cache could not tell (a file's stat changed): the hashes decide
         assert job.previous is not None  # may_reuse says so
         started = time.perf_counter()
-        paired = _paired_hashes(job.paired, digests)
+        paired = _paired_hashes(job.paired, job.known, digests)
 
         def output_digest(path) -> str:
             digest, sig = hash_file(path)
@@ -460,8 +475,7 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
             return digest
 
         try:
-            entry["sha256"], sig = hash_file(job.input)
-            digests[job.input] = (sig, entry["sha256"])
+            entry["sha256"] = _digest(job.input, job.known, digests)
             expected = {**job.outputs, **({"summary": job.summary_path} if job.summary_path else {})}
             if reusable(job.previous, entry["sha256"], job.options, paired, expected, output_digest):
                 return RecordOutcome(job.previous, reused=True, digests=digests)
@@ -471,8 +485,10 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
             entry["paired"] = paired
         hashing = None
         phases["hash"] = time.perf_counter() - started
-    else:  # it runs anyway: hash beside the stage (hashlib releases the GIL; the stage waits on its reads)
-        hashing = _Hashing(job.input, job.paired)
+    elif helper_threads():  # it runs anyway: hash beside the stage, on a core the other workers leave idle
+        hashing = _Hashing(job.input, job.paired, job.known)
+    else:  # workers that fill the cores: a thread beside each stage would take another worker's core
+        hashing = None
     try:
         started = time.perf_counter()
         result = importlib.import_module(STAGES.get(job.stage, job.stage)).run(job.config)
@@ -501,7 +517,10 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
         )
     except Exception as exc:  # a bug or a library's failure on this record: the others go on
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
-    if hashing is not None:
+    if not may_reuse:
+        if hashing is None:  # after the stage, in this thread
+            hashing = _Hashing(job.input, job.paired, job.known, start=False)
+            hashing.run()
         entry["sha256"], paired = hashing.result()  # "" if a file could not be read (the stage said why)
         digests.update(hashing.digests)
         phases["hash"] = hashing.seconds
@@ -994,10 +1013,14 @@ def _run_stored(stage, jobs, out_dir, store, options, workers, progress, client,
 
     left = []
     for job in jobs:  # the records whose entry stands are done before any worker starts
-        if not rehash and _unchanged(job, cache):
-            finished(job, RecordOutcome(job.previous, reused=True))
-        else:
+        if rehash:
             left.append(job)
+        elif _unchanged(job, cache):
+            finished(job, RecordOutcome(job.previous, reused=True))
+        else:  # the files the cache knows are not hashed again (a --redo, a resume)
+            files = [job.input, *map(str, job.paired.values())]
+            known = {path: digest for path in files if (digest := cache.known(path)) is not None}
+            left.append(dataclasses.replace(job, known=known) if known else job)
     if client is not None:
         _run_dask(client, left, finished)
     pending: list[BatchJob] = [] if client is not None else left

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from .config import JITTER_REPORTED
+
+if TYPE_CHECKING:  # annotations only: the stage's config is read without NumPy (a batch's re-run)
+    import numpy as np
 
 __all__ = ["NavResult", "format_summary"]
 
