@@ -7,7 +7,7 @@ import pytest
 
 from sizefx import earth
 from sizefx.io.telemetry import Reference
-from sizefx.kernels.errors import navigation_errors
+from sizefx.kernels.errors import compared_steps, navigation_errors
 from sizefx.navigate.reference import reference_at
 from sizefx.rotation import mat_to_quat, quat_angle_between, rotvec_to_mat
 
@@ -90,3 +90,30 @@ def test_columns_not_asked_for_are_left_alone():
         out,
     )
     assert np.all(out[:, :6] == -7.0) and np.all(out[:, 6] >= 0.0)
+
+
+def compared_twin(t, ref_t, first_s, last_s, sparse, tol_s):
+    """The NumPy steps the kernel replaced (sizefx.navigate.reference.Errors.add before it)."""
+    covered = (t >= first_s) & (t <= last_s + 1e-9)
+    if sparse and ref_t.size > 1:
+        k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
+        nearest = np.minimum(np.abs(ref_t[k] - t), np.abs(ref_t[k - 1] - t))
+        covered &= nearest < tol_s
+    return np.flatnonzero(covered)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compared_steps_equal_their_numpy_twin(seed):
+    """Steps at 400 Hz against a reference at 100 Hz with jitter, rows that coincide exactly, a window
+    shorter than the chunk, one row and none; steps before and after the reference."""
+    rng = np.random.default_rng(seed)
+    t = 10.0 + 0.0025 * np.arange(4000)
+    ref_t = 10.3 + 0.01 * np.arange(int(rng.integers(0, 900)))
+    ref_t = np.sort(ref_t + np.where(rng.random(ref_t.size) < 0.3, rng.normal(0, 2e-6, ref_t.size), 0.0))
+    t = t[:: int(rng.integers(1, 3))]  # a strided view, as the loop passes it
+    first, last = (ref_t[0], ref_t[-1]) if ref_t.size else (10.5, 17.0)
+    for sparse in (True, False):
+        for tol in (2.5e-6, 1e-2):
+            idx = np.empty(t.size, dtype=np.int64)
+            m = compared_steps(t, ref_t, first, last, sparse, tol, idx)
+            np.testing.assert_array_equal(idx[:m], compared_twin(t, ref_t, first, last, sparse, tol))

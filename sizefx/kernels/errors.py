@@ -15,7 +15,7 @@ import math
 from .earth import radii_m
 from .jit import kernel
 
-__all__ = ["ERROR_COLUMNS", "navigation_errors"]
+__all__ = ["ERROR_COLUMNS", "navigation_errors", "compared_steps"]
 
 #: Columns of the kernel's output.
 ERROR_COLUMNS = ("north_m", "east_m", "horizontal_m", "v_north_mps", "v_east_mps", "v_down_mps", "attitude_rad")
@@ -90,3 +90,33 @@ def navigation_errors(
                 out[i, 3 + j] = v_n[i, j] - (ref_v[k, j] + (ref_v[k + 1, j] - ref_v[k, j]) * u)
         if attitude:
             out[i, 6] = _slerp_angle(ref_q[k], ref_q[k + 1], u, quat_nb[i])
+
+
+@kernel
+def compared_steps(t, ref_t, first_s, last_s, sparse, tol_s, idx):
+    """The navigation steps the reference is compared at: fills ``idx`` with the indices of the
+    increasing times ``t`` that lie within ``[first_s, last_s + 1e-9]`` (the whole reference's span)
+    and, where ``sparse`` and the window ``ref_t`` (increasing) has two rows or more, lie within
+    ``tol_s`` of its nearest row; returns how many.
+
+    The neighbours of ``t[i]`` are ``ref_t[k - 1]`` and ``ref_t[k]``, ``k`` the first row at or after it
+    clipped to ``1 .. len - 1`` (``numpy.searchsorted``, side left), found by one walk along both
+    arrays instead of a search per step. The NumPy twin is in ``tests/test_navigate_errors.py``.
+    """
+    n_ref = ref_t.shape[0]
+    check = sparse and n_ref > 1
+    m = 0
+    k = 0
+    for i in range(t.shape[0]):
+        ti = t[i]
+        if not (ti >= first_s and ti <= last_s + 1e-9):
+            continue
+        if check:
+            while k < n_ref and ref_t[k] < ti:
+                k += 1
+            j = min(max(k, 1), n_ref - 1)
+            if not min(abs(ref_t[j] - ti), abs(ref_t[j - 1] - ti)) < tol_s:
+                continue
+        idx[m] = i
+        m += 1
+    return m

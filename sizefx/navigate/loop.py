@@ -198,9 +198,8 @@ def navigate_source(
             k_started = _time.perf_counter()
             q, v, lat, lon, h = integrate(dtheta, dvel, n_sub, dt, state, mode, h0, h_ref, vd_ref)
             kernel_s += _time.perf_counter() - k_started
-            rows = (
-                np.flatnonzero((np.arange(step0, step0 + steps) + 1) % stride == 0) if stride > 1 else np.arange(steps)
-            )
+            # the steps whose running count (step0 + i + 1) is a multiple of the stride
+            rows = np.arange((-step0 - 1) % stride, steps, stride)
             if writer is not None:
                 w_started = _time.perf_counter()
                 writer.append(t_nav[rows], lat[rows], lon[rows], h[rows], v[rows], q[rows])

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..constants import METRES_PER_NMI
 from ..io.telemetry import Reference
-from ..kernels.errors import navigation_errors
+from ..kernels.errors import compared_steps, navigation_errors
 from ..rotation import quat_interp
 
 __all__ = ["reference_at", "vertical_reference_at", "MemoryReference", "Errors"]
@@ -101,18 +101,11 @@ class Errors:
         and the reference ``window`` that brackets them."""
         if self.ref is None:
             return
-        covered = (t >= self.ref.first_s) & (t <= self.ref.last_s + 1e-9)
-        if not covered.any():
-            return
+        idx = np.empty(t.size, dtype=np.int64)
         ref_t = window.time_s
-        if self.sparse and ref_t.size > 1:
-            k = np.clip(np.searchsorted(ref_t, t), 1, ref_t.size - 1)
-            nearest = np.minimum(np.abs(ref_t[k] - t), np.abs(ref_t[k - 1] - t))
-            covered &= nearest < 1e-3 * self.res_dt
-        idx = np.flatnonzero(covered)
+        idx = idx[: compared_steps(t, ref_t, self.ref.first_s, self.ref.last_s, self.sparse, 1e-3 * self.res_dt, idx)]
         if idx.size == 0:
             return
-        ref_t = window.time_s
         if ref_t.size < 2:  # one reference row: the kernel interpolates between two
             window = _doubled(window)
         none1, none3 = np.zeros(2), np.zeros((2, 3))
