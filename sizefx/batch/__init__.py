@@ -14,8 +14,11 @@ command runs (its config, built by the command line from the same options, and t
   interrupted campaign continues where it stopped (a record whose input hash, options and outputs
   match is skipped); and ``DIR/manifest.json`` (``sizefx/batch/1``), the same as one document,
   written when the batch ends.
+- :mod:`.digests`: the stat cache: a file's SHA-256 taken from its size, times and inode while
+  they are those it was hashed with, so that a re-run reads only what changed.
 - :mod:`.runner`: the work in ``workers`` processes (the Numba kernels load from the on-disk
-  cache once per process); one bad record never stops the others.
+  cache once per process); one bad record never stops the others. :mod:`.worker` is what runs in
+  each, :mod:`.outcome` the jobs, the entries and the batch's result with its report.
 
 The outputs of a record do not depend on the number of workers or the order: each record is
 the stage run on it alone, and the manifest lists the records sorted by input path.
