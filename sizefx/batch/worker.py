@@ -356,11 +356,14 @@ def _die_with_parent(parent: int) -> None:
 def _start_worker(memory_mib: float | None, helpers: bool, module: str | None, parent: int | None = None) -> None:
     """A worker's start: it dies with ``parent`` (:func:`_die_with_parent`), its memory bound,
     whether its stages may run helper threads, and the stage's code imported (NumPy, Numba, h5py:
-    most of a worker's start-up)."""
+    most of a worker's start-up), with what the stage's ``preload()`` loads where it has one (a
+    stage whose package imports its code only when it runs: :func:`sizefx.navigate.preload`)."""
     if parent is not None:
         _die_with_parent(parent)
     _bound_memory(memory_mib)
     use_helper_threads(helpers)
     if module is not None:
         with contextlib.suppress(Exception):  # the record that needs it says why (in _work)
-            importlib.import_module(module)
+            preload = getattr(importlib.import_module(module), "preload", None)
+            if preload is not None:
+                preload()

@@ -32,3 +32,15 @@ JIT_OPTIONS: JitOptions = {"cache": True, "fastmath": False, "nogil": True, "err
 def kernel(func):
     """Compile ``func`` with the project's options."""
     return njit(**JIT_OPTIONS)(func)
+
+
+@kernel
+def _one_more(x):
+    return x + 1.0
+
+
+def load_target() -> None:
+    """Set up Numba's CPU target in this process now (its typing and lowering registries, and SciPy's
+    BLAS it looks for: 0.4-0.6 s the first time any kernel is called from the cache): a batch worker
+    calls it as it starts, so that its first record costs what the next ones cost."""
+    _one_more(1.0)

@@ -37,6 +37,7 @@ __all__ = [
     "coarse_alignment",
     "increments_of",
     "format_summary",
+    "preload",
     "plot_errors",
     "check_plottable",
     "CHUNK_SAMPLES",
@@ -55,6 +56,17 @@ _LAZY = {
     "plot_errors": ".output",
     "increments_of": ".steps",
 }
+
+
+def preload() -> None:
+    """Import what :func:`run` imports when it runs (the loop and its kernels, the solution's writer, the
+    plot) and set up Numba's target: a batch worker calls it as it starts
+    (:func:`sizefx.batch.worker._start_worker`), so that its first record costs what the next ones cost."""
+    from ..io import navigation  # noqa: F401
+    from ..kernels.jit import load_target
+    from . import loop, output  # noqa: F401
+
+    load_target()
 
 
 def __getattr__(name: str):
