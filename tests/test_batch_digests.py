@@ -79,9 +79,10 @@ def test_the_cache_trusts_an_unchanged_stat_and_nothing_else(tmp_path):
 def _job(tmp_path, cache):
     """A finished record: its input, a paired file and an output, all hashed into ``cache``; the job a
     re-run makes of it."""
-    record = _aged(tmp_path / "run.h5", b"imu" * 1000)
-    levers = _aged(tmp_path / "levers.json", b"{}")
-    out = _aged(tmp_path / "run.nav.h5", b"nav" * 100)
+    record, levers, out = tmp_path / "run.h5", tmp_path / "levers.json", tmp_path / "run.nav.h5"
+    record.write_bytes(b"imu" * 1000)
+    levers.write_bytes(b"{}")
+    _aged(out, b"nav" * 100)  # the three past the racy window
     entry = {
         "input": str(record),
         "name": "run",
@@ -103,13 +104,13 @@ def test_a_rerun_reuses_a_record_only_while_every_file_is_unchanged(tmp_path, mo
     with monkeypatch.context() as m:  # nothing hashed: the stat decides
         m.setattr(digests, "sha256_of", lambda *_, **__: pytest.fail("hashed"))
         assert _unchanged(job, cache)
-    _aged(levers, b"[]")  # a changed paired file
+    levers.write_bytes(b"[]")  # a changed paired file
     assert not _unchanged(job, cache)
     job, record, levers, out = _job(tmp_path, cache)
-    _aged(record, b"IMU" * 1000)  # a changed input: the worker hashes it and decides
+    record.write_bytes(b"IMU" * 1000)  # a changed input: the worker hashes it and decides
     assert not _unchanged(job, cache)
     job, record, levers, out = _job(tmp_path, cache)
-    _aged(out, b"NAV" * 100)  # an output changed in place, its size kept: hashed again here
+    out.write_bytes(b"NAV" * 100)  # an output changed in place, its size kept: hashed again here
     assert not _unchanged(job, cache)
     job, record, levers, out = _job(tmp_path, cache)
     out.unlink()  # a lost output
