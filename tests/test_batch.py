@@ -99,8 +99,8 @@ def test_inspect_batch_writes_one_output_per_record_and_a_manifest(inspected):
 
 def test_rerun_skips_what_is_unchanged(campaign, tmp_path, monkeypatch):
     """A re-run of a finished batch decides from the stat cache alone: no worker starts and no file is
-    hashed. A changed input and an output changed in place (same size) run again (a lost output and a
-    changed paired file: tests/test_batch_digests.py)."""
+    hashed (what runs again, and why: test_a_changed_input_and_an_output_changed_in_place_run_again,
+    tests/test_batch_digests.py)."""
     runs = tmp_path / "runs"
     shutil.copytree(campaign, runs)
     out = tmp_path / "out"
@@ -116,6 +116,17 @@ def test_rerun_skips_what_is_unchanged(campaign, tmp_path, monkeypatch):
         m.setattr(digests, "sha256_of", refused)
         result = _batch("inspect", runs, "--out", out, *one)
     assert "0 ok, 3 unchanged" in result.output, result.output
+
+
+# long tier: two batch runs (2 s); fast twins: test_rerun_skips_what_is_unchanged and
+# tests/test_batch_digests.py::test_a_rerun_reuses_a_record_only_while_every_file_is_unchanged
+@pytest.mark.slow
+def test_a_changed_input_and_an_output_changed_in_place_run_again(campaign, tmp_path):
+    runs = tmp_path / "runs"
+    shutil.copytree(campaign, runs)
+    out = tmp_path / "out"
+    one = ("--workers", "1")
+    assert _batch("inspect", runs, "--out", out, *one).exit_code == 0
     _record(runs / "run1.h5", seed=11)  # a changed input
     summary = out / "run2.inspect.json"  # an output changed in place, its size kept
     text = summary.read_text()
@@ -288,6 +299,9 @@ def test_a_changed_levers_file_reruns_the_records(campaign, tmp_path):
     assert "3 ok, 0 unchanged" in result.output, result.output
 
 
+# long tier: a batch and a single command (1.5 s); fast twins: test_outputs_do_not_depend_on_the_workers
+# (a batch's outputs are the stage's) and the compensate command's own tests (tests/test_sizeeffect.py)
+@pytest.mark.slow
 def test_compensate_batch_writes_each_record_compensated(campaign, tmp_path):
     """batch compensate: one compensated file per record, the levers file hashed with each, and each
     output equal to the single command's."""
@@ -419,7 +433,8 @@ def test_a_folder_in_use_by_another_batch_is_refused(campaign, tmp_path):
         result = _batch("inspect", campaign / "run0.h5", "--out", out)
         _one_line_refusal(result, "another sizefx batch or run is writing into this folder (pid ")
         assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
-    assert _batch("inspect", campaign / "run0.h5", "--out", out).exit_code == 0
+    with folder_lock(out):  # free again once the first is done
+        pass
 
 
 def test_records_with_one_stem_get_names_of_their_folders(tmp_path):

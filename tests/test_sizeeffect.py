@@ -94,8 +94,15 @@ def test_compensation_kernels_match_their_twins():
 # --------------------------------------------------------------------------- compensation round trips
 
 
+# the increments form in the long tier (2 s); fast twins: the rates forms here and the increment-domain
+# kernel against its NumPy twin (test_compensation_kernels_match_their_twins)
 @pytest.mark.parametrize(
-    "form,estimator,tol_ug", [("rates", "central", 0.1), ("rates", "savgol", 1.0), ("increments", "increments", 0.05)]
+    "form,estimator,tol_ug",
+    [
+        ("rates", "central", 0.1),
+        ("rates", "savgol", 1.0),
+        pytest.param("increments", "increments", 0.05, marks=pytest.mark.slow),
+    ],
 )
 def test_compensation_to_the_rotation_centre_recovers_the_point_imu(small_records, form, estimator, tol_ug):
     tel, point = small_records("offset", form), small_records("point", form)
