@@ -117,3 +117,11 @@ def test_a_rerun_reuses_a_record_only_while_every_file_is_unchanged(tmp_path, mo
     assert not _unchanged(job, cache)
     job, *_ = _job(tmp_path, cache)
     assert _unchanged(job, cache) and not _unchanged(BatchJob(**{**job.__dict__, "redo": True}), cache)
+
+
+def test_a_signature_sqlite_cannot_hold_is_not_kept(tmp_path):
+    """An inode beyond 2**63 (some network and FUSE file systems): nothing is kept, nothing fails."""
+    cache = _cache()
+    path = _aged(tmp_path / "f", b"x")
+    cache.keep({str(path): (Signature(1, 1, 2**64 - 5, 1), "0" * 64)})
+    assert cache.known(path) is None and cache.digest(path) == sha256_of(path)

@@ -102,8 +102,8 @@ def hash_file(path, *, mapped: bool = True, wait: bool = False) -> tuple[str, Si
 
 class DigestCache:
     """The stat cache of a batch folder: a table of the manifest's store (``manifest.sqlite``),
-    path -> (:class:`Signature`, SHA-256). ``db`` None: an empty cache (a folder without a store, or
-    ``--rehash``)."""
+    path -> (:class:`Signature`, SHA-256). ``db`` None: an empty cache that keeps nothing (a store
+    not opened for writing)."""
 
     TABLE = (
         "CREATE TABLE IF NOT EXISTS digests (path TEXT PRIMARY KEY, size INTEGER NOT NULL, "
@@ -152,6 +152,8 @@ class DigestCache:
                 [(p, *s, d) for p, (s, d) in found.items() if s is not None],
             )
             self.db.execute("COMMIT")
-        except sqlite3.Error:  # a store from before the cache, read-only: nothing kept
+        # a store from before the cache or read-only; an inode beyond SQLite's 64-bit integers (some
+        # network and FUSE file systems): nothing kept, those files are hashed at each run
+        except (sqlite3.Error, OverflowError):
             if self.db.in_transaction:
                 self.db.execute("ROLLBACK")
