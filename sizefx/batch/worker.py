@@ -148,30 +148,33 @@ def _paired_hashes(paired: dict, known: dict, digests: dict) -> dict:
     return out
 
 
-class _Hashing(threading.Thread):
-    """The SHA-256 of a record and of its paired files, computed in a thread of its own while the
-    stage runs (``start``; else the caller calls :meth:`run` itself); ``seconds``: how long that took."""
+def _hash_inputs(path, paired: dict, known: dict) -> tuple[str, dict, dict, float]:
+    """``(sha256, paired, digests, seconds)`` of a record and its paired files: the input's SHA-256
+    ("" if it cannot be read: the stage says why), the paired files' (:func:`_paired_hashes`), every
+    digest computed (for the stat cache) and how long that took."""
+    t0 = time.perf_counter()
+    digests: dict = {}
+    digest = ""
+    with contextlib.suppress(OSError):
+        digest = _digest(path, known, digests)
+    return digest, _paired_hashes(paired, known, digests), digests, time.perf_counter() - t0
 
-    def __init__(self, path, paired: dict, known: dict, start: bool = True):
+
+class _Hashing(threading.Thread):
+    """:func:`_hash_inputs` in a thread of its own while the stage runs."""
+
+    def __init__(self, *args):
         super().__init__(daemon=True)
-        self.path, self.paired, self.known, self.digest = path, paired, known, ""
-        self.paired_digests: dict[str, dict] = {}
-        self.digests: dict = {}
-        self.seconds = 0.0
-        if start:
-            self.start()
+        self.args = args
+        self.out: tuple[str, dict, dict, float] = ("", {}, {}, 0.0)
+        self.start()
 
     def run(self):
-        t0 = time.perf_counter()
-        with contextlib.suppress(OSError):
-            self.digest = _digest(self.path, self.known, self.digests)
-        self.paired_digests = _paired_hashes(self.paired, self.known, self.digests)
-        self.seconds = time.perf_counter() - t0
+        self.out = _hash_inputs(*self.args)
 
-    def result(self) -> tuple[str, dict]:
-        if self.is_alive():
-            self.join()
-        return self.digest, self.paired_digests
+    def result(self) -> tuple[str, dict, dict, float]:
+        self.join()
+        return self.out
 
 
 class _DaskWatch(threading.Thread):
@@ -267,7 +270,7 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
         phases["hash"] = time.perf_counter() - started
     elif helper_threads():  # it runs anyway: hash beside the stage, on a core the other workers leave idle
         hashing = _Hashing(job.input, job.paired, job.known)
-    else:  # workers that fill the cores: a thread beside each stage would take another worker's core
+    else:  # workers that fill the cores: after the stage (a thread beside it would take another worker's core)
         hashing = None
     try:
         started = time.perf_counter()
@@ -297,13 +300,10 @@ def _work_watched(job: BatchJob) -> RecordOutcome:
         )
     except Exception as exc:  # a bug or a library's failure on this record: the others go on
         entry["status"], entry["reason"] = "failed", f"{type(exc).__name__}: {_one_line(exc)}"
-    if not may_reuse:
-        if hashing is None:  # after the stage, in this thread
-            hashing = _Hashing(job.input, job.paired, job.known, start=False)
-            hashing.run()
-        entry["sha256"], paired = hashing.result()  # "" if a file could not be read (the stage said why)
-        digests.update(hashing.digests)
-        phases["hash"] = hashing.seconds
+    if not may_reuse:  # "" for a file that could not be read (the stage said why)
+        hashed = hashing.result() if hashing is not None else _hash_inputs(job.input, job.paired, job.known)
+        entry["sha256"], paired, found, phases["hash"] = hashed
+        digests.update(found)
         if paired:
             entry["paired"] = paired
     entry["duration_s"] = time.perf_counter() - t0
