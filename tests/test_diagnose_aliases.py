@@ -134,9 +134,11 @@ def test_a_group_the_rest_already_explains_is_no_alias_of_anything():
 def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausible_range():
     """The z gyro's misalignment towards x, hidden as indistinguishable, shifts the x gyro's towards z
     one for one: that finding's error takes the hidden one's range (300 arcsec at navigation grade,
-    uniform: 173 arcsec), and the finding could be it whole; a parameter hidden because the motion
-    does not excite it is left out, unless its excitation is measured on some channels only (the
-    reference's mount, on the gyros): it still acts on the others."""
+    uniform: 173 arcsec), and the finding could be it whole. A parameter hidden because the motion
+    does not excite it counts as well where the findings nearly explain it: held in its range where
+    the record cannot tell it from them at all, fitted beside them where it can a little (the
+    reference's mount, whose excitation is measured on the gyros), left out where it is not
+    collinear with them or could move none of them by a tenth of its error."""
     from sizefx.diagnose.aliases import hidden_fit, hidden_parameters, masked_by_hidden
     from sizefx.diagnose.candidates import CANDIDATES
     from sizefx.diagnose.normal import Normal
@@ -157,7 +159,7 @@ def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausib
     bias = next(c for c in CANDIDATES if other in c.idx)
     chosen = [Chosen(x_to_z, (j,), ()), Chosen(bias, (other,), ())]
     indistinct = {z_cand.key: (z_cand, (h,), "indistinguishable in this record from x")}
-    hidden = hidden_parameters(nrm, chosen, indistinct)
+    hidden = hidden_parameters(nrm, chosen, indistinct, "navigation")
     dx, dh, cov = hidden_fit(nrm, free, hidden, "navigation", np.zeros(D.NP))
     assert not dx.any() and not dh.any()  # no residual to explain: nothing moves
     sigma = np.sqrt(np.diag(cov))
@@ -168,15 +170,55 @@ def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausib
     for estimate, masked in ((100.0, True), (1000.0, False)):
         p = masked_by_hidden([estimate * ARCSEC], np.array([[ARCSEC**2]]), cov[pos : pos + 1, pos : pos + 1], 1e-3)
         assert (p is not None) == masked, (estimate, p)
+    # whether a hidden parameter could move a finding depends on the finding's error: rows of a
+    # navigation-grade noise (1e-4 in X's units) from here on, an error of 5 urad for x->z
+    nrm = Normal(1e8 * N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
     unexcited = {z_cand.key: (z_cand, (h,), "the motion in this record does not excite it")}
-    assert hidden_parameters(nrm, chosen, unexcited) == []
+    assert hidden_parameters(nrm, chosen, unexcited, "navigation") == [(z_cand, [h], False)]  # one with x->z: held
     # a mount's excitation is measured on the gyros: hidden as not excited there, it counts where it
     # is nearly collinear with a finding (here with x->z), and not where it is not
     mount = next(c for c in CANDIDATES if c.id == "reference_mount")
     m = mount.idx[2]
     for twin, counted in ((X[:, j] + 0.1 * rng.normal(size=400), True), (rng.normal(size=400), False)):
         X[:, m] = twin
-        N = X.T @ X
+        N = 1e8 * X.T @ X
         nrm_m = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
         unexcited = {mount.key: (mount, (m,), "the motion in this record does not excite it")}
-        assert hidden_parameters(nrm_m, chosen, unexcited) == ([(mount, [m], True)] if counted else [])
+        assert hidden_parameters(nrm_m, chosen, unexcited, "navigation") == ([(mount, [m], True)] if counted else [])
+    # a regressor of numerical noise, collinear or not, moves nothing: left out (MIN_REACH)
+    X[:, m] = 1e-12 * (X[:, j] + 0.1 * rng.normal(size=400))
+    N = 1e8 * X.T @ X
+    nrm_m = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
+    assert hidden_parameters(nrm_m, chosen, unexcited, "navigation") == []
+
+
+def test_a_scale_factor_under_its_floor_that_a_misalignment_takes_up_is_fitted_beside_it():
+    """On a flight of coordinated turns the y gyro sees the yaw rate times the tangent of the bank:
+    its scale factor's regressor stays under the excitation floor, and the y gyro's misalignment
+    towards z (the yaw rate) takes a true scale factor up. Hidden as not excited, the scale factor is
+    still fitted beside the finding with its plausible range as a prior, and the misalignment's
+    error grows by what the record cannot say of it (a flight of the development range reported
+    -1.0 +- 0.1 arcsec of that misalignment for a true -16 ppm scale factor)."""
+    from sizefx.diagnose.aliases import hidden_fit, hidden_parameters
+    from sizefx.diagnose.candidates import CANDIDATES
+    from sizefx.diagnose.normal import Normal
+    from sizefx.diagnose.selection import Chosen
+
+    mis = next(c for c in CANDIDATES if c.key == "gyro_misalignment:gyro_y")
+    sf = next(c for c in CANDIDATES if c.key == "gyro_scale_factor:gyro_y")
+    j = next(k for k in mis.idx if D.PARAMS[k].label == "y->z")
+    h = sf.idx[0]
+    rng = np.random.default_rng(2)
+    yaw = np.repeat(rng.choice((-0.17, 0.0, 0.17), 40), 50)  # turns and straight legs [rad/s]
+    X = np.zeros((yaw.size, D.NP))
+    X[:, j] = yaw + 0.003 * rng.normal(size=yaw.size)  # the misalignment's regressor on gyro y
+    X[:, h] = 0.36 * yaw + 0.003 * rng.normal(size=yaw.size)  # the pitch rate: tan(bank) x yaw
+    N = X.T @ X / (1e-6) ** 2  # gyro noise 1e-6 rad/s per row
+    nrm = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), yaw.size, np.ones(D.NP), 1.0, np.zeros(1))
+    chosen = [Chosen(mis, (j,), ())]
+    unexcited = {sf.key: (sf, (h,), "the motion in this record does not excite it")}
+    hidden = hidden_parameters(nrm, chosen, unexcited, "navigation")
+    assert hidden == [(sf, [h], True)]
+    _, _, cov = hidden_fit(nrm, np.array([j]), hidden, "navigation", np.zeros(D.NP))
+    white = 1.0 / N[j, j]
+    assert cov[0, 0] > 10.0 * white  # the misalignment's error now carries the scale factor's

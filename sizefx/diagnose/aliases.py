@@ -32,7 +32,7 @@ import numpy as np
 from ..constants import DEG
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge
-from .selection import NUISANCE_CORRELATION, honest
+from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION, honest
 from .theta import PARAMS
 
 __all__ = [
@@ -122,6 +122,16 @@ def _shift(nrm, free, alt_idx) -> np.ndarray:
     return -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
 
 
+def _reach(nrm, free, j: int, half: float) -> float:
+    """The largest shift of an estimate of ``free`` that parameter ``j`` anywhere in ``[-half, half]``
+    gives, in the estimate's white standard errors (``N_ff^-1``)."""
+    N = nrm.N.sum(0)
+    free = np.asarray(free, dtype=int)
+    sig = np.sqrt(np.abs(np.diag(np.linalg.pinv(N[np.ix_(free, free)]))))
+    S = _shift(nrm, free, [j])[:, 0]
+    return float(np.max(np.abs(S) * half / np.where(sig > 0, sig, np.inf)))
+
+
 def _spread(S, half) -> np.ndarray:
     """``S Sigma S'``: the covariance the shifts ``S`` [k, m] per unit of parameters spread uniformly
     over ``[-half, half]`` [m] give (a uniform distribution's variance, ``half^2 / 3``)."""
@@ -141,23 +151,36 @@ def significant_within(x, cov, S, half) -> float:
     return float(chi2.sf(2.0 * best.cost, x.size))
 
 
-def hidden_parameters(nrm, chosen, unrevealed: dict, skip=()) -> list:
+#: A parameter hidden as not excited that could move no finding by this fraction of its white standard
+#: error anywhere in its plausible range is left out of :func:`hidden_parameters`: it would add at
+#: most 1 % to a variance, and its regressor is often numerical noise (an arm's r_z[z] on a sway about
+#: one horizontal axis: 2e-9 s^-2), which no covariance of it can be formed from. Set from that bound,
+#: not from the validation protocol.
+MIN_REACH = 0.1
+
+
+def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> list:
     """``[(candidate, [param], fitted)]``: the parameters the selection hid (``unrevealed``: key -> (candidate,
     hidden parameters, reason)) that may still move the estimates of the model ``chosen`` (its
     :class:`~sizefx.diagnose.selection.Chosen` effects), held at their start values by the fit
-    (``skip``: candidate keys already counted, the alternatives of resolved aliases):
+    (``skip``: candidate keys already counted, the alternatives of resolved aliases; ``grade``: the
+    plausible ranges, :data:`RANGES`):
 
     - those hidden because the record cannot tell them from what it selected (a reason
       "indistinguishable ...");
-    - those whose excitation is measured on some channels only (:attr:`Param.primary`: the
-      reference's mount and delay, on the gyros), hidden as not excited there, that the model's
-      findings nearly explain on the others together (canonical correlation with all of them of
+    - those hidden as not excited (their regressor under its floor, :attr:`Param.min_excitation`,
+      or measured on some channels only, :attr:`Param.primary`) that the model's findings nearly
+      explain together (canonical correlation with all of them of
       :data:`sizefx.diagnose.selection.NUISANCE_CORRELATION` or more, as a candidate left out is
-      fitted beside a finding): the findings take them up. A mount about z on a flight that
-      only turns about the vertical: the gyros do not show it, the accelerometers see it as a
-      misalignment of x towards y (a development-range flight: 140.6 arcsec of mount reported as
-      that misalignment, 140.6 +- 0.84 against a truth of 0). These are ``fitted``: what the record
-      says of them moves the estimates (:func:`hidden_fit`), as a nuisance's does."""
+      fitted beside a finding): the floor says the record cannot reveal them, not that they are
+      absent, and the findings take them up. A mount about z on a flight that only turns about the
+      vertical: the gyros do not show it, the accelerometers see it as a misalignment of x towards
+      y (a development-range flight: 140.6 arcsec of mount reported as that misalignment, 140.6 +-
+      0.84 against a truth of 0). The y gyro's scale factor on a flight of coordinated turns: the
+      pitch rate is the yaw rate times the tangent of the bank, under the floor, and the y gyro's
+      misalignment towards z took a true -16 ppm as -1.0 +- 0.1 arcsec (development seed 55).
+      These are ``fitted``: what the record says of them moves the estimates (:func:`hidden_fit`),
+      as a nuisance's does."""
     N = nrm.N.sum(0)
     free = sorted({j for c in chosen for j in c.active})
     out = []
@@ -165,15 +188,21 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, skip=()) -> list:
         if cand.key in skip or cand.id not in RANGES:
             continue
         mine = [j for j in params if j not in free]
-        fitted = not reason.startswith("indistinguishable")
-        if fitted:
-            mine = [
-                j
-                for j in mine
-                if free and PARAMS[j].primary and canonical_correlation(N, free, [j]) >= NUISANCE_CORRELATION
-            ]
-        if mine:
-            out.append((cand, mine, fitted))
+        if reason.startswith("indistinguishable"):
+            if mine:
+                out.append((cand, mine, False))
+            continue
+        if not free:
+            continue
+        mine = [j for j in mine if _reach(nrm, free, j, _half_range(cand.id, 1, grade)[0]) >= MIN_REACH]
+        rho = {j: canonical_correlation(N, free, [j]) for j in mine}
+        # from ALIAS_CORRELATION on, the record cannot tell the parameter from the findings at all:
+        # held anywhere in its range as an indistinguishable one is (fitting it would only invert noise)
+        held = [j for j in mine if rho[j] >= ALIAS_CORRELATION]
+        fitted = [j for j in mine if NUISANCE_CORRELATION <= rho[j] < ALIAS_CORRELATION]
+        for group, beside in ((fitted, True), (held, False)):
+            if group:
+                out.append((cand, group, beside))
     return out
 
 

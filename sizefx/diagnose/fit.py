@@ -464,7 +464,7 @@ def diagnose(
     # the parameters hidden from the selection that still move its estimates (aliases.hidden_fit):
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
     # plausible ranges as priors; every one adds to the errors what the record cannot say of it
-    hidden = hidden_parameters(nrm, chosen, unrevealed, skip={a.key for a in resolved.values()})
+    hidden = hidden_parameters(nrm, chosen, unrevealed, grade, skip={a.key for a in resolved.values()})
     dx, dh, hidden_cov = hidden_fit(nrm, free, hidden, grade, offset)
     ms_full = state.ms_full
     if dh.size:
