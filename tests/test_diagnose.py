@@ -218,7 +218,8 @@ def test_imu_gaps_are_left_out(tmp_path):
 def test_prediction_with_the_true_model_reproduces_the_simulation():
     """Noise-free: the reference splines and the sensor model agree with the simulator.
 
-    Floors: RotationSpline rates at 200 Hz (1e-8 rad/s against motion under 0.12 Hz) and the
+    Floors: the reference's rates at 200 Hz (1e-8 rad/s against motion under 0.12 Hz, 3e-9 within the
+    rotation spline's end rows) and the
     Savitzky-Golay gyro derivative in the lever terms (1e-10 m/s^2 at these rates).
     """
     fx = load_effects(
@@ -705,14 +706,43 @@ def test_long_rotation_spline_equals_one_spline(monkeypatch):
     rot = Rotation.from_euler(
         "zyx", np.column_stack([np.sin(0.7 * t), 0.5 * np.sin(1.1 * t + 1), 0.3 * np.cos(2.3 * t)])
     )
+    one = reference._LongRotationSpline(t, rot)
+    assert len(one._parts) == 1
     monkeypatch.setattr(reference, "SPLINE_ROWS", 1000)
     monkeypatch.setattr(reference, "SPLINE_PIECE_ROWS", 700)
     long = reference._LongRotationSpline(t, rot)
     assert len(long._parts) == 5
-    one = RotationSpline(t, rot)
     s = np.linspace(t[0], t[-1], 20_001)
     assert np.abs(long(s, 1) - one(s, 1)).max() < 1e-9
     assert (long(s) * one(s).inv()).magnitude().max() < 1e-12
+    assert (long(s) * RotationSpline(t, rot)(s).inv()).magnitude().max() < 1e-12  # the attitude is scipy's
+
+
+def test_reference_rates_between_rows_carry_no_delay():
+    """A 2 Hz sway about z logged at 200 Hz, read 0.37 of a row after each row (a reference delay
+    of 1.85 ms): the rotation spline's own derivative there is off in phase with the angular
+    acceleration, which reads as a delay of about 1e-7 s; the rates diagnose uses (a cubic spline
+    through the rotation spline's rates at the rows) are off by under 1e-8 s of delay, and by
+    under 1e-6 of the rate. Bounds: the O(h^4) value-interpolation error, theta^4 / 384 with theta
+    = 2 pi f h = 0.063, a tenth of the first."""
+    from scipy.spatial.transform import Rotation, RotationSpline
+
+    from sizefx.diagnose import reference
+
+    h, f, amp = 0.005, 2.0, 0.3
+    t = np.arange(0.0, 20.0, h)
+    rot = Rotation.from_rotvec(np.outer(amp * np.sin(2 * np.pi * f * t), [0.0, 0.0, 1.0]))
+    s = t[100:-100] + 0.37 * h
+    rate = amp * 2 * np.pi * f * np.cos(2 * np.pi * f * s)
+    accel = -amp * (2 * np.pi * f) ** 2 * np.sin(2 * np.pi * f * s)
+
+    def delay_of(rates):
+        return np.sum((rates[:, 2] - rate) * accel) / np.sum(accel**2)
+
+    assert abs(delay_of(RotationSpline(t, rot)(s, 1))) > 5e-8
+    ours = reference._LongRotationSpline(t, rot)(s, 1)
+    assert abs(delay_of(ours)) < 1e-8
+    assert np.abs(ours[:, 2] - rate).max() < 1e-6 * np.abs(rate).max()
 
 
 def test_running_median_in_pieces_is_the_median_of_every_window(monkeypatch):

@@ -155,8 +155,10 @@ def spline_derivative_error(theta):
     The knot slopes ``m`` of a cubic spline solve ``m[k-1] + 4 m[k] + m[k+1] = 3 (y[k+1] - y[k-1]) / h``;
     for ``y = exp(i omega t)`` that gives ``m = H i omega y`` with ``H = 3 sin(theta) / (theta (2 +
     cos(theta)))``, so ``1 - H ~ theta^4 / 180`` (de Boor, A Practical Guide to Splines, ch. IV). Between
-    the knots the error is of the same order. scipy's ``RotationSpline`` (attitude) and ``CubicSpline``
-    (velocity) are such splines; their end conditions matter only within a few rows of an end.
+    the knots the rates are a cubic spline through the knot rates
+    (:class:`sizefx.diagnose.reference.ReferenceMotion`), off by ``theta^4 / 384`` more at most.
+    scipy's ``RotationSpline`` (attitude) and ``CubicSpline`` (velocity) are such splines; their end
+    conditions matter only within a few rows of an end.
     """
     theta = np.asarray(theta, dtype=float)
     safe = np.where(theta > 1e-3, theta, 1.0)
