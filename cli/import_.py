@@ -254,6 +254,74 @@ def ulog(source, output, site_deg, force):
     run_import("ulog", source, output, force=force, site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None)
 
 
+@import_.command()
+@click.argument("source", type=click.Path())
+@output_option
+@click.option(
+    "--imu",
+    metavar="TOPIC",
+    help="The sensor_msgs/Imu topic [default: the bag's only one; the bag's are listed when it has none or several].",
+)
+@click.option(
+    "--reference",
+    metavar="TOPIC|tf:PARENT/CHILD",
+    help="Reference attitude: a geometry_msgs/PoseStamped (or PoseWithCovarianceStamped) or nav_msgs/Odometry "
+    "topic (an Odometry's twist gives the velocity), or the transforms of /tf from frame PARENT to CHILD.",
+)
+@click.option(
+    "--body-frame",
+    metavar="FRAME",
+    help="The frame the reference must describe [default: the IMU messages' frame_id]; name another only "
+    "when its axes are the IMU's (a base_link the IMU is aligned with).",
+)
+@click.option(
+    "--stamps",
+    type=click.Choice(["header", "receive"]),
+    default="header",
+    show_default=True,
+    help="Times from each message's header.stamp, or the time the recorder received it.",
+)
+@click.option(
+    "--frame",
+    "axes",
+    type=click.Choice(["flu", "frd"]),
+    default="flu",
+    show_default=True,
+    help="Axes of the messages: flu (REP 103: body forward-left-up, world east-north-up) or frd (REP 103's "
+    "*_ned frames: forward-right-down, north-east-down). Converted to body FRD and NED.",
+)
+@click.option(
+    "--site-deg",
+    "--site",
+    "site_deg",
+    metavar="LAT,LON,H",
+    help="Site: latitude [deg], longitude [deg], height [m] (navigation needs one).",
+)
+@click.option("--navsat", metavar="TOPIC", help="Take the site from the first fix of this sensor_msgs/NavSatFix topic.")
+@force_option
+def rosbag(source, output, imu, reference, body_frame, stamps, axes, site_deg, navsat, force):
+    """ROS bag (ROS 1 .bag, ROS 2 folder, .mcap or .db3; via rosbags): REP 103 frames -> FRD, NED.
+
+    \b
+    Reads only the chosen topics, in bounded memory. Stamps that repeat or
+    go back are refused, naming the topic and the message; gaps are declared
+    (/imu/gaps). Needs pip install 'sizefx[ros]'.
+    """
+    run_import(
+        "rosbag",
+        source,
+        output,
+        force=force,
+        imu=imu,
+        reference=reference,
+        body_frame=body_frame,
+        stamps=stamps,
+        frame=axes,
+        site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
+        navsat=navsat,
+    )
+
+
 def _remember(key):
     """A click callback that leaves a flag's value in the context's ``meta`` under ``key``."""
 

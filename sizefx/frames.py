@@ -5,6 +5,12 @@ connects: ``MAT_NED_ENU @ v_enu = v_ned``. The same permutation
 ``[[0, 1, 0], [1, 0, 0], [0, 0, -1]]`` takes East-North-Up to North-East-Down
 and Right-Forward-Up (PSINS's body axes) to Forward-Right-Down; the flip
 ``diag(1, -1, -1)`` takes Forward-Left-Up to Forward-Right-Down.
+
+ROS (REP 103) writes bodies forward-left-up and worlds east-north-up, and frames named
+``*_ned`` forward-right-down and north-east-down; its quaternions are scalar-last
+``(x, y, z, w)`` and rotate the child (body) frame's vectors into the parent (world) frame.
+:data:`ROS_AXES` holds both conventions, and :func:`quat_nb_from_ros` and
+:func:`ros_quat_from_nb` turn one attitude into the other.
 """
 
 from __future__ import annotations
@@ -18,7 +24,12 @@ __all__ = [
     "MAT_NED_ENU",
     "MAT_FRD_RFU",
     "MAT_FRD_FLU",
+    "ROS_AXES",
     "enu_to_ned",
+    "body_from_ros",
+    "ros_from_body",
+    "quat_nb_from_ros",
+    "ros_quat_from_nb",
     "mat_nb_from_enu_body",
     "psins_mat_enu_rfu",
     "geodetic_from_local_ned",
@@ -27,6 +38,12 @@ __all__ = [
 MAT_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 MAT_FRD_RFU = MAT_NED_ENU.copy()  # the same permutation: right->y, forward->x, up->-z
 MAT_FRD_FLU = np.diag([1.0, -1.0, -1.0])
+
+#: The axes of a ROS message, by convention name: ``(mat_b_src, mat_n_src)``, sizefx body FRD
+#: from the message's body axes and NED from its world axes. ``flu``: REP 103's default, body
+#: forward-left-up and world east-north-up; ``frd``: REP 103's ``*_ned`` frames, body
+#: forward-right-down and world north-east-down (sizefx's own).
+ROS_AXES = {"flu": (MAT_FRD_FLU, MAT_NED_ENU), "frd": (np.eye(3), np.eye(3))}
 
 
 def enu_to_ned(v_enu):
@@ -69,3 +86,42 @@ def geodetic_from_local_ned(ned_m, lat0_rad, lon0_rad, h0_m):
     lat = lat0_rad + ned[..., 0] / (r_mer + h0_m)
     lon = lon0_rad + ned[..., 1] / ((r_tr + h0_m) * np.cos(lat0_rad))
     return lat, lon, h0_m - ned[..., 2]
+
+
+def _ros_axes(convention: str):
+    if convention not in ROS_AXES:
+        raise ValueError(f"ROS axes '{convention}': use one of {', '.join(ROS_AXES)}")
+    return ROS_AXES[convention]
+
+
+def body_from_ros(v_src, convention: str):
+    """Body FRD vectors ``[..., 3]`` from a ROS message's body-axis vectors (``convention`` of :data:`ROS_AXES`):
+    ``v_b = mat_b_src @ v_src``, for ``flu`` ``(x, -y, -z)``."""
+    mat_b_src, _ = _ros_axes(convention)
+    return np.asarray(v_src, dtype=float) @ mat_b_src.T
+
+
+def ros_from_body(v_b, convention: str):
+    """The inverse of :func:`body_from_ros`: ``v_src = mat_b_src.T @ v_b``."""
+    mat_b_src, _ = _ros_axes(convention)
+    return np.asarray(v_b, dtype=float) @ mat_b_src
+
+
+def quat_nb_from_ros(quat_xyzw, convention: str):
+    """Scalar-first ``q_nb`` ``[..., 4]`` from ROS attitudes ``[..., 4]`` (scalar-last ``x, y, z, w``)
+    rotating the message's body axes into its world axes.
+
+    ``mat_nb = mat_n_src @ mat_world_body @ mat_b_src.T``: body FRD vectors are turned into the
+    message's body axes, rotated into its world axes, then into NED.
+    """
+    mat_b_src, mat_n_src = _ros_axes(convention)
+    q = np.asarray(quat_xyzw, dtype=float)
+    q_wxyz = q[..., [3, 0, 1, 2]]
+    return mat_to_quat(mat_n_src @ quat_to_mat(q_wxyz) @ mat_b_src.T)
+
+
+def ros_quat_from_nb(quat_nb, convention: str):
+    """The inverse of :func:`quat_nb_from_ros`: ROS ``x, y, z, w`` ``[..., 4]`` from scalar-first ``q_nb``."""
+    mat_b_src, mat_n_src = _ros_axes(convention)
+    q_wxyz = mat_to_quat(mat_n_src.T @ quat_to_mat(np.asarray(quat_nb, dtype=float)) @ mat_b_src)
+    return q_wxyz[..., [1, 2, 3, 0]]

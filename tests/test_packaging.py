@@ -105,8 +105,8 @@ def test_plain_install_has_every_library_the_package_imports(wheel):
     """matplotlib (plots) and the rest are base dependencies: the demo draws on a plain install.
 
     Every top-level import of a third-party module in the package must be a base dependency,
-    or be optional: pyulog (the ULog importer) or distributed (``sizefx batch --scheduler``), each of
-    which says how to install it.
+    or be optional: pyulog (the ULog importer), rosbags (the ROS bag importer and exporter) or
+    distributed (``sizefx batch --scheduler``), each of which says how to install it.
     """
     meta = wheel.read("sizefx-0.1.0.dist-info/METADATA").decode()
     # distribution names as module names: tomli-w installs tomli_w
@@ -118,7 +118,7 @@ def test_plain_install_has_every_library_the_package_imports(wheel):
     assert {"numpy", "numba", "scipy", "h5py", "click", "matplotlib"} <= base, base
     stdlib = set(sys.stdlib_module_names)
     ours = {"sizefx", "sizefx_cli"}
-    optional = {"pyulog", "distributed"}
+    optional = {"pyulog", "rosbags", "distributed"}
     imported = set()
     for name in wheel.namelist():
         if name.endswith(".py"):

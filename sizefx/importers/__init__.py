@@ -28,6 +28,7 @@ from ..io.files import atomic_output, sha256_of
 from ..io.gaps import nominal_period_s
 from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema, site_problem
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
+from ..rotation import quat_to_mat
 
 __all__ = [
     "FORMATS",
@@ -35,7 +36,10 @@ __all__ = [
     "REFERENCE_RATE_HZ",
     "ImportConfig",
     "ImportResult",
+    "FOLDER_FORMATS",
+    "REFERENCE_GRAVITY_ANGLE_MAX_DEG",
     "median_rate_hz",
+    "reference_up_angle_deg",
     "run",
     "run_import",
     "provenance",
@@ -63,12 +67,27 @@ FORMATS = {
     "psins-mat": ("psins", "load_mat_record"),
     "csv": ("table", "load"),
     "ulog": ("ulog", "load"),
+    "rosbag": ("rosbag", "load"),
 }
+#: Formats whose SOURCE may be a folder: a ROS 2 bag is one (``metadata.yaml`` and its storage files).
+FOLDER_FORMATS = ("rosbag",)
+
+#: Largest median angle [deg] between the specific force the accelerometers read and the
+#: "up" direction the reference attitude gives in body axes. At rest they coincide; a
+#: vehicle's accelerations tilt the reading by a few degrees most of the time (0.3 g of
+#: braking, a rare extreme, is 17 deg). A reference in the wrong frame (ENU read as NED),
+#: without the axis map, or with its quaternion in the wrong order is typically 90-180 deg
+#: off; 45 deg separates the two with a wide margin on both sides.
+REFERENCE_GRAVITY_ANGLE_MAX_DEG = 45.0
 
 
-def provenance(path: Path, fmt: str, credits: str = "", **extra) -> dict:
-    """``/source`` attributes: the original file, its checksum, the importer and credits."""
-    digest = sha256_of(path, mapped=False)  # this command's own process: no SIGBUS risk
+def provenance(path: Path, fmt: str, credits: str = "", *, digest: str | None = None, **extra) -> dict:
+    """``/source`` attributes: the original file, its checksum, the importer and credits.
+
+    ``digest``: the SHA-256 when the caller has it (a source that is a folder of files); by default
+    that of ``path``'s bytes."""
+    if digest is None:
+        digest = sha256_of(path, mapped=False)  # this command's own process: no SIGBUS risk
     out = {"format": fmt, "file": Path(path).name, "sha256": digest, "importer": f"sizefx {__version__}"}
     if credits:
         out["credits"] = credits
@@ -88,11 +107,14 @@ def median_rate_hz(time_s) -> float | None:
     return 1.0 / step_s if step_s > 0.0 else None
 
 
-def check_source(path) -> Path:
+def check_source(path, *, folder: bool = False) -> Path:
+    """``path`` exists and is a non-empty file (or, with ``folder``, a folder)."""
     path = Path(path)
     if not path.exists():
         raise SourceError(path, "file does not exist")
     if path.is_dir():
+        if folder:
+            return path
         raise SourceError(path, "is a directory; give a file")
     if path.stat().st_size == 0:
         raise SourceError(path, "file is empty (0 bytes)")
@@ -112,7 +134,7 @@ def load_source(fmt: str, path, *, keep_invalid: bool = False, **options):
     loader = getattr(importlib.import_module(f"{__name__}.{module_name}"), function)
     if keep_invalid and "keep_invalid" in inspect.signature(loader).parameters:
         options = {**options, "keep_invalid": True}
-    return loader(check_source(path), **options)
+    return loader(check_source(path, folder=fmt in FOLDER_FORMATS), **options)
 
 
 def _units_context(fmt: str, tel):
@@ -181,8 +203,14 @@ class ImportConfig:
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))  # read-only, as the rest
 
     def inputs(self) -> dict:
-        """The files read, by the option that names them."""
-        return {"SOURCE": self.source, "--reference-file": self.options.get("reference_file")}
+        """The files read, by the option that names them. A SOURCE that is a ROS 2 bag folder is
+        its files (``SOURCE metadata.yaml``, ...): each is checked, and none may be an output."""
+        reference_file = {"--reference-file": self.options.get("reference_file")}
+        if self.format in FOLDER_FORMATS and Path(self.source).is_dir():
+            from ..ros import bag_files
+
+            return {**{f"SOURCE {f.name}": f for f in bag_files(self.source)}, **reference_file}
+        return {"SOURCE": self.source, **reference_file}
 
     def outputs(self) -> dict:
         return {"-o": self.output}
@@ -211,6 +239,9 @@ class ImportResult:
     #: with ``drop_invalid_rows``: ``{"rows": count, "first_row": its source row, "after_time_s": the kept
     #: stamp before it}``
     dropped_rows: dict | None = None
+    #: what the importer converted, when it says (``/source`` ``conversion``: the ROS bag importer's
+    #: frames, stamps and reference), one line each
+    conversion: list | None = None
 
     def to_json(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -225,6 +256,8 @@ class ImportResult:
             f"{self.duration_s:.2f} s; reference rows: {self.reference_rows}"
             + (f" ({self.reference_gaps} dropouts)" if self.reference_gaps else "")
         ]
+        for k, line in enumerate(self.conversion or []):
+            lines.append(("conversion: " if k == 0 else "            ") + line)
         if gaps:
             assert self.longest_imu_gap_s is not None  # set whenever there are IMU gaps (import_file)
             lines.append(
@@ -329,7 +362,16 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
         site=back.site is not None,
         units_check=None if report is None else report.as_dict(),
         dropped_rows=dropped,
+        conversion=_conversion_lines(back.source),
     )
+
+
+def _conversion_lines(source) -> list | None:
+    """``/source`` ``conversion`` (text, or a list of texts) as a list of lines; None without one."""
+    found = (source or {}).get("conversion")
+    if found is None:
+        return None
+    return [str(v) for v in found] if isinstance(found, list) else [str(found)]
 
 
 def _check_imu_rate(tel, fmt: str, source) -> None:
@@ -344,6 +386,26 @@ def _check_imu_rate(tel, fmt: str, source) -> None:
             f"its IMU time stamps imply {rate_hz:.3g} Hz (the median step), outside the {lo:g}..{hi:g} Hz of "
             f"an IMU; check that the source is a genuine {fmt} file",
         )
+
+
+def reference_up_angle_deg(ref, time_s, accel_like, period_s: float, form: str) -> float | None:
+    """The median angle [deg] between the specific force the accelerometers read and "up" as the
+    reference attitude puts it in body axes, over the reference rows within the IMU's span; None
+    when none is (or no reading has a direction). At rest the two coincide; a reference in the
+    wrong frame is typically 90-180 deg off (:data:`REFERENCE_GRAVITY_ANGLE_MAX_DEG`)."""
+    t = np.asarray(time_s, dtype=float)
+    inside = (ref.time_s >= t[0]) & (ref.time_s <= t[-1])
+    if not inside.any():
+        return None
+    k = np.clip(np.searchsorted(t, ref.time_s[inside]), 0, t.size - 1)
+    f_b = accel_like[k] / (period_s if form == "increments" else 1.0)
+    up_b = -quat_to_mat(ref.quat_nb[inside])[:, 2, :]  # body components of NED up: -(row 3 of mat_nb)
+    norm = np.linalg.norm(f_b, axis=1)
+    ok = norm > 0.0
+    if not ok.any():
+        return None
+    cos = np.einsum("ij,ij->i", f_b[ok], up_b[ok]) / norm[ok]
+    return float(np.median(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))))
 
 
 def _drop_invalid_rows(tel, source) -> dict | None:

@@ -41,21 +41,20 @@ from ..frames import enu_to_ned, quat_nb_from_enu_body
 from ..io.schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, unit_factor
 from ..io.telemetry import Reference, Site, Telemetry
 from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
-from . import IMU_RATE_HZ, REFERENCE_RATE_HZ, median_rate_hz, provenance
+from . import (
+    IMU_RATE_HZ,
+    REFERENCE_GRAVITY_ANGLE_MAX_DEG,
+    REFERENCE_RATE_HZ,
+    median_rate_hz,
+    provenance,
+    reference_up_angle_deg,
+)
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 FORM_QUANTITIES = {"rates": ("angular_rate", "acceleration"), "increments": ("angle", "velocity")}
 #: Units of Euler angles and of latitude and longitude (height is always metres).
 ANGLE_UNITS = {"deg": DEG, "rad": 1.0}
 REFERENCE_FRAMES = ("ned", "enu")
-
-#: Largest median angle [deg] between the specific force the accelerometers read and the
-#: "up" direction the reference attitude gives in body axes. At rest they coincide; a
-#: vehicle's accelerations tilt the reading by a few degrees most of the time (0.3 g of
-#: braking, a rare extreme, is 17 deg). A reference in the wrong frame (ENU read as NED),
-#: without the axis map, or with its quaternion in the wrong order is typically 90-180 deg
-#: off; 45 deg separates the two with a wide margin on both sides.
-REFERENCE_GRAVITY_ANGLE_MAX_DEG = 45.0
 
 
 def _time_units_problem(column: str, option: str, units: str, units_option: str, time_s, rate_range_hz, what: str):
@@ -472,19 +471,8 @@ def _build_reference(spec: _ReferenceColumns, table: _Table, t, values, rows, ma
 
 def _check_gravity(spec: _ReferenceColumns, ref: Reference, t, accel_like, period_s: float, form: str):
     """Refuse a reference whose attitude puts "up" far from where the accelerometers see it."""
-    inside = (ref.time_s >= t[0]) & (ref.time_s <= t[-1])
-    if not inside.any():
-        return
-    k = np.clip(np.searchsorted(t, ref.time_s[inside]), 0, t.size - 1)
-    f_b = accel_like[k] / (period_s if form == "increments" else 1.0)
-    up_b = -quat_to_mat(ref.quat_nb[inside])[:, 2, :]  # body components of NED up: -(row 3 of mat_nb)
-    norm = np.linalg.norm(f_b, axis=1)
-    ok = norm > 0.0
-    if not ok.any():
-        return
-    cos = np.einsum("ij,ij->i", f_b[ok], up_b[ok]) / norm[ok]
-    angle_deg = float(np.median(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))))
-    if angle_deg > REFERENCE_GRAVITY_ANGLE_MAX_DEG:
+    angle_deg = reference_up_angle_deg(ref, t, accel_like, period_s, form)
+    if angle_deg is not None and angle_deg > REFERENCE_GRAVITY_ANGLE_MAX_DEG:
         attitude = "--reference-quaternion (order W,X,Y,Z)" if spec.quaternion else "--reference-euler"
         raise SourceError(
             spec.path,

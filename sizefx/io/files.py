@@ -18,6 +18,7 @@ import hashlib
 import mmap
 import os
 import resource
+import shutil
 import signal
 import stat
 import tempfile
@@ -28,6 +29,8 @@ from ..errors import ConfigError, Interrupted, OutputError
 
 __all__ = [
     "atomic_output",
+    "atomic_folder_output",
+    "check_output_folder_replace",
     "regular_file",
     "file_kind",
     "check_output_path",
@@ -250,6 +253,8 @@ def remove_stale_temporaries(out) -> None:
         try:
             os.kill(pid, 0)
         except ProcessLookupError:
+            if tmp.is_dir() and not tmp.is_symlink():  # an output that is a folder (atomic_folder_output)
+                shutil.rmtree(tmp, ignore_errors=True)
             with contextlib.suppress(OSError):
                 tmp.unlink()
         except OSError:
@@ -340,3 +345,97 @@ def atomic_output(
     except BaseException:
         discard()
         raise
+
+
+def check_output_folder_replace(
+    path, *, inputs=(), force: bool = False, replaceable=None, what: str = "folder"
+) -> Path:
+    """Refuse an output that is a folder written whole (a ROS 2 bag) where it cannot go: over a file
+    (an input or not), over an existing folder without ``force``, or with ``force`` over a folder
+    that holds one of ``inputs`` or that ``replaceable(folder)`` does not accept as a ``what`` (so
+    that ``--force`` never deletes a folder of other files); and its folder must be writable."""
+    out = Path(path)
+    for inp in inputs:
+        if inp is not None and out.exists() and Path(inp).exists() and os.path.samefile(out, inp):
+            raise OutputError(f"{out}: output would overwrite the input {inp}; choose another output name")
+    if out.exists() or out.is_symlink():
+        if not out.is_dir() or out.is_symlink():
+            raise OutputError(f"{out}: output exists and is not a folder; a {what} is a folder: choose another name")
+        if not force:
+            raise OutputError(f"{out}: output exists; pass --force to replace it, or choose another name")
+        for inp in inputs:
+            if inp is not None and Path(inp).resolve().is_relative_to(out.resolve()):
+                raise OutputError(f"{out}: output folder holds the input {inp}; choose another output name")
+        if replaceable is not None and not replaceable(out):
+            raise OutputError(
+                f"{out}: output exists and is not a {what}; --force replaces only a {what}: choose another name"
+            )
+    _require_writable_parent(out)
+    return out
+
+
+@contextlib.contextmanager
+def atomic_folder_output(
+    path, *, inputs=(), force: bool = False, replaceable=None, what: str = "folder", expected_bytes: int = 0
+):
+    """Yield a path for a new folder (not created yet: the writer makes it) beside ``path``; rename
+    it to ``path`` on success. :func:`atomic_output` for an output that is a folder of files.
+
+    Pre-flight by :func:`check_output_folder_replace`. With ``force`` and an existing ``path``, the old
+    folder is moved aside, the new one renamed into place, and the old one removed, so that ``path``
+    never holds a half-written folder. On any exception, after a signal, or with the thread's work
+    given up, the temporary folder is removed and ``path`` is untouched.
+    """
+    out = check_output_folder_replace(path, inputs=inputs, force=force, replaceable=replaceable, what=what)
+    check_room(out, expected_bytes)
+    remove_stale_temporaries(out)
+    parent = out.parent if str(out.parent) else Path(".")
+    try:
+        holder = Path(tempfile.mkdtemp(prefix=f".{out.name}.{os.getpid()}.", suffix=".tmp", dir=parent))
+    except OSError as exc:
+        raise _write_failed(out, exc) from None
+    new = holder / out.name  # the folder's own name inside: a writer may name its files after it
+
+    def discard():
+        shutil.rmtree(holder, ignore_errors=True)
+
+    try:
+        yield new
+    except OSError as exc:
+        discard()
+        if exc.errno in NO_ROOM:
+            raise _write_failed(out, exc) from None
+        raise
+    except BaseException:
+        discard()
+        raise
+    if INTERRUPTED["signum"] is not None:
+        discard()
+        raise Interrupted(INTERRUPTED["signum"])
+    if threading.get_ident() in ABANDONED:
+        discard()
+        raise Interrupted(signal.SIGTERM)
+    try:
+        if not new.is_dir():
+            raise OSError(errno.ENOENT, "the writer made no folder")
+        for f in new.rglob("*"):
+            if f.is_file():
+                with open(f, "rb+") as fh:
+                    os.fsync(fh.fileno())
+        os.chmod(new, 0o777 & ~_umask())
+        old = holder / ".replaced"
+        if out.exists():
+            os.rename(out, old)
+        try:
+            os.rename(new, out)
+        except OSError:
+            if old.exists():
+                os.rename(old, out)
+            raise
+    except OSError as exc:
+        discard()
+        raise _write_failed(out, exc) from None
+    except BaseException:
+        discard()
+        raise
+    discard()
