@@ -464,7 +464,9 @@ def diagnose(
     # the parameters hidden from the selection that still move its estimates (aliases.hidden_fit):
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
     # plausible ranges as priors; every one adds to the errors what the record cannot say of it
-    hidden = hidden_parameters(nrm, chosen, unrevealed, grade, skip={a.key for a in resolved.values()})
+    hidden = hidden_parameters(
+        nrm, chosen, _with_aliases(unrevealed, aliased, outside), grade, skip={a.key for a in resolved.values()}
+    )
     dx, dh, hidden_cov = hidden_fit(nrm, free, hidden, grade, offset)
     ms_full = state.ms_full
     if dh.size:
@@ -653,6 +655,22 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
     return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
+
+
+def _with_aliases(unrevealed: dict, aliased, outside) -> dict:
+    """The selection's ``unrevealed`` (key -> (candidate, parameters, reason)) and the other half of
+    each pair the record cannot tell apart: the effect of a selected pair the model does not keep
+    (``aliased``: (kept, gone, rho)) and the candidate left out that a selected effect is no finding
+    beside (``outside``). Held at their start values, they move what is estimated beside them (the
+    antisymmetric gyro misalignment of one axis and a mount, dropped as a pair on a turntable, went
+    whole into the other axis's misalignment: 86 sigma off on a development-range turntable, seed
+    206), so :func:`sizefx.diagnose.aliases.hidden_parameters` counts them: fitted beside the model
+    with their plausible ranges as priors, so that the record still pins what it can of the pair."""
+    out = dict(unrevealed)
+    gone = [(g.cand, tuple(g.active)) for _, g, _ in aliased] + [(cand, tuple(seen)) for _, cand, seen, _ in outside]
+    for cand, params in gone:
+        out[f"{cand.key} (alias)"] = (cand, params, "left out beside a selected effect nearly collinear with it")
+    return out
 
 
 def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: Parts, log):
