@@ -305,14 +305,16 @@ def test_without_rosbags_the_command_says_how_to_install_it(truth, tmp_path, mon
     _refused(_invoke(bag, "-o", tmp_path / "x.h5"), "needs the rosbags package: pip install 'sizefx[ros]'")
 
 
-def test_help_imports_neither_rosbags_nor_numpy():
+def test_help_imports_neither_rosbags_nor_numpy(tmp_path):
     probe = (
         "import sys; from click.testing import CliRunner; from sizefx_cli.main import main\n"
         "for args in (['import', 'rosbag', '--help'], ['export', 'rosbag', '--help'], ['export', 'csv', '--help']):\n"
         "    assert CliRunner().invoke(main, args).exit_code == 0, args\n"
         "print(','.join(m for m in ('rosbags', 'numpy', 'h5py') if m in sys.modules))"
     )
-    proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    # run outside the checkout: `python -c` puts the working directory first on sys.path, where the
+    # source tree's sizefx/ (without sizefx.schemas, which the install maps in) would shadow the install
+    proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert proc.returncode == 0 and proc.stdout.strip() == "", proc.stdout + proc.stderr
 
 
@@ -354,6 +356,7 @@ def test_a_bag_of_images_imports_in_bounded_memory(truth, tmp_path):
             capture_output=True,
             text=True,
             timeout=300,
+            cwd=tmp_path,  # not the checkout, whose sizefx/ would shadow the installed package
         )
         assert proc.returncode == 0, proc.stderr
         grew[name] = int(proc.stdout.split()[-1]) / 1024  # KiB -> MiB
