@@ -253,3 +253,6 @@ def test_the_dropped_half_of_an_aliased_pair_is_fitted_beside_the_findings():
     for aliased, outside in (([(keep, gone, 0.97)], []), ([], [(keep, sf, (h,), 0.97)])):
         extended = _with_aliases({}, aliased, outside)
         assert hidden_parameters(nrm, [keep], extended, "navigation") == [(sf, [h], True)]
+    # a pair's dropped half that is also a candidate left out beside a finding is counted once
+    twice = _with_aliases({}, [(keep, gone, 0.97)], [(keep, sf, (h,), 0.97)])
+    assert hidden_parameters(nrm, [keep], twice, "navigation") == [(sf, [h], True)]

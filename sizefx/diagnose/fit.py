@@ -667,9 +667,13 @@ def _with_aliases(unrevealed: dict, aliased, outside) -> dict:
     206), so :func:`sizefx.diagnose.aliases.hidden_parameters` counts them: fitted beside the model
     with their plausible ranges as priors, so that the record still pins what it can of the pair."""
     out = dict(unrevealed)
+    counted = {j for _, params, _ in unrevealed.values() for j in params}
     gone = [(g.cand, tuple(g.active)) for _, g, _ in aliased] + [(cand, tuple(seen)) for _, cand, seen, _ in outside]
     for cand, params in gone:
-        out[f"{cand.key} (alias)"] = (cand, params, "left out beside a selected effect nearly collinear with it")
+        params = tuple(j for j in params if j not in counted)  # a pair's half may also be another's outside
+        if params:
+            counted.update(params)
+            out[f"{cand.key} (alias)"] = (cand, params, "left out beside a selected effect nearly collinear with it")
     return out
 
 
