@@ -227,7 +227,7 @@ class _LongRotationSpline:
     ``self(t)`` is a ``Rotation``, ``self(t, 1)`` the rates [n, 3] (rad/s, body axes).
 
     **The rates between rows** are not the rotation spline's derivative there but a cubic spline
-    through its rates at the rows (:func:`_rates_through_rows`). The derivative of a cubic rotation
+    through its rates at the rows (:class:`_Rates`; 96 bytes a row beside the rotation spline's). The derivative of a cubic rotation
     spline between its rows is off by O(h^3) of the motion's fourth derivative, in phase with the
     angular acceleration and of a sign that turns with the position between rows: to the gyros it
     is a reference delay that depends on the delay itself (on a 2 Hz sway logged at 200 Hz, up to
@@ -241,7 +241,7 @@ class _LongRotationSpline:
         n = t.size
         if n <= SPLINE_ROWS:
             spline = RotationSpline(t, rot)
-            self._starts, self._parts = np.array([-np.inf]), [(spline, _rates_through_rows(t, spline))]
+            self._starts, self._parts = np.array([-np.inf]), [(spline, _Rates(t, spline))]
             return
         starts, parts = [], []
         for lo in range(0, n, SPLINE_PIECE_ROWS):
@@ -249,7 +249,7 @@ class _LongRotationSpline:
             a, b = max(0, lo - SPLINE_OVERLAP_ROWS), min(n, hi + SPLINE_OVERLAP_ROWS)
             starts.append(-np.inf if lo == 0 else t[lo])
             spline = RotationSpline(t[a:b], rot[a:b])
-            parts.append((spline, _rates_through_rows(t[a:b], spline)))
+            parts.append((spline, _Rates(t[a:b], spline)))
         self._starts, self._parts = np.array(starts), parts
 
     def __call__(self, t, order: int = 0):
@@ -297,11 +297,6 @@ class _Rates:
         if ends.any():
             out[ends] = self._spline(t[ends], 1)
         return out
-
-
-def _rates_through_rows(t, spline: RotationSpline) -> _Rates:
-    """:class:`_Rates` of the rotation spline ``spline`` through rows at times ``t``."""
-    return _Rates(t, spline)
 
 
 def reference_segments(time_s: np.ndarray, breaks_s=()) -> list[tuple[int, int]]:
