@@ -227,8 +227,9 @@ class _LongRotationSpline:
     ``self(t)`` is a ``Rotation``, ``self(t, 1)`` the rates [n, 3] (rad/s, body axes).
 
     **The rates between rows** are not the rotation spline's derivative there but a cubic spline
-    through its rates at the rows (:class:`_Rates`; 96 bytes a row beside the rotation spline's). The derivative of a cubic rotation
-    spline between its rows is off by O(h^3) of the motion's fourth derivative, in phase with the
+    through its rates at the rows (:class:`_Rates`; 96 bytes a row beside the rotation spline's).
+    The derivative of a cubic rotation spline between its rows is off by O(h^3) of the motion's
+    fourth derivative, in phase with the
     angular acceleration and of a sign that turns with the position between rows: to the gyros it
     is a reference delay that depends on the delay itself (on a 2 Hz sway logged at 200 Hz, up to
     1.6e-7 s either way; a development-range sway's 1.85 ms reference delay came out 15 sigma
