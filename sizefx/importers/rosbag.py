@@ -51,7 +51,7 @@ from ..io.files import HASH_CHUNK_BYTES
 from ..io.telemetry import Site, Telemetry, nominal_period_s
 from ..ros import IMU, NAVSAT, NS_PER_S, bag_files, require_rosbags, stamp_ns, stamp_text, storage_of
 from . import provenance
-from .rosbag_common import BLOCK_ROWS, TF_TOPIC, _check_order, _frame, _listing, _Rows, _short
+from .rosbag_common import BLOCK_ROWS, TF_TOPIC, _check_order, _frame, _listing, _one_value, _Rows, _short
 from .rosbag_reference import (
     REFERENCE_TYPES,
     _add_pose,
@@ -191,15 +191,16 @@ def _read(path: Path, reader, imu: _Imu, ref: _ReferenceSpec | None, fix: _Fix |
         topic = conn.topic
         try:
             if topic == imu.topic:
-                frame = msg.header.frame_id
-                if imu.frame is None:
-                    imu.frame = frame
-                elif frame != imu.frame:
-                    raise SourceError(
-                        path,
-                        f"topic {topic}: message {imu.rows.n} is in frame '{frame}' and the first in "
-                        f"'{imu.frame}'; one IMU is in one frame",
-                    )
+                imu.frame = _one_value(
+                    path,
+                    topic,
+                    imu.rows.n,
+                    imu.frame,
+                    msg.header.frame_id,
+                    "is in frame",
+                    "in ",
+                    "one IMU is in one frame",
+                )
                 if imu.rows.n >= MAX_WHOLE_READ_ROWS:
                     raise SourceError(path, _too_many(topic, imu.rows.n + 1))
                 imu.rows.add(stamp_ns(msg.header.stamp), receive_ns, _imu_values(msg))

@@ -31,6 +31,19 @@ def _frame(name) -> str:
     return str(name).lstrip("/")
 
 
+def _one_value(path: Path, topic: str, index: int, first, value, says: str, first_says: str, rule: str):
+    """``value`` of message ``index`` of ``topic`` where the first message gave ``first`` (None: this is
+    the first): the first value, or one line saying that message ``index`` differs (a frame of a topic
+    that must stay one)."""
+    if first is None:
+        return value
+    if value != first:
+        raise SourceError(
+            path, f"topic {topic}: message {index} {says} '{value}' and the first {first_says}'{first}'; {rule}"
+        )
+    return first
+
+
 def _listing(names: list, more_of: str = "") -> str:
     shown = ", ".join(names[:LISTED]) or "none"
     return shown + (f" and {len(names) - LISTED} more{more_of}" if len(names) > LISTED else "")

@@ -16,7 +16,7 @@ from ..io.telemetry import Reference
 from ..ros import NS_PER_S, ODOMETRY, POSE, POSE_COVARIANCE, TF_TYPES, stamp_ns
 from ..rotation import quat_to_mat
 from . import REFERENCE_GRAVITY_ANGLE_MAX_DEG, reference_up_angle_deg
-from .rosbag_common import TF_TOPIC, _check_order, _frame, _listing, _Rows, _short
+from .rosbag_common import TF_TOPIC, _check_order, _frame, _listing, _one_value, _Rows, _short
 
 __all__ = ["REFERENCE_TYPES", "MAX_PAIRS_KEPT", "WORLD_WORDS"]
 
@@ -92,24 +92,14 @@ def _add_pose(path: Path, ref: _ReferenceSpec, msg, receive_ns: int, index: int,
     """One pose or odometry message into ``ref``'s rows (at most ``max_rows``: the importer's
     :data:`~sizefx.constants.MAX_WHOLE_READ_ROWS`, as :mod:`sizefx.importers.rosbag` reads it)."""
     world = _frame(msg.header.frame_id)
-    if ref.world is None:
-        ref.world = world
-    elif world != ref.world:
-        raise SourceError(
-            path,
-            f"topic {ref.topic}: message {index} is in frame '{world}' and the first in '{ref.world}'; "
-            "a reference is in one world frame",
-        )
+    ref.world = _one_value(
+        path, ref.topic, index, ref.world, world, "is in frame", "in ", "a reference is in one world frame"
+    )
     if ref.kind == "odometry":
         child = _frame(msg.child_frame_id)
-        if ref.child is None:
-            ref.child = child
-        elif child != ref.child:
-            raise SourceError(
-                path,
-                f"topic {ref.topic}: message {index} describes child frame '{child}' and the first "
-                f"'{ref.child}'; a reference describes one body",
-            )
+        ref.child = _one_value(
+            path, ref.topic, index, ref.child, child, "describes child frame", "", "a reference describes one body"
+        )
     if ref.rows.n >= max_rows:
         raise SourceError(path, f"topic {ref.topic} holds more than {max_rows} messages; cut the bag first")
     ref.rows.add(stamp_ns(msg.header.stamp), receive_ns, _pose_values(msg, ref.kind))
