@@ -317,22 +317,7 @@ def atomic_output(
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()
 
-    try:
-        yield tmp_path
-    except OSError as exc:
-        discard()
-        if exc.errno in NO_ROOM:  # the body's writes ran out of room; other errors (an input's) pass as they are
-            raise _write_failed(out, exc) from None
-        raise
-    except BaseException:
-        discard()
-        raise
-    if INTERRUPTED["signum"] is not None and not interrupted:  # a signal whose exception was swallowed
-        discard()
-        raise Interrupted(INTERRUPTED["signum"])
-    if threading.get_ident() in ABANDONED and not interrupted:  # the work was given up by whoever asked for it
-        discard()
-        raise Interrupted(signal.SIGTERM)
+    yield from _written(out, tmp_path, discard, interrupted)
     try:
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
@@ -345,6 +330,31 @@ def atomic_output(
     except BaseException:
         discard()
         raise
+
+
+def _written(out: Path, tmp: Path, discard, interrupted: bool = False):
+    """The body of :func:`atomic_output` and :func:`atomic_folder_output`: yield ``tmp`` to the writer;
+    on its exception, ``discard()`` and re-raise (a write that ran out of room as an
+    :class:`~sizefx.errors.OutputError` naming ``out``; other errors, an input's, as they are); after a
+    signal whose exception was swallowed, or with the thread's work given up by whoever asked for it,
+    ``discard()`` and raise :class:`~sizefx.errors.Interrupted`, unless ``interrupted`` (bookkeeping
+    that must be published even then)."""
+    try:
+        yield tmp
+    except OSError as exc:
+        discard()
+        if exc.errno in NO_ROOM:
+            raise _write_failed(out, exc) from None
+        raise
+    except BaseException:
+        discard()
+        raise
+    if INTERRUPTED["signum"] is not None and not interrupted:
+        discard()
+        raise Interrupted(INTERRUPTED["signum"])
+    if threading.get_ident() in ABANDONED and not interrupted:
+        discard()
+        raise Interrupted(signal.SIGTERM)
 
 
 def check_output_folder_replace(
@@ -399,22 +409,7 @@ def atomic_folder_output(
     def discard():
         shutil.rmtree(holder, ignore_errors=True)
 
-    try:
-        yield new
-    except OSError as exc:
-        discard()
-        if exc.errno in NO_ROOM:
-            raise _write_failed(out, exc) from None
-        raise
-    except BaseException:
-        discard()
-        raise
-    if INTERRUPTED["signum"] is not None:
-        discard()
-        raise Interrupted(INTERRUPTED["signum"])
-    if threading.get_ident() in ABANDONED:
-        discard()
-        raise Interrupted(signal.SIGTERM)
+    yield from _written(out, new, discard)
     try:
         if not new.is_dir():
             raise OSError(errno.ENOENT, "the writer made no folder")
