@@ -322,6 +322,130 @@ def rosbag(source, output, imu, reference, body_frame, stamps, axes, site_deg, n
     )
 
 
+@import_.command("table-log")
+@source_argument
+@output_option
+@click.option(
+    "--imu",
+    "imu_record",
+    required=True,
+    type=click.Path(dir_okay=False),
+    metavar="RECORD.h5",
+    help="The IMU: a sizefx record made by any importer (e.g. sizefx import csv), on the log's clock.",
+)
+@click.option(
+    "--axes",
+    required=True,
+    metavar="A1[,A2[,A3]]",
+    help="The table's axes, outer to inner, as axes x, y, z of the level table frame (x the zero direction, "
+    "z down), a minus where the encoder angle grows turning the other way: z for a single-axis table whose "
+    "angle grows clockwise seen from above, -z if anticlockwise; z,x,y for a three-axis one.",
+)
+@click.option("--time", "time_col", required=True, metavar="COLUMN", help="Time column of the log.")
+@click.option(
+    "--time-units", type=click.Choice(["s", "ms", "us", "ns"]), default="s", show_default=True, help="Its units."
+)
+@click.option(
+    "--time-offset-s",
+    type=span(-1e10, 1e10),
+    default=0.0,
+    show_default=True,
+    help="Added to the log's time to put it on the IMU's clock [s]; both loggers must share one clock.",
+)
+@click.option("--angles", required=True, metavar="COL1[,COL2[,COL3]]", help="Encoder angle columns, one per axis.")
+@click.option(
+    "--angle-units",
+    type=click.Choice(["deg", "rad", "counts"]),
+    default="deg",
+    show_default=True,
+    help="Units of the angles; counts need --counts-per-rev. Wraps (a jump of over half a turn) are undone.",
+)
+@click.option("--counts-per-rev", type=span(2.0, 1e15), metavar="N", help="Encoder counts per turn.")
+@click.option(
+    "--counter-modulus",
+    type=span(2.0, 1e20),
+    metavar="N",
+    help="The count at which the counter rolls over to 0 [default: --counts-per-rev], e.g. 4294967296 for a "
+    "32-bit counter.",
+)
+@click.option("--rates", metavar="COL1[,COL2[,COL3]]", help="Encoder rate columns, one per axis (optional).")
+@click.option(
+    "--rate-units",
+    type=click.Choice(["deg/s", "rad/s", "counts/s"]),
+    help="Units of the rates [default: the angle units per second].",
+)
+@click.option(
+    "--table-heading-deg",
+    type=span(-360.0, 360.0),
+    default=0.0,
+    show_default=True,
+    help="Heading of the table's zero direction (its x axis) [deg east of north].",
+)
+@click.option(
+    "--mount-deg",
+    default="0,0,0",
+    show_default=True,
+    metavar="ROLL,PITCH,YAW",
+    help="The IMU's body axes on the inner platform: mat_pb = Rz(yaw) Ry(pitch) Rx(roll) [deg].",
+)
+@click.option(
+    "--site-deg",
+    metavar="LAT,LON,H",
+    help="Site: latitude [deg], longitude [deg], height [m] [default: the IMU record's; one is needed].",
+)
+@click.option("--delimiter", default=",", show_default=True, help="Field separator of the log.")
+@force_option
+def table_log(
+    source,
+    output,
+    imu_record,
+    axes,
+    time_col,
+    time_units,
+    time_offset_s,
+    angles,
+    angle_units,
+    counts_per_rev,
+    counter_modulus,
+    rates,
+    rate_units,
+    table_heading_deg,
+    mount_deg,
+    site_deg,
+    delimiter,
+    force,
+):
+    """A turntable controller's log (CSV of encoder angles) as /reference beside an IMU record.
+
+    \b
+    Writes the IMU of --imu with the reference attitude the log implies,
+      mat_nb = Rz(heading) R(a1, theta1) R(a2, theta2) R(a3, theta3) mat_pb,
+    at the log's rows (docs/import.md). Encoder rates, when logged, are checked
+    against the angles; the attitude against gravity and the gyros.
+    """
+    run_import(
+        "table-log",
+        source,
+        output,
+        force=force,
+        imu_record=imu_record,
+        axes=_names(axes),
+        time=time_col,
+        time_units=time_units,
+        time_offset_s=time_offset_s,
+        angles=_names(angles),
+        angle_units=angle_units,
+        counts_per_rev=counts_per_rev,
+        counter_modulus=counter_modulus,
+        rates=_names(rates),
+        rate_units=rate_units,
+        table_heading_deg=table_heading_deg,
+        mount_deg=parse_vector(mount_deg, "--mount-deg"),
+        site_deg=parse_vector(site_deg, "--site-deg") if site_deg else None,
+        delimiter=delimiter,
+    )
+
+
 def _remember(key):
     """A click callback that leaves a flag's value in the context's ``meta`` under ``key``."""
 

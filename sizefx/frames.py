@@ -6,6 +6,11 @@ connects: ``MAT_NED_ENU @ v_enu = v_ned``. The same permutation
 and Right-Forward-Up (PSINS's body axes) to Forward-Right-Down; the flip
 ``diag(1, -1, -1)`` takes Forward-Left-Up to Forward-Right-Down.
 
+A turntable's gimbals (:func:`table_attitude`): the attitude its encoder angles give, through the
+level table frame (x its zero direction, y to the right, z down) and up to three axes, outer to
+inner, each turning about an axis of that frame in its parent gimbal; the convention is stated
+with its formula in :mod:`sizefx.importers.table_log` and ``docs/import.md``.
+
 ROS (REP 103) writes bodies forward-left-up and worlds east-north-up, and frames named
 ``*_ned`` forward-right-down and north-east-down; its quaternions are scalar-last
 ``(x, y, z, w)`` and rotate the child (body) frame's vectors into the parent (world) frame.
@@ -18,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import earth
+from .motion import RotationChain
 from .rotation import axis_angle_mat, mat_to_quat, quat_to_mat
 
 __all__ = [
@@ -33,6 +39,9 @@ __all__ = [
     "mat_nb_from_enu_body",
     "psins_mat_enu_rfu",
     "geodetic_from_local_ned",
+    "TABLE_AXES",
+    "gimbal_axes",
+    "table_attitude",
 ]
 
 MAT_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
@@ -44,6 +53,8 @@ MAT_FRD_FLU = np.diag([1.0, -1.0, -1.0])
 #: forward-left-up and world east-north-up; ``frd``: REP 103's ``*_ned`` frames, body
 #: forward-right-down and world north-east-down (sizefx's own).
 ROS_AXES = {"flu": (MAT_FRD_FLU, MAT_NED_ENU), "frd": (np.eye(3), np.eye(3))}
+#: The axes of a turntable's level frame, by name: x its zero direction, y to the right, z down.
+TABLE_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
 def enu_to_ned(v_enu):
@@ -125,3 +136,56 @@ def ros_quat_from_nb(quat_nb, convention: str):
     mat_b_src, mat_n_src = _ros_axes(convention)
     q_wxyz = mat_to_quat(mat_n_src.T @ quat_to_mat(np.asarray(quat_nb, dtype=float)) @ mat_b_src)
     return q_wxyz[..., [1, 2, 3, 0]]
+
+
+def gimbal_axes(spec) -> list[tuple[str, float]]:
+    """``("z", "-x", "y")`` -> ``[("z", 1.0), ("x", -1.0), ("y", 1.0)]``, outer to inner; a
+    ValueError saying what is wrong (one to three axes of x, y, z, no two neighbours alike)."""
+    items = [str(a).strip().lower() for a in spec]
+    if not 1 <= len(items) <= 3:
+        raise ValueError(f"names {len(items)} axes; a table has one to three, outer to inner (e.g. z or z,x,y)")
+    out = []
+    for item in items:
+        axis = item.lstrip("+-")
+        if axis not in TABLE_AXES or len(item) - len(axis) > 1:
+            raise ValueError(f"'{item}' is not an axis (x, y or z of the table, with an optional minus)")
+        out.append((axis, -1.0 if item.startswith("-") else 1.0))
+    for k in range(1, len(out)):
+        if out[k][0] == out[k - 1][0]:
+            raise ValueError(f"axes {k} and {k + 1} both turn about {out[k][0]}: one angle, not two encoders")
+    return out
+
+
+class _Logged:
+    """An axis angle [rad] and rate [rad/s] at the log's rows, as a profile
+    :class:`~sizefx.motion.RotationChain` evaluates (exact at those rows; the chain asks for no other)."""
+
+    def __init__(self, t, theta, rate):
+        self.t, self.theta, self.rate = t, theta, rate
+
+    def evaluate(self, t):
+        return np.interp(t, self.t, self.theta), np.interp(t, self.t, self.rate), np.zeros(np.shape(t))
+
+
+def table_attitude(axes, theta_rad, rate_rad_s, time_s, *, heading_rad: float = 0.0, mat_pb=None):
+    """``mat_nb [M, 3, 3]`` and the body rate ``omega_nb_b [M, 3]`` [rad/s] of a turntable's log::
+
+        mat_nb = Rz(heading) @ R(a_1, s_1 theta_1) @ ... @ R(a_K, s_K theta_K) @ mat_pb
+
+    ``axes``: :func:`gimbal_axes`' list (outer to inner) of the table axes a_k (:data:`TABLE_AXES`)
+    and signs s_k; ``theta_rad``, ``rate_rad_s``: ``[M, K]`` encoder angles and rates at ``time_s
+    [M]``; ``heading_rad``: the heading of the table's zero direction; ``mat_pb``: the IMU's mount
+    on the inner platform (body to platform; identity by default). With every angle zero each
+    gimbal frame is the table frame; axis k turns its gimbal about a_k in its parent's frame, so
+    ``omega_nb_b`` is the sum of the axes' rates, each carried into the body by the gimbals inside
+    it (:class:`sizefx.motion.RotationChain`, the simulator's chain). :mod:`sizefx.importers.table_log`
+    states the convention for the user.
+    """
+    mat_pb = np.eye(3) if mat_pb is None else np.asarray(mat_pb, dtype=float)
+    chain = RotationChain(
+        [sign * np.asarray(TABLE_AXES[axis]) for axis, sign in axes],
+        [_Logged(time_s, theta_rad[:, k], rate_rad_s[:, k]) for k in range(len(axes))],
+        mat_0=axis_angle_mat(TABLE_AXES["z"], heading_rad),
+    )
+    mat_np, omega_np_p, _ = chain.evaluate(time_s)
+    return mat_np @ mat_pb, omega_np_p @ mat_pb  # omega_b = mat_pb^T omega_p, as rows

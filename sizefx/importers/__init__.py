@@ -68,9 +68,12 @@ FORMATS = {
     "csv": ("table", "load"),
     "ulog": ("ulog", "load"),
     "rosbag": ("rosbag", "load"),
+    "table-log": ("table_log", "load"),
 }
 #: Formats whose SOURCE may be a folder: a ROS 2 bag is one (``metadata.yaml`` and its storage files).
 FOLDER_FORMATS = ("rosbag",)
+#: Importer options that name a file read besides SOURCE -> the command line's option (for the pre-flight).
+INPUT_OPTIONS = {"reference_file": "--reference-file", "imu_record": "--imu"}
 
 #: Largest median angle [deg] between the specific force the accelerometers read and the
 #: "up" direction the reference attitude gives in body axes. At rest they coincide; a
@@ -175,6 +178,10 @@ def _units_context(fmt: str, tel):
                 f"convert the columns to {check.declared} before importing ({option} takes "
                 f"{', '.join(allowed_units(names[check.what]))})"
             )
+        if fmt == "table-log":  # the IMU is the record's; the gyros are judged against the log's rotation too
+            imu = "re-import the IMU record (--imu)" + (f" in {check.looks_like}" if check.looks_like else "")
+            log = ", or check the log's --angle-units, --counts-per-rev and --time-units"
+            return imu + (log if check.what == "gyro" else "")
         return f"the {fmt} format stores {check.declared}; check that the source is a genuine {fmt} file"
 
     return declared, where, fix
@@ -205,12 +212,12 @@ class ImportConfig:
     def inputs(self) -> dict:
         """The files read, by the option that names them. A SOURCE that is a ROS 2 bag folder is
         its files (``SOURCE metadata.yaml``, ...): each is checked, and none may be an output."""
-        reference_file = {"--reference-file": self.options.get("reference_file")}
+        others = {flag: self.options.get(name) for name, flag in INPUT_OPTIONS.items()}
         if self.format in FOLDER_FORMATS and Path(self.source).is_dir():
             from ..ros import bag_files
 
-            return {**{f"SOURCE {f.name}": f for f in bag_files(self.source)}, **reference_file}
-        return {"SOURCE": self.source, **reference_file}
+            return {**{f"SOURCE {f.name}": f for f in bag_files(self.source)}, **others}
+        return {"SOURCE": self.source, **others}
 
     def outputs(self) -> dict:
         return {"-o": self.output}
