@@ -6,9 +6,12 @@ estimates, findings and the nuisance fitted beside them):
 
 - **white**: ``N^-1`` of the weighted normal equations (:func:`sizefx.diagnose.normal.covariance`),
   right if the weights were the inverse noise variances and the noise white;
-- **sandwich**: the long-run block sandwich (:func:`sizefx.diagnose.normal.covariance`: each block's
-  scores summed with its neighbours', Newey-West), for residuals coloured within and across
-  blocks, never under the white one (:func:`sizefx.diagnose.selection.honest`);
+- **sandwich**: ``N^-1 M N^-1`` with ``M`` the variance of the scores under a model of the
+  residual's spectrum (:mod:`.spectrum`): what varies within a block against the residual's
+  variance there, the blocks' sums against the covariance of its block means, from white noise
+  plus a power law fitted to their periodogram. Each parameter takes the noise at the frequencies
+  of its regressor. (The selection's tests use the long-run block sandwich instead, never under
+  the white covariance: :func:`sizefx.diagnose.selection.honest`.)
 - **parts**: the record's contiguous parts fitted alone (:mod:`.consistency`): the variance of an
   effect of each part beyond its noise, estimated from their scatter (a random effect,
   DerSimonian-Laird), widens each error by what it adds to the whole record's estimate
@@ -51,6 +54,7 @@ from .predictor import Predictor
 from .records import ReportWarning
 from .residual import noise_of, per_sample, residual_under
 from .selection import honest, select
+from .spectrum import spectral_meat
 from .theta import PARAMS
 
 __all__ = ["ErrorBudget", "Parts", "band_part", "error_budget", "parts_scatter", "BAND_NEIGHBOURS"]
@@ -148,13 +152,21 @@ class ErrorBudget:
         return out
 
 
-def parts_scatter(pred: Predictor, nrm: Normal, free, offset) -> Parts:
+def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = False) -> Parts:
     """The white and sandwich covariances of ``free`` at the normal equations ``nrm`` (``offset``:
     the start model minus the estimate), and the widening each parameter's error takes from the
-    record's parts fitted alone (:mod:`.consistency`: in time, by rotation rate, by translation)."""
+    record's parts fitted alone (:mod:`.consistency`: in time, by rotation rate, by translation).
+
+    ``spectral``: the "sandwich" is the covariance from the residual's spectrum at each regressor's
+    frequencies (:func:`sizefx.diagnose.spectrum.spectral_meat`), for the errors reported; without
+    it, the long-run block sandwich never under the white covariance
+    (:func:`sizefx.diagnose.selection.honest`), which the selection's tests use."""
     free = np.asarray(free, dtype=int)
     _, white, robust = covariance(nrm, free, offset)
     sandwich = honest(white, robust)
+    if spectral and nrm.noise is not None and free.size:
+        sandwich = white @ spectral_meat(nrm.noise, free) @ white
+        sandwich = 0.5 * (sandwich + sandwich.T)
     sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(sandwich)))))
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
     count, by_time = block_consistency(nrm, free, offset, sig, sig_white)

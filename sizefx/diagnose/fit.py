@@ -22,7 +22,7 @@
    selection fixed, and with the candidates left out that are nearly collinear with one of them
    (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves;
    the same checks then judge the findings beside them again.
-6. **Errors** (:mod:`.budget`): the long-run block sandwich (never under the white one), widened by
+6. **Errors** (:mod:`.budget`): the covariance the residual's spectrum gives (:mod:`.spectrum`), widened by
    the parts' random effect, plus the resolved aliases', the hidden parameters' (fitted beside the
    findings where they take them up, :func:`sizefx.diagnose.aliases.hidden_fit`) and the band's
    parts; a finding not significant under that error goes to ``not_revealed``.
@@ -459,7 +459,8 @@ def diagnose(
         if chosen[i].cand.key not in alias_keys | nuisance_keys  # a nuisance is no finding to begin with
     ]
     free = _free(chosen)
-    parts = verdict.parts if verdict.parts is not None else parts_scatter(pred, nrm, free, offset)
+    # the errors reported take the residual's spectrum at each regressor's frequencies (budget.py)
+    parts = parts_scatter(pred, nrm, free, offset, spectral=True)
     resolved, alias_cov = _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts, log)
     # the parameters hidden from the selection that still move its estimates (aliases.hidden_fit):
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
@@ -483,7 +484,6 @@ def diagnose(
         )
     aliased = [a for a in aliased if a[0].cand.key not in resolved]
     outside = [o for o in outside if o[0].cand.key not in resolved]
-    # the last round judged this very state: its parts stand
     budget = error_budget(
         pred,
         rows_of,

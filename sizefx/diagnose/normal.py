@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .drift import NO_DRIFT, TERMS, Drift, basis, intensity
+from .spectrum import BlockNoise
 from .theta import NP, PARAMS
 
 __all__ = [
@@ -195,6 +196,7 @@ class Normal:
     block_s: float  #: block length [s]
     t0: np.ndarray  #: [B] start time of each block [s]
     drift: Drift = NO_DRIFT  #: the walk of each channel's bias and the regressors' sums against its basis
+    noise: BlockNoise | None = None  #: block sums for :func:`sizefx.diagnose.spectrum.spectral_meat`
 
     @property
     def blocks(self) -> int:
@@ -230,7 +232,9 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
 
     ``walk``: measure the walk of each channel's bias (:func:`sizefx.diagnose.drift.intensity`) and
     keep the regressors' sums against the walk's basis (:attr:`Normal.drift`), from which
-    :func:`sizefx.diagnose.drift.walk_covariance` gives the error the walk adds to the estimates."""
+    :func:`sizefx.diagnose.drift.walk_covariance` gives the error the walk adds to the estimates;
+    and keep the block sums :func:`sizefx.diagnose.spectrum.spectral_meat` takes the estimates'
+    covariance from (:attr:`Normal.noise`). The final fit's equations are formed so."""
     keep = rows_of.keep
     rows = np.flatnonzero(keep)
     t = rows_of.t[rows]
@@ -255,6 +259,11 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
     t0, span_s = (float(t[0]), span) if t.size else (0.0, 0.0)
     walking = list(range(6)) if walk and span_s > 0 else []
     K = TERMS
+    # for the spectral covariance (walk): per channel the block sums of the weighted regressors and
+    # their cross products; per block the rows, the residual's sums and sums of squares
+    g_sum = np.zeros((6, B, NP)) if walk else None
+    hh_sum = np.zeros((6, NP, NP)) if walk else None
+    counts, ysum, ysq = np.zeros(B), np.zeros((B, 6)), np.zeros((B, 6))
     NU = {c: np.zeros((NP, K)) for c in walking}
     UU = {c: np.zeros((K, K)) for c in walking}
     bU = {c: np.zeros(K) for c in walking}
@@ -269,6 +278,10 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
         ks = np.arange(bl[0], bl[-1] + 1)  # every block between holds rows here: blocks are contiguous
         le = np.searchsorted(bl, np.append(ks, ks[-1] + 1))
         Z = basis(t[a:z], t0, span_s) if walking else None
+        if g_sum is not None:
+            counts[ks] += np.diff(le)
+            ysum[ks] += np.add.reduceat(yb[a:z], le[:-1], axis=0)
+            ysq[ks] += np.add.reduceat(yb[a:z] ** 2, le[:-1], axis=0)
         for c in range(6):
             js = [j for j in range(NP) if c in cc[j][0]]
             if not js:
@@ -297,7 +310,15 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
             yy[ks] += np.add.reduceat(w * yb[a:z, c] ** 2, le[:-1])
             if c in walking:
                 NU[c][jx] += Hw.T @ Z
+            if g_sum is not None and hh_sum is not None:
+                g_sum[c][np.ix_(ks, jx)] += np.add.reduceat(Hw, le[:-1], axis=0)
+                hh_sum[c][np.ix_(jx, jx)] += Hw.T @ Hw
         del cc
+    noise = None
+    if g_sum is not None and hh_sum is not None:
+        rbar = ysum / np.maximum(counts, 1.0)[:, None]
+        within = np.sum(ysq - counts[:, None] * rbar**2, axis=0) / max(1.0, counts.sum() - B)
+        noise = BlockNoise(g_sum, hh_sum, counts, rbar, within, t[edges[:-1]] if t.size else np.zeros(B), block_s)
     drift = NO_DRIFT
     if walking:
         walking = [c for c in walking if UU[c].any()]  # the channels the model acts on
@@ -311,6 +332,7 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
         block_s,
         t[edges[:-1]] if t.size else np.zeros(B),
         drift,
+        noise,
     )
 
 

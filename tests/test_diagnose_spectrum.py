@@ -1,0 +1,81 @@
+"""The estimates' covariance from the residual's spectrum (``sizefx.diagnose.spectrum``), against
+Monte Carlo: least squares on white noise, and on white noise plus a random walk, with a fast and a
+slow regressor beside a constant."""
+
+import numpy as np
+import pytest
+
+from sizefx.diagnose.spectrum import BlockNoise, block_covariance, fit_spectrum, spectral_meat
+
+BLOCKS, PER_BLOCK, DT = 100, 20, 0.01
+
+
+def _design():
+    n = BLOCKS * PER_BLOCK
+    t = np.arange(n) * DT
+    fast = np.sin(2 * np.pi * 7.3 * t)  # 7.3 Hz: many cycles per block
+    slow = np.where(t < t[-1] / 2, -1.0, 1.0)  # a step half-way: the shape of a turntable's dwell
+    return t, np.column_stack([np.ones(n), fast, slow])
+
+
+def _noise_of(t, H, r):
+    """BlockNoise of one channel (channel 0; the others hold nothing), unit weights."""
+    B, L = BLOCKS, PER_BLOCK
+    P = H.shape[1]
+    G = np.zeros((6, B, P))
+    HH = np.zeros((6, P, P))
+    G[0] = H.reshape(B, L, P).sum(axis=1)
+    HH[0] = H.T @ H
+    counts = np.full(B, float(L))
+    rbar = np.zeros((B, 6))
+    rbar[:, 0] = r.reshape(B, L).mean(axis=1)
+    within = np.zeros(6)
+    within[0] = np.sum((r.reshape(B, L) - rbar[:, :1]) ** 2) / (r.size - B)
+    return BlockNoise(G, HH, counts, rbar, within, t[::L].copy(), L * DT)
+
+
+def _monte_carlo(walk_per_step: float, trials: int = 300):
+    t, H = _design()
+    rng = np.random.default_rng(7)
+    inv = np.linalg.inv(H.T @ H)
+    estimates, predicted = [], []
+    for _ in range(trials):
+        e = rng.standard_normal(t.size) + np.cumsum(walk_per_step * rng.standard_normal(t.size))
+        x = inv @ (H.T @ e)
+        r = e - H @ x
+        estimates.append(x)
+        predicted.append(np.diag(inv @ spectral_meat(_noise_of(t, H, r), [0, 1, 2]) @ inv))
+    return np.var(estimates, axis=0), np.mean(predicted, axis=0), np.diag(inv)
+
+
+def test_white_noise_gives_the_white_covariance():
+    empirical, predicted, white = _monte_carlo(0.0, trials=200)
+    # 200 trials estimate a variance to +-10 % (sqrt(2/200)); the spectrum's fit adds a little
+    assert predicted[1:] == pytest.approx(white[1:], rel=0.15)
+    assert empirical[1:] == pytest.approx(predicted[1:], rel=0.3)
+
+
+def test_a_walk_widens_the_slow_regressor_only():
+    empirical, predicted, white = _monte_carlo(0.05)
+    # the slow step sees the walk: its variance is many times the white one, and predicted
+    assert empirical[2] > 5 * white[2]
+    assert 0.7 < predicted[2] / empirical[2] < 1.4
+    # the fast regressor does not: white within its scatter
+    assert 0.7 < predicted[1] / empirical[1] < 1.4
+    assert predicted[1] < 1.5 * white[1]
+
+
+def test_spectrum_fit_tells_white_from_a_walk():
+    rng = np.random.default_rng(3)
+    A, C, _ = fit_spectrum(rng.standard_normal(200))
+    assert C < 0.2 * A
+    _, C, alpha = fit_spectrum(np.cumsum(rng.standard_normal(200)))
+    assert C > 0 and alpha >= 1.5
+
+
+def test_block_covariance_of_white_noise_is_diagonal():
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal(100)
+    R = block_covariance(x, np.arange(100) * 0.5, 0.5)
+    assert np.diag(R) == pytest.approx(np.var(x), rel=0.3)
+    assert np.max(np.abs(R - np.diag(np.diag(R)))) < 0.2 * np.var(x)
