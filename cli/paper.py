@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -52,7 +51,7 @@ def paper(experiment, size, out_dir, json_path, seed, keep_records):
     sizefx paper all --size full --out docs/paper --json docs/paper/results.json --no-keep-records
     """
     from sizefx.experiments.paper import SIZES, format_results, run_all, to_json
-    from sizefx.io.files import atomic_output
+    from sizefx.io.documents import write_json
     from sizefx.stage import preflight
 
     # --json is replaced when it exists (docs/paper/results.json is regenerated in place), but
@@ -62,7 +61,6 @@ def paper(experiment, size, out_dir, json_path, seed, keep_records):
     res = run_all(Path(out_dir), SIZES[size], which=which, seed=seed, log=click.echo, keep_records=keep_records)
     click.echo(format_results(res))
     if json_path:
-        with atomic_output(json_path, force=True) as tmp:
-            Path(tmp).write_text(json.dumps(to_json(res), indent=2))
+        write_json(json_path, to_json(res), force=True)
         click.echo(f"figures -> {json_path}")
     click.echo(f"plots and records -> {out_dir}/")

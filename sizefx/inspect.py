@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .constants import ARCSEC, MICRO_G, PPM
+from .constants import ARCSEC, MICRO_G, PPM, STANDARD_GRAVITY_MPS2
 from .io.schema import TELEMETRY_SCHEMA, allowed_units
 from .io.telemetry import Telemetry, imu_segments, read_telemetry
 from .sanity import report_lines
@@ -56,7 +56,7 @@ def _effects_found(sim: dict) -> list[str]:
     if on("accel_quadratic"):
         lines.append(
             "accel_quadratic [ug/g^2]: "
-            + ", ".join(f"{v * 9.80665 / MICRO_G:.2f}" for v in fx["accel_quadratic"]["k2_per_mps2"])
+            + ", ".join(f"{v * STANDARD_GRAVITY_MPS2 / MICRO_G:.2f}" for v in fx["accel_quadratic"]["k2_per_mps2"])
         )
     if on("gyro_bias"):
         lines.append(

@@ -7,7 +7,6 @@ their shapes; :func:`read_levers` checks a file against it with ``jsonschema``
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,8 +15,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .geometry import PRESETS, preset_arms_m
-from .io.documents import read_json
-from .io.files import atomic_output
+from .io.documents import read_json, write_json
 from .io.schema import check_document, load_schema, validate_input
 from .sensor_model.table import MAX_AXES_CONDITION
 
@@ -210,8 +208,7 @@ def write_levers(path, levers: Levers, *, inputs=(), force: bool = False):
     contract first (a failure is a bug in :meth:`Levers.to_json`)."""
     doc = levers.to_json()
     check_document(doc, LEVERS_SCHEMA)
-    with atomic_output(path, inputs=inputs, force=force) as tmp:
-        Path(tmp).write_text(json.dumps(doc, indent=2) + "\n")
+    write_json(path, doc, inputs=inputs, force=force)
 
 
 def levers_from_preset(name: str, offset_m=(0.0, 0.0, 0.0)) -> Levers:

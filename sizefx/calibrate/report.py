@@ -43,7 +43,7 @@ def report_lines(
     lines = [
         f"joint generalised least squares over {res.samples} samples in {domain}; condition number "
         f"{res.condition:.3g}; residual RMS x, y, z = "
-        + ", ".join(f"{v / 9.80665e-6:.2f}" for v in res.residual_rms)
+        + ", ".join(f"{v / MICRO_G:.2f}" for v in res.residual_rms)
         + " ug"
         + noise,
         "  arm   r [mm] (from the rotation centre)          sigma [mm]              bound [mm]"
@@ -117,7 +117,7 @@ def report_lines(
                 f"  rotation about {row['axis']}, channel {row['channel']}: "
                 f"r_{row['channel']}[{row['channel']}] = {row['r_own'] * mm:8.4f} +- {row['sigma_r_own'] * mm:.4f}, "
                 f"r_{row['channel']}[{row['other_component']}] = {row['r_other'] * mm:8.4f} +- "
-                f"{row['sigma_r_other'] * mm:.4f}, bias (tau) {row['bias'] / 9.80665e-6:8.1f} ug; "
+                f"{row['sigma_r_other'] * mm:.4f}, bias (tau) {row['bias'] / MICRO_G:8.1f} ug; "
                 f"minus nominal {d_own:+.4f}, {d_other:+.4f}"
             )
     return lines
@@ -157,7 +157,7 @@ def compensation_figure(rec: Record, levers: Levers, png, *, mode: str = "center
         return np.convolve(x, np.ones(width) / width, mode="valid")
 
     fig, axes = plt.subplots(len(blocks), 1, figsize=(9, 2.6 * len(blocks)), constrained_layout=True, squeeze=False)
-    ug = 9.80665e-6
+    ug = MICRO_G
     spans = []
     for ax, (a, i0, i1) in zip(axes[:, 0], blocks):
         t = smooth(rec.t[i0:i1] - rec.t[i0])

@@ -26,11 +26,10 @@ The modules import downwards only (read, geodesy <- metrics <- report, plots <- 
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..io.files import atomic_output
+from ..io.documents import write_json
 from ..stage import preflight
 from .geodesy import (
     MIN_GROUND_SPEED_MPS,
@@ -175,7 +174,6 @@ def run(config: CompareConfig, *, progress=None) -> CompareResult:
         Path(config.plots_dir).mkdir(exist_ok=True)
         result.plots = write_plots(comparisons, tracks, config.plots_dir)
     if config.json_path:
-        with atomic_output(config.json_path, inputs=list(files.values()), force=config.force) as tmp:
-            Path(tmp).write_text(json.dumps(document, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+        write_json(config.json_path, document, inputs=list(files.values()), force=config.force, allow_nan=False)
     tick(total)
     return result

@@ -39,7 +39,6 @@ The package, from the bottom up (each module imports only those above it in this
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -49,7 +48,7 @@ import numpy as np
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
 from ..geometry import PRESETS
-from ..io.files import atomic_output
+from ..io.documents import write_json
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry, read_telemetry
 from ..io.toml import write_toml
@@ -94,7 +93,6 @@ from .theta import (
     A_MIS,
     A_SF,
     CHANNELS,
-    DEG_PER_H,
     G_BIAS,
     G_G,
     G_MIS,
@@ -105,7 +103,6 @@ from .theta import (
     TAU_A,
     TAU_R,
     TILT,
-    UG,
     Param,
     theta_from_model,
 )
@@ -152,8 +149,6 @@ __all__ = [
     "NP",
     "theta_from_model",
     "CHANNELS",
-    "UG",
-    "DEG_PER_H",
     "A_BIAS",
     "A_SF",
     "A_MIS",
@@ -398,8 +393,7 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
         d.validated_on.append(validate_on(tel_o, theta0, d.theta, d.bandwidth_hz, weights, navigation=nav))
     doc = to_json(d, start)
     if config.json_path:
-        with atomic_output(config.json_path, inputs=inputs, force=config.force) as tmp:
-            Path(tmp).write_text(json.dumps(doc, indent=2))
+        write_json(config.json_path, doc, inputs=inputs, force=config.force)
     written = plot(d, config.plots, force=config.force) if config.plots else []
     if written:
         doc["plots"] = written

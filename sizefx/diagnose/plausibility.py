@@ -38,28 +38,26 @@ import math
 
 import numpy as np
 
-from ..constants import ARCSEC, DEG, STANDARD_GRAVITY_MPS2
+from ..constants import ARCSEC, DEG, DEG_PER_H, MICRO_G, STANDARD_GRAVITY_MPS2
 from ..errors import ConfigError
 
 __all__ = ["GRADES", "NOISE_BAND", "RANGES", "check_grade", "infer_grade", "judge", "likely_cause", "noise_density"]
 
 GRADES = ("navigation", "tactical", "industrial")
-_UG = STANDARD_GRAVITY_MPS2 * 1e-6
-_DPH = DEG / 3600.0
 #: Per effect: (SI per report unit, report unit, (navigation, tactical, industrial) in report units).
 RANGES = {
-    "accel_bias": (_UG, "ug", (2e3, 2e4, 2e5)),
+    "accel_bias": (MICRO_G, "ug", (2e3, 2e4, 2e5)),
     "accel_scale_factor": (1e-6, "ppm", (1e3, 5e3, 3e4)),
     "accel_misalignment": (ARCSEC, "arcsec", (300.0, 1500.0, 7200.0)),
-    "accel_quadratic": (_UG / STANDARD_GRAVITY_MPS2**2, "ug/g^2", (300.0, 2e3, 2e4)),
+    "accel_quadratic": (MICRO_G / STANDARD_GRAVITY_MPS2**2, "ug/g^2", (300.0, 2e3, 2e4)),
     "lever_arm": (1e-3, "mm", (1e3, 1e3, 1e3)),
     "accel_delay": (1e-6, "us", (1e4, 1e4, 2e4)),
     "reference_delay": (1e-6, "us", (1e5, 1e5, 1e5)),
     "level_tilt": (ARCSEC, "arcsec", (3600.0, 3600.0, 3600.0)),
-    "gyro_bias": (_DPH, "deg/h", (1.0, 300.0, 2e4)),
+    "gyro_bias": (DEG_PER_H, "deg/h", (1.0, 300.0, 2e4)),
     "gyro_scale_factor": (1e-6, "ppm", (300.0, 3e3, 2e4)),
     "gyro_misalignment": (ARCSEC, "arcsec", (300.0, 1500.0, 5000.0)),
-    "gyro_g_sensitivity": (_DPH / STANDARD_GRAVITY_MPS2, "deg/h/g", (2.0, 50.0, 1e3)),
+    "gyro_g_sensitivity": (DEG_PER_H / STANDARD_GRAVITY_MPS2, "deg/h/g", (2.0, 50.0, 1e3)),
     "reference_mount": (ARCSEC, "arcsec", (1.8e4, 1.8e4, 1.8e4)),
 }
 #: White-noise densities that separate the grades: gyro angle random walk [deg/sqrt(h)] and
@@ -156,7 +154,7 @@ def infer_grade(density) -> tuple[str, str]:
     z in rad/s*sqrt(s), accelerometer x, y, z in m/s^2*sqrt(s)), and a sentence saying how it was
     inferred: the coarser of what the quietest gyro and the quietest accelerometer say."""
     arw = float(min(density[:3])) / DEG * 60.0  # rad/sqrt(s) -> deg/sqrt(h)
-    vrw = float(min(density[3:])) / _UG
+    vrw = float(min(density[3:])) / MICRO_G
     g = sum(arw > lim for lim in ARW_LIMITS_DEG_SQRT_H)
     a = sum(vrw > lim for lim in VRW_LIMITS_UG_SQRT_HZ)
     grade = GRADES[max(g, a)]

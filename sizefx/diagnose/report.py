@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..constants import ARCSEC, STANDARD_GRAVITY_MPS2
+from ..constants import ARCSEC, DEG_PER_H, MICRO_G, STANDARD_GRAVITY_MPS2
 from ..effects import EFFECTS_SCHEMA
 from ..errors import ConfigError
 from ..geometry import triad_point
@@ -35,7 +35,6 @@ from .theta import (
     A_MIS,
     A_SF,
     CHANNELS,
-    DEG_PER_H,
     G_BIAS,
     G_G,
     G_MIS,
@@ -47,7 +46,6 @@ from .theta import (
     TAU_A,
     TAU_R,
     TILT,
-    UG,
 )
 
 __all__ = [
@@ -113,7 +111,7 @@ def model_document(theta: np.ndarray) -> dict:
             ("reference_mount", MOUNT),
         )
     }
-    k2_unit = UG / STANDARD_GRAVITY_MPS2**2
+    k2_unit = MICRO_G / STANDARD_GRAVITY_MPS2**2
     g_unit = DEG_PER_H / STANDARD_GRAVITY_MPS2
     return {
         "schema": EFFECTS_SCHEMA,
@@ -133,7 +131,7 @@ def model_document(theta: np.ndarray) -> dict:
             "east_arcsec": float(theta[TILT[1]] / ARCSEC),
         },
         "reference_mount": {"enabled": on["reference_mount"], "arcsec": (theta[MOUNT] / ARCSEC).tolist()},
-        "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / UG).tolist()},
+        "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / MICRO_G).tolist()},
         "accel_scale_factor": {"enabled": on["accel_scale_factor"], "ppm": (theta[A_SF] * 1e6).tolist()},
         "accel_misalignment": {"enabled": on["accel_misalignment"], "arcsec": _matrix(offdiag=theta[A_MIS] / ARCSEC)},
         "accel_quadratic": {"enabled": on["accel_quadratic"], "ug_per_g2": (theta[A_K2] / k2_unit).tolist()},
@@ -265,7 +263,7 @@ def _rms_line(name, before, after):
     """One channel's residual RMS, start -> extended model, in deg/h or ug."""
     if name.startswith("gyro"):
         return f"  {name:8s} {before / DEG_PER_H:12.5g} -> {after / DEG_PER_H:12.5g} deg/h   ({_gain(before, after)})"
-    return f"  {name:8s} {before / UG:12.5g} -> {after / UG:12.5g} ug      ({_gain(before, after)})"
+    return f"  {name:8s} {before / MICRO_G:12.5g} -> {after / MICRO_G:12.5g} ug      ({_gain(before, after)})"
 
 
 def _gain(before, after):
@@ -478,7 +476,7 @@ def _out_of_sample_lines(o: OutOfSample) -> list[str]:
         "  residual RMS per channel, start model -> in sample -> held out:",
     ]
     for c in CHANNELS:
-        k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (UG, "ug")
+        k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (MICRO_G, "ug")
         lines.append(
             f"    {c:8s} {o.rms_before[c] / k:12.5g} -> {o.rms_in_sample[c] / k:12.5g} -> "
             f"{o.rms_after[c] / k:12.5g} {unit}"
@@ -519,7 +517,7 @@ def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
     assert d.residual_before is not None and d.residual_after is not None, "diagnose(..., keep_series=True)"
     t, m = d.t[d.mask], d.mask
     dt = float(np.median(np.diff(d.t)))
-    scale = [1 / DEG_PER_H] * 3 + [1 / UG] * 3
+    scale = [1 / DEG_PER_H] * 3 + [1 / MICRO_G] * 3
     units = ["deg/h"] * 3 + ["ug"] * 3
     L = max(1, round(0.1 / dt))
     written = []
@@ -596,6 +594,6 @@ def _walk_words(walk) -> str:
     words = []
     for c, w in zip(CHANNELS, walk):
         if w > 0:
-            k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (UG, "ug")
+            k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (MICRO_G, "ug")
             words.append(f"{c} {w / (k / 60.0):.3g} {unit}/sqrt(h)")  # per sqrt(h): per 60 sqrt(s)
     return ", ".join(words)

@@ -90,8 +90,9 @@ import math
 
 import numpy as np
 
+from ..constants import DEG_PER_H, MICRO_G
 from .reference import DiagnoseError
-from .theta import CHANNELS, DEG_PER_H, UG
+from .theta import CHANNELS
 
 __all__ = [
     "unexplained",
@@ -662,7 +663,7 @@ def _report(c, value_si):
     """A value of channel c in report units, as text."""
     if c < 3:
         return f"{value_si / DEG_PER_H:.3g} deg/h"
-    return f"{value_si / UG:.3g} ug"
+    return f"{value_si / MICRO_G:.3g} ug"
 
 
 def _regressor_cause(name, channel):

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import sensor_model as sm
-from ..constants import ARCSEC, DEG, STANDARD_GRAVITY_MPS2
+from ..constants import ARCSEC, DEG_PER_H, MICRO_G, STANDARD_GRAVITY_MPS2
 from ..effects import EffectModel
 
 __all__ = [
@@ -38,7 +38,6 @@ __all__ = [
     "A_MIS",
     "A_SF",
     "CHANNELS",
-    "DEG_PER_H",
     "G_BIAS",
     "G_G",
     "G_MIS",
@@ -51,7 +50,6 @@ __all__ = [
     "TAU_A",
     "TAU_R",
     "TILT",
-    "UG",
     "Param",
     "theta_from_model",
 ]
@@ -60,9 +58,6 @@ __all__ = [
 CHANNELS = sm.CHANNELS
 #: The (i, j) of each misalignment scalar, in the order of A_MIS and G_MIS (the sensor model's).
 OFFDIAG = sm.OFFDIAG
-#: One micro-g [m/s^2] and one degree per hour [rad/s]: the report units of biases.
-UG = STANDARD_GRAVITY_MPS2 * 1e-6
-DEG_PER_H = DEG / 3600.0
 
 
 @dataclass(frozen=True)
@@ -92,10 +87,10 @@ _GYROS, _ACCELS = (0, 1, 2), (3, 4, 5)
 #: unrevealed, however much its specific force changes; the conservative side of the issue's
 #: "0.01 rad/s or 0.1 m/s^2", which one floor per parameter cannot state).
 _TREATMENT = {
-    "accel_bias": ("ug", UG, 1e-4, 0.1, ()),
+    "accel_bias": ("ug", MICRO_G, 1e-4, 0.1, ()),
     "accel_scale_factor": ("ppm", 1e-6, 1e-4, 0.1, ()),
     "accel_misalignment": ("arcsec", ARCSEC, 1e-5, 0.1, ()),
-    "accel_quadratic": ("ug/g^2", UG / STANDARD_GRAVITY_MPS2**2, 1e-4, 1.0, ()),
+    "accel_quadratic": ("ug/g^2", MICRO_G / STANDARD_GRAVITY_MPS2**2, 1e-4, 1.0, ()),
     "lever_arm": ("mm", 1e-3, 1e-3, 0.01, ()),
     "accel_delay": ("us", 1e-6, 1e-5, 0.03, _ACCELS),
     "reference_delay": ("us", 1e-6, 1e-5, 0.003, _GYROS),

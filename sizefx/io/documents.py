@@ -100,9 +100,10 @@ def read_json(path, what: str = "JSON file", **loads_options):
         raise ConfigError(f"{path}: {what} holds a value Python cannot convert ({exc})") from None
 
 
-def write_json(path, doc, *, inputs=(), force: bool = False) -> Path:
-    """Write ``doc`` as indented JSON to ``path`` atomically (never over an input; an existing file only
-    with ``force``); NumPy scalars as floats."""
+def write_json(path, doc, *, inputs=(), force: bool = False, allow_nan: bool = True) -> Path:
+    """Write ``doc`` as indented UTF-8 JSON, ending in a newline, to ``path`` atomically (never over an
+    input; an existing file only with ``force``); NumPy scalars as floats. ``allow_nan=False``: a NaN
+    or infinity is a ValueError instead of the ``NaN`` strict JSON readers refuse."""
     with atomic_output(path, inputs=inputs, force=force) as tmp:
-        Path(tmp).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+        Path(tmp).write_text(json.dumps(doc, indent=2, default=float, allow_nan=allow_nan) + "\n", encoding="utf-8")
     return Path(path)

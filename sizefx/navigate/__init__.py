@@ -15,13 +15,12 @@ The package, from the bottom up:
 from __future__ import annotations
 
 import importlib
-import json
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..io.files import atomic_output
+from ..io.documents import write_json
 from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
 from .result import NavResult, format_summary
@@ -152,8 +151,7 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
             writer.close(res.config, res.summary)
     res.path = str(path)
     if config.json_path:
-        with atomic_output(config.json_path, inputs=[path], force=config.force) as tmp:
-            Path(tmp).write_text(json.dumps(res.to_json(), indent=2, default=float))
+        write_json(config.json_path, res.to_json(), inputs=[path], force=config.force)
         written["--json"] = config.json_path
     if config.output:
         written["-o"] = config.output
