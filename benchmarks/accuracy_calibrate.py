@@ -1,12 +1,10 @@
-"""Figures of the calibration on simulated data: unbiased, honest errors, at the bound (issues 5, 13, 17).
+"""Figures of the calibration on simulated data: unbiased, honest errors, at the bound.
 
     python benchmarks/accuracy_calibrate.py [--seeds 100] [--range dev|validation] [--jobs 2] [--variants paper,sway,coloured]
                                             [--skip-reference-rate] [--json out.json] [--record]
     python benchmarks/accuracy_calibrate.py --only checks --record checks   # the single-record checks alone
 
-Monte Carlo (issue 17) of three set-ups, every seed an independent record (only the noise seed varies):
-
-Three set-ups, every seed an independent record (only the noise seed varies):
+Monte Carlo of three set-ups, every seed an independent record (only the noise seed varies):
 
 - ``paper``: the paper's plan (rotations about Y, X, Z; 20 deg/s, 10 deg/s^2, 2 min per axis, 1600 Hz),
   the compact geometry plus an offset (100, -50, 20) mm from the table centre, a table tilt of
@@ -23,14 +21,14 @@ Per parameter: the mean of z = (estimate - truth) / stated sigma (target |mean z
 efficiency: the Cramer-Rao bound over the stated sigma and over the scatter (target >= 0.9 on the
 paper's plan). Prints a table per set-up; ``--json`` writes every figure.
 
-Then (issues 5 and 13): the paper's per-rotation fit, which ignores the tilt, against the joint fit
+Then: the paper's per-rotation fit, which ignores the tilt, against the joint fit
 on one tilted record; and the paper's plan with a 40-minute roll sway, the sway's reference at
 1600 Hz and at 100 Hz, calibrated through ``sizefx.calibrate.run`` (the arms must agree within
 0.01 mm).
 
 Last, the single-record checks (``checks``; ``--only checks`` runs them alone, in a few minutes):
 
-- ``noiseless``: issue 17's set-up without noise on the paper's plan shortened to 214 s (1600 Hz):
+- ``noiseless``: the ``paper`` set-up without noise on the paper's plan shortened to 214 s (1600 Hz):
   the arms' largest |estimate - truth| / sigma (sigma at 2.96 ug/sqrt(Hz), from the Fisher
   information) in the increment domain, and in the rates domain with the gyros' 25 ms and a 125 ms
   Savitzky-Golay derivative.
@@ -298,7 +296,7 @@ def per_rotation() -> dict:
     }
 
 
-#: The reference-rate study's offset of the table centre (issue 13).
+#: The reference-rate study's offset of the table centre.
 RR_OFFSET_M = [0.0010, -0.0005, 0.0008]
 
 
@@ -334,7 +332,7 @@ WIDE_WINDOW = 201
 
 def noiseless() -> dict:
     """The arms' bias in sigma on a noiseless record: the increment domain against the rates
-    domain's filtered derivatives (issue 17)."""
+    domain's filtered derivatives."""
     quiet = load_effects(overrides={**BASE, "accel_noise": {"enabled": False}, "gyro_noise": {"enabled": False}})
     rec = prepare(simulate_in_memory(scenarios.turntable(SHORT_PLAN)[0], quiet, form="rates", seed=0))
     names, fisher = information([rec], 2.96 * MICRO_G)

@@ -1,4 +1,4 @@
-"""Figures of sizefx diagnose (issues 6 and 15) on simulated and real data, as text and JSON.
+"""Figures of sizefx diagnose on simulated and real data, as text and JSON.
 
     python benchmarks/accuracy_diagnose.py [--seeds 5] [--coloured-seeds 50] [--fp-seeds 50] [--range dev|validation]
         [--json out.json] [--record [LABEL]]
@@ -10,7 +10,7 @@ figures the docs quote come from seeds no change to diagnose was tried on.
 1. Recovery: each effect hidden alone in a 60 s, 400 Hz tumble record (navigation-grade
    noise), over several seeds: found in how many, and the z-scores of its parameters
    (estimate - truth) / sigma: their RMS should be near 1 and none beyond 3.
-2. Coloured noise (issue 15): lever arm and accelerometer delay hidden in the tumble with, on
+2. Coloured noise: lever arm and accelerometer delay hidden in the tumble with, on
    top of the white noise, an accelerometer bias random walk, flicker-like (1/f) noise and two
    vibration lines, over ``--coloured-seeds`` seeds: detection rate, z-score RMS (target
    0.7-1.4), largest |z|, false-positive rate (anything else accepted).

@@ -1,4 +1,4 @@
-"""Accuracy figures of `sizefx navigate` on ideal simulated data (issue 4), as a table and JSON.
+"""Accuracy figures of `sizefx navigate` on ideal simulated data, as a table and JSON.
 
     python benchmarks/accuracy_navigate.py [--skip-flight] [--json out.json] [--record]
 

@@ -1,4 +1,4 @@
-"""Benchmark: ``sizefx batch navigate`` over a campaign, one worker against all cores (issue 18, item 3).
+"""Benchmark: ``sizefx batch navigate`` over a campaign, one worker against all cores.
 
     python benchmarks/bench_batch.py [--records 8] [--duration-h 1.8] [--file flight.h5] [--repeat 3] [--json out.json] [--record]
 
@@ -10,12 +10,12 @@ record, the manifest), ``--redo`` after the first, for N = 1 and N = the cores: 
 and samples per second, the speed-up, the batch process tree's peak memory, and the records' own
 peak memory from the manifest; the speed-ups over one after another and over one worker (medians
 over ``--repeat`` interleaved runs of each way).
-Measured, never asserted (the issue's target: 8 records of the 1.8 h flight at least 1.8 times
+Measured, never asserted (the target: 8 records of the 1.8 h flight at least 1.8 times
 faster on 2 cores than one after another).
 
     python benchmarks/bench_batch.py --scaling [--records 64] [--rate-hz 800] [--workers-list 1,2,4,8,16] [--dask] [--tmp /dev/shm]
 
-The scaling table (issue 31): ``sizefx batch navigate`` of --records copies of the flight at 1, 2, 4,
+The scaling table: ``sizefx batch navigate`` of --records copies of the flight at 1, 2, 4,
 8, 16 workers (``--redo``, a whole process each, the Numba cache warmed first), with each run's
 speed-up over one worker, records and samples per second, the workers' busy fraction and the
 records' mean phase times from the manifest (hash, open and checks, initial state, read, kernels,
@@ -57,7 +57,7 @@ def main(argv=None):
         default=1,
         help="Run each way this many times (interleaved) and report the medians and every run.",
     )
-    ap.add_argument("--scaling", action="store_true", help="The scaling table (issue 31) instead.")
+    ap.add_argument("--scaling", action="store_true", help="The scaling table instead.")
     ap.add_argument("--rate-hz", type=float, default=1600.0, help="The simulated flight's IMU rate.")
     ap.add_argument("--workers-list", default="1,2,4,8,16", help="--scaling: the worker counts.")
     ap.add_argument("--dask", action="store_true", help="--scaling: also on a local Dask cluster.")
@@ -135,7 +135,7 @@ def main(argv=None):
                 }
             )
         result = {
-            "benchmark": "sizefx batch navigate (issue 18)",
+            "benchmark": "sizefx batch navigate",
             "records": args.records,
             "samples_per_record": samples,
             "duration_h": samples / args.rate_hz / 3600.0,
@@ -287,7 +287,7 @@ def scaling(args, sizefx: Path) -> dict:
         for r in runs:
             r["speed_up_over_one_worker"] = base / r["wall_s"] if base else None
         result = {
-            "benchmark": "sizefx batch navigate scaling (issue 31)",
+            "benchmark": "sizefx batch navigate scaling",
             "records": args.records,
             "samples_per_record": samples,
             "rate_hz": args.rate_hz,

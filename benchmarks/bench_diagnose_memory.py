@@ -13,7 +13,7 @@ between consecutive lengths: what the record costs beyond the constant part.
 Correctness first: every record must give back the two hidden effects (``lever_arm`` on accel_y
 and ``accel_delay``). A 10 s record is diagnosed first as a warm-up (Numba's cached kernels
 loaded, the OS's file cache warm); its wall time is reported apart. Timings are reported, never
-asserted (the issue-15 limit, 19.6 s for the two-minute record, is checked by a person).
+asserted (the limit, 19.6 s for the two-minute record, is checked by a person).
 """
 
 from __future__ import annotations

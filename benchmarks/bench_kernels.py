@@ -2,7 +2,7 @@
 
     python benchmarks/bench_kernels.py [--samples 2000000] [--repeat 5] [--json out.json] [--record]
 
-Issue 14 item 8 asks for at least 30 M samples/s (3 channels) on one core from each of
+The target: at least 30 M samples/s (3 channels) on one core from each of
 the accelerometer sync (not-a-knot spline, :mod:`sizefx.kernels.sync`) and the
 Savitzky-Golay angular acceleration (:mod:`sizefx.kernels.omegadot`). The data are a
 1600 Hz record of --samples rows: gyro stamps on a grid, accelerometer stamps of their
@@ -240,7 +240,7 @@ def main(argv=None):
     if args.samples < 2 * TWIN_SAVGOL_ROWS:
         ap.error(f"--samples: at least {2 * TWIN_SAVGOL_ROWS}")
     result = {
-        "benchmark": "sync and angular-acceleration kernels (issue 14 item 8)",
+        "benchmark": "sync and angular-acceleration kernels",
         "target_samples_per_s": 30_000_000,
         "samples": args.samples,
         "channels": 3,

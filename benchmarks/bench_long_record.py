@@ -1,4 +1,4 @@
-"""Benchmark: bounded memory on a long record (issue 8: 72 h at 1600 Hz, about 415 M samples).
+"""Benchmark: bounded memory on a long record (72 h at 1600 Hz, about 415 M samples).
 
     python benchmarks/bench_long_record.py [--hours 72] [--rate-hz 1600] [--dir DIR] [--keep] [--json out.json] [--record]
 

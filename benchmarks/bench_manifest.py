@@ -1,4 +1,4 @@
-"""Benchmark: a batch's bookkeeping per record, from 100 records to a million (issue 28).
+"""Benchmark: a batch's bookkeeping per record, from 100 records to a million.
 
     python benchmarks/bench_manifest.py [--records 100 10000 100000 1000000] [--json FILE] [--record]
 
@@ -14,7 +14,7 @@ navigate record's (outputs, hashes, headline figures):
 And end to end (``--batch-records``): ``sizefx batch inspect`` over that many copies of one tiny
 record (40 s at 100 Hz) on 2 workers, in a fresh process, its wall time per record, then the
 re-run that finds every record unchanged. Before the store, the whole manifest was validated and
-rewritten after every record: 16 ms per record at 200 records and 37 ms at 800 (issue 28).
+rewritten after every record: 16 ms per record at 200 records and 37 ms at 800.
 
 The promise: the cost per record does not grow with the batch (``record_us`` and ``lookup_us``
 flat from 100 to 1e6 records, the batch's wall time per record flat). Figures are printed, never

@@ -1,4 +1,4 @@
-"""Benchmark: the whole-flight pipeline, stage by stage and end to end (issue 8).
+"""Benchmark: the whole-flight pipeline, stage by stage and end to end.
 
     python benchmarks/bench_pipeline.py [--file flight.h5] [--duration-h 1.8] [--json out.json] [--record]
 
@@ -285,7 +285,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3, help="Runs of each whole-flight figure (the best is kept).")
     add_output_options(ap)
     args = ap.parse_args(argv)
-    result = {"benchmark": "whole-flight pipeline (issue 8)"}
+    result = {"benchmark": "whole-flight pipeline"}
     result.update(check_kernels())
     with tempfile.TemporaryDirectory() as tmp:
         path = args.file

@@ -1,4 +1,4 @@
-"""Benchmark: how long ``sizefx --help`` and every ``sizefx CMD --help`` take to answer (issue 13).
+"""Benchmark: how long ``sizefx --help`` and every ``sizefx CMD --help`` take to answer.
 
     python benchmarks/bench_startup.py [--repeat 7] [--json out.json] [--record]
 

@@ -1,4 +1,4 @@
-"""Fuzz: the hostile-input corpus and N random mutations against the installed ``sizefx`` (issue 16).
+"""Fuzz: the hostile-input corpus and N random mutations against the installed ``sizefx``.
 
     python benchmarks/fuzz_hostile.py [--cases 200] [--seed 0] [--workers 2] [--limit-s 60]
                                       [--bomb-rows 200000000] [--out DIR] [--json out.json] [--record]

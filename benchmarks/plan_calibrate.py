@@ -1,4 +1,4 @@
-"""Issue 17, item 4: plans designed by ``sizefx plan``, their predicted sigmas confirmed by simulation.
+"""Plans designed by ``sizefx plan``: their predicted sigmas confirmed by simulation.
 
     python benchmarks/plan_calibrate.py [--seeds 60] [--jobs 2] [--json out.json] [--record] [--only-delay]
 

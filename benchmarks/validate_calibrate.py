@@ -1,4 +1,4 @@
-"""Validation protocol for sizefx calibrate (issue 29): random geometries, two disjoint seed ranges.
+"""Validation protocol for sizefx calibrate: random geometries, two disjoint seed ranges.
 
     python benchmarks/validate_calibrate.py --range dev|validation [--draws 50] [--rate-hz 400]
         [--jobs 2] [--json out.json] [--record [LABEL]]

@@ -1,4 +1,4 @@
-"""Validation protocol for sizefx diagnose (issue 29): randomized truths, two disjoint seed ranges.
+"""Validation protocol for sizefx diagnose: randomized truths, two disjoint seed ranges.
 
     python benchmarks/validate_diagnose.py --range dev|validation [--records 24] [--jobs 2]
         [--plot FILE.png] [--json out.json] [--record [LABEL]]

@@ -88,7 +88,7 @@ def _checked(steps, out_dir, *, batch: bool):
         named = nav.get("file") or next(iter(chain.get("calibrate", {}).get("records", ())), None)
         if batch or not named:
             raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
-        out_dir = f"run-{Path(named).stem}"  # the issue's own example: sizefx run calibrate T.h5 navigate F.h5 compare
+        out_dir = f"run-{Path(named).stem}"  # the everyday form: sizefx run calibrate T.h5 navigate F.h5 compare
     if "calibrate" in chain and nav.get("levers"):
         raise ConfigError(
             f"{command}: navigate --levers and calibrate in one chain: the chain passes calibrate's "

@@ -1,4 +1,4 @@
-"""Stages chained in one command: ``sizefx run calibrate T.h5 navigate F.h5 compare --out DIR`` (issue 18).
+"""Stages chained in one command: ``sizefx run calibrate T.h5 navigate F.h5 compare --out DIR``.
 
 The everyday workflow is calibrate on the turntable record, navigate the flight without and with
 those lever arms, and compare the two solutions against the flight's reference. The command line

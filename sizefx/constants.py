@@ -42,8 +42,8 @@ PAPER_AIRFIELD_DEG = (57.9825, 55.7089, 120.0)
 #: TU Berlin (approximate), where BROAD was recorded: latitude, longitude [deg], height [m].
 BROAD_SITE_DEG = (52.5125, 13.3269, 40.0)
 
-#: A time step larger than this many nominal sample periods is a gap
-#: (issue 2: "gaps longer than 1.5 sample periods").
+#: A time step larger than this many nominal sample periods is a gap (the telemetry contract's
+#: definition, ``data-schemas/telemetry-1.json``: "a step over 1.5 nominal periods").
 GAP_FACTOR = 1.5
 
 #: One international nautical mile [m] (drift is quoted in nmi/h).

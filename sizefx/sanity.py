@@ -1,5 +1,5 @@
-"""Physics checks of a record's units: ``sizefx import`` and ``sizefx inspect`` (issue 13, item 6),
-and ``sizefx simulate`` before it publishes (issue 28, item 7).
+"""Physics checks of a record's units: ``sizefx import`` and ``sizefx inspect``,
+and ``sizefx simulate`` before it publishes.
 
 A units attribute (or a ``--gyro-units`` option) that says rad/s over data in deg/s makes
 every rate 57.3 times too large, and nothing downstream can tell. The magnitudes can:
@@ -32,7 +32,7 @@ Work is bounded on any record length: at most :data:`MAX_WINDOWS` windows, :data
 reference intervals and :data:`TILT_MAX_PAIRS` tilt changes are examined, each reading only its
 own rows (the 1.8 h flight at 1600 Hz, 10 M samples, takes about a second).
 
-Why one module of about 720 lines (issue 14 asks for a reason above 500): it is one decision,
+Why one module of about 720 lines: it is one decision,
 the verdict on a record's units (and the rows a streamed record is judged on, chosen for what
 (a) and (b) look for). (a), (b) and (c) share the windows and the rest detection, the
 unit-hypothesis test :func:`looks_like` and the verdict type :class:`Check`, and

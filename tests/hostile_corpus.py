@@ -1,4 +1,4 @@
-"""Hostile inputs for the ``sizefx`` command line (issue 16): crafted files and option values.
+"""Hostile inputs for the ``sizefx`` command line: crafted files and option values.
 
 Every case is a command line that a careless or malicious user could type, together with
 what the command promises to do with it (``docs/telemetry.md``, ``sizefx --help``):
@@ -845,7 +845,7 @@ def write_corpus(root, *, bomb_rows: int = BOMB_ROWS, resource: bool = True) -> 
 def _fleet_cases(f):
     """The fleet commands (``sizefx batch``, ``sizefx batch run``, ``sizefx run``) against planted links,
     files that never end, collisions with their own files, bad option files and scheduler addresses
-    (issue 28; docs/reliability.md, "Batches and chains"). Each case's inputs lie in its folder and
+    (docs/reliability.md, "Batches and chains"). Each case's inputs lie in its folder and
     its ``--out`` beside them (watched: a refusal leaves it as it was, absent or empty)."""
     out = []
 

@@ -1,4 +1,4 @@
-"""The package's structure (issue 14, item 1): every module imports alone, and the imports form no cycle.
+"""The package's structure: every module imports alone, and the imports form no cycle.
 
 A module that imports only because some other module happened to be imported first breaks the
 first user who imports it directly; an import cycle makes the result depend on which module is

@@ -1,4 +1,4 @@
-"""``sizefx batch STAGE ... INPUTS --out DIR`` (issue 18, items 1-3 and 6).
+"""``sizefx batch STAGE ... INPUTS --out DIR``.
 
 - Every record goes through the single-file stage; outputs named after it; a manifest valid
   against ``sizefx/batch/1``; a bad record is refused alone; the exit code says whether all passed.

@@ -1,4 +1,4 @@
-"""Calibration fails fast and warns honestly (issue 13, item 7).
+"""Calibration fails fast and warns honestly.
 
 - Every refusal that needs no fit comes before the first record is read whole: outputs,
   nominal geometry, reference, site, and the motion's excitation of the arms.
@@ -159,7 +159,7 @@ def test_a_calibration_writes_its_levers_file(turntable_calibration):
 # long tier: two calibrations of a turntable record (3 s); fast twin: the single-reference calibrations of this module
 @pytest.mark.slow
 def test_slow_reference_gives_the_same_arms():
-    """Issue 13: a 100 Hz reference on a 1600 Hz sway biased the arms by 0.08 mm (40-100 sigma).
+    """Slerp through a 100 Hz reference on a 1600 Hz sway biases the arms by 0.08 mm (40-100 sigma).
     With the rotation spline the arms agree with the 1600 Hz reference's to 0.01 mm; slerp on
     the same 100 Hz reference (the old interpolation) is shown to miss by far more."""
     fx = load_effects(overrides={"lever_arm": {"r_vehicle_m": OFFSET_M}})
@@ -191,7 +191,7 @@ def test_slow_reference_gives_the_same_arms():
 
 
 def test_a_record_with_declared_gaps_is_fitted_segment_by_segment(tmp_path, turntable_h5, turntable_calibration):
-    """Issue 13, item 9: gaps an importer declared are a property of the record. Calibration
+    """Gaps an importer declared are a property of the record. Calibration
     estimates the angular acceleration within each continuous segment (never across a gap) and
     fits the segments jointly; the arms agree with the gapless record's (the module's turntable
     record and its calibration)."""

@@ -1,4 +1,4 @@
-"""Calibration without the angular-acceleration bias, with honest errors and the Cramer-Rao bound (issue 17).
+"""Calibration without the angular-acceleration bias, with honest errors and the Cramer-Rao bound.
 
 - The increment domain forms no derivative of the gyros: on a noiseless record the arms come out
   exact to a small fraction of their standard error, where a filtered derivative biases them by
@@ -34,18 +34,19 @@ from sizefx_cli.main import main
 
 #: The paper's plan shortened to 214 s: all nine arms observable.
 SHORT_PLAN = scenarios.TurntablePlan(static_s=20.0, seconds_per_axis=48.0, cycles=2)
-#: Issue 17's set-up: compact geometry 0.1 m off the table's centre, a 10 arcsec tilt, biases.
+#: The set-up: compact geometry 0.1 m off the table's centre, a 10 arcsec tilt, biases.
 SETUP = {
     "lever_arm": {"preset": "compact", "r_vehicle_m": [0.10, -0.05, 0.02]},
     "level_tilt": {"enabled": True, "north_arcsec": 8.0, "east_arcsec": -6.0},
     "accel_bias": {"enabled": True, "bias_ug": [50.0, -30.0, 20.0]},
 }
 #: Largest |estimate - truth| / sigma allowed on a noiseless record. The increment domain's is
-#: ~0.001 at 1600 Hz and ~0.01 at 400 Hz (interval edges from sample means); the issue's bias was 2.2.
+#: ~0.001 at 1600 Hz and ~0.01 at 400 Hz (interval edges from sample means); a derivative of the gyros
+#: as the regressor once gave 2.2.
 MAX_BIAS_Z = 0.3
 
 
-#: The accelerometer noise the standard errors are stated for: issue 17's (2.9e-5 m/s^2/sqrt(Hz)).
+#: The accelerometer noise the standard errors are stated for (2.9e-5 m/s^2/sqrt(Hz)).
 NOISE_UG = 2.96
 #: Rate of the noiseless records of the bias checks, a quarter of the simulator's 1600 Hz: the
 #: standard errors are set by the noise density, not the rate, so the checks keep their power (the
@@ -67,7 +68,7 @@ def _sigma(records, **fit):
 @pytest.fixture(scope="module", params=["rates", "increments"])
 def noiseless_and_sigma(request):
     """A noiseless record of the set-up (rate samples, or increments as PSINS-style logs hold) at
-    :data:`NOISELESS_RATE_HZ`, its true arms, and the arms' standard errors at the issue's noise."""
+    :data:`NOISELESS_RATE_HZ`, its true arms, and the arms' standard errors at :data:`NOISE_UG`."""
     quiet = load_effects(overrides={**SETUP, "accel_noise": {"enabled": False}, "gyro_noise": {"enabled": False}})
     tel = simulate_in_memory(
         scenarios.turntable(SHORT_PLAN)[0], quiet, form=request.param, seed=0, rate_hz=NOISELESS_RATE_HZ
@@ -95,7 +96,7 @@ def test_increment_domain_is_unbiased(noiseless_and_sigma):
 
 def test_a_filtered_derivative_bias_would_be_caught(noiseless_and_sigma):
     """The same check on the rates domain with a wider (125 ms, :data:`WIDE_WINDOW`) derivative: the
-    bias the issue saw (a 25 ms window gave -0.116 mm, 100 ms -0.045 mm) shows at more than one sigma
+    bias a filtered derivative leaves (a 25 ms window gave -0.116 mm, 100 ms -0.045 mm) shows at more than one sigma
     (3.0 sigma measured, at 400 Hz as at 1600 Hz)."""
     rec, truth, sigma, _ = noiseless_and_sigma
     wide = replace(rec, omegadot=savgol(rec.omega, float(np.median(np.diff(rec.t))), window=WIDE_WINDOW))
@@ -276,8 +277,8 @@ def test_steps_in_angular_acceleration_are_found_where_they_are():
 def test_delay_is_unbiased_across_a_sway_switched_on_at_once(monkeypatch):
     """Paired seeds, a sway switched on at rest: the delay with 0.5 ms in the data less the delay
     without, on the same noise, is 0.5 ms to 0.05 us (0.03 sigma: the pairing cancels the noise;
-    0.007 us measured). Keeping the rows at the steps gave -0.45 us, 0.4 sigma, over 100 seeds
-    (issue 17), and gives -2.1 us here on the shorter record; the test checks that too, so that
+    0.007 us measured). Keeping the rows at the steps gave -0.45 us, 0.4 sigma, over 100 seeds,
+    and gives -2.1 us here on the shorter record; the test checks that too, so that
     it can fail."""
 
     def delay(tau, seed):

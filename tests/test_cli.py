@@ -170,7 +170,7 @@ def test_demo_smoke(tmp_path):
         assert float(row.split(label, 1)[1].split()[0]) == figure, (label, row)
 
 
-#: What ``sizefx --help`` and every ``sizefx CMD --help`` must not import (issue 13: each costs
+#: What ``sizefx --help`` and every ``sizefx CMD --help`` must not import (each costs
 #: 0.1-0.5 s of start-up; a command imports what it needs when it runs).
 HEAVY_MODULES = ("numpy", "numba", "scipy", "h5py", "matplotlib", "pyulog")
 
@@ -206,7 +206,7 @@ def test_help_of_every_command_imports_nothing_heavy():
     assert heavy == [], f"--help imports {heavy}; import them inside the command function"
 
 
-# --------------------------------------------------------------------------- stages and progress (issue 14)
+# --------------------------------------------------------------------------- stages and progress
 
 
 def test_inspect_is_a_stage_whose_report_the_command_prints(runner, raw_file, tmp_path):

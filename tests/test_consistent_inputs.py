@@ -1,4 +1,4 @@
-"""Consistent inputs or a refusal (issue 28, item 7).
+"""Consistent inputs or a refusal.
 
 - A levers file describes one geometry: ``r_i = offset + d_i`` (within
   ``LEVER_CHAIN_TOLERANCE_M``) and, when it gives ``axes``, three unit, independent sensitive axes,
@@ -309,7 +309,7 @@ def test_every_value_set_accepts_gives_finite_readings(section, key, rule):
 #: both physics checks decide), as every --set value below is simulated on.
 TUMBLE = ["simulate", "tumble", "--duration-s", "5", "--rate-hz", "100", "-q"]
 
-#: The extreme but in-range values of issue 28 item 7: the scenario options each comes with, its --set
+#: The extreme but in-range values: the scenario options each comes with, its --set
 #: values, the key a refusal must name, and whether it is refused today (every accelerometer extreme;
 #: a gyro scale factor of +-50 % reads 1.5 or 0.5 times the reference's rotation, which inspect calls
 #: odd, matching no unit, and accepts): pinned, so that a change in either checker is seen.

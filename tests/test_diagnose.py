@@ -168,7 +168,7 @@ def test_accelerometer_delay_under_vertical_rotation_is_reported_not_guessed():
 
 def test_collinear_effects_are_named_as_indistinguishable():
     """Rotation about the vertical only: gravity on z never changes, so z bias and z scale factor alias.
-    Neither is a finding (issue 15); both are named, and the extended model still carries their sum
+    Neither is a finding; both are named, and the extended model still carries their sum
     (as the bias, the ordinary explanation), so the residual drops to the noise."""
     tel, truth = record({"accel_bias": {"enabled": True, "bias_ug": [0.0, 0.0, 50.0]}}, axes="z")
     d = D.diagnose(tel, NOMINAL, keep_series=False)
@@ -555,7 +555,7 @@ def test_broad_residual_gain_is_reported(broad_diagnoses):
 @pytest.mark.slow
 def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
     """Fitted in a band, the fit is redone at the bands a third of an octave either side, with the
-    selection redone there; the spread is part of the errors (issue 15: BROAD's trials agree across
+    selection redone there; the spread is part of the errors (BROAD's trials agree across
     trials only with it). Reported per parameter in consistency.systematic, added in quadrature (the
     error is at least that part, and at least the white-noise error), and named in the printed report."""
     for trial, (_d, report, doc) in broad_diagnoses.items():
@@ -642,7 +642,7 @@ def test_low_passed_rows_span_by_span_equal_the_whole_series():
 def test_diagnose_span_by_span_equals_the_whole_record_at_once(monkeypatch, bandwidth_hz):
     """The bounded-memory path (prediction, residual rows, regressors and structure regressors formed a
     few hundred samples at a time, no motion cached) finds what one span holding the whole record
-    finds (the path before issue 15's last part). Tolerances: estimates within 1e-6 of their standard
+    finds. Tolerances: estimates within 1e-6 of their standard
     error and RMS within 1e-9 relative, far below anything the report shows; only sums are split."""
     from sizefx.diagnose import normal, predictor, residual
 

@@ -1,4 +1,4 @@
-"""sizefx.diagnose.structure: what the final residual still holds (issue 15, item 5).
+"""sizefx.diagnose.structure: what the final residual still holds.
 
 Synthetic residuals only: white noise and coloured noise must not raise findings (the family-wise
 level holds), and each kind of structure planted on one channel must be found there and nowhere else.

@@ -1,4 +1,4 @@
-"""sizefx diagnose on records built to fool it (issue 15): each hides a trap, and the diagnosis must
+"""sizefx diagnose on records built to fool it: each hides a trap, and the diagnosis must
 name the trap and still find what is really there.
 
 Records: the tumble (tests/test_diagnose.py's sizes and noise) or a sway, 24-60 s at 100-400 Hz,
@@ -52,8 +52,8 @@ def ids(d):
 
 
 def test_reference_glitches_are_named_masked_and_move_nothing():
-    """Motion capture drops a handful of bad attitude rows: before issue 15 the fit came out with
-    scale factors of -1e6 ppm. Now each glitch is a warning, the rows are dropped, and the lever arm
+    """Motion capture drops a handful of bad attitude rows, which a plain fit turns into
+    scale factors of -1e6 ppm. Each glitch is a warning, the rows are dropped, and the lever arm
     comes out as on the clean record (within a tenth of its standard error)."""
     tel, truth = record({"lever_arm": HIDDEN["lever_arm"]}, seed=21, rate_hz=200.0, duration_s=40.0)
     clean = D.diagnose(tel, NOMINAL, keep_series=False)
@@ -78,7 +78,7 @@ def test_reference_glitches_are_named_masked_and_move_nothing():
 
 
 def test_the_issues_glitchy_sway_finds_the_arm_and_nothing_unexplained():
-    """The issue's own case: a heading sway (the paper's test) with accelerometer y further out than
+    """The glitchy sway: a heading sway (the paper's test) with accelerometer y further out than
     nominal and five single-row attitude glitches. The glitches are named, the arm comes out exactly as
     on the clean record, and with white noise only nothing is left unexplained (the structure tests'
     regressors are the predicted motion: regressed on the measured gyros, the residual would follow
@@ -145,8 +145,8 @@ def test_a_remount_splits_the_record_and_says_the_segments_share_one_model():
 
 def test_lever_arms_without_rotation_are_not_revealed():
     """Translation only (north acceleration of 2 m/s^2 at 1 Hz, no rotation): the arms have nothing to
-    act through, whatever the noise makes of them. Before issue 15 BROAD's translation trial reported
-    arms of -28..+34 mm as found."""
+    act through, whatever the noise makes of them. A fit without that judgement reports
+    arms of -28..+34 mm as found on BROAD's translation trial."""
     traj = scenarios.sculling(1.0, 0.0, 2.0, 30.0)
     tel, _ = simulated(traj, {"lever_arm": HIDDEN["lever_arm"]}, seed=24)
     d = D.diagnose(tel, NOMINAL, keep_series=False)

@@ -1,4 +1,4 @@
-"""Gaps an importer found are a declared property of the record (issue 13, item 9).
+"""Gaps an importer found are a declared property of the record.
 
 One definition and one count of a gap for every reader; ``/imu/gaps`` declares them; a declaration
 that contradicts the data is refused naming both; ``--segment K`` processes one continuous piece;

@@ -1,4 +1,4 @@
-"""Hostile input (issue 16): every crafted file and option value of ``tests/hostile_corpus.py``
+"""Hostile input: every crafted file and option value of ``tests/hostile_corpus.py``
 against the command line's promises.
 
 Promises checked per case (``docs/telemetry.md``, ``sizefx --help``): exit code 2 for bad input
@@ -131,7 +131,7 @@ def test_hostile_case(case_name, corpus, outcomes):
 # long tier: needs the whole corpus, which only the long tier writes
 @pytest.mark.slow
 def test_corpus_covers_the_issue(corpus):
-    """The kinds issue 16 lists are all in the corpus, and valid baselines are expected to pass
+    """The kinds of hostile input are all in the corpus, and valid baselines are expected to pass
     (a runner that refused everything would fail those)."""
     _, cases = corpus
     names = " ".join(cases)

@@ -603,7 +603,7 @@ def test_samples_time_needs_explicit_reference_time_units(tmp_path):
 
 
 def test_a_contract_violation_found_after_conversion_names_the_csv_not_a_temporary_file(tmp_path):
-    """Issue 13 (and 16): the importer validates what it wrote to a temporary file; the message must
+    """The importer validates what it wrote to a temporary file; the message must
     name the user's CSV, never the temporary file that is gone by the time it is read."""
     src = tmp_path / "backwards.csv"
     rows = ["t,gx,gy,gz,ax,ay,az"] + [f"{t},0,0,0,0,0,-9.81" for t in (0.00, 0.01, 0.02, 0.015, 0.03)]

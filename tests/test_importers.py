@@ -47,7 +47,7 @@ def test_every_real_file_imports_and_validates(imported, name):
 
 # --------------------------------------------------------------------------- physical sanity
 
-#: How the units check judges each real file's gyros (issue 13, item 6): against the motion capture or
+#: How the units check judges each real file's gyros: against the motion capture or
 #: the FOG-INS attitude, against the tilts between imucal's static faces, or not at all (with the reason
 #: given) where nothing rotates against a reference and nothing tilts by 20 deg.
 GYRO_CHECK = {
@@ -85,7 +85,7 @@ def test_ring_laser_log_reads_earth_rate_and_gravity(imported):
     dt = tel.sample_period_s
     w = tel.dtheta_rad.mean(axis=0) / dt
     f = tel.dvel_mps.mean(axis=0) / dt
-    # issue 3: 14.85 deg/h measured against 15.04 deg/h expected
+    # 14.85 deg/h measured against 15.04 deg/h expected
     assert np.degrees(np.linalg.norm(w)) * 3600 == pytest.approx(14.85, abs=0.01)
     assert np.linalg.norm(w) == pytest.approx(OMEGA_EARTH_RAD_S, rel=0.02)
     g = earth.gravity_n(tel.site.lat_rad, tel.site.height_m)[2]
@@ -187,7 +187,7 @@ def test_imucal_rotations_are_minus_360_deg_and_faces_read_g(imported):
 @needs_real
 def test_px4_dropouts_are_gaps_and_accelerometers_have_their_own_stamps(imported, tmp_path):
     summary, tel = imported["px4"]
-    # issue 13, item 9: one count, one per dropout (the gyro and accelerometer stamps show each once)
+    # one count, one per dropout (the gyro and accelerometer stamps show each once)
     assert [g.dataset for g in tel.gaps].count("/imu/time") == 8 == len(tel.gaps) == summary["imu_gaps"]
     assert summary["declared_gaps"] == 8 and all(g.declared for g in tel.gaps)
     assert tel.accel_time_s is not None and np.all(tel.accel_time_s >= tel.time_s)
@@ -387,7 +387,7 @@ def test_cli_import_csv_round_trip(tmp_path):
     assert again.exit_code == 2 and "overwrite the input" in again.output
 
 
-# --------------------------------------------------------------------------- the stage (issue 14, item 3)
+# --------------------------------------------------------------------------- the stage
 
 CSV_OPTIONS = dict(time="t", gyro=("gx", "gy", "gz"), accel=("ax", "ay", "az"))
 

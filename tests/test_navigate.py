@@ -127,7 +127,7 @@ def test_kernel_matches_naive_twin(short_flight, n_sub, vertical):
         h_ref,
         vd_ref,
     )
-    # 1e-9 relative (issue 4); in practice rounding only, ~1e-13
+    # 1e-9 relative (the target); in practice rounding only, ~1e-13
     np.testing.assert_allclose(out_q, twin[:, 0:4], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(out_v, twin[:, 4:7], rtol=1e-9, atol=1e-9)
     r = 6.4e6
@@ -174,10 +174,10 @@ def test_chunked_kernel_equals_whole(short_flight):
 # long tier: 10.4 M samples (3 s); fast twin: test_schuler_oscillation_of_an_accelerometer_bias and the coning and sculling closed forms
 @pytest.mark.slow
 def test_static_18_hours_stays_put(tmp_path):
-    """Ideal static data, 1.8 h at 1600 Hz at the paper's airfield (issue 4: < 0.01 m, < 1e-6 deg).
+    """Ideal static data, 1.8 h at 1600 Hz at the paper's airfield (target: < 0.01 m, < 1e-6 deg).
 
     10.4 million increments go through the streamed path in chunks of 2^18 (the whole-record
-    arrays alone would take 600 MB: issue 13 keeps the suite's peak under 1 GiB). The file
+    arrays alone would take 600 MB; the suite's peak stays under 1 GiB). The file
     stores constant rows gzip-compressed, so it takes a few MiB of disk.
     """
     import h5py
@@ -279,7 +279,7 @@ def test_sculling_residual_falls_with_more_subsamples():
 
 
 def test_180_degree_turn_at_100_mps_keeps_velocity_to_1_mm_s():
-    """The case where another Python simulator leaves 0.314 m/s (issue 4: < 1 mm/s)."""
+    """The case where another Python simulator leaves 0.314 m/s (target: < 1 mm/s)."""
     V, g = 100.0, 9.81
     speed = ProfileBuilder(0.0).hold(60.0).build(value0=V)
     track = ProfileBuilder(0.0).hold(10.0).move(40.0, np.pi).hold(10.0).build()
@@ -293,7 +293,7 @@ def test_180_degree_turn_at_100_mps_keeps_velocity_to_1_mm_s():
 
 
 def test_schuler_oscillation_of_an_accelerometer_bias():
-    """10 ug bias on the north accelerometer, free-inertial, static (issue 4: period 84.4 min +-1 %, peak 2bR/g +-5 %)."""
+    """10 ug bias on the north accelerometer, free-inertial, static (target: period 84.4 min +-1 %, peak 2bR/g +-5 %)."""
     rate, duration = 50.0, 3.0 * 3600.0
     traj = static_trajectory(duration, heading=0.0)
     kin = kinematics(traj, np.array([0.0]), ideal())
@@ -344,7 +344,7 @@ def test_ring_laser_log_aligns_to_the_header_heading(tmp_path):
     c = s["configuration"]
     assert c["init"] == "align" and c["vertical"] == "held"
     roll, pitch, heading = c["fine_roll_pitch_heading_deg"]
-    assert heading == pytest.approx(90.6, abs=1.0)  # issue 4: within 1 deg of the header's value
+    assert heading == pytest.approx(90.6, abs=1.0)  # within 1 deg of the header's value
     f = c["mean_specific_force_mps2"]
     # levelling from the window's mean specific force; the parked vehicle rocks by +-0.1 deg
     # from minute to minute, so the zero-velocity fit and the mean agree to that order

@@ -1,4 +1,4 @@
-"""Every numeric option of every command has a finite, documented range (issue 16): walking the click
+"""Every numeric option of every command has a finite, documented range: walking the click
 tree, a FLOAT or INT option must be a ``Span`` (finite float range) or an ``IntRange``, and NaN and
 inf must be refused in one line before any work."""
 

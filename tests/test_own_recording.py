@@ -27,7 +27,7 @@ EXAMPLES = ROOT / "examples"
 START, END = "<!-- own-recording:start", "<!-- own-recording:end -->"
 SIZEFX = Path(sys.executable).with_name("sizefx")
 EXAMPLE_FILES = ("tumble_imu.csv", "tumble_reference.csv", "tumble_truth.json")
-#: "under about 1.5 MB" (issue 13, item 5): the example travels with every clone.
+#: Under about 1.5 MB: the example travels with every clone.
 EXAMPLE_MAX_BYTES = 1_500_000
 #: What the walk-through must contain, in this order: (command, must have, must not have).
 STEPS = (

@@ -1,6 +1,6 @@
 """The wheel holds every module and every schema, and the plain install has what the demo needs.
 
-Issue 13: a hand-written package list once left ``sizefx.kernels`` out of the wheel and
+A hand-written package list once left ``sizefx.kernels`` out of the wheel and
 the README's first command failed on a fresh machine, while an editable install hid the
 hole. Here the wheel is built from the checkout, as ``pip install .`` builds it, and
 compared with the source tree file by file.

@@ -1,4 +1,4 @@
-"""``sizefx plan``: turntable plans designed from the Fisher information (issue 17, item 4).
+"""``sizefx plan``: turntable plans designed from the Fisher information.
 
 - The prediction is what a calibration on the plan states (a simulated record's fit, within 5 %).
 - The budget search beats the paper's plan in the paper's time; the least-time search is minimal.

@@ -1,4 +1,4 @@
-"""The reference's mount (``reference_mount``, issue 15 item 7): simulate hides it, diagnose finds it.
+"""The reference's mount (``reference_mount``): simulate hides it, diagnose finds it.
 
 The IMU's axes are the reference's body axes turned by three small angles (a motion-capture
 marker body, a turntable fixture); :func:`sizefx.sensor_model.mount_matrix` states the sign.

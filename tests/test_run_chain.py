@@ -1,4 +1,4 @@
-"""``sizefx run --out DIR calibrate T.h5 navigate F.h5 compare`` (issue 18, item 7).
+"""``sizefx run --out DIR calibrate T.h5 navigate F.h5 compare``.
 
 - The chain passes calibrate's lever arms to navigate, which navigates plain and compensated, and
   compare sets the two against the flight's reference; every output and run.json in DIR.
@@ -148,7 +148,7 @@ def _without_truth(flight, path):
 
 
 def test_without_out_the_chain_writes_into_a_folder_named_after_its_file(records, tmp_path, monkeypatch):
-    """The issue's own form, without --out: the outputs go to run-NAME in the current folder, and the
+    """The everyday form, without --out: the outputs go to run-NAME in the current folder, and the
     chain ends with one summary, a line per step with its figures."""
     turntable, _ = records
     monkeypatch.chdir(tmp_path)

@@ -1,4 +1,4 @@
-"""Units against physics (issue 13, item 6): sizefx.sanity, on import and in inspect.
+"""Units against physics: sizefx.sanity, on import and in inspect.
 
 Every simulated scenario passes with the figures physics predicts, and each unit mix-up is refused,
 with and without a reference, for rates and increments, with exit code 2 and one line that names

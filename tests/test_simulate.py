@@ -31,7 +31,7 @@ def ideal(**sections):
     return load_effects(overrides=sections, base=IDEAL)
 
 
-# --------------------------------------------------------------------------- issue 2 closed forms
+# --------------------------------------------------------------------------- closed forms
 
 
 def test_static_record_reads_normal_gravity_and_earth_rate(tmp_path, short_turntable_plan):

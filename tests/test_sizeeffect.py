@@ -202,7 +202,7 @@ def test_resampling_a_50_hz_tone_has_no_phase_error():
     # phase of the resampled tone against the truth by projection on sin and cos
     c = np.column_stack([np.sin(w * t_gyro[100:-100]), np.cos(w * t_gyro[100:-100])])
     coef, *_ = np.linalg.lstsq(c, on_gyro[:, 0], rcond=None)
-    assert abs(np.arctan2(coef[1], coef[0])) < 1e-4  # issue 5: below 1e-4 rad
+    assert abs(np.arctan2(coef[1], coef[0])) < 1e-4  # below 1e-4 rad
     assert np.abs(on_gyro[:, 0] - ref).max() < 1e-4
 
 
@@ -232,8 +232,8 @@ def test_known_accelerometer_delay_is_undone(small_plan, small_records):
 
 #: The command test and the turntable estimator tests simulate at 400 Hz, not 1600 Hz: four times
 #: faster, with the same standard errors (the noise is a density: the information per second does
-#: not depend on the rate). The joint fit forms no derivative of the gyros (the increment domain,
-#: issue 17), so the rate leaves it unbiased: on noiseless records of the tilt test's set-up its
+#: not depend on the rate). The joint fit forms no derivative of the gyros (the increment domain),
+#: so the rate leaves it unbiased: on noiseless records of the tilt test's set-up its
 #: largest bias is 0.002 sigma at 400 Hz as at 1600 Hz, the per-rotation fit's 1.06 sigma flat
 #: and 81 sigma with the tilt (85 at 1600 Hz), the compact arms off by 0.0001 mm. The sway tests
 #: (long tier) stay at 1600 Hz.
@@ -258,7 +258,7 @@ def _fx(preset="high-precision", **more):
 # long tier: four seeds of the paper's plan (5 s); fast twin: tests/test_calibrate.py and test_calibrate_bound.py's single records
 @pytest.mark.slow
 def test_calibration_is_unbiased_with_honest_sigma_over_four_seeds(paper_plan):
-    """Issue 5, in small: all nine components within 3.5 sigma, the scatter matches sigma, no bias.
+    """In small: all nine components within 3.5 sigma, the scatter matches sigma, no bias.
 
     The full study (100 seeds of the full plan, three set-ups) is ``benchmarks/accuracy_calibrate.py``; four
     fixed seeds give 36 z-scores, enough to catch a broken estimator: the pooled RMS of z has
@@ -285,7 +285,7 @@ def test_table_tilt_is_estimated_and_the_per_rotation_fit_is_biased(paper_plan):
     rec = prepare(simulate_in_memory(paper_plan, fx, form="rates", seed=11, rate_hz=CAL_RATE_HZ))
     res = joint_fit([rec])
     truth = fx.arms_total_m()
-    np.testing.assert_allclose(res.tilt_rad / ARCSEC, [-11.0, -6.0], atol=2.0)  # issue 5: within 2 arcsec
+    np.testing.assert_allclose(res.tilt_rad / ARCSEC, [-11.0, -6.0], atol=2.0)  # within 2 arcsec
     assert np.abs((res.arms - truth) / res.sigma_arms).max() < 3.0  # unbiased arms
     paper = per_rotation_fit(rec)
     worst = max(
@@ -310,7 +310,7 @@ def test_accelerometer_delay_is_recovered_with_rotations_about_horizontal_axes(p
         sway = scenarios.sway(scenarios.SwayPlan(axis=axis, amplitudes_dps=(20.0,), static_s=10.0, segment_s=60.0))[0]
         records.append(prepare(simulate_in_memory(sway, fx, form="rates", seed=22 + k), f"sway-{axis}"))
     res = joint_fit(records, with_delay=True)
-    assert abs(res.delay_s - tau) < 20e-6, (res.delay_s, res.sigma_delay_s)  # issue 5: within 20 us
+    assert abs(res.delay_s - tau) < 20e-6, (res.delay_s, res.sigma_delay_s)  # within 20 us
     assert abs(res.delay_s - tau) < 4 * res.sigma_delay_s
     assert np.abs((res.arms - fx.arms_total_m()) / res.sigma_arms).max() < 3.5
 

@@ -1,4 +1,4 @@
-"""The sync and angular-acceleration kernels (issue 14 item 8): against their NumPy twins
+"""The sync and angular-acceleration kernels: against their NumPy twins
 (tests/naive.py) and against the scipy calls they replace, whole and chunk by chunk."""
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ def test_a_jittered_50_hz_tone_is_resampled_as_scipy_does():
     accel = np.column_stack([np.sin(w * t_accel), np.cos(w * t_accel), 9.81 + np.sin(w * t_accel + 1.0)])
     ours = resample_onto(accel, t_accel, t_gyro)
     _close(ours, CubicSpline(t_accel, accel)(t_gyro), SPLINE_REL, 9.81)
-    # and it is a good resampling: the tone on the gyro stamps to 1e-4 (issue 5)
+    # and it is a good resampling: the tone on the gyro stamps to 1e-4 rad
     assert np.abs(ours[100:-100, 0] - np.sin(w * t_gyro[100:-100])).max() < 1e-4
 
 

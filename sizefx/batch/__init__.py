@@ -1,4 +1,4 @@
-"""One stage over many records: ``sizefx batch STAGE ... INPUTS --out DIR`` (issue 18).
+"""One stage over many records: ``sizefx batch STAGE ... INPUTS --out DIR``.
 
 A test campaign is dozens of records; each goes through the very stage code the single-file
 command runs (its config, built by the command line from the same options, and the stage's

@@ -8,7 +8,7 @@ linear in the arms and the biases, and the tilt and the delay enter to first ord
 column carries the lever terms at the first estimate of the arms, and its second-order term is
 taken off the readings).
 
-Three choices make the estimate unbiased and its errors honest (issue 17):
+Three choices make the estimate unbiased and its errors honest:
 
 - **The increment domain.** The rows are means over 20 ms intervals, in which the tangential
   term's angular acceleration is the interval's exact mean, ``delta omega / T``, from the gyros'
@@ -89,7 +89,7 @@ BIAS_WINDOW_S = 120.0
 #: Steps in angular acceleration (a sway or a table's acceleration switched on at once) are left
 #: out of a fit with the delay: the delay's lever terms need the angular jerk, a spike at a step,
 #: which the gyros' filtered derivative smears over its 25 ms window (a 2 rad/s^2 sway start left
-#: in costs 0.24 % of the delay, issue 17). A step shows as a third difference of the intervals'
+#: in costs 0.24 % of the delay). A step shows as a third difference of the intervals'
 #: mean angular acceleration of at least half its size; one under this [rad/s^2] stays in (a step
 #: under 0.04 rad/s^2 costs under 2 % of that 0.24 %), and a 1 Hz, 20 deg/s sway's own smooth
 #: change of angular acceleration has a third difference of 0.004 rad/s^2, five times below it.

@@ -57,7 +57,7 @@ def excitation(
     out, but not the tilt and the delay: an optimistic bound. A record with IMU gaps is read one
     continuous segment at a time, as the fit takes it. A component that even this bound
     cannot determine is certainly not determined by the fit, so :func:`preflight` can refuse it
-    in seconds instead of after the fit (issue 13: 526 s on a flight record).
+    in seconds instead of after the fit.
     """
     half = SAVGOL_WINDOW // 2
     if n_segments is None:  # preflight passes it from the open it checks the record with

@@ -100,8 +100,8 @@ READABLE = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
 #: The largest bias, in units of its standard error, that the reference's interpolation error may
 #: put into any estimate. For a least-squares estimate the bias from an error ``e`` in the data is
 #: at most ``sqrt(e' W e)`` of its standard error (Cauchy-Schwarz in the weights' metric), so the
-#: band keeps that chi-square of the error at most this squared: 0.2, the issue-29 target for a
-#: mean z-score (derived, not tuned).
+#: band keeps that chi-square of the error at most this squared: 0.2, the validation protocol's
+#: target for a mean z-score (derived, not tuned).
 INTERPOLATION_BIAS_SIGMA = 0.2
 #: Where keeping the motion's band would leave an interpolation error able to bias an estimate by
 #: this many standard errors (its chi-square this squared), the band is cut inside the motion: an

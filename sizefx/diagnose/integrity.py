@@ -4,7 +4,7 @@ One module of some 500 lines on purpose: the attitude, velocity/position and tim
 pairing of reference steps with IMU intervals, the robust thresholds and the warning records; split,
 they would pass all three around.
 
-Method (issue 15, item 1). Each reference step ``k`` (rows ``k`` and ``k+1``) is compared with the
+Method. Each reference step ``k`` (rows ``k`` and ``k+1``) is compared with the
 IMU over the same interval:
 
 - attitude: the reference's body-frame increment ``C_{b_k b_{k+1}} = C_nb,k^T C_nb,k+1`` against the

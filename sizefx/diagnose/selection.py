@@ -208,8 +208,8 @@ def aliases_outside(nrm: Normal, chosen, offset, level) -> list:
 
 
 #: A candidate the selection left out whose regressors reach this canonical correlation with a
-#: selected effect's (given the rest) is fitted beside it (:func:`nuisance_aliases`): the issue-29
-#: "nearly collinear", the same correlation from which :func:`aliases_outside` looks at a pair.
+#: selected effect's (given the rest) is fitted beside it (:func:`nuisance_aliases`): what "nearly
+#: collinear" means here, the same correlation from which :func:`aliases_outside` looks at a pair.
 NUISANCE_CORRELATION = _PREFILTER_CORRELATION
 
 

@@ -15,8 +15,8 @@ the result for rows ``[j0, j1)`` is the same, bit for bit, however a record is c
 chunks (``tests/test_stream_kernels.py``). The sum is the direct 41-tap form, not a
 running-sum recurrence: no rounding accumulates from row to row and nothing needs
 re-anchoring. Run over the flattened ``[rows * channels]`` array, four taps per pass, it
-vectorises; ``benchmarks/bench_kernels.py`` measures it against the 30 M samples/s (of 3
-channels, one core) that issue 14 asks for, and against scipy's ``savgol_filter``.
+vectorises; ``benchmarks/bench_kernels.py`` measures it against a target of 30 M samples/s (of 3
+channels, one core), and against scipy's ``savgol_filter``.
 """
 
 from __future__ import annotations
