@@ -5,7 +5,7 @@ slow regressor beside a constant."""
 import numpy as np
 import pytest
 
-from sizefx.diagnose.spectrum import BlockNoise, block_covariance, fit_spectrum, spectral_meat
+from sizefx.diagnose.spectrum import BlockNoise, block_covariance, fit_spectrum, haar_splits, levels_for, spectral_meat
 
 BLOCKS, PER_BLOCK, DT = 100, 20, 0.01
 
@@ -22,16 +22,28 @@ def _noise_of(t, H, r):
     """BlockNoise of one channel (channel 0; the others hold nothing), unit weights."""
     B, L = BLOCKS, PER_BLOCK
     P = H.shape[1]
+    levels = levels_for(L)
+    edges = np.arange(0, B * L + 1, L)
     G = np.zeros((6, B, P))
-    HH = np.zeros((6, P, P))
     G[0] = H.reshape(B, L, P).sum(axis=1)
-    HH[0] = H.T @ H
-    counts = np.full(B, float(L))
+    D = np.zeros((6, levels, P, P))
+    u = np.zeros((6, levels))
+    D[0], usum, ucount = haar_splits(H, r, edges, levels)
+    u[0] = usum / ucount
     rbar = np.zeros((B, 6))
     rbar[:, 0] = r.reshape(B, L).mean(axis=1)
-    within = np.zeros(6)
-    within[0] = np.sum((r.reshape(B, L) - rbar[:, :1]) ** 2) / (r.size - B)
-    return BlockNoise(G, HH, counts, rbar, within, t[::L].copy(), L * DT)
+    return BlockNoise(G, D, u, np.full(B, float(L)), rbar, t[::L].copy(), L * DT)
+
+
+def test_the_splits_and_the_block_means_span_the_rows():
+    """Haar's completeness: the splits' D summed over the levels plus the block means' part is H'H."""
+    rng = np.random.default_rng(1)
+    H = rng.standard_normal((300, 3))
+    edges = np.array([0, 7, 100, 163, 300])  # parts of any length
+    D, _, _ = haar_splits(H, rng.standard_normal(300), edges, levels_for(137))
+    sums = np.add.reduceat(H, edges[:-1], axis=0)
+    means_part = (sums / np.diff(edges)[:, None]).T @ sums
+    assert D.sum(axis=0) + means_part == pytest.approx(H.T @ H, rel=1e-12, abs=1e-9)
 
 
 def _monte_carlo(walk_per_step: float, trials: int = 300):
@@ -69,8 +81,8 @@ def test_spectrum_fit_tells_white_from_a_walk():
     rng = np.random.default_rng(3)
     A, C, _ = fit_spectrum(rng.standard_normal(200))
     assert C < 0.2 * A
-    _, C, alpha = fit_spectrum(np.cumsum(rng.standard_normal(200)))
-    assert C > 0 and alpha >= 1.5
+    _, C, shape = fit_spectrum(np.cumsum(rng.standard_normal(200)))
+    assert C > 0 and shape[0] == "power" and shape[1] >= 1.5
 
 
 def test_block_covariance_of_white_noise_is_diagonal():

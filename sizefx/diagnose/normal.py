@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .drift import NO_DRIFT, TERMS, Drift, basis, intensity
-from .spectrum import BlockNoise
+from .spectrum import BlockNoise, haar_splits, levels_for
 from .theta import NP, PARAMS
 
 __all__ = [
@@ -260,10 +260,15 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
     walking = list(range(6)) if walk and span_s > 0 else []
     K = TERMS
     # for the spectral covariance (walk): per channel the block sums of the weighted regressors and
-    # their cross products; per block the rows, the residual's sums and sums of squares
+    # the splits of each block scale by scale (spectrum.haar_splits); per block the rows and the residual's sums
     g_sum = np.zeros((6, B, NP)) if walk else None
-    hh_sum = np.zeros((6, NP, NP)) if walk else None
-    counts, ysum, ysq = np.zeros(B), np.zeros((B, 6)), np.zeros((B, 6))
+    levels = levels_for(int(np.diff(edges).max())) if walk else 0
+    d_sum = np.zeros((6, levels, NP, NP)) if walk else None
+    u_sum, u_count = np.zeros((6, levels)), np.zeros((6, levels))
+    counts, ysum = np.zeros(B), np.zeros((B, 6))
+    block_rows = np.diff(edges)  # rows of each block in the whole record
+    waiting: dict = {}  # channel -> (block, weighted regressors, residual) of a block a span ended inside
+    jxs: dict = {}  # channel -> the parameters of those regressors
     NU = {c: np.zeros((NP, K)) for c in walking}
     UU = {c: np.zeros((K, K)) for c in walking}
     bU = {c: np.zeros(K) for c in walking}
@@ -280,8 +285,8 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
         Z = basis(t[a:z], t0, span_s) if walking else None
         if g_sum is not None:
             counts[ks] += np.diff(le)
+            seen = counts  # rows of each block met so far
             ysum[ks] += np.add.reduceat(yb[a:z], le[:-1], axis=0)
-            ysq[ks] += np.add.reduceat(yb[a:z] ** 2, le[:-1], axis=0)
         for c in range(6):
             js = [j for j in range(NP) if c in cc[j][0]]
             if not js:
@@ -310,15 +315,40 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
             yy[ks] += np.add.reduceat(w * yb[a:z, c] ** 2, le[:-1])
             if c in walking:
                 NU[c][jx] += Hw.T @ Z
-            if g_sum is not None and hh_sum is not None:
+            if g_sum is not None and d_sum is not None:
                 g_sum[c][np.ix_(ks, jx)] += np.add.reduceat(Hw, le[:-1], axis=0)
-                hh_sum[c][np.ix_(jx, jx)] += Hw.T @ Hw
+                # each block's splits are taken whole: the rows of a block the span ends inside wait
+                # for the next span (the splits then do not depend on where the spans fall)
+                X, yc, parts = Hw, yb[a:z, c], le
+                if c in waiting:
+                    k0, Xw, yw = waiting.pop(c)
+                    X, yc = np.concatenate([Xw, X]), np.concatenate([yw, yc])
+                    parts = (
+                        np.concatenate([[0], le[1:] + Xw.shape[0]])
+                        if k0 == ks[0]
+                        else np.concatenate([[0], le + Xw.shape[0]])
+                    )
+                if seen[ks[-1]] < block_rows[ks[-1]]:  # the last block goes on in the next span
+                    cut = parts[-2]
+                    waiting[c] = (ks[-1], X[cut:], yc[cut:])
+                    jxs[c] = jx
+                    X, yc, parts = X[:cut], yc[:cut], parts[:-1]
+                if parts.size > 1:
+                    D, us, uc = haar_splits(X, yc, parts, levels)
+                    d_sum[c][:, jx[:, None], jx[None, :]] += D
+                    u_sum[c] += us
+                    u_count[c] += uc
         del cc
     noise = None
-    if g_sum is not None and hh_sum is not None:
+    if g_sum is not None and d_sum is not None:
+        for c, (_, X, yc) in waiting.items():  # none unless the last span ended inside a block
+            D, us, uc = haar_splits(X, yc, np.array([0, X.shape[0]]), levels)
+            d_sum[c][:, jxs[c][:, None], jxs[c][None, :]] += D
+            u_sum[c] += us
+            u_count[c] += uc
+        u = np.divide(u_sum, u_count, out=np.zeros_like(u_sum), where=u_count > 0)
         rbar = ysum / np.maximum(counts, 1.0)[:, None]
-        within = np.sum(ysq - counts[:, None] * rbar**2, axis=0) / max(1.0, counts.sum() - B)
-        noise = BlockNoise(g_sum, hh_sum, counts, rbar, within, t[edges[:-1]] if t.size else np.zeros(B), block_s)
+        noise = BlockNoise(g_sum, d_sum, u, counts, rbar, t[edges[:-1]] if t.size else np.zeros(B), block_s)
     drift = NO_DRIFT
     if walking:
         walking = [c for c in walking if UU[c].any()]  # the channels the model acts on
