@@ -555,9 +555,9 @@ def test_broad_residual_gain_is_reported(broad_diagnoses):
 @pytest.mark.slow
 def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
     """Fitted in a band, the fit is redone at the bands a third of an octave either side, with the
-    selection redone there; the spread is part of the errors (BROAD's trials agree across
-    trials only with it). Reported per parameter in consistency.systematic, added in quadrature (the
-    error is at least that part, and at least the white-noise error), and named in the printed report."""
+    selection redone there; the spread is part of the errors. Reported per parameter in
+    consistency.systematic, added in quadrature (the error is at least that part), and named in the
+    printed report."""
     for trial, (_d, report, doc) in broad_diagnoses.items():
         systematic = doc["consistency"]["systematic"]
         assert [b["bandwidth_hz"] for b in systematic["bands"]] == pytest.approx(
@@ -567,7 +567,10 @@ def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
         errors = {(e["effect"], e["parameter"]): e["sigma"] for e in doc["consistency"]["standard_errors"]}
         parts = {(q["effect"], q["parameter"]): q["sigma_selection"] for q in systematic["parameters"]}
         assert set(parts) <= set(errors)
-        assert max(parts[k] / errors[k] for k in parts if k[0] == "lever_arm") > 0.3, (trial, parts)
+        # a share of some lever arm's error, not a rounding: a fifth of it on trial 07 with the errors
+        # from the noise's spectrum (over 0.3 of it under the floored sandwich, whose errors it then
+        # had to fill up to agree across trials)
+        assert max(parts[k] / errors[k] for k in parts if k[0] == "lever_arm") > 0.1, (trial, parts)
         assert all(errors[k] >= parts[k] * (1 - 1e-9) for k in parts)
         assert "the band's and the selection's part" in report
 
