@@ -150,8 +150,14 @@ def batch_params(record_plots: bool, chain: bool = False) -> list:
         click.Option(
             ["--plots"],
             is_flag=True,
-            help="Also write a figure of the headline figures across the records (fleet.png)"
-            + (", and each record's plots." if record_plots else "."),
+            help="A flag, it takes no folder: also write fleet.png into --out, the headline figures across "
+            "the records"
+            + (
+                ", and each record's plots beside its other outputs (the single command's --plot or "
+                "--plots takes a path instead)."
+                if record_plots
+                else "."
+            ),
         ),
     ]
 

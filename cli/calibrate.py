@@ -15,7 +15,13 @@ from .options import allow_gaps_option, force_option
     show_default=True,
     help="Nominal geometry to compare with: high-precision, compact, or a sizefx/levers/1 file.",
 )
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the lever arms (sizefx/levers/1).")
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write the lever arms to FILE (JSON, sizefx/levers/1).",
+)
 @click.option(
     "--tilt/--no-tilt", default=True, show_default=True, help="Estimate the table's tilt about north and east [arcsec]."
 )
@@ -35,10 +41,11 @@ from .options import allow_gaps_option, force_option
 @click.option(
     "--plot",
     type=click.Path(dir_okay=False),
-    help="Write the paper's Fig. 6 (PNG): horizontal channels before and after compensation.",
+    metavar="FILE",
+    help="Write the paper's Fig. 6 to FILE (one PNG): horizontal channels before and after compensation.",
 )
 @allow_gaps_option
-@force_option
+@force_option(text="Replace the --json and --plot files if they exist (never an input).")
 def calibrate(records, nominal, json_path, tilt, delay, triad_point, plot, allow_gaps, force):
     """Lever arms of each accelerometer from turntable rotations (least squares).
 

@@ -17,16 +17,21 @@ from .options import force_option
     "it, and A against B.",
 )
 @click.option(
-    "--json", "json_path", type=click.Path(dir_okay=False), help="Write the figures as JSON (sizefx/comparison/1)."
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write the figures to FILE (JSON, sizefx/comparison/1).",
 )
 @click.option(
     "--plots",
     "plots_dir",
     type=click.Path(file_okay=False),
-    help="Write PNG figures into this directory (created if missing): trajectories, horizontal_error, "
-    "velocity, attitude.",
+    metavar="DIR",
+    help="Write PNG figures into the folder DIR (created if missing): trajectories.png, "
+    "horizontal_error.png, velocity.png and, when attitude is compared, attitude.png.",
 )
-@force_option
+@force_option(text="Replace the --json file and the PNGs in --plots if they exist (never an input).")
 def compare(a, b, reference, json_path, plots_dir, force):
     """Compare two navigation solutions (or a solution and a telemetry reference).
 

@@ -24,8 +24,10 @@ def demo(out_dir, seed):
 
     The paper's three experiments at reduced size (turntable calibration,
     heading sway, helicopter flight) with the comparison table, then a
-    diagnosis of a record with hidden effects. About two minutes on two cores;
-    plots go to --out. Full size: sizefx paper all.
+    two-minute tumble with a lever-arm error and an accelerometer delay hidden
+    in it, which sizefx diagnose finds. Plots go to --out. The first run also
+    compiles the Numba kernels; README.md gives the measured run time and
+    memory after that. Full size: sizefx paper all.
     """
     from sizefx.experiments.demo import run_demo
 

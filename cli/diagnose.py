@@ -21,17 +21,25 @@ from .options import allow_gaps_option, force_option, segment_option, span
     help="Start from this effect model instead (sizefx/effects/1 TOML, e.g. a previous diagnosis); "
     "sections it omits are off.",
 )
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the report (sizefx/diagnosis/2).")
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write the report to FILE (JSON, sizefx/diagnosis/2).",
+)
 @click.option(
     "--plots",
     type=click.Path(file_okay=False),
-    help="Write residual time series and spectra, before and after, into this folder (residuals.png, "
-    "spectra.png; existing ones are replaced only with --force).",
+    metavar="DIR",
+    help="Write residual time series and spectra, before and after, into the folder DIR (created if "
+    "missing): residuals.png, spectra.png; existing ones are replaced only with --force.",
 )
 @click.option(
     "--model-out",
     type=click.Path(dir_okay=False),
-    help="Where to write the extended model [default: MEASURED with .model.toml].",
+    metavar="FILE",
+    help="Where to write the extended model (TOML, sizefx/effects/1) [default: MEASURED with .model.toml].",
 )
 @click.option(
     "--bandwidth-hz",
@@ -53,7 +61,9 @@ from .options import allow_gaps_option, force_option, segment_option, span
 @click.option(
     "--to-s",
     type=span(-1e10, 1e10),
-    help="Diagnose the record up to this time [s]; records over 3 million samples must be cut (about 3 kB per sample).",
+    help="Diagnose the record up to this time [s] (IMU clock). The file is read whole first: at most 12 "
+    "million IMU rows (2 h at 1600 Hz; a longer file is refused), and memory grows with its length "
+    "(docs/diagnose.md, Memory against length).",
 )
 @click.option(
     "--navigation/--no-navigation",
@@ -74,7 +84,10 @@ from .options import allow_gaps_option, force_option, segment_option, span
 )
 @segment_option
 @allow_gaps_option
-@force_option
+@force_option(
+    text="Replace the --json report, the extended model (--model-out or its default) and the PNGs in --plots "
+    "if they exist (never an input)."
+)
 def diagnose(
     measured,
     nominal,
@@ -92,11 +105,12 @@ def diagnose(
     allow_gaps,
     force,
 ):
-    """What the simulation of a record gets wrong: named, fixed, and the gain measured.
+    """What the sensor model gets wrong about a recording: named, fixed, the gain measured.
 
-    Checks the record's /reference against the IMU first (glitches are
-    dropped, the motion split at jumps, every finding a warning), predicts the
-    IMU from it under the start model, selects the physical effects the
+    For a real recording (imported, with its reference system in /reference)
+    or a simulated one alike. Checks the record's /reference against the IMU
+    first (glitches are dropped, the motion split at jumps, every finding a
+    warning), predicts the IMU from it under the start model, selects the physical effects the
     residual supports (lever arms, accelerometer and reference delays, table
     tilt, reference mount, biases, scale factors, misalignments, quadratic
     term, g-sensitivity) with robust tests and honest errors, rejects what is

@@ -70,7 +70,9 @@ def csv(record, output, force):
     help="Axes of the messages: flu (REP 103, forward-left-up) or frd (REP 103's *_ned frames) [default: the "
     "source bag's, else flu].",
 )
-@force_option
+@force_option(
+    text="Replace the -o folder if it exists and is a ROS 2 bag (never an input; any other folder is refused)."
+)
 def rosbag(record, output, storage, topic, frame_id, axes, force):
     """sensor_msgs/Imu in the source bag's frames, topic and stamps (needs pip install 'sizefx[ros]').
 

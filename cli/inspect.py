@@ -13,7 +13,13 @@ from .options import allow_gaps_option, no_units_check_option
 @click.argument("file", type=click.Path(dir_okay=False))
 @allow_gaps_option
 @no_units_check_option
-@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON instead of text.")
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="A flag, it takes no file: print the summary to stdout as JSON instead of text "
+    "(redirect it to keep it: sizefx inspect FILE --json > summary.json).",
+)
 def inspect(file, allow_gaps, no_units_check, as_json):
     """Validate FILE against sizefx/telemetry/1 and print what it holds.
 

@@ -19,8 +19,15 @@ def _every_or_rate(ctx, param, value):
 @click.command()
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="Write the solution (HDF5, sizefx/navigation/1).")
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write the summary as JSON.")
-@click.option("--plot", type=click.Path(dir_okay=False), help="Write the position error versus time (PNG).")
+@click.option(
+    "--json", "json_path", type=click.Path(dir_okay=False), metavar="FILE", help="Write the summary to FILE (JSON)."
+)
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write the position error versus time to FILE (one PNG).",
+)
 @click.option(
     "--subsamples",
     default=4,
@@ -88,7 +95,7 @@ def _every_or_rate(ctx, param, value):
 )
 @segment_option
 @allow_gaps_option
-@force_option
+@force_option(text="Replace the -o, --json and --plot files if they exist (never an input).")
 @quiet_option
 def navigate(
     file,

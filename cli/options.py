@@ -65,8 +65,15 @@ def parse_overrides(items) -> dict:
     return out
 
 
-def force_option(f):
-    return click.option("--force", is_flag=True, help="Replace OUTPUT if it exists (never an input).")(f)
+#: --force's help where the command writes one file, given with -o.
+FORCE_HELP = "Replace the -o file if it exists (never an input)."
+
+
+def force_option(f=None, *, text: str = FORCE_HELP):
+    """``--force``, whose help names what this command replaces: ``@force_option`` alone, the -o
+    file; a command with other outputs names them (``@force_option(text=...)``)."""
+    option = click.option("--force", is_flag=True, help=text)
+    return option(f) if f is not None else option
 
 
 def quiet_option(f):

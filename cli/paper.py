@@ -27,7 +27,13 @@ from .options import SEED
     type=click.Path(file_okay=False),
     help="Folder for the simulated records, lever-arm files and figures (PNG); created.",
 )
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write every figure as JSON.")
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write every figure to FILE (JSON; an existing FILE is replaced).",
+)
 @click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of the simulated noise.")
 @click.option(
     "--keep-records/--no-keep-records",

@@ -203,7 +203,12 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
     help="Folder for every stage's outputs and run.json (made if new) [default: run-NAME in the "
     "current folder, NAME the flight's file name, or calibrate's record's].",
 )
-@click.option("--plots", is_flag=True, help="Also write each stage's plots into --out.")
+@click.option(
+    "--plots",
+    is_flag=True,
+    help="A flag, it takes no folder: also write each stage's plots into --out (calibrate.png, "
+    "plain.navigate.png, compensated.navigate.png, compare-plots/).",
+)
 def run(out_dir, plots):
     """Chain calibrate, navigate and compare in one command.
 

@@ -70,7 +70,7 @@ def common_options(f):
         click.option(
             "--reference-rate-hz",
             type=span(1.0, 1e5),
-            help="Rate of /reference [Hz]; must divide the IMU rate [default: turntable the IMU rate; sway, flight 100].",
+            help="Rate of /reference [Hz]; must divide the IMU rate [default: turntable and tumble the IMU rate; sway, flight 100].",
         ),
         click.option(
             "--latitude-deg",
@@ -157,7 +157,7 @@ def _run(
 @click.option("--print-effects", is_flag=True, help="Print the full effect model (TOML, all defaults) and exit.")
 @click.pass_context
 def simulate(ctx, print_effects):
-    """Write telemetry with known truth and hidden effects (turntable, sway or flight).
+    """Write telemetry with known truth and hidden effects (turntable, sway, flight or tumble).
 
     Deterministic given --seed. /reference holds the true (for a turntable:
     the reported) motion; /simulation the true value of every injected

@@ -1,5 +1,5 @@
 """File contracts of sizefx (installed as ``sizefx.schemas``).
 
-The JSON files next to this one are read by :mod:`sizefx.schema`; readers and
+The JSON files next to this one are read by :mod:`sizefx.io.schema`; readers and
 writers take dataset names, shapes, dtypes and units from them and nowhere else.
 """
