@@ -6,6 +6,11 @@ The commands are taken from README.md as written (```sh blocks between
 their outputs are checked against the truth the example was simulated with
 (``examples/tumble_truth.json``). A README that drops a step, names a wrong column or stops
 writing an output fails here. The example files themselves must regenerate bit for bit.
+
+After each ```sh block the README shows what its commands print (a ```text block): every line
+shown there must be in the printed output (stdout and stderr, whitespace normalised), a line of
+``...`` stands for lines left out and ``...`` inside a line for text left out (a wall time, the
+rest of a long line). The tutorial cannot drift from the code.
 """
 
 from __future__ import annotations
@@ -62,20 +67,53 @@ DIAGNOSE_Z = 4.0
 COMPENSATED_MAX_M = 1.5
 PLAIN_MIN_M = 15.0
 GAIN_MIN = 10.0
+#: In a shown output: a line of its own stands for lines left out, inside a line for text left out.
+ELISION = "..."
 
 
-def readme_commands(text: str) -> list:
-    """The commands of the ```sh blocks between the markers: a list of argv lists."""
+def normalised(line: str) -> str:
+    """``line`` with its runs of whitespace as single spaces, stripped."""
+    return " ".join(line.split())
+
+
+def readme_walk(text: str) -> list:
+    """The ```sh blocks between the markers, in order, each as ``(commands, shown)``: ``commands`` a
+    list of argv lists, ``shown`` the lines of the ```text blocks that follow it (up to the next
+    ```sh block), whitespace normalised, without blank lines and :data:`ELISION` lines."""
     if START not in text or END not in text:
         raise AssertionError(f"README markers {START!r} ... {END!r} are missing")
     section = text.split(START, 1)[1].split(END, 1)[0]
-    commands = []
-    for block in re.findall(r"^```sh\n(.*?)^```", section, flags=re.S | re.M):
+    walk = []
+    for kind, block in re.findall(r"^```(sh|text)\n(.*?)^```", section, flags=re.S | re.M):
+        if kind == "text":
+            if not walk:
+                raise AssertionError(f"README shows an output before any command: {block[:60]!r}")
+            walk[-1][1].extend(n for n in map(normalised, block.splitlines()) if n and n != ELISION)
+            continue
+        commands = []
         for line in block.replace("\\\n", " ").splitlines():
             argv = shlex.split(line, comments=True)
             if argv:
                 commands.append(argv)
-    return commands
+        walk.append((commands, []))
+    return walk
+
+
+def readme_commands(text: str) -> list:
+    """The commands of the ```sh blocks between the markers: a list of argv lists."""
+    return [argv for commands, _ in readme_walk(text) for argv in commands]
+
+
+def not_printed(shown: list, printed: str) -> list:
+    """The lines of ``shown`` (normalised) that no line of ``printed`` holds; :data:`ELISION` inside a
+    shown line matches any text within the printed line."""
+    lines = [normalised(line) for line in printed.splitlines()]
+    missing = []
+    for line in shown:
+        found = re.compile(".*?".join(re.escape(piece.strip()) for piece in line.split(ELISION)))
+        if not any(found.search(p) for p in lines):
+            missing.append(line)
+    return missing
 
 
 def check_steps(commands: list):
@@ -116,6 +154,36 @@ def test_parser_reads_continuations_comments_and_every_block():
     assert readme_commands(text) == [["sizefx", "a", "b", "--c", "d e"], ["sizefx", "f"], ["sizefx", "g"]]
     with pytest.raises(AssertionError, match="markers"):
         readme_commands("no markers")
+
+
+def test_parser_gives_each_command_block_the_output_shown_after_it():
+    text = (
+        START + " -->\n```sh\nsizefx a\nsizefx b\n```\n```text\nout  of   a\n\n...\nb, ... done\n```\ntext\n"
+        "```text\nmore\n```\n```sh\nsizefx c\n```\n" + END
+    )
+    assert readme_walk(text) == [
+        ([["sizefx", "a"], ["sizefx", "b"]], ["out of a", "b, ... done", "more"]),
+        ([["sizefx", "c"]], []),
+    ]
+    with pytest.raises(AssertionError, match="before any command"):
+        readme_walk(START + " -->\n```text\nout\n```\n```sh\nsizefx a\n```\n" + END)
+
+
+def test_a_shown_line_must_be_printed_as_shown():
+    printed = "wrote x.h5: 12001 samples,   120.00 s\n  kernel 0.03 s, final 0.6277 m\nsolution -> x.h5\n"
+    shown = ["wrote x.h5: 12001 samples, 120.00 s", "kernel ..., final 0.6277 m", "solution -> x.h5"]
+    assert not_printed(shown, printed) == []
+    assert not_printed(["samples, 120.00 s"], printed) == []  # a part of a line is shown as it is printed
+    # the check bites: a changed digit, a wrong order around an elision, a line pieced from two lines
+    assert not_printed(["final 0.6278 m"], printed) == ["final 0.6278 m"]
+    assert not_printed(["final ... kernel"], printed) == ["final ... kernel"]
+    assert not_printed(["120.00 s kernel 0.03 s"], printed) == ["120.00 s kernel 0.03 s"]
+
+
+def test_every_command_block_shows_what_it_prints():
+    walk = readme_walk(README.read_text("utf-8"))
+    bare = [shlex.join(commands[0]) for commands, shown in walk if commands and not shown]
+    assert not bare, f"README shows no output after: {bare}"
 
 
 def test_readme_walkthrough_has_every_step():
@@ -260,6 +328,22 @@ def test_a_wrong_column_in_the_import_fails(walkthrough, tmp_path):
     assert wrong != argv
     result = run(wrong, tmp_path)
     assert result.returncode == 2 and "column 'q_z' is not in the header" in result.stderr
+
+
+# long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_every_command_block_shows_what_it_prints and test_a_shown_line_must_be_printed_as_shown
+@pytest.mark.slow
+def test_the_shown_output_is_what_the_commands_print(walkthrough):
+    _, done = walkthrough
+    walk = readme_walk(README.read_text("utf-8"))
+    assert len(done) == sum(len(commands) for commands, _ in walk), "a command failed: test_every_command_exits_0"
+    results = iter(done)
+    for commands, shown in walk:
+        printed = "".join(r.stdout + "\n" + r.stderr + "\n" for _, r in (next(results) for _ in commands))
+        missing = not_printed(shown, printed)
+        assert not missing, (
+            f"README shows after `{shlex.join(commands[-1])}` lines it does not print: {missing}; "
+            f"it printed:\n{printed}"
+        )
 
 
 # --------------------------------------------------------------------------- the example files
