@@ -5,7 +5,10 @@
 ``get_help_record``, ``collect_usage_pieces``), never by parsing ``--help`` output.
 ``formats.md``: every file contract in ``data-schemas/*.json``: the JSON Schemas (JSON documents
 and the TOML plan), the HDF5 layouts (datasets and attributes) and the TOML key tables.
-``README.md``: the index of the two.
+``api.md``: the Python API, every name in the ``__all__`` of each public module (``API_MODULES``)
+with its kind, signature (annotations as written), docstring and, for a dataclass, its fields
+with their ``#:`` comments; found by importing the modules (Numba compiles nothing at import).
+``README.md``: the index of the three.
 
 The pages are deterministic: no terminal width (no click formatter is used, and every context is
 given a fixed width anyway), no dates, no absolute paths. A default that depends on the machine
@@ -21,12 +24,19 @@ the help with no click default); a default that is an absolute path stops the ge
 from __future__ import annotations
 
 import argparse
+import ast
+import dataclasses
 import difflib
+import functools
 import importlib
+import importlib.util
 import inspect
+import io
 import json
 import re
 import sys
+import textwrap
+import tokenize
 import tomllib
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -60,16 +70,33 @@ def slug(heading: str) -> str:
     return text.replace(" ", "-")
 
 
+def unique_anchors(headings: list[str]) -> dict[str, str]:
+    """Each heading's anchor on a page with these headings, in this order: GitHub numbers a slug
+    met again (``x``, ``x-1``, ``x-2``: ``Excitation`` and ``excitation`` share one)."""
+    seen: dict[str, int] = {}
+    out = {}
+    for heading in headings:
+        base = slug(heading)
+        out[heading] = base if base not in seen else f"{base}-{seen[base]}"
+        seen[base] = seen.get(base, 0) + 1
+    return out
+
+
 def prose(text: str) -> str:
     """Plain text as Markdown that shows the same characters: emphasis, code, HTML, math and link
     syntax escaped, and a paragraph that would start a list, a quote or a heading too."""
-    text = text.replace("\\", "\\\\")
-    text = re.sub(r"([*`<$~])", r"\\\1", text)
-    text = re.sub(r"(?<![A-Za-z0-9])_|_(?![A-Za-z0-9])", r"\\_", text)
-    text = text.replace("](", "]\\(")
+    text = prose_fragment(text)
     if re.match(r"([#>+-]|\d+[.)])(\s|$)", text):
         text = "\\" + text
     return text
+
+
+def prose_fragment(text: str) -> str:
+    """``prose`` for a piece of a paragraph: the inline syntax escaped, the start left as it is."""
+    text = text.replace("\\", "\\\\")
+    text = re.sub(r"([*`<$~])", r"\\\1", text)
+    text = re.sub(r"(?<![A-Za-z0-9])_|_(?![A-Za-z0-9])", r"\\_", text)
+    return text.replace("](", "]\\(")
 
 
 def cell(text: str) -> str:
@@ -230,7 +257,14 @@ def command_section(ctx: click.Context, depth: int) -> list[str]:
     if isinstance(command, click.Group) and command.chain:
         lines += ["The subcommands chain (click's `chain=True`): several may follow one another in one call.", ""]
 
-    params = command.get_params(ctx)
+    # click keeps a command's help option from the first context that asked for it: a command once
+    # invoked on its own (a test calling it without the group) would keep "--help" alone; the page
+    # shows the names this context gives (the group's "-h, --help")
+    params = [p for p in command.params] + (
+        [click.Option(ctx.help_option_names, is_flag=True, help="Show this message and exit.")]
+        if ctx.help_option_names and command.add_help_option
+        else []
+    )
     arguments = [p for p in params if isinstance(p, click.Argument)]
     if arguments:
         rows = [[code(p.make_metavar(ctx)), describe_type(p), describe_default(p, ctx)] for p in arguments]
@@ -711,6 +745,527 @@ def render_formats() -> str:
     return "\n".join(lines).rstrip("\n") + "\n"
 
 
+# ------------------------------------------------------------------------------- the Python API
+
+#: The modules whose ``__all__`` is the public API, in the page's order: the package, the stages
+#: (one module each, as ``docs/architecture.md`` lists them, with the batch runner and the chains),
+#: the record files in and out, the exceptions a caller catches, and the models and foundations a
+#: stage's arguments are made of.
+API_MODULES = (
+    "sizefx",
+    "sizefx.simulate",
+    "sizefx.importers",
+    "sizefx.exporters",
+    "sizefx.inspect",
+    "sizefx.calibrate",
+    "sizefx.compensate",
+    "sizefx.navigate",
+    "sizefx.diagnose",
+    "sizefx.compare",
+    "sizefx.plan",
+    "sizefx.batch",
+    "sizefx.chain",
+    "sizefx.io.telemetry",
+    "sizefx.io.navigation",
+    "sizefx.errors",
+    "sizefx.levers",
+    "sizefx.effects",
+    "sizefx.frames",
+    "sizefx.rotation",
+    "sizefx.constants",
+)
+#: Modules whose whole docstring is shown, not its first paragraph: the package's states the
+#: conventions (units, frames, quaternions, time) every name on the page follows.
+WHOLE_DOCSTRING = ("sizefx",)
+#: A docstring up to this many characters, with no numpydoc section, is shown whole; a longer one
+#: by its first paragraph (``help()`` has the rest).
+SHORT_DOC = 600
+#: A constant's value is shown when its repr, on one line, is at most this long.
+SHORT_VALUE = 80
+#: A signature longer than this is written one parameter a line.
+SIGNATURE_WIDTH = 100
+#: RST inline markup of the docstrings: ````literal````, ``:role:`target```, ```interpreted```.
+RST_INLINE = re.compile(r"``(?P<literal>.+?)``|:[\w:.-]+:`(?P<target>[^`]+)`|`(?P<plain>[^`]+)`_?")
+#: An object's address in a repr (``<function f at 0x7f...>``): never on a page.
+ADDRESS = re.compile(r" at 0x[0-9A-Fa-f]+")
+
+
+def rst_inline(text: str) -> str:
+    """One paragraph of a docstring as Markdown: RST literals and roles as code spans (``~a.b.C``
+    as ``C``, ``title <target>`` as ``title``), the rest as ``prose``."""
+    out, start = [], 0
+    for match in RST_INLINE.finditer(text):
+        out.append(prose_fragment(text[start : match.start()]))
+        if match["literal"] is not None:
+            out.append(code(match["literal"]))
+        else:
+            target = match["target"] if match["target"] is not None else match["plain"]
+            titled = re.fullmatch(r"(.+?)\s*<(.+)>", target)
+            if titled:
+                target = titled[1]
+            elif target.startswith("~"):
+                target = target.rpartition(".")[2]
+            out.append(code(target))
+        start = match.end()
+    out.append(prose_fragment(text[start:]))
+    joined = "".join(out)
+    return "\\" + joined if re.match(r"([#>+-]|\d+[.)])(\s|$)", joined) else joined
+
+
+def doc_blocks(doc: str | None, whole: bool = False) -> list[str]:
+    """A docstring as Markdown blocks: all of it when ``whole`` or short, else its first paragraph.
+    A paragraph of ``>>>`` lines, or an indented one (an RST literal block), is a code block; one
+    of ``- `` items a list; any other one paragraph of text."""
+    if not doc or not doc.strip():
+        return []
+    text = inspect.cleandoc(doc)
+    paragraphs = [p for p in re.split(r"\n[ \t]*\n", text.strip()) if p.strip()]
+    sections = any(re.search(r"^\s*-{3,}\s*$", p, re.M) for p in paragraphs)
+    if whole and sections:  # the package docstring: its first paragraph, then the rest as written
+        rest = text.strip()[len(paragraphs[0]) :].strip("\n").splitlines()
+        return doc_blocks(paragraphs[0]) + ["\n".join(["```text", *(line.rstrip() for line in rest), "```"])]
+    if not whole and (len(text) > SHORT_DOC or sections):
+        paragraphs = paragraphs[:1]
+    blocks = []
+    for paragraph in paragraphs:
+        lines = paragraph.splitlines()
+        if all(line.lstrip().startswith((">>>", "...")) for line in lines):
+            blocks.append("\n".join(["```python", *(line.strip() for line in lines), "```"]))
+        elif all(line[:1].isspace() for line in lines):
+            blocks.append("\n".join(["```text", *textwrap.dedent(paragraph).splitlines(), "```"]))
+        elif re.match(r"([-*]|\d+[.)]) ", lines[0]):  # a list, bulleted or numbered
+            items = re.split(r"\n(?=(?:[-*]|\d+[.)]) )", paragraph)
+            marks = [re.match(r"([-*]|\d+[.)]) ", item) for item in items]
+            blocks.append(
+                "\n".join(
+                    ("- " if m is None or m[1] in "-*" else m[1] + " ")
+                    + rst_inline(" ".join(item[m.end() if m else 0 :].split()))
+                    for item, m in zip(items, marks, strict=True)
+                )
+            )
+        else:
+            joined = " ".join(paragraph.split())
+            joined = re.sub(r"\s*::$", ":", joined) if not joined.endswith(" ::") else joined[:-3]
+            blocks.append(rst_inline(joined))
+    return blocks
+
+
+def own_doc(obj: object) -> str | None:
+    """The docstring the object was written with: never a base class's, nor the one ``dataclass``
+    makes from the signature of a class that has none."""
+    if inspect.isclass(obj):
+        doc = obj.__dict__.get("__doc__")
+        if doc and dataclasses.is_dataclass(obj):
+            try:
+                made = obj.__name__ + str(inspect.signature(obj)).replace(" -> None", "")
+            except (TypeError, ValueError):
+                made = obj.__name__
+            if doc == made:
+                return None
+        return doc
+    if inspect.isfunction(obj) or inspect.ismethod(obj) or inspect.ismodule(obj) or isinstance(obj, property):
+        return obj.__doc__
+    return None
+
+
+def qualified(obj: Any) -> str:
+    """``module.qualname`` of a function, class or module (builtins by their bare name)."""
+    if inspect.ismodule(obj):
+        return obj.__name__
+    module = getattr(obj, "__module__", None)
+    name = getattr(obj, "__qualname__", None) or getattr(obj, "__name__", None) or type(obj).__name__
+    return name if module in (None, "builtins") else f"{module}.{name}"
+
+
+def value_text(value: Any, depth: int = 0) -> str:
+    """A value as Python would write it, with functions and classes by their qualified names
+    (a repr would hold their addresses); the containers a default or a constant is made of are
+    walked, and any address left in a repr is cut."""
+    if inspect.isfunction(value) or inspect.isclass(value) or inspect.ismodule(value) or inspect.isbuiltin(value):
+        return qualified(value)
+    if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
+        # by its values, not numpy's repr: that follows the print options (which a caller may have
+        # set) and the numpy version (``np.int64(3)`` in 2.x, ``3`` in 1.x)
+        listed = value_text(value.tolist(), depth)
+        return f"array({listed})" if getattr(value, "ndim", 0) else listed
+    if depth < 4 and type(value) in (list, tuple, set, frozenset, dict):  # not their subclasses: a repr of their own
+        if isinstance(value, dict):
+            inner = ", ".join(f"{value_text(k, depth + 1)}: {value_text(v, depth + 1)}" for k, v in value.items())
+            return "{" + inner + "}"
+        items = [
+            value_text(v, depth + 1)
+            for v in (sorted(value, key=repr) if isinstance(value, (set, frozenset)) else value)
+        ]
+        if isinstance(value, tuple):
+            return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+        if isinstance(value, list):
+            return "[" + ", ".join(items) + "]"
+        return (
+            (type(value).__name__ + "({" + ", ".join(items) + "})")
+            if items or isinstance(value, frozenset)
+            else "set()"
+        )
+    text = " ".join(ADDRESS.sub("", repr(value)).split())
+    for local in (str(ROOT), str(Path.home())):
+        if len(local) > 1 and local in text:
+            raise ValueError(f"a default or constant shows the local path {local}: {text!r}")
+    return text
+
+
+def annotation_text(annotation: Any) -> str:
+    """An annotation as written: the string itself under ``from __future__ import annotations``."""
+    return annotation if isinstance(annotation, str) else inspect.formatannotation(annotation)
+
+
+def signature_text(name: str, sig: inspect.Signature, *, drop_first: bool = False, wrap: bool = True) -> str:
+    """``name(a: int, /, b=1, *, c: str = 'x') -> T`` with annotations as written and defaults by
+    ``value_text`` (``drop_first``: without ``self``); one parameter a line when it would be long
+    and ``wrap``."""
+    params = list(sig.parameters.values())[1 if drop_first else 0 :]
+    parts, positional_only, star_needed = [], False, True
+    for param in params:
+        if param.kind is param.POSITIONAL_ONLY:
+            positional_only = True
+        elif positional_only:
+            parts.append("/")
+            positional_only = False
+        if param.kind is param.VAR_POSITIONAL:
+            star_needed = False
+        elif param.kind is param.KEYWORD_ONLY and star_needed:
+            parts.append("*")
+            star_needed = False
+        text = {param.VAR_POSITIONAL: "*", param.VAR_KEYWORD: "**"}.get(param.kind, "") + param.name
+        annotated = param.annotation is not param.empty
+        if annotated:
+            text += ": " + annotation_text(param.annotation)
+        if param.default is not param.empty:
+            text += (" = " if annotated else "=") + value_text(param.default)
+        parts.append(text)
+    if positional_only:
+        parts.append("/")
+    returns = "" if sig.return_annotation is sig.empty else " -> " + annotation_text(sig.return_annotation)
+    line = f"{name}({', '.join(parts)}){returns}"
+    if not wrap or len(line) <= SIGNATURE_WIDTH or not parts:
+        return line
+    return "\n".join([f"{name}(", *(f"    {part}," for part in parts), f"){returns}"])
+
+
+# ------------------------------------------------------------- the #: comments of names and fields
+
+
+@functools.cache
+def parsed(module_name: str) -> tuple[ast.Module, dict[int, str], list[str]] | None:
+    """A module's syntax tree, its ``#:`` comments by line, and its lines (None: no source)."""
+    spec = importlib.util.find_spec(module_name)
+    if spec is None or not spec.origin or not spec.origin.endswith(".py"):
+        return None
+    source = Path(spec.origin).read_text("utf-8")
+    comments = {}
+    for token in tokenize.generate_tokens(io.StringIO(source).readline):
+        if token.type == tokenize.COMMENT and token.string.startswith("#:"):
+            comments[token.start[0]] = token.string[2:].strip()
+    return ast.parse(source), comments, source.splitlines()
+
+
+def comment_of(node: ast.stmt, comments: dict[int, str], lines: list[str]) -> str:
+    """The ``#:`` comment of an assignment, Sphinx's way: on its own lines just above it, and at the
+    end of its last line. ``#:`` lines that follow a commented line and precede another commented
+    one continue the first (``x: int  #: one\\n    #: two\\n y: int  #: three``)."""
+
+    def alone(line: int) -> bool:  # a line that is nothing but a #: comment
+        return line in comments and lines[line - 1].lstrip().startswith("#:")
+
+    def trailing(line: int) -> bool:  # a statement's line that ends with a #: comment
+        return line in comments and not alone(line)
+
+    end = node.end_lineno or node.lineno
+    parts = []
+    line = node.lineno - 1
+    while alone(line):
+        line -= 1
+    if not (trailing(line) and trailing(end)):  # else the lines above continue the statement there
+        parts += [comments[n] for n in range(line + 1, node.lineno)]
+    if trailing(end):
+        parts.append(comments[end])
+        after = end + 1
+        while alone(after):
+            after += 1
+        if trailing(after):
+            parts += [comments[n] for n in range(end + 1, after)]
+    return " ".join(parts)
+
+
+def assigned(node: ast.stmt) -> list[str]:
+    if isinstance(node, ast.Assign):
+        return [t.id for t in node.targets if isinstance(t, ast.Name)]
+    if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+        return [node.target.id]
+    return []
+
+
+def name_comment(module_name: str, name: str, hops: int = 0) -> str:
+    """The ``#:`` comment of a module-level name, followed through ``from .x import name`` to the
+    module that assigns it."""
+    found = parsed(module_name)
+    if found is None or hops > 8:
+        return ""
+    tree, comments, lines = found
+    spec = importlib.util.find_spec(module_name)
+    package = module_name if spec and spec.submodule_search_locations else module_name.rpartition(".")[0]
+    for node in tree.body:
+        if name in assigned(node):
+            return comment_of(node, comments, lines)
+        if isinstance(node, ast.ImportFrom) and any((a.asname or a.name) == name for a in node.names):
+            alias = next(a for a in node.names if (a.asname or a.name) == name)
+            source = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
+            return name_comment(source, alias.name, hops + 1)
+    return ""
+
+
+def class_body(cls: type) -> tuple[list[ast.stmt], dict[int, str], list[str]]:
+    """The statements of a class's body, with its module's ``#:`` comments and lines."""
+    found = parsed(cls.__module__)
+    if found is None:
+        return [], {}, []
+    tree, comments, lines = found
+    body: list[ast.stmt] = tree.body
+    for part in cls.__qualname__.split("."):
+        node = next((n for n in body if isinstance(n, ast.ClassDef) and n.name == part), None)
+        if node is None:
+            return [], {}, []
+        body = node.body
+    return body, comments, lines
+
+
+def field_comments(cls: type) -> dict[str, str]:
+    """The ``#:`` comments of a class's annotated fields, by field name."""
+    body, comments, lines = class_body(cls)
+    return {name: comment_of(n, comments, lines) for n in body for name in assigned(n)}
+
+
+def lambda_factories(cls: type) -> dict[str, str]:
+    """``field(default_factory=lambda: EXPR)`` of a dataclass's fields: EXPR as written, by field."""
+    found = {}
+    for node in class_body(cls)[0]:
+        call = node.value if isinstance(node, ast.AnnAssign) else None
+        if isinstance(call, ast.Call) and isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            for keyword in call.keywords:
+                if keyword.arg == "default_factory" and isinstance(keyword.value, ast.Lambda):
+                    found[node.target.id] = ast.unparse(keyword.value.body)
+    return found
+
+
+def module_constants(module_name: str) -> list[str]:
+    """The public names a module without ``__all__`` assigns at its top level, in source order."""
+    found = parsed(module_name)
+    names = [name for node in found[0].body for name in assigned(node)] if found else []
+    return [n for n in dict.fromkeys(names) if not n.startswith("_")]
+
+
+# ---------------------------------------------------------------------------------- API entries
+
+
+def kind_of(obj: Any, home: dict[int, str], anchors: dict[str, str]) -> str:
+    """What a name is: module, function, class (dataclass, exception, with its bases: a link where
+    the page documents the base), callable, or constant of a type."""
+    if inspect.ismodule(obj):
+        return "module"
+    if inspect.isclass(obj):
+        bases = [b for b in obj.__bases__ if b is not object]
+        if dataclasses.is_dataclass(obj):
+            word = "frozen dataclass" if obj.__dataclass_params__.frozen else "dataclass"  # type: ignore[attr-defined]
+        elif issubclass(obj, BaseException):
+            word = "exception"
+        else:
+            word = "class"
+        named = [f"[{home[id(b)]}](#{anchors[home[id(b)]]})" if id(b) in home else code(qualified(b)) for b in bases]
+        return word + (", subclass of " + ", ".join(named) if bases else "")
+    if inspect.isfunction(obj) or inspect.isbuiltin(obj):
+        return "function"
+    if callable(obj):
+        return f"callable ({code(qualified(type(obj)))})"
+    return f"constant, {code(qualified(type(obj)))}"
+
+
+def constant_value(value: Any) -> str:
+    """A constant's value when short; else what it is (a shape, a length, a dict's keys)."""
+    text = value_text(value)
+    if len(text) <= SHORT_VALUE:
+        return code(text)
+    shape = getattr(value, "shape", None)
+    if isinstance(shape, tuple):
+        return f"an array of shape {code(str(shape))}"
+    if isinstance(value, dict):
+        keys = ", ".join(code(value_text(k)) for k in value)
+        return f"{len(value)} entries: " + keys if len(keys) <= 4 * SHORT_VALUE else f"{len(value)} entries"
+    if isinstance(value, (list, tuple)):
+        return f"{len(value)} items"
+    return f"{code(text[:SHORT_VALUE])}…"
+
+
+def members(cls: type) -> list[tuple[str, str, str]]:
+    """The public methods and properties a class (or a sizefx base of it) defines: name, signature,
+    docstring's first paragraph."""
+    out: dict[str, tuple[str, str, str]] = {}
+    for klass in reversed(cls.__mro__):
+        if not klass.__module__.startswith("sizefx"):
+            continue
+        for name, attr in vars(klass).items():
+            if name.startswith("_"):
+                continue
+            if isinstance(attr, property):
+                returns = inspect.signature(attr.fget).return_annotation if attr.fget else inspect.Signature.empty
+                sig = name + ("" if returns is inspect.Signature.empty else ": " + annotation_text(returns))
+                out[name] = ("property", sig, first_paragraph(own_doc(attr)))
+            elif isinstance(attr, (staticmethod, classmethod)) or inspect.isfunction(attr):
+                func = attr.__func__ if isinstance(attr, (staticmethod, classmethod)) else attr
+                word = {staticmethod: "static method", classmethod: "class method"}.get(type(attr), "method")
+                drop = not isinstance(attr, staticmethod)
+                sig = signature_text(name, inspect.signature(func), drop_first=drop, wrap=False)
+                out[name] = (word, sig, first_paragraph(func.__doc__))
+    return sorted(out.values(), key=lambda m: m[1])
+
+
+def first_paragraph(doc: str | None) -> str:
+    blocks = doc_blocks(doc)
+    return blocks[0] if blocks and not blocks[0].startswith("```") else ""
+
+
+def field_rows(cls: type) -> list[list[str]]:
+    comments, lambdas = field_comments(cls), lambda_factories(cls)
+    rows = []
+    for field in dataclasses.fields(cls):
+        if field.default is not dataclasses.MISSING:
+            default = code(value_text(field.default))
+        elif field.name in lambdas:  # made anew for each instance
+            default = code(lambdas[field.name])
+        elif field.default_factory is not dataclasses.MISSING:
+            default = code(value_text(field.default_factory) + "()")
+        else:
+            default = "required" if field.init else ""
+        if not field.init:
+            default = "set by the class"
+        rows.append(
+            [code(field.name), code(annotation_text(field.type)), default, rst_inline(comments.get(field.name, ""))]
+        )
+    return rows
+
+
+def upper_first(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def api_heading(module_name: str, name: str) -> str:
+    return f"`{module_name}.{name}`" if name else f"`{module_name}`"
+
+
+def api_names(module: Any) -> tuple[list[str], bool]:
+    """The names a module exports (its ``__all__``), and whether it has one; without one, the
+    public names it assigns at top level."""
+    if "__all__" in vars(module):
+        return list(module.__all__), True
+    return module_constants(module.__name__), False
+
+
+#: Stands for a name that ``__all__`` lists and the module lacks.
+MISSING_NAME = object()
+
+
+def api_entry(module_name: str, name: str, obj: Any, home: dict[int, str], anchors: dict[str, str]) -> list[str]:
+    heading = api_heading(module_name, name)
+    lines = [f"### {heading}", ""]
+    if obj is MISSING_NAME:
+        return lines + ["**Not defined**: listed in the module's `__all__`, but the module has no such name.", ""]
+    shared = (inspect.isfunction(obj) or inspect.isclass(obj)) and home.get(id(obj))
+    if shared and shared != heading:
+        kind = upper_first(kind_of(obj, home, anchors))
+        return lines + [f"{kind}: the same object as [{shared}](#{anchors[shared]}).", ""]
+    kind = upper_first(kind_of(obj, home, anchors))
+    defined = getattr(obj, "__module__", None) if (inspect.isfunction(obj) or inspect.isclass(obj)) else None
+    where = f", defined in {code(defined)}" if defined and defined != module_name else ""
+    if kind.startswith("Constant"):
+        lines += [f"{kind}: {constant_value(obj)}", ""]
+        text = name_comment(module_name, name)
+        return lines + ([rst_inline(text), ""] if text else [])
+    lines += [f"{kind}{where}.", ""]
+    if inspect.ismodule(obj):
+        return lines + [line for block in doc_blocks(obj.__doc__)[:1] for line in (block, "")]
+    try:
+        sig = inspect.signature(obj)
+    except (TypeError, ValueError):  # a class with no signature of its own (an exception of Exception's)
+        sig = None
+    if sig is not None and inspect.isclass(obj):
+        sig = sig.replace(return_annotation=sig.empty)
+    fields = dataclasses.fields(obj) if inspect.isclass(obj) and dataclasses.is_dataclass(obj) else ()
+    # a dataclass made by its fields: the table below is its signature, with the comments
+    made = sig is not None and list(sig.parameters) == [f.name for f in fields if f.init]
+    if sig is not None and not made:
+        lines += ["```python", signature_text(name, sig), "```", ""]
+    for block in doc_blocks(own_doc(obj)):
+        lines += [block, ""]
+    if fields:
+        if made:
+            keyword = [p.name for p in sig.parameters.values() if p.kind is p.KEYWORD_ONLY] if sig else []
+            after = f" (keyword-only from {code(keyword[0])})" if keyword else ""
+            lines += [f"Made as {code(name + '(...)')} with the fields below as its arguments{after}:", ""]
+        lines += table(["field", "type", "default", "description"], field_rows(obj)) + [""]
+    if inspect.isclass(obj):
+        found = members(obj)
+        if found:
+            lines += [f"- {word} {code(text)}" + (f": {doc}" if doc else "") for word, text, doc in found] + [""]
+    return lines
+
+
+def render_api() -> str:
+    modules = [importlib.import_module(name) for name in API_MODULES]
+    headings = ["Python API reference"]
+    home: dict[int, str] = {}  # a function or class: the heading where its own module lists it
+    for module in modules:
+        headings.append(api_heading(module.__name__, ""))
+        for name in api_names(module)[0]:
+            headings.append(api_heading(module.__name__, name))
+            obj = getattr(module, name, None)
+            if (inspect.isfunction(obj) or inspect.isclass(obj)) and obj.__module__ == module.__name__:
+                home.setdefault(id(obj), api_heading(module.__name__, name))
+    anchors = unique_anchors(headings)
+    lines = [
+        "# Python API reference",
+        "",
+        GENERATED,
+        "",
+        "The names each public module of the package exports (its `__all__`): the module's "
+        "docstring, then each name with its kind, its signature (annotations as written in the "
+        "source), the start of its docstring, a dataclass's fields with their `#:` comments, a "
+        "class's public methods and a constant's value. Generated from the sources by importing "
+        "them; `help(name)` in Python has each docstring whole.",
+        "",
+    ]
+    for module in modules:
+        names, listed = api_names(module)
+        count = f"{len(names)} name{'' if len(names) == 1 else 's'}"
+        summary = count if listed else f"no `__all__`; {count} assigned at its top level"
+        heading = api_heading(module.__name__, "")
+        lines.append(f"- [{heading}](#{anchors[heading]}): {summary}")
+    lines.append("")
+    for module in modules:
+        heading = api_heading(module.__name__, "")
+        lines += [f"## {heading}", ""]
+        for block in doc_blocks(module.__doc__, whole=module.__name__ in WHOLE_DOCSTRING) or ["*(no docstring)*"]:
+            lines += [block, ""]
+        names, listed = api_names(module)
+        if not listed:
+            lines += [
+                "The module has no `__all__`: below are the names it assigns at its top level that "
+                "do not start with an underscore.",
+                "",
+            ]
+        links = ", ".join(f"[{code(n)}](#{anchors[api_heading(module.__name__, n)]})" for n in names)
+        lines += [f"Names: {links}." if names else "Names: none.", ""]
+        for name in names:
+            lines += api_entry(module.__name__, name, getattr(module, name, MISSING_NAME), home, anchors)
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
 # ------------------------------------------------------------------------------------- the index
 
 
@@ -721,14 +1276,16 @@ def render_index() -> str:
         "",
         GENERATED,
         "",
-        f"Both pages are generated from the sources by `{COMMAND}` (run it from the repository root "
-        "after changing a command, an option's help or a file contract); `tests/test_reference_docs.py` "
-        "fails while a page differs from what the code says.",
+        f"These pages are generated from the sources by `{COMMAND}` (run it from the repository root "
+        "after changing a command, an option's help, a file contract or a public name's signature or "
+        "docstring); `tests/test_reference_docs.py` fails while a page differs from what the code says.",
         "",
         f"- [cli.md](cli.md): every {scripts} command and subcommand, with its usage, help, arguments "
         "and options (type, default, help), from the click commands in `cli/`.",
         "- [formats.md](formats.md): every file contract in `data-schemas/`: each key, dataset and "
         "attribute with its type, shape, units and meaning.",
+        "- [api.md](api.md): the Python API: every name each public module exports (its `__all__`), "
+        "with its kind, signature and docstring, from the sources in `sizefx/`.",
         "",
         "Written by hand beside them:",
         "",
@@ -741,7 +1298,12 @@ def render_index() -> str:
 
 
 #: Each page and what makes it.
-PAGES: dict[str, Callable[[], str]] = {"README.md": render_index, "cli.md": render_cli, "formats.md": render_formats}
+PAGES: dict[str, Callable[[], str]] = {
+    "README.md": render_index,
+    "cli.md": render_cli,
+    "formats.md": render_formats,
+    "api.md": render_api,
+}
 
 
 def render() -> dict[str, str]:
