@@ -137,3 +137,20 @@ def test_navigate_syncs_separately_stamped_accelerometers():
         for name, t in (("ok", tel), ("synced", late), ("ignored", ignored))
     }
     assert err["ignored"] > 10 * err["synced"], err
+
+
+def test_diagnose_from_a_model_that_holds_everything_reports_in_a_band(tmp_path):
+    """A banded fit from a model that already holds what the record shows estimates nothing; the
+    report's band line had taken the largest of no parameters (a traceback after the JSON)."""
+    rec, runner = str(tmp_path / "t.h5"), CliRunner()
+    args = ["simulate", "tumble", "-o", rec, "--rate-hz", "200", "--duration-s", "20", "--seed", "1"]
+    assert runner.invoke(main, [*args, "--set", "accel_delay.enabled=true"]).exit_code == 0
+    first = runner.invoke(main, ["diagnose", rec, "--bandwidth-hz", "20", "--no-navigation"])
+    assert first.exit_code == 0, first.output
+    again = runner.invoke(
+        main,
+        ["diagnose", rec, "--model", str(tmp_path / "t.model.toml"), "--bandwidth-hz", "20", "--no-navigation"]
+        + ["--model-out", str(tmp_path / "b.model.toml")],
+    )
+    assert again.exit_code == 0, again.output
+    assert "standard errors include the band's and the selection's part" in again.output

@@ -386,11 +386,15 @@ def format_report(d: Diagnosis, start: str) -> str:
             / d.sigma_theta[index[q["effect"], q["parameter"]]]
             for q in systematic["parameters"]
         }
-        (effect, label), most = max(share.items(), key=lambda kv: kv[1])
+        # nothing estimated (a start model that already holds everything the record shows): no "most"
+        most = ""
+        if share:
+            (effect, label), top = max(share.items(), key=lambda kv: kv[1])
+            most = f" (most: {effect} {label}, {100 * top:.0f} % of its error)"
         lines.append(
             "standard errors include the band's and the selection's part, refitted at "
             + " and ".join(f"{b['bandwidth_hz']:.3g} Hz" for b in systematic["bands"])
-            + f" (most: {effect} {label}, {100 * most:.0f} % of its error)"
+            + most
         )
     band = f" (below {d.bandwidth_hz:g} Hz)" if d.bandwidth_hz else ""
     lines.append(f"residual RMS per channel{band}, start model -> extended model:")
