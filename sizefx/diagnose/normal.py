@@ -284,8 +284,7 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
         le = np.searchsorted(bl, np.append(ks, ks[-1] + 1))
         Z = basis(t[a:z], t0, span_s) if walking else None
         if g_sum is not None:
-            counts[ks] += np.diff(le)
-            seen = counts  # rows of each block met so far
+            counts[ks] += np.diff(le)  # rows of each block met so far
             ysum[ks] += np.add.reduceat(yb[a:z], le[:-1], axis=0)
         for c in range(6):
             js = [j for j in range(NP) if c in cc[j][0]]
@@ -328,7 +327,7 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
                         if k0 == ks[0]
                         else np.concatenate([[0], le + Xw.shape[0]])
                     )
-                if seen[ks[-1]] < block_rows[ks[-1]]:  # the last block goes on in the next span
+                if counts[ks[-1]] < block_rows[ks[-1]]:  # the last block goes on in the next span
                     cut = parts[-2]
                     waiting[c] = (ks[-1], X[cut:], yc[cut:])
                     jxs[c] = jx

@@ -43,6 +43,7 @@ __all__ = [
     "levels_for",
     "spectral_meat",
     "ALPHAS",
+    "SHAPES",
     "EMBED",
     "COLOUR_CHI2",
 ]
@@ -54,7 +55,8 @@ ALPHAS = (0.5, 1.0, 1.5, 2.0)
 #: and share; the shape's choice among :data:`SHAPES` is not counted).
 COLOUR_CHI2 = 5.99
 #: The model's autocovariance is formed on a grid this many times the record's span, so that the
-#: lowest frequency the record can show (one cycle over its span) is resolved.
+#: frequencies below the lowest the record shows (one cycle over its span) carry the model's power
+#: too, as a walk's or flicker's do.
 EMBED = 8
 
 
