@@ -154,3 +154,20 @@ def test_diagnose_from_a_model_that_holds_everything_reports_in_a_band(tmp_path)
     )
     assert again.exit_code == 0, again.output
     assert "standard errors include the band's and the selection's part" in again.output
+
+
+def test_a_record_without_translation_is_not_cut_by_its_accelerometers_noise(tmp_path):
+    """The parts by translation were sorted by the accelerometers' own |f| - g: on a yaw-only tumble
+    that sorts by their noise, and each part's z bias disagreed (chi2/dof about 28, a false warning
+    that 'an effect the model lacks may follow the motion'). They follow the reference's motion now."""
+    rec, out, runner = str(tmp_path / "yaw.h5"), str(tmp_path / "yaw.json"), CliRunner()
+    args = ["simulate", "tumble", "-o", rec, "--rate-hz", "400", "--duration-s", "60", "--seed", "1", "--axes", "z"]
+    assert runner.invoke(main, [*args, "--set", "accel_bias.enabled=true"]).exit_code == 0
+    result = runner.invoke(main, ["diagnose", rec, "--json", out, "--no-navigation"])
+    assert result.exit_code == 0, result.output
+    by_motion = [
+        w
+        for w in json.loads(open(out).read())["warnings"]
+        if w["kind"] == "inconsistent_blocks" and "by time" not in w["message"]
+    ]
+    assert not by_motion, by_motion

@@ -171,11 +171,19 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
     count, by_time = block_consistency(nrm, free, offset, sig, sig_white)
     cuts = [by_time]
+    # the parts by motion are sorted by the reference's motion, never by the IMU's readings: sorted
+    # by the accelerometers' own |f| - g, a record without translation is cut by their noise, and
+    # each part's bias estimate is biased by it (a false "inconsistent" on a yaw-only tumble)
     for split, stat in (
-        ("rate", per_sample(pred, lambda lo, hi: np.sum(pred.gyro[lo:hi] ** 2, axis=1))),
+        ("rate", per_sample(pred, lambda lo, hi: np.sum(pred.reference_motion_span(lo, hi)["w_nb"] ** 2, axis=1))),
         (
             "translation",
-            per_sample(pred, lambda lo, hi: np.abs(np.linalg.norm(pred.accel[lo:hi], axis=1) - STANDARD_GRAVITY_MPS2)),
+            per_sample(
+                pred,
+                lambda lo, hi: np.abs(
+                    np.linalg.norm(pred.reference_motion_span(lo, hi)["f_n"], axis=1) - STANDARD_GRAVITY_MPS2
+                ),
+            ),
         ),
     ):
         cuts.append(

@@ -180,6 +180,11 @@ class Predictor:
         """Measured ``[hi - lo, 6]`` of the samples ``lo:hi``."""
         return np.hstack([self.gyro[lo:hi], self.accel[lo:hi]])
 
+    def reference_motion_span(self, lo: int, hi: int) -> dict:
+        """The reference's motion at the samples ``lo:hi``, unshifted (:meth:`ReferenceMotion.evaluate`'s
+        ``C_bn``, ``w_nb``, ``w_in``, ``f_n``)."""
+        return self._kin_span(0.0, lo, hi)
+
     def terms_span(self, th: np.ndarray, lo: int, hi: int) -> dict:
         """:meth:`terms` of the samples ``lo:hi``."""
         return self._evaluate(th, lo, hi)[1]
