@@ -44,15 +44,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..constants import STANDARD_GRAVITY_MPS2
 from .candidates import columns_between
 from .consistency import block_consistency, motion_groups
 from .drift import walk_covariance
-from .normal import Normal, Rows, covariance, normal_equations, solve
+from .normal import CHUNK_SAMPLES, Normal, Rows, covariance, normal_equations, solve
 from .plausibility import judge
 from .predictor import Predictor
 from .records import ReportWarning
-from .residual import noise_of, per_sample, residual_under
+from .residual import noise_of, residual_under
 from .selection import honest, select
 from .spectrum import spectral_meat
 from .theta import PARAMS
@@ -174,18 +173,8 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     # the parts by motion are sorted by the reference's motion, never by the IMU's readings: sorted
     # by the accelerometers' own |f| - g, a record without translation is cut by their noise, and
     # each part's bias estimate is biased by it (a false "inconsistent" on a yaw-only tumble)
-    for split, stat in (
-        ("rate", per_sample(pred, lambda lo, hi: np.sum(pred.reference_motion_span(lo, hi)["w_nb"] ** 2, axis=1))),
-        (
-            "translation",
-            per_sample(
-                pred,
-                lambda lo, hi: np.abs(
-                    np.linalg.norm(pred.reference_motion_span(lo, hi)["f_n"], axis=1) - STANDARD_GRAVITY_MPS2
-                ),
-            ),
-        ),
-    ):
+    rate, translation = pred.motion_statistics(CHUNK_SAMPLES)
+    for split, stat in (("rate", rate), ("translation", translation)):
         cuts.append(
             block_consistency(nrm, free, offset, sig, sig_white, motion_groups(nrm, pred.t, stat), split=split)[1]
         )

@@ -27,6 +27,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .. import sensor_model as sm
+from ..constants import STANDARD_GRAVITY_MPS2
 from ..io.telemetry import Telemetry
 from ..omegadot import savgol_rows
 from .reference import EDGE_S, MIN_SAMPLES, DiagnoseError, ReferenceMotion, check_record, usable_mask
@@ -148,6 +149,7 @@ class Predictor:
         # a longer record evaluates the splines span by span (nothing cached, nothing per sample)
         fits = _CACHE_BYTES // (_KIN_BYTES_PER_SAMPLE * max(1, self.n))
         self._cached_shifts = fits if fits >= _MIN_CACHED_SHIFTS else 0
+        self._motion_statistics: tuple[np.ndarray, np.ndarray] | None = None  #: motion_statistics(), once formed
         self._kin: dict[float, dict[str, np.ndarray]] = {}  #: shift (rounded) -> the motion at the samples
 
     # ------------------------------------------------------------------ the whole record
@@ -180,10 +182,20 @@ class Predictor:
         """Measured ``[hi - lo, 6]`` of the samples ``lo:hi``."""
         return np.hstack([self.gyro[lo:hi], self.accel[lo:hi]])
 
-    def reference_motion_span(self, lo: int, hi: int) -> dict:
-        """The reference's motion at the samples ``lo:hi``, unshifted (:meth:`ReferenceMotion.evaluate`'s
-        ``C_bn``, ``w_nb``, ``w_in``, ``f_n``)."""
-        return self._kin_span(0.0, lo, hi)
+    def motion_statistics(self, span: int) -> tuple[np.ndarray, np.ndarray]:
+        """``([n], [n])``: the reference's squared rotation rate [(rad/s)^2] and how far its specific
+        force is from standard gravity [m/s^2], per sample, unshifted: what the record's parts by
+        rotation and by translation are sorted by. Formed once per record, ``span`` samples at a time
+        (they depend on the reference alone)."""
+        if self._motion_statistics is None:
+            rate, translation = np.empty(self.n), np.empty(self.n)
+            for lo in range(0, self.n, span):
+                hi = min(self.n, lo + span)
+                kin = self._kin_span(0.0, lo, hi)
+                rate[lo:hi] = np.sum(kin["w_nb"] ** 2, axis=1)
+                translation[lo:hi] = np.abs(np.linalg.norm(kin["f_n"], axis=1) - STANDARD_GRAVITY_MPS2)
+            self._motion_statistics = (rate, translation)
+        return self._motion_statistics
 
     def terms_span(self, th: np.ndarray, lo: int, hi: int) -> dict:
         """:meth:`terms` of the samples ``lo:hi``."""
