@@ -7,7 +7,7 @@ Runs the walk exactly as README.md writes it (the ```sh commands between its
 diagnose, calibrate --delay, navigate without and with the arms, compare), with the installed
 ``sizefx`` next to this Python, in a temporary folder that links ``examples`` to the
 repository's. Every figure is read from what the commands write: diagnose's, calibrate's and
-compare's ``--json`` files, the navigation files' ``summary_json``, ``sizefx inspect --json``
+compare's ``--json`` files, the navigation files' ``summary_json``, ``sizefx inspect --json -``
 on the imported file (the walk's ``inspect`` prints text), and the import's one-line summary
 (``import csv`` has no JSON). Against the example's truth (``examples/tumble_truth.json``).
 
@@ -131,7 +131,7 @@ def walk(tmp: Path) -> dict:
     out["import"] = {"printed": result.stdout.splitlines()[0]}
 
     # inspect: the walk's prints text; the same summary as JSON
-    info = json.loads(run(["sizefx", "inspect", record, "--json"], tmp).stdout)
+    info = json.loads(run(["sizefx", "inspect", record, "--json", "-"], tmp).stdout)
     out["inspect"] = {
         "samples": info["samples"],
         "sample_rate_hz": info["sample_rate_hz"],

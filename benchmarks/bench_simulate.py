@@ -79,7 +79,7 @@ def noise_sigma() -> dict:
 TUMBLE = "tumble --duration-s 5 --rate-hz 100 -q".split()
 REFUSALS = {
     "contract_limit_5000dps_3m_arms": (
-        "turntable --axes Z --static-s 60 --seconds-per-axis 10 --cycles 1 --peak-rate-dps 5000 "
+        "turntable --vertical-axes Z --static-s 60 --seconds-per-axis 10 --cycles 1 --peak-rate-dps 5000 "
         "--accel-dps2 1e5 --rate-hz 100 -q".split(),
         ["lever_arm.r_vehicle_m=[3, 0, 0]"],
     ),

@@ -25,7 +25,7 @@ class _Stage:
 
     input_param: str  #: the record argument of the single-file command
     outputs: dict = field(default_factory=dict)  #: output option -> file suffix, written for every record
-    plots: dict = field(default_factory=dict)  #: output option -> suffix, written with --plots
+    plots: dict = field(default_factory=dict)  #: output option -> suffix, written with --with-plots
     summary: bool = False  #: the batch writes the result's JSON (the stage has no JSON output of its own)
     dropped: tuple = ()  #: other options a batch does not offer
     many: bool = False  #: the record argument takes several records (calibrate: one per batch record)
@@ -43,7 +43,7 @@ STAGES = {
     "diagnose": _Stage(
         "measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"}, {"plots": ".diagnose-plots"}
     ),
-    "inspect": _Stage("file", summary=True, dropped=("as_json",)),
+    "inspect": _Stage("file", summary=True, dropped=("json_path",)),
     "compare": _Stage(
         "a",
         {"json_path": ".comparison.json"},
@@ -148,13 +148,12 @@ def batch_params(record_plots: bool, chain: bool = False) -> list:
             ["--json-progress"], is_flag=True, help="Progress as one JSON object per record on stderr (for schedulers)."
         ),
         click.Option(
-            ["--plots"],
+            ["--with-plots", "plots"],
             is_flag=True,
-            help="A flag, it takes no folder: also write fleet.png into --out, the headline figures across "
-            "the records"
+            help="Also write fleet.png into --out, the headline figures across the records"
             + (
-                ", and each record's plots beside its other outputs (the single command's --plot or "
-                "--plots takes a path instead)."
+                ", and each record's plots beside its other outputs (named after the record, where the "
+                "single command's --plot FILE or --plots DIR would go)."
                 if record_plots
                 else "."
             ),

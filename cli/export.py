@@ -54,14 +54,15 @@ def csv(record, output, force):
     help="ROS 2 bag folder to write (metadata.yaml and one storage file); --force replaces only a bag.",
 )
 @click.option(
-    "--format",
-    "storage",
+    "--storage",
     type=click.Choice(["mcap", "sqlite3"]),
     default="mcap",
     show_default=True,
-    help="Storage of the ROS 2 bag.",
+    help="Storage plug-in of the ROS 2 bag (as ros2 bag record --storage).",
 )
-@click.option("--topic", metavar="TOPIC", help="Topic [default: the source bag's IMU topic, else /imu/data].")
+@click.option(
+    "--imu-topic", "topic", metavar="TOPIC", help="Topic [default: the source bag's IMU topic, else /imu/data]."
+)
 @click.option("--frame-id", metavar="FRAME", help="header.frame_id [default: the source bag's, else imu_link].")
 @click.option(
     "--frame",

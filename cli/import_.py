@@ -94,7 +94,7 @@ def _names(text):
 @import_.command()
 @source_argument
 @output_option
-@click.option("--time", "time_col", required=True, help="Time column name.")
+@click.option("--time", "time_col", required=True, metavar="COLUMN", help="Time column of the file.")
 @click.option(
     "--time-units",
     type=click.Choice(["s", "ms", "us", "ns", "samples"]),
@@ -258,12 +258,14 @@ def ulog(source, output, site_deg, force):
 @click.argument("source", type=click.Path())
 @output_option
 @click.option(
-    "--imu",
+    "--imu-topic",
+    "imu",
     metavar="TOPIC",
     help="The sensor_msgs/Imu topic [default: the bag's only one; the bag's are listed when it has none or several].",
 )
 @click.option(
-    "--reference",
+    "--reference-topic",
+    "reference",
     metavar="TOPIC|tf:PARENT/CHILD",
     help="Reference attitude: a geometry_msgs/PoseStamped (or PoseWithCovarianceStamped) or nav_msgs/Odometry "
     "topic (an Odometry's twist gives the velocity), or the transforms of /tf from frame PARENT to CHILD.",
@@ -292,12 +294,16 @@ def ulog(source, output, site_deg, force):
 )
 @click.option(
     "--site-deg",
-    "--site",
     "site_deg",
     metavar="LAT,LON,H",
     help="Site: latitude [deg], longitude [deg], height [m] (navigation needs one).",
 )
-@click.option("--navsat", metavar="TOPIC", help="Take the site from the first fix of this sensor_msgs/NavSatFix topic.")
+@click.option(
+    "--navsat-topic",
+    "navsat",
+    metavar="TOPIC",
+    help="Take the site from the first fix of this sensor_msgs/NavSatFix topic.",
+)
 @force_option
 def rosbag(source, output, imu, reference, body_frame, stamps, axes, site_deg, navsat, force):
     """ROS bag (ROS 1 .bag, ROS 2 folder, .mcap or .db3; via rosbags): REP 103 frames -> FRD, NED.
@@ -343,7 +349,11 @@ def rosbag(source, output, imu, reference, body_frame, stamps, axes, site_deg, n
 )
 @click.option("--time", "time_col", required=True, metavar="COLUMN", help="Time column of the log.")
 @click.option(
-    "--time-units", type=click.Choice(["s", "ms", "us", "ns"]), default="s", show_default=True, help="Its units."
+    "--time-units",
+    type=click.Choice(["s", "ms", "us", "ns"]),
+    default="s",
+    show_default=True,
+    help="Units of the time column.",
 )
 @click.option(
     "--time-offset-s",
@@ -379,7 +389,7 @@ def rosbag(source, output, imu, reference, body_frame, stamps, axes, site_deg, n
     type=span(-360.0, 360.0),
     default=0.0,
     show_default=True,
-    help="Heading of the table's zero direction (its x axis) [deg east of north].",
+    help="Heading of the table's zero direction (its x axis), east of north [deg].",
 )
 @click.option(
     "--mount-deg",

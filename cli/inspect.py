@@ -6,7 +6,7 @@ import json
 
 import click
 
-from .options import allow_gaps_option, no_units_check_option
+from .options import allow_gaps_option, force_option, no_units_check_option
 
 
 @click.command()
@@ -15,12 +15,13 @@ from .options import allow_gaps_option, no_units_check_option
 @no_units_check_option
 @click.option(
     "--json",
-    "as_json",
-    is_flag=True,
-    help="A flag, it takes no file: print the summary to stdout as JSON instead of text "
-    "(redirect it to keep it: sizefx inspect FILE --json > summary.json).",
+    "json_path",
+    type=click.Path(dir_okay=False, allow_dash=True),
+    metavar="FILE",
+    help="Write the summary to FILE (JSON); '-' prints it to stdout instead of the text.",
 )
-def inspect(file, allow_gaps, no_units_check, as_json):
+@force_option(text="Replace the --json file if it exists (never an input).")
+def inspect(file, allow_gaps, no_units_check, json_path, force):
     """Validate FILE against sizefx/telemetry/1 and print what it holds.
 
     Samples, rate [Hz], duration [s], stored units and the physics check of
@@ -31,12 +32,17 @@ def inspect(file, allow_gaps, no_units_check, as_json):
     """
     from sizefx.inspect import run
 
-    result = run(config_of(file, allow_gaps, no_units_check))
-    click.echo(json.dumps(result.to_json(), indent=2) if as_json else result.report())
+    result = run(config_of(file, allow_gaps, no_units_check, json_path, force))
+    if json_path == "-":
+        click.echo(json.dumps(result.to_json(), indent=2))
+        return
+    click.echo(result.report())
+    if json_path:
+        click.echo(f"summary -> {json_path}")
 
 
-def config_of(file, allow_gaps, no_units_check):
+def config_of(file, allow_gaps, no_units_check, json_path=None, force=False):
     """The stage's config from the command's options (also ``sizefx batch inspect``'s, per record)."""
     from sizefx.inspect import InspectConfig
 
-    return InspectConfig(file, allow_gaps=allow_gaps, check_units=not no_units_check)
+    return InspectConfig(file, allow_gaps=allow_gaps, check_units=not no_units_check, json_path=json_path, force=force)

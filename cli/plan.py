@@ -34,7 +34,11 @@ from .options import force_option, span
     help="The table's largest angular acceleration [deg/s^2].",
 )
 @click.option(
-    "--axes", default="XYZ", show_default=True, help="Body axes the table can make vertical (letters X, Y, Z)."
+    "--vertical-axes",
+    "axes",
+    default="XYZ",
+    show_default=True,
+    help="Body axes the table can turn vertical (letters X, Y, Z).",
 )
 @click.option(
     "--reposition-s",

@@ -204,10 +204,11 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
     "current folder, NAME the flight's file name, or calibrate's record's].",
 )
 @click.option(
-    "--plots",
+    "--with-plots",
+    "plots",
     is_flag=True,
-    help="A flag, it takes no folder: also write each stage's plots into --out (calibrate.png, "
-    "plain.navigate.png, compensated.navigate.png, compare-plots/).",
+    help="Also write each stage's plots into --out (calibrate.png, plain.navigate.png, "
+    "compensated.navigate.png, compare-plots/).",
 )
 def run(out_dir, plots):
     """Chain calibrate, navigate and compare in one command.

@@ -177,11 +177,8 @@ def _refuse_plan_options(ctx, plan_path, plan_options):
     """--plan holds the plan: refuse the scenario's own plan options given beside it."""
     from click.core import ParameterSource
 
-    given = [
-        f"--{name.replace('_', '-')}"
-        for name in plan_options
-        if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
-    ]
+    flags = {p.name: p.opts[0] for p in ctx.command.params}
+    given = [flags[name] for name in plan_options if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE]
     if given:
         raise click.UsageError(
             f"--plan {plan_path} holds the plan; leave out {', '.join(given)} (or edit the plan file)"
@@ -190,7 +187,13 @@ def _refuse_plan_options(ctx, plan_path, plan_options):
 
 @simulate.command()
 @common_options
-@click.option("--axes", default="YXZ", show_default=True, help="Order of the vertical body axes, e.g. YXZ.")
+@click.option(
+    "--vertical-axes",
+    "axes",
+    default="YXZ",
+    show_default=True,
+    help="The body axes turned vertical, in the order the table turns about them (letters X, Y, Z).",
+)
 @click.option(
     "--seconds-per-axis",
     default=120.0,
@@ -341,7 +344,8 @@ def flight(duration_h, align_s, speed_mps, altitude_m, heading_deg, rotor_hz, **
 @common_options
 @click.option("--duration-s", default=120.0, show_default=True, type=span(1.0, 86400.0), help="Record length [s].")
 @click.option(
-    "--axes",
+    "--gimbals",
+    "axes",
     default="zyx",
     show_default=True,
     help="Gimbals that move: z heading, y pitch, x roll (z alone: rotation about the vertical only).",
@@ -350,7 +354,7 @@ def tumble(duration_s, axes, **common):
     """A record for sizefx diagnose: heading, pitch and roll sinusoids on a static site.
 
     Gravity sweeps every body axis and the rates reach about 0.7 rad/s, so every
-    effect sizefx diagnose knows is observable (with --axes zyx).
+    effect sizefx diagnose knows is observable (with --gimbals zyx).
     """
     from sizefx import scenarios
 

@@ -1,7 +1,7 @@
 """What a telemetry file holds: ``sizefx inspect``.
 
 The stage (:mod:`sizefx.stage`): :class:`InspectConfig` -> :func:`run` -> :class:`InspectResult`,
-whose ``report()`` is the text the command prints and ``to_json()`` what ``--json`` prints.
+whose ``report()`` is the text the command prints and ``to_json()`` what ``--json FILE`` writes.
 """
 
 from __future__ import annotations
@@ -12,13 +12,14 @@ from pathlib import Path
 import numpy as np
 
 from .constants import ARCSEC, MICRO_G, PPM, STANDARD_GRAVITY_MPS2
+from .io.documents import write_json
 from .io.schema import TELEMETRY_SCHEMA, allowed_units
 from .io.telemetry import Telemetry, imu_segments, read_telemetry
 from .sanity import report_lines
 
 __all__ = ["InspectConfig", "InspectResult", "run", "summarize", "format_summary", "inspect_file"]
 
-#: Segments listed one per line in the text summary (all of them are in --json).
+#: Segments listed one per line in the text summary (all of them are in --json FILE).
 SEGMENTS_SHOWN = 12
 
 
@@ -191,7 +192,7 @@ def format_summary(s: dict) -> str:
                 f"t = {seg['start_s']:.6f} .. {seg['end_s']:.6f} s ({seg['end_s'] - seg['start_s']:.3f} s)"
             )
         if len(segs) > SEGMENTS_SHOWN:
-            lines.append(f"          ... and {len(segs) - SEGMENTS_SHOWN} more (--json lists them all)")
+            lines.append(f"          ... and {len(segs) - SEGMENTS_SHOWN} more (--json FILE lists them all)")
     else:
         lines.append("  gaps      none")
     if ref:
@@ -249,17 +250,20 @@ class InspectConfig:
     allow_gaps: bool = False  #: accept undeclared IMU gaps (they are listed)
     #: check the units against physics (:mod:`sizefx.sanity`) and refuse data that look like another unit
     check_units: bool = True
+    #: write the summary there as JSON (sizefx/inspect's fields); ``"-"`` is stdout, which the command prints
+    json_path: str | Path | None = None
+    force: bool = False  #: replace an existing ``json_path`` (never an input)
 
     def inputs(self) -> dict:
         return {"FILE": self.file}
 
     def outputs(self) -> dict:
-        return {}
+        return {"--json": self.json_path} if self.json_path not in (None, "-") else {}
 
 
 @dataclass
 class InspectResult:
-    """What a valid record holds: the fields of :func:`summarize` (``to_json()`` is what ``--json`` prints)."""
+    """What a valid record holds: the fields of :func:`summarize` (``to_json()`` is what ``--json`` writes)."""
 
     path: str
     schema: str
@@ -289,7 +293,8 @@ class InspectResult:
 
 def run(config: InspectConfig, *, progress=None) -> InspectResult:
     """Validate ``config.file`` and describe it; with ``check_units`` (default) also check its units
-    against physics (:mod:`sizefx.sanity`) and refuse data that look like another unit.
+    against physics (:mod:`sizefx.sanity`) and refuse data that look like another unit. With a
+    ``json_path`` other than ``"-"`` the summary is written there (atomically, never over an input).
 
     Pre-flight first (:func:`sizefx.stage.preflight`: the file exists). ``progress`` is accepted
     for the shape every stage shares and not called: the reader validates the whole record in
@@ -299,7 +304,7 @@ def run(config: InspectConfig, *, progress=None) -> InspectResult:
     from .sanity import refuse_wrong_units
     from .stage import preflight
 
-    preflight(inputs=config.inputs(), outputs=config.outputs())
+    preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     path = Path(config.file)
     tel = read_telemetry(path, allow_gaps=config.allow_gaps, check_plausibility=config.check_units)
     summary = summarize(tel)
@@ -307,7 +312,10 @@ def run(config: InspectConfig, *, progress=None) -> InspectResult:
         report = units_of(tel)
         refuse_wrong_units(report, path, fix=_units_fix)
         summary["units_check"] = report.as_dict()
-    return InspectResult(**summary)
+    result = InspectResult(**summary)
+    if config.json_path not in (None, "-"):
+        write_json(config.json_path, result.to_json(), inputs=[path], force=config.force)
+    return result
 
 
 def inspect_file(path, *, allow_gaps: bool = False, check_units: bool = True) -> dict:

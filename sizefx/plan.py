@@ -143,7 +143,7 @@ class TableLimits:
         axes, sway_axes = self.axes.upper(), self.sway_axes.upper()
         if not axes or any(a not in "XYZ" for a in axes) or len(set(axes)) != len(axes):
             raise PlanError(
-                f"table axes '{self.axes}': give the body axes the table can make vertical, each once "
+                f"--vertical-axes '{self.axes}' (the table axes): give the body axes the table can make vertical, each once "
                 "(letters X, Y, Z, e.g. XYZ)"
             )
         if any(a not in SWAY_AXES for a in sway_axes) or len(set(sway_axes)) != len(sway_axes):

@@ -481,6 +481,6 @@ class TumblePlan:
 def tumble_scenario(plan: TumblePlan, site: SiteSpec = PAPER_AIRFIELD):
     """:func:`tumble` from a plan, with the plan as the scenario's parameters."""
     if not plan.axes or set(plan.axes) - set("xyz"):
-        raise ConfigError(f"--axes '{plan.axes}': use a subset of x, y, z (e.g. zyx, or z for the vertical only)")
+        raise ConfigError(f"--gimbals '{plan.axes}': use a subset of x, y, z (e.g. zyx, or z for the vertical only)")
     traj = tumble(plan.duration_s, site, amplitudes_deg=plan.amplitudes_deg, freqs_hz=plan.freqs_hz, axes=plan.axes)
     return traj, asdict(plan)

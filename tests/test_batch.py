@@ -665,16 +665,16 @@ def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(campaign, tmp_p
 # long tier: calibrates three turntable records and draws (5 s); fast twin: test_compare.py's and test_diagnose.py's plots
 @pytest.mark.slow
 def test_plots_draw_the_figures_across_the_records(campaign, tmp_path):
-    """--plots: fleet.png with calibrate's nine arm components (and each run's own figure); for a stage
-    without figures of its own, --plots does not make the records run again."""
+    """--with-plots: fleet.png with calibrate's nine arm components (and each run's own figure); for a stage
+    without figures of its own, --with-plots does not make the records run again."""
     out = tmp_path / "cal"
-    result = _batch("calibrate", campaign, "--out", out, "--plots")
+    result = _batch("calibrate", campaign, "--out", out, "--with-plots")
     assert result.exit_code == 0, result.output
     assert (out / "fleet.png").stat().st_size > 10_000 and (out / "run0.calibrate.png").exists()
     assert "figures across the records" in result.output and "chi2/dof" in result.output
     checked = tmp_path / "inspect"
     assert _batch("inspect", campaign, "--out", checked).exit_code == 0
-    result = _batch("inspect", campaign, "--out", checked, "--plots")
+    result = _batch("inspect", campaign, "--out", checked, "--with-plots")
     assert "0 ok, 3 unchanged" in result.output and (checked / "fleet.png").exists(), result.output
 
 
@@ -698,7 +698,7 @@ def test_headline_figures_of_each_stage():
 
 
 def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campaign, tmp_path):
-    """batch navigate --plots: a 5-sample record is refused (the single command's one line as the reason),
+    """batch navigate --with-plots: a 5-sample record is refused (the single command's one line as the reason),
     not 'failed' with a ValueError, and the other records run."""
     from support import write_tiny_flight
 
@@ -707,7 +707,7 @@ def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campa
     shutil.copy(campaign / "run0.h5", runs)  # one good record beside it is enough to see it run
     write_tiny_flight(runs / "tiny.h5", 5)
     out = tmp_path / "out"
-    result = _batch("navigate", runs, "--out", out, "--plots", "--workers", "1")
+    result = _batch("navigate", runs, "--out", out, "--with-plots", "--workers", "1")
     assert result.exit_code == 1, result.output
     entries = {e["name"]: e for e in _manifest(out)["records"]}
     assert entries["tiny"]["status"] == "refused" and entries["tiny"]["outputs"] == {}

@@ -66,7 +66,7 @@ def test_simulate_then_inspect(runner, tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert "wrote" in result.output
-    result = runner.invoke(main, ["inspect", str(out), "--json"])
+    result = runner.invoke(main, ["inspect", str(out), "--json", "-"])
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
     assert summary["form"] == "increments" and summary["samples"] == 3200
@@ -217,9 +217,20 @@ def test_inspect_is_a_stage_whose_report_the_command_prints(runner, raw_file, tm
     text = runner.invoke(main, ["inspect", str(raw_file)])
     assert text.exit_code == 0 and text.output == res.report() + "\n"
     assert res.report().startswith(f"{raw_file}: valid sizefx/telemetry/1\n  IMU       1000 samples of rates, 100 Hz")
-    as_json = runner.invoke(main, ["inspect", str(raw_file), "--json"])
+    as_json = runner.invoke(main, ["inspect", str(raw_file), "--json", "-"])
     assert json.loads(as_json.output) == json.loads(json.dumps(res.to_json()))
     assert res.to_json()["units_check"]["accel"]["verdict"] == "ok"
+    # --json FILE: the same summary in a file, the text on stdout; an existing file only with --force,
+    # and never the record itself
+    summary = tmp_path / "summary.json"
+    written = runner.invoke(main, ["inspect", str(raw_file), "--json", str(summary)])
+    assert written.exit_code == 0 and written.output == res.report() + f"\nsummary -> {summary}\n"
+    assert json.loads(summary.read_text()) == json.loads(as_json.output)
+    again = runner.invoke(main, ["inspect", str(raw_file), "--json", str(summary)])
+    assert again.exit_code == 2 and "--force" in again.output
+    assert runner.invoke(main, ["inspect", str(raw_file), "--json", str(summary), "--force"]).exit_code == 0
+    itself = runner.invoke(main, ["inspect", str(raw_file), "--json", str(raw_file), "--force"])
+    assert itself.exit_code == 2 and "input" in itself.output
     with pytest.raises(ConfigError, match="FILE: no such file"):  # the shared pre-flight
         run(InspectConfig(tmp_path / "none.h5"))
 

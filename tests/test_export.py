@@ -67,7 +67,9 @@ def imported(tmp_path_factory):
     truth = simulated(duration_s=4.0)
     bag = write_bag(folder / "source", truth)
     record = folder / "record.h5"
-    result = _cli("import", "rosbag", bag, "-o", record, "--reference", "/odom", "--site-deg", ",".join(map(str, SITE)))
+    result = _cli(
+        "import", "rosbag", bag, "-o", record, "--reference-topic", "/odom", "--site-deg", ",".join(map(str, SITE))
+    )
     assert result.exit_code == 0, result.output
     return truth, bag, record
 
@@ -89,9 +91,9 @@ def test_bag_import_export_import_gives_the_same_record(imported, tmp_path, sour
         spec = Bag(imu_topic="/imu", imu_frame="/imu_frame", child_frame="imu_frame")
         bag = write_bag(tmp_path / "source.bag", truth, spec, kind="ros1")
         record = tmp_path / "record.h5"
-        assert _cli("import", "rosbag", bag, "-o", record, "--reference", "/odom").exit_code == 0
+        assert _cli("import", "rosbag", bag, "-o", record, "--reference-topic", "/odom").exit_code == 0
     out = tmp_path / "again"
-    result = _cli("export", "rosbag", record, "-o", out, "--format", storage)
+    result = _cli("export", "rosbag", record, "-o", out, "--storage", storage)
     assert result.exit_code == 0, result.output
     topic, frame = ("/imu", "/imu_frame") if source == "ros1" else ("/imu/data", "imu_link")
     assert f"topic {topic} (sensor_msgs/Imu), frame_id '{frame}'" in result.output
@@ -199,7 +201,7 @@ def test_outputs_never_replace_an_input(imported, tmp_path):
     assert _cli("export", "rosbag", local, "-o", tmp_path / "bag").exit_code == 0
     _refused(_cli("export", "rosbag", local, "-o", tmp_path / "bag"), "--force")
     before = (tmp_path / "bag" / "metadata.yaml").read_text()
-    result = _cli("export", "rosbag", local, "-o", tmp_path / "bag", "--force", "--format", "sqlite3")
+    result = _cli("export", "rosbag", local, "-o", tmp_path / "bag", "--force", "--storage", "sqlite3")
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in (tmp_path / "bag").iterdir()) == ["bag.db3", "metadata.yaml"]
     assert (tmp_path / "bag" / "metadata.yaml").read_text() != before

@@ -142,9 +142,11 @@ def test_pose_and_tf_references_and_ned_frames(truth, tmp_path):
 
 def test_receive_stamps_and_a_site_from_navsatfix(truth, tmp_path):
     """--stamps receive takes the recorder's times (2 ms late here, the same origin shift for the
-    reference); --navsat takes the first message that holds a fix."""
+    reference); --navsat-topic takes the first message that holds a fix."""
     bag = write_bag(tmp_path / "rec", truth, Bag(navsat=(47.4, 8.5, 500.0)))
-    result = _invoke(bag, "-o", tmp_path / "rec.h5", "--stamps", "receive", "--reference", "/odom", "--navsat", "/fix")
+    result = _invoke(
+        bag, "-o", tmp_path / "rec.h5", "--stamps", "receive", "--reference-topic", "/odom", "--navsat-topic", "/fix"
+    )
     assert result.exit_code == 0, result.output
     assert "site: the first fix of /fix (message 1): 48.4000000 deg" in result.output
     tel = read_telemetry(tmp_path / "rec.h5")
@@ -194,11 +196,13 @@ def test_only_the_chosen_topics_are_read(truth, tmp_path, monkeypatch):
 
 def test_topics_are_listed_when_the_imu_is_absent_or_ambiguous(truth, tmp_path):
     two = write_bag(tmp_path / "two", truth, Bag(reference=None, extra_imu_topics=("/imu/raw",)))
-    _refused(_invoke(two, "-o", tmp_path / "x.h5"), "holds 2 sensor_msgs/Imu topics (/imu/data, /imu/raw)", "--imu")
-    assert _invoke(two, "-o", tmp_path / "x.h5", "--imu", "/imu/raw").exit_code == 0
     _refused(
-        _invoke(two, "-o", tmp_path / "y.h5", "--imu", "/imu"),
-        "--imu /imu: the bag has no such topic; its sensor_msgs/Imu topics: /imu/data, /imu/raw",
+        _invoke(two, "-o", tmp_path / "x.h5"), "holds 2 sensor_msgs/Imu topics (/imu/data, /imu/raw)", "--imu-topic"
+    )
+    assert _invoke(two, "-o", tmp_path / "x.h5", "--imu-topic", "/imu/raw").exit_code == 0
+    _refused(
+        _invoke(two, "-o", tmp_path / "y.h5", "--imu-topic", "/imu"),
+        "--imu-topic /imu: the bag has no such topic; its sensor_msgs/Imu topics: /imu/data, /imu/raw",
     )
     # a bag without any Imu: its topics listed
     from rosbags.rosbag2 import Writer
@@ -218,28 +222,33 @@ def test_topics_are_listed_when_the_imu_is_absent_or_ambiguous(truth, tmp_path):
 def test_a_reference_in_another_frame_is_refused_naming_the_frames(truth, tmp_path):
     bag = write_bag(tmp_path / "rec", truth, Bag(child_frame="base_link"))
     line = _refused(
-        _invoke(bag, "-o", tmp_path / "x.h5", "--reference", "/odom"),
+        _invoke(bag, "-o", tmp_path / "x.h5", "--reference-topic", "/odom"),
         "describes frame 'base_link' in 'odom'",
         "the body is 'imu_link'",
         "--body-frame base_link",
     )
     assert "tf:odom/imu_link" in line
     # the user says the two frames have the same axes
-    assert _invoke(bag, "-o", tmp_path / "x.h5", "--reference", "/odom", "--body-frame", "base_link").exit_code == 0
+    assert (
+        _invoke(bag, "-o", tmp_path / "x.h5", "--reference-topic", "/odom", "--body-frame", "base_link").exit_code == 0
+    )
     tf = write_bag(tmp_path / "tf", truth, Bag(reference="tf"))
     _refused(
-        _invoke(tf, "-o", tmp_path / "y.h5", "--reference", "tf:odom/base_link"),
+        _invoke(tf, "-o", tmp_path / "y.h5", "--reference-topic", "tf:odom/base_link"),
         "/tf has no transform with parent and child odom/base_link",
         "map/odom, odom/imu_link",
     )
-    _refused(_invoke(tf, "-o", tmp_path / "y.h5", "--reference", "tf:base_link"), "tf:PARENT/CHILD")
+    _refused(_invoke(tf, "-o", tmp_path / "y.h5", "--reference-topic", "tf:base_link"), "tf:PARENT/CHILD")
     _refused(
-        _invoke(tf, "-o", tmp_path / "y.h5", "--reference", "/imu/data"), "holds sensor_msgs/Imu; a reference is one of"
+        _invoke(tf, "-o", tmp_path / "y.h5", "--reference-topic", "/imu/data"),
+        "holds sensor_msgs/Imu; a reference is one of",
     )
     # a world frame that is not ENU (a NED world read as REP 103's ENU): up is upside down
     ned = write_bag(tmp_path / "ned", truth, Bag(reference="pose", reference_topic="/pose", body="frd"))
     _refused(
-        _invoke(ned, "-o", tmp_path / "z.h5", "--reference", "/pose", "--imu", "/imu/data", "--no-units-check"),
+        _invoke(
+            ned, "-o", tmp_path / "z.h5", "--reference-topic", "/pose", "--imu-topic", "/imu/data", "--no-units-check"
+        ),
         "puts 'up'",
         "--frame flu",
     )

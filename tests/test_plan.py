@@ -114,8 +114,8 @@ def test_noise_must_be_positive_and_finite(noise):
     [
         (["--budget-s", "300", "--target-sigma-mm", "0.05"], "either"),
         ([], "either"),
-        (["--budget-s", "300", "--axes", "XQ"], "table axes"),
-        (["--budget-s", "300", "--axes", "XX"], "table axes"),
+        (["--budget-s", "300", "--vertical-axes", "XQ"], "table axes"),
+        (["--budget-s", "300", "--vertical-axes", "XX"], "table axes"),
         (["--budget-s", "40"], "--budget-s 40"),
         # long tier: the search runs to its limit before it refuses (4 s); fast twin: budget-too-short
         pytest.param(["--target-sigma-mm", "1e-7"], "--target-sigma-mm", marks=pytest.mark.slow),

@@ -161,7 +161,7 @@ def test_a_record_without_translation_is_not_cut_by_its_accelerometers_noise(tmp
     that sorts by their noise, and each part's z bias disagreed (chi2/dof about 28, a false warning
     that 'an effect the model lacks may follow the motion'). They follow the reference's motion now."""
     rec, out, runner = str(tmp_path / "yaw.h5"), str(tmp_path / "yaw.json"), CliRunner()
-    args = ["simulate", "tumble", "-o", rec, "--rate-hz", "400", "--duration-s", "60", "--seed", "1", "--axes", "z"]
+    args = ["simulate", "tumble", "-o", rec, "--rate-hz", "400", "--duration-s", "60", "--seed", "1", "--gimbals", "z"]
     assert runner.invoke(main, [*args, "--set", "accel_bias.enabled=true"]).exit_code == 0
     result = runner.invoke(main, ["diagnose", rec, "--json", out, "--no-navigation"])
     assert result.exit_code == 0, result.output

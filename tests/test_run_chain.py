@@ -323,13 +323,13 @@ def test_batch_run_with_an_unreachable_scheduler_writes_nothing(records, one_fli
 
 @pytest.mark.parametrize("n,needle", [(5, "the solution (-o) needs at least 1 row"), (10, "(--plot) needs at least 2")])
 def test_a_flight_of_a_handful_of_samples_is_refused_and_leaves_no_folder(tmp_path, n, needle):
-    """run --plots on a flight too short for a solution or a curve: navigate, the first stage, refuses it in
+    """run --with-plots on a flight too short for a solution or a curve: navigate, the first stage, refuses it in
     one line (it ended in a traceback), and the --out folder the chain made for it is gone again."""
     flight = write_tiny_flight(tmp_path / "tiny.h5", n)
     levers = tmp_path / "levers.json"
     write_levers(levers, levers_from_preset("high-precision"))
     out = tmp_path / "out"
-    result = _run("--out", out, "--plots", "navigate", "--levers", levers, flight, "compare")
+    result = _run("--out", out, "--with-plots", "navigate", "--levers", levers, flight, "compare")
     assert result.exit_code == 2, result.output
     text = result.output.strip()
     assert "\n" not in text and "Traceback" not in text, text

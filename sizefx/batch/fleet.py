@@ -25,7 +25,7 @@ __all__ = [
     "FLEET_PLOT",
 ]
 
-#: The figure of the headline figures across the records (``sizefx batch ... --plots``).
+#: The figure of the headline figures across the records (``sizefx batch ... --with-plots``).
 FLEET_PLOT = "fleet.png"
 
 #: A run disagrees with the rest when one of its arm components is this many standard errors

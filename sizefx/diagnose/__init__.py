@@ -1,4 +1,4 @@
-"""What the simulation of a record gets wrong, named and measured: the ``diagnose`` stage.
+"""What the sensor model gets wrong about a record, named and measured: the ``diagnose`` stage.
 
 Morozov & Bogdanov 2024 fit one effect, the lever arms; diagnose generalises it. From the
 record's ``/reference`` motion it predicts what the gyros and accelerometers would read under

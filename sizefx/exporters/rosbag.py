@@ -86,11 +86,11 @@ def write(
     output = Path(output)
     check_output(output, inputs=inputs, force=force)
     if storage not in STORAGES:
-        raise ConfigError(f"export rosbag: --format {storage}: use one of {', '.join(STORAGES)}")
+        raise ConfigError(f"export rosbag: --storage {storage}: use one of {', '.join(STORAGES)}")
     if axes is not None and axes not in ROS_AXES:
         raise ConfigError(f"export rosbag: --frame {axes}: use one of {', '.join(ROS_AXES)}")
     if topic is not None and (not topic.strip() or any(c.isspace() for c in topic)):
-        raise ConfigError(f"export rosbag: --topic '{topic}' is not a topic name (e.g. /imu/data)")
+        raise ConfigError(f"export rosbag: --imu-topic '{topic}' is not a topic name (e.g. /imu/data)")
     try:
         require_rosbags(f"writing the ROS 2 bag {output.name}")
     except ImportError as exc:

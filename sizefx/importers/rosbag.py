@@ -134,14 +134,16 @@ def _choose_imu(path: Path, topics: dict, imu: str | None) -> str:
             return imus[0]
         if not imus:
             raise SourceError(path, f"holds no sensor_msgs/Imu topic; its topics: {_listing(everything)}")
-        raise SourceError(path, f"holds {len(imus)} sensor_msgs/Imu topics ({_listing(imus)}); choose one with --imu")
+        raise SourceError(
+            path, f"holds {len(imus)} sensor_msgs/Imu topics ({_listing(imus)}); choose one with --imu-topic"
+        )
     if imu not in topics:
         listed = f"its sensor_msgs/Imu topics: {_listing(imus)}" if imus else f"its topics: {_listing(everything)}"
-        raise SourceError(path, f"--imu {imu}: the bag has no such topic; {listed}")
+        raise SourceError(path, f"--imu-topic {imu}: the bag has no such topic; {listed}")
     if topics[imu].msgtype != IMU:
         raise SourceError(
             path,
-            f"--imu {imu}: the topic holds {_short(topics[imu].msgtype)}, not sensor_msgs/Imu; its "
+            f"--imu-topic {imu}: the topic holds {_short(topics[imu].msgtype)}, not sensor_msgs/Imu; its "
             f"sensor_msgs/Imu topics: {_listing(imus)}",
         )
     return imu
@@ -255,7 +257,7 @@ def load(
     if frame not in ROS_AXES:
         raise ConfigError(f"import rosbag: --frame {frame}: use one of {', '.join(ROS_AXES)}")
     if site_deg is not None and navsat is not None:
-        raise ConfigError("import rosbag: give the site once: --site-deg or --navsat")
+        raise ConfigError("import rosbag: give the site once: --site-deg or --navsat-topic")
     reader = _open_reader(path)
     try:
         topics = reader.topics
@@ -267,7 +269,8 @@ def load(
                 fixes = sorted(name for name, info in topics.items() if info.msgtype == NAVSAT)
                 found = "no such topic" if navsat not in topics else f"{_short(topics[navsat].msgtype)} there"
                 raise SourceError(
-                    path, f"--navsat {navsat}: the bag has {found}; its sensor_msgs/NavSatFix topics: {_listing(fixes)}"
+                    path,
+                    f"--navsat-topic {navsat}: the bag has {found}; its sensor_msgs/NavSatFix topics: {_listing(fixes)}",
                 )
             fix = _Fix(navsat)
         state = _Imu(imu_topic)
@@ -339,7 +342,7 @@ def _telemetry(path, state: _Imu, ref, fix, stamps, frame, body_frame, site_deg,
         if fix.found is None:
             raise SourceError(
                 path,
-                f"--navsat {fix.topic}: none of its {fix.seen} messages holds a fix (status >= STATUS_FIX "
+                f"--navsat-topic {fix.topic}: none of its {fix.seen} messages holds a fix (status >= STATUS_FIX "
                 "with finite latitude, longitude, altitude); give the site with --site-deg",
             )
         lat, lon, alt, k = fix.found
@@ -349,7 +352,7 @@ def _telemetry(path, state: _Imu, ref, fix, stamps, frame, body_frame, site_deg,
         )
         source.update(site_from=fix.topic, site_message=k)
     else:
-        conversion.append("site: none (navigation needs one: --site-deg or --navsat)")
+        conversion.append("site: none (navigation needs one: --site-deg or --navsat-topic)")
     tel.description = description
     tel.source = provenance(path, "rosbag", digest=_bag_sha256(path), **source, conversion=conversion)
     if path.is_dir():

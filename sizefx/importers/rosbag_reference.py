@@ -53,13 +53,13 @@ def _reference_spec(path: Path, topics: dict, reference: str) -> _ReferenceSpec:
         if "/" not in pair:
             raise SourceError(
                 path,
-                f"--reference {reference}: name the parent and the child frame, tf:PARENT/CHILD (e.g. tf:odom/base_link)",
+                f"--reference-topic {reference}: name the parent and the child frame, tf:PARENT/CHILD (e.g. tf:odom/base_link)",
             )
         tf = topics.get(TF_TOPIC)
         if tf is None or tf.msgtype not in TF_TYPES:
             found = "no such topic" if tf is None else f"it holds {_short(tf.msgtype)}"
             raise SourceError(
-                path, f"--reference {reference}: the transforms are read from {TF_TOPIC}, and the bag has {found}"
+                path, f"--reference-topic {reference}: the transforms are read from {TF_TOPIC}, and the bag has {found}"
             )
         return _ReferenceSpec("tf", TF_TOPIC, reference, pair=pair)
     accepted = ", ".join(_short(t) for t in REFERENCE_TYPES)
@@ -68,12 +68,12 @@ def _reference_spec(path: Path, topics: dict, reference: str) -> _ReferenceSpec:
         tf = " or tf:PARENT/CHILD from /tf" if TF_TOPIC in topics else ""
         raise SourceError(
             path,
-            f"--reference {reference}: the bag has no such topic; its topics of {accepted}: {_listing(usable)}{tf}",
+            f"--reference-topic {reference}: the bag has no such topic; its topics of {accepted}: {_listing(usable)}{tf}",
         )
     msgtype = topics[reference].msgtype
     if msgtype not in REFERENCE_TYPES:
         raise SourceError(
-            path, f"--reference {reference}: the topic holds {_short(msgtype)}; a reference is one of {accepted}"
+            path, f"--reference-topic {reference}: the topic holds {_short(msgtype)}; a reference is one of {accepted}"
         )
     return _ReferenceSpec("odometry" if msgtype == ODOMETRY else "pose", reference, reference)
 
@@ -117,7 +117,8 @@ def _add_transforms(path: Path, ref: _ReferenceSpec, msg, receive_ns: int, *, ma
         if len(ref.matched) > 1:
             shown = " and ".join(f"parent '{p}', child '{c}'" for p, c in sorted(ref.matched))
             raise SourceError(
-                path, f"--reference {ref.asked}: {TF_TOPIC} has two transforms that read so ({shown}); rename a frame"
+                path,
+                f"--reference-topic {ref.asked}: {TF_TOPIC} has two transforms that read so ({shown}); rename a frame",
             )
         ref.world, ref.child = parent, child
         if ref.rows.n >= max_rows:
@@ -132,16 +133,16 @@ def _build_reference(path, ref: _ReferenceSpec, stamps, frame, body, imu_frame, 
     if ref.kind == "tf" and not ref.matched:
         raise SourceError(
             path,
-            f"--reference {ref.asked}: {TF_TOPIC} has no transform with parent and child {ref.pair}; the "
+            f"--reference-topic {ref.asked}: {TF_TOPIC} has no transform with parent and child {ref.pair}; the "
             f"frames it holds (parent/child): {_listing(sorted(ref.pairs_seen))}",
         )
     if ref.child is not None and ref.child != body:
         whose = "--body-frame" if body != _frame(imu_frame) else f"the frame of {imu_topic}"
         raise SourceError(
             path,
-            f"--reference {ref.asked}: the reference describes frame '{ref.child}' in '{ref.world}', and the "
+            f"--reference-topic {ref.asked}: the reference describes frame '{ref.child}' in '{ref.world}', and the "
             f"body is '{body}' ({whose}): the attitude must describe the IMU's axes; give "
-            f"--reference tf:{ref.world}/{body} if the bag's {TF_TOPIC} has it, or --body-frame {ref.child} "
+            f"--reference-topic tf:{ref.world}/{body} if the bag's {TF_TOPIC} has it, or --body-frame {ref.child} "
             "if the two frames have the same axes",
         )
     if ns_both.shape[0] < 2:
@@ -190,7 +191,7 @@ def _build_reference(path, ref: _ReferenceSpec, stamps, frame, body, imu_frame, 
     if angle_deg is not None and angle_deg > REFERENCE_GRAVITY_ANGLE_MAX_DEG:
         raise SourceError(
             path,
-            f"--reference {ref.asked}: the reference attitude puts 'up' {angle_deg:.0f} deg (median) from the "
+            f"--reference-topic {ref.asked}: the reference attitude puts 'up' {angle_deg:.0f} deg (median) from the "
             f"specific force {imu_topic} reads; at rest they agree. Is world frame '{ref.world}' "
             f"{world} and body frame '{ref.child or body}' the IMU's axes (--frame {frame})?",
         )
