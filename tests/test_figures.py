@@ -170,6 +170,61 @@ def test_each_result_file_records_its_run_from_a_clean_checkout(path):
     assert {"start", "end"} <= set(load), load
 
 
+#: Each explanation page ends with the result files its figures come from, between these markers,
+#: written by ``python tests/test_figures.py --rewrite`` from the registry and the files themselves.
+SOURCES_START = "<!-- figure sources: written by `python tests/test_figures.py --rewrite` from docs/figures.toml -->"
+SOURCES_END = "<!-- /figure sources -->"
+#: Pages whose figures are listed so (README.md and examples/README.md cite each command inline).
+SOURCE_LISTED_PAGES = sorted({e["page"] for e in FIGURES if e["page"].startswith("docs/")})
+
+
+def sources_section(page_path: str) -> str:
+    """The markdown that ends ``page_path``: each result file its registered figures come from, in the
+    order the registry first names them, with the command, date, commit and machine of its run."""
+    from os.path import relpath
+
+    paths = list(dict.fromkeys(e["source"] for e in FIGURES if e["page"] == page_path))
+    commands = registry().get("commands", {})
+    lines = [
+        SOURCES_START,
+        "## Where the figures come from",
+        "",
+        "Every measured figure on this page is read from one of these result files "
+        "(`tests/test_figures.py` checks each against its file):",
+        "",
+    ]
+    for path in paths:
+        link = relpath(ROOT / path, (ROOT / page_path).parent)
+        doc = source(path)
+        if "command" in doc:
+            machine = doc["machine"]
+            where = f"{machine['cores']} cores" + ("" if machine.get("quiet", True) else ", under load")
+            told = f"`{doc['command']}`, {doc['date'][:10]}, commit {doc['commit']['describe']}, {where}"
+        else:
+            told = f"`{commands[path]}` (a seeded simulation: the same figures on any machine)"
+        lines.append(f"- [`{path}`]({link}): {told}")
+    return "\n".join([*lines, SOURCES_END]) + "\n"
+
+
+def _with_sources(text: str, page_path: str) -> str:
+    """``text`` with its sources section replaced by (or, if it has none, ended with) today's."""
+    section = sources_section(page_path)
+    if SOURCES_START in text:
+        head, _, rest = text.partition(SOURCES_START)
+        _, _, tail = rest.partition(SOURCES_END + "\n")
+        return head + section + tail
+    return text.rstrip("\n") + "\n\n" + section
+
+
+@pytest.mark.parametrize("path", SOURCE_LISTED_PAGES)
+def test_each_page_lists_the_result_files_of_its_figures(path):
+    text = page(path)
+    assert _with_sources(text, path) == text, (
+        f"{path}: its closing list of result files is not what docs/figures.toml and the files say; "
+        f"run `python tests/test_figures.py --rewrite`"
+    )
+
+
 def paragraphs_around(text: str, at: int) -> str:
     """The paragraph (lines up to a blank line) holding position ``at``, and the one before it."""
     start = text.rfind("\n\n", 0, at)
@@ -289,8 +344,8 @@ def test_the_formatter_reads_paths_scales_and_signs():
 
 def rewrite(revision: str = "HEAD") -> list[str]:
     """Each registered text as its result file at ``revision`` filled it, replaced on its page by
-    the text the file in the working tree fills (the line breaks kept where the words are as many).
-    Returns the pages changed."""
+    the text the file in the working tree fills (the line breaks kept where the words are as many),
+    and each page's closing list of result files made anew. Returns the pages changed."""
     import subprocess
 
     changed = set()
@@ -316,6 +371,12 @@ def rewrite(revision: str = "HEAD") -> list[str]:
             new = "".join(w + g for w, g in zip(words, gaps + [""]))
         path.write_text(text[: found.start()] + new + text[found.end() :])
         changed.add(entry["page"])
+    for listed in SOURCE_LISTED_PAGES:
+        path = ROOT / listed
+        text = path.read_text()
+        if _with_sources(text, listed) != text:
+            path.write_text(_with_sources(text, listed))
+            changed.add(listed)
     return sorted(changed)
 
 
