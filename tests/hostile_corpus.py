@@ -551,7 +551,10 @@ def _replace_cell(text, row, col, value):
 #: record, ``{tumble}`` a tumble record (what diagnose needs), ``{csv}`` a valid CSV,
 #: ``{levers}`` a levers file, ``{out}`` the output.
 BASES = {
-    ("simulate", "turntable"): "-o {out} -q --rate-hz 100 --vertical-axes Z --cycles 1 --seconds-per-axis 24 --static-s 1",
+    (
+        "simulate",
+        "turntable",
+    ): "-o {out} -q --rate-hz 100 --vertical-axes Z --cycles 1 --seconds-per-axis 24 --static-s 1",
     ("simulate", "sway"): "-o {out} -q --rate-hz 100 --static-s 1 --segment-s 2 --amplitudes-dps 10",
     ("simulate", "flight"): "-o {out} -q --rate-hz 50 --reference-rate-hz 10 --duration-h 0.3 --align-s 10",
     ("simulate", "tumble"): "-o {out} -q --rate-hz 100 --duration-s 2",

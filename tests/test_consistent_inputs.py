@@ -397,7 +397,18 @@ def test_an_extreme_set_value_is_refused_in_one_line_or_makes_a_record_inspect_a
 def test_a_motion_beyond_the_contracts_limits_is_refused_even_without_the_units_check(tmp_path):
     """A 5000 deg/s table with 3 m arms reads 10 586 m/s^2: beyond the telemetry contract, which every
     reader refuses with or without --no-units-check, so simulate never writes it."""
-    command = ["simulate", "turntable", "--vertical-axes", "Z", "--static-s", "60", "--seconds-per-axis", "10", "--cycles", "1"]
+    command = [
+        "simulate",
+        "turntable",
+        "--vertical-axes",
+        "Z",
+        "--static-s",
+        "60",
+        "--seconds-per-axis",
+        "10",
+        "--cycles",
+        "1",
+    ]
     command += ["--peak-rate-dps", "5000", "--accel-dps2", "1e5", "--rate-hz", "100", "-q"]
     out = tmp_path / "fast.h5"
     for extra in ([], ["--no-units-check"]):
