@@ -30,12 +30,12 @@ from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetr
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW
 from .sensor_model import check_estimator, remove_lever_terms
+from .sensor_model.correction import refuse_levers_and_model
 from .stage import preflight
 from .sync import sync_accelerometers
 
 __all__ = [
     "compensate",
-    "compensate_arrays_increments",
     "read_continuous",
     "segment_note",
     "GAPS_WHY",
@@ -47,22 +47,6 @@ __all__ = [
 
 def _arms(levers: Levers, mode: str):
     return np.ascontiguousarray(levers.arms_for(mode)), np.ascontiguousarray(levers.axes)
-
-
-def compensate_arrays_increments(dtheta, dvel, dt, levers: Levers, mode: str, *, centripetal=True, tangential=True):
-    """Increment-domain compensation of arrays (used by navigate): the sensor model's lever terms removed."""
-    arms, axes = _arms(levers, mode)
-    return remove_lever_terms(
-        dvel,
-        dtheta,
-        arms,
-        axes,
-        form="increments",
-        dt=dt,
-        estimator="increments",
-        centripetal=centripetal,
-        tangential=tangential,
-    )
 
 
 def compensate(
@@ -176,11 +160,7 @@ class CompensateConfig:
 
     def check_options(self) -> None:
         """The options alone, before any file is looked at (one-line refusals naming them)."""
-        if self.levers and self.model:
-            raise ConfigError(
-                "--levers and --model both given: the effect model has its own lever arms "
-                "([lever_arm]); give one of them"
-            )
+        refuse_levers_and_model(self.levers, self.model)
         if not self.levers and not self.model:
             raise ConfigError("give the lever arms (--levers LEVERS.json) or an effect model (--model MODEL.toml)")
         if self.model and (not self.centripetal or not self.tangential or self.accel_delay_s is not None):

@@ -21,7 +21,7 @@ import numpy as np
 from .io.telemetry import Telemetry
 from .kernels import sync as _sync
 
-__all__ = ["resample_onto", "resample_increments", "sync_accelerometers"]
+__all__ = ["resample_onto", "resample_increments", "sync_accelerometers", "synced_accel"]
 
 
 def _times(name, t) -> np.ndarray:
@@ -119,7 +119,19 @@ def sync_accelerometers(tel: Telemetry, tau_s: float = 0.0) -> Telemetry:
     """
     if tel.accel_time_s is None and tau_s == 0.0:
         return tel
-    t_accel = (tel.accel_time_s if tel.accel_time_s is not None else tel.time_s) - tau_s
+    synced = synced_accel(tel.time_s, tel.imu_arrays()[1], tel.accel_time_s, tau_s, tel.form)
     if tel.form == "rates":
-        return replace(tel, accel_mps2=resample_onto(tel.accel_mps2, t_accel, tel.time_s), accel_time_s=None)
-    return replace(tel, dvel_mps=resample_increments(tel.dvel_mps, t_accel, tel.time_s), accel_time_s=None)
+        return replace(tel, accel_mps2=synced, accel_time_s=None)
+    return replace(tel, dvel_mps=synced, accel_time_s=None)
+
+
+def synced_accel(time_s, accel_like, accel_time_s, tau_s: float, form: str) -> np.ndarray:
+    """:func:`sync_accelerometers` on arrays: ``accel_like`` [N, 3] (rates or increments, by ``form``)
+    stamped ``accel_time_s`` (None: ``time_s``) and late by ``tau_s``, on the gyros' ``time_s``;
+    the array itself when there is nothing to undo."""
+    if accel_time_s is None and tau_s == 0.0:
+        return accel_like
+    t_accel = (accel_time_s if accel_time_s is not None else time_s) - tau_s
+    if form == "rates":
+        return resample_onto(accel_like, t_accel, time_s)
+    return resample_increments(accel_like, t_accel, time_s)

@@ -19,7 +19,6 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from ..errors import ConfigError
 from ..io.documents import write_json
 from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
@@ -107,20 +106,17 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
     loop with one chunk, the same figures.
     """
     started = time.perf_counter()
+    from ..effects import IDEAL, load_effects
     from ..io.navigation import NavigationWriter, write_navigation
+    from ..sensor_model.correction import refuse_levers_and_model
     from .loop import navigate, navigate_file
     from .output import check_plottable, plot_errors
 
     cfg = config.options
-    if cfg.levers and (config.model is not None or cfg.model is not None):  # the options first, then the files
-        raise ConfigError(
-            "--levers and --model both given: the effect model has its own lever arms ([lever_arm]); give one of them"
-        )
+    refuse_levers_and_model(cfg.levers, config.model or cfg.model)  # the options first, then the files
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     if config.model is not None:
-        from ..correct import load_model
-
-        cfg = replace(cfg, model=load_model(config.model))
+        cfg = replace(cfg, model=load_effects(config.model, base=IDEAL))  # a section the file omits is off
     path = config.input
     written = {}
     # refused before any work when one of them would hold nothing (a record shorter than an output row)

@@ -68,8 +68,8 @@ class NavConfig:
     allow_gaps: bool = False
     #: navigate only this continuous segment (1-based, between IMU gaps, as sizefx inspect numbers them)
     segment: int | None = None
-    levers: str | None = None  #: sizefx/levers/1 file: compensate the size effect before navigating
-    #: effect model (sizefx.correct.load_model): correct the IMU errors and the size effect before
-    #: navigating (sizefx.correct.correct_imu); not together with ``levers``
+    levers: str | None = None  #: sizefx/levers/1 file: remove the size effect of its arms before navigating
+    #: effect model (sizefx.correct.load_model): undo the IMU's errors and the size effect before
+    #: navigating; not together with ``levers`` (both become one sizefx.sensor_model.Correction)
     model: EffectModel | None = None
-    mode: str = "triad"  #: triad | center (see sizefx.compensate)
+    mode: str = "triad"  #: triad | center: the arms d_i from the triad point, or r_i from the reference point

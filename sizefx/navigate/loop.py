@@ -2,14 +2,16 @@
 
 Every navigation goes through :func:`navigate_source`: a file streamed in chunks of IMU rows
 (:func:`navigate_file`, a :class:`sizefx.io.telemetry.TelemetryStream`) and a record in memory
-(:func:`navigate`, one chunk of a :class:`MemorySource`) alike. Each chunk goes through:
+(:func:`navigate`, one chunk of a :class:`MemorySource`) alike. A levers file (``--levers``) or an
+effect model (``--model``) is resolved once, before the first chunk, into a
+:class:`sizefx.sensor_model.Correction`; each chunk's arrays then go through:
 
-1. sync of the accelerometers (``/imu/accel_time``, or the delay of ``--levers``) or the
-   effect-model correction (``--model``);
-2. rates to increments (fourth order);
-3. size-effect compensation (``--levers``);
-4. the strapdown kernel, whose state (with its Kahan terms) is carried to the next chunk;
-5. the output rows to the writer (or the result), the errors against ``/reference``.
+1. the accelerometers synced to the gyros (``/imu/accel_time``, the correction's delay);
+2. an effect model's per-channel and gyro errors undone (:meth:`Correction.channels`);
+3. rates to increments (fourth order);
+4. the lever terms removed on the increments, with edge rates (:meth:`Correction.on_increments`);
+5. the strapdown kernel, whose state (with its Kahan terms) is carried to the next chunk;
+6. the output rows to the writer (or the result), the errors against ``/reference``.
 
 Each chunk is read with :data:`MARGIN` extra rows on both sides, so every filter sees the
 same neighbours it sees in a single-chunk run; results do not depend on the chunk size
@@ -25,26 +27,26 @@ chunk k + 1 on the other (the Numba kernels release the GIL; h5py reads hold it)
 
 from __future__ import annotations
 
-import json
 import time as _time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
 
 import numpy as np
 
-from ..compensate import compensate_arrays_increments
-from ..correct import correct_imu
 from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
+from ..omegadot import SAVGOL_WINDOW
+from ..sensor_model import INVERTED, NOT_INVERTED, Correction
+from ..sensor_model.correction import refuse_levers_and_model
 from ..stage import helper_threads
-from ..sync import sync_accelerometers
+from ..sync import synced_accel
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_PLOT_ROWS, MIN_ROWS, VERTICAL_MODES, NavConfig
 from .initial import choose, initial_state
 from .reference import Errors, MemoryReference, reference_at, vertical_reference_at
 from .result import NavResult
-from .steps import increments_of, integrate, uniform_period_s
+from .steps import increments_from, integrate, uniform_period_s
 
 __all__ = ["MemorySource", "navigate", "navigate_file", "navigate_source"]
 
@@ -68,18 +70,49 @@ class MemorySource:
         return self.tel.time_s[k0:k1], self._gyro[k0:k1], self._accel[k0:k1], ta
 
 
-class _Prepared:
-    """Increments ``[j0, j1)`` of a source, synced or corrected, and compensated: steps 1-3."""
+def resolve_correction(cfg: NavConfig) -> Correction | None:
+    """The levers file or the effect model of ``cfg`` as the run's one :class:`Correction` (None:
+    neither), read and checked before any chunk; both together are refused."""
+    refuse_levers_and_model(cfg.levers, cfg.model)
+    if cfg.levers:
+        levers = read_levers(cfg.levers)
+        return Correction.of_arms(levers.arms_for(cfg.mode), levers.axes, levers.accel_delay_s, cfg.mode, None)
+    if cfg.model is None:
+        return None
+    fx, p = cfg.model, cfg.model.sensor_params()
+    described = {
+        "model": fx.source,
+        "mode": cfg.mode,
+        "estimator": "increments",  # the lever terms' angular acceleration: edge rates of the increments
+        "corrected": [name for name in INVERTED if fx.enabled(name)],
+        "ignored": [name for name in NOT_INVERTED if fx.enabled(name)],
+        "accel_delay_s": p.accel_delay,
+        "arms_m": p.arms(cfg.mode).tolist(),
+        "accel_axes": p.accel_axes().tolist(),
+    }
+    return Correction.of_model(p, cfg.mode, described)
 
-    def __init__(self, src, cfg: NavConfig, levers):
-        self.src, self.cfg, self.levers = src, cfg, levers
+
+class _Prepared:
+    """Increments ``[j0, j1)`` of a source, synced, corrected and compensated: steps 1-4."""
+
+    def __init__(self, src, cfg: NavConfig, correction: Correction | None):
+        self.src, self.cfg, self.corr = src, cfg, correction
         first, last = src.read(0, 1)[0][0], src.read(src.n_samples - 1, src.n_samples)[0][0]
         self.dt = uniform_period_s(first, last, src.n_samples)
         self.t_first = float(first)  # the grid every chunk's stamps are checked against
         self.jitter = 0.0  #: the largest distance of a stamp from the grid [periods], for the configuration
         self.rates = src.form == "rates"
         self.n_increments = src.n_samples - 1 if self.rates else src.n_samples
-        self.correction: dict | None = None  #: what the model corrected (from the first chunk), for the configuration
+        if (
+            correction is not None
+            and correction.params is not None
+            and self.rates
+            and src.n_samples < 4 * SAVGOL_WINDOW
+        ):
+            raise ConfigError(
+                f"{src.path}: {src.n_samples} samples; correcting rates with a model needs at least {4 * SAVGOL_WINDOW}"
+            )
 
     def increments(self, j0: int, j1: int):
         src, dt = self.src, self.dt
@@ -87,32 +120,18 @@ class _Prepared:
         hi = min(src.n_samples, j1 + extra + MARGIN)
         lo = max(0, min(j0 - MARGIN, hi - MIN_ROWS))  # a short last chunk reads more history, not less
         t, g, a, ta = src.read(lo, hi)
-        tel = Telemetry(
-            time_s=t,
-            form=src.form,
-            accel_time_s=ta,
-            site=src.site,
-            path=None if src.path is None else str(src.path),
-            source=src.source,
-        )
-        if self.rates:
-            tel.gyro_rad_s, tel.accel_mps2 = g, a
+        corr = self.corr
+        if corr is None:
+            a = synced_accel(t, a, ta, 0.0, src.form)  # the accelerometers' own stamps, if any
         else:
-            tel.dtheta_rad, tel.dvel_mps = g, a
-        if self.cfg.model is not None:
-            tel = correct_imu(tel, self.cfg.model, mode=self.cfg.mode)  # syncs the accelerometers itself
-            if self.correction is None:
-                assert tel.source is not None  # correct_imu records the correction in the copy's source
-                self.correction = json.loads(tel.source["correction_json"])
-                del self.correction["effects"]  # in the model file; the configuration names it
-        else:
-            tel = sync_accelerometers(tel, (self.levers.accel_delay_s or 0.0) if self.levers else 0.0)
-        t_end, dtheta, dvel, _, jitter = increments_of(
-            tel, dt=dt, first_row=lo, t_first=self.t_first, row0=src.first_row
+            a = corr.synced(t, a, ta, src.form)
+            g, a = corr.channels(g, a, form=src.form, dt=dt, time_s=t)
+        t_end, dtheta, dvel, _, jitter = increments_from(
+            t, g, a, src.form, dt, lo, t_first=self.t_first, row0=src.first_row, path=src.path
         )
         self.jitter = max(self.jitter, jitter)
-        if self.levers:
-            dvel = compensate_arrays_increments(dtheta, dvel, dt, self.levers, self.cfg.mode)
+        if corr is not None:
+            dvel = corr.on_increments(dtheta, dvel, dt)
         keep = slice(j0 - lo, j1 - lo)
         return t_end[keep], np.ascontiguousarray(dtheta[keep]), np.ascontiguousarray(dvel[keep])
 
@@ -139,16 +158,12 @@ def navigate_source(
     ``"--plot"``): one that would hold nothing is refused before any work (:func:`refuse_empty_outputs`).
     """
     started = _time.perf_counter()
-    if cfg.levers and cfg.model is not None:
-        raise ConfigError(
-            "--levers and --model both given: the effect model has its own lever arms ([lever_arm]); give one of them"
-        )
-    levers = read_levers(cfg.levers) if cfg.levers else None
+    correction = resolve_correction(cfg)
     n_sub = int(cfg.subsamples)
     coning_coefficients(n_sub)  # validates
     # before any work: a stream found every gap at open (a segment has none)
     refuse_gaps(src.path, src.gaps, command="navigate", why=GAPS_WHY, bridge=False)
-    prep = _Prepared(src, cfg, levers)
+    prep = _Prepared(src, cfg, correction)
     dt = prep.dt
     n_steps = prep.n_increments // n_sub
     if n_steps < 1:
@@ -222,7 +237,7 @@ def navigate_source(
     config = {
         **asdict(replace(cfg, model=None)),
         "model": cfg.model.source if cfg.model is not None else None,
-        "correction": prep.correction,
+        "correction": correction.described if correction is not None else None,
         "init": init,
         "vertical": vertical,
         "stationary_reference": stationary,

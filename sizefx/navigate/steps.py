@@ -11,7 +11,7 @@ from ..kernels.increments import rates_to_increments
 from ..kernels.strapdown import coning_coefficients, strapdown
 from .config import GRID_TOLERANCE
 
-__all__ = ["uniform_period_s", "grid_offsets_periods", "increments_of", "integrate"]
+__all__ = ["uniform_period_s", "grid_offsets_periods", "increments_of", "increments_from", "integrate"]
 
 
 def uniform_period_s(t_first: float, t_last: float, n: int) -> float:
@@ -34,25 +34,48 @@ def grid_offsets_periods(time_s, t_first: float, dt: float, first_row: int = 0) 
 def increments_of(
     tel: Telemetry, dt: float | None = None, first_row: int = 0, *, t_first: float | None = None, row0: int = 0
 ):
-    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt, jitter)`` for a record of either form.
+    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt, jitter)`` for a record of either form
+    (:func:`increments_from`, on the record's arrays; its accelerometers already synced)."""
+    gyro_like, accel_like = tel.imu_arrays()
+    return increments_from(
+        tel.time_s, gyro_like, accel_like, tel.form, dt, first_row, t_first=t_first, row0=row0, path=tel.path
+    )
 
-    ``dt``: the record's period when ``tel`` is a chunk of it (default: ``tel``'s own span);
-    ``first_row``: the row of ``tel``'s first sample counted from the record's first, whose time is
-    ``t_first`` (default: ``tel``'s own first); ``row0``: the file row of the record's first sample
-    (a segment's), for messages. The stamps must lie on the uniform grid within
+
+def increments_from(
+    time_s,
+    gyro_like,
+    accel_like,
+    form: str,
+    dt: float | None = None,
+    first_row: int = 0,
+    *,
+    t_first: float | None = None,
+    row0: int = 0,
+    path=None,
+):
+    """``(t_end [N'], dtheta [N',3], dvel [N',3], dt, jitter)`` from rates or increments [N, 3].
+
+    ``dt``: the record's period when the arrays are a chunk of it (default: their own span);
+    ``first_row``: the row of the first sample counted from the record's first, whose time is
+    ``t_first`` (default: the chunk's own first); ``row0``: the file row of the record's first sample
+    (a segment's), and ``path`` the file, for messages. The stamps must lie on the uniform grid within
     :data:`GRID_TOLERANCE` periods; ``jitter`` is the largest distance of one from it [periods].
+    Rates become increments by the fourth-order stencil (one fewer than the samples); increments
+    are returned as they are.
     """
+    n = len(time_s)
     if dt is None:
-        dt = uniform_period_s(tel.time_s[0], tel.time_s[-1], tel.n_samples)
+        dt = uniform_period_s(time_s[0], time_s[-1], n)
     if t_first is None:
-        t_first = float(tel.time_s[0]) - first_row * dt
+        t_first = float(time_s[0]) - first_row * dt
     worst, offset = worst_grid_offset(
-        np.ascontiguousarray(tel.time_s, dtype=np.float64), float(t_first), float(dt), int(first_row)
+        np.ascontiguousarray(time_s, dtype=np.float64), float(t_first), float(dt), int(first_row)
     )
     jitter = float(abs(offset))
     if jitter > GRID_TOLERANCE:
         raise TelemetryError(
-            tel.path,
+            path,
             "/imu/time",
             f"sampling is not uniform: the stamp of row {row0 + first_row + worst} "
             f"is {offset:+.3g} periods off the uniform grid of "
@@ -60,14 +83,13 @@ def increments_of(
             f"jitter up to {GRID_TOLERANCE} period (resample the record, "
             "or cut it where the rate changes)",
         )
-    if tel.form == "increments":
-        return tel.time_s, np.ascontiguousarray(tel.dtheta_rad), np.ascontiguousarray(tel.dvel_mps), dt, jitter
-    n = tel.n_samples
+    if form == "increments":
+        return time_s, np.ascontiguousarray(gyro_like), np.ascontiguousarray(accel_like), dt, jitter
     dtheta = np.empty((n - 1, 3))
     dvel = np.empty((n - 1, 3))
-    rates_to_increments(np.ascontiguousarray(tel.gyro_rad_s), dt, dtheta)
-    rates_to_increments(np.ascontiguousarray(tel.accel_mps2), dt, dvel)
-    return tel.time_s[1:], dtheta, dvel, dt, jitter
+    rates_to_increments(np.ascontiguousarray(gyro_like), dt, dtheta)
+    rates_to_increments(np.ascontiguousarray(accel_like), dt, dvel)
+    return time_s[1:], dtheta, dvel, dt, jitter
 
 
 def integrate(dtheta, dvel, n_sub, dt, state, mode, h_hold, h_ref, vd_ref):

@@ -64,6 +64,8 @@ The three maps
   the lever arms undone, steps 2-6 of :mod:`sizefx.correct`'s docstring; step 1, the delay, is
   a resampling of the whole series, done by :func:`sizefx.sync.sync_accelerometers`
   before (the one place that resamples). Used by :func:`sizefx.correct.correct_imu`.
+- :class:`Correction`: what navigation removes, resolved once from a levers file or a model: the
+  sync, steps 2-5 (:func:`invert_channels`) on the chunk's readings and step 6 on its increments.
 - :func:`jacobian`: the partial derivatives of :func:`forward`'s readings with respect to each
   parameter of ``theta``, analytic, at any ``theta``. Used by :mod:`sizefx.calibrate`'s joint
   fit; ``tests/test_sensor_model.py`` checks each column against finite differences of
@@ -83,8 +85,9 @@ moves with each of its parameters, that :func:`jacobian` has each column and tha
 finite differences, and that ``inverse(forward(x)) = x`` with it switched on.
 """
 
+from .correction import Correction
 from .forward import accel_inputs, accel_readings, forward, gyro_readings, sample, specific_force_at
-from .inverse import check_estimator, check_invertible, inverse, remove_lever_terms
+from .inverse import check_estimator, check_invertible, inverse, invert_channels, remove_lever_terms
 from .jacobian import Jacobian, jacobian
 from .table import (
     CHANNELS,
@@ -122,7 +125,9 @@ __all__ = [
     "accel_readings",
     "specific_force_at",
     "inverse",
+    "invert_channels",
     "remove_lever_terms",
+    "Correction",
     "check_invertible",
     "check_estimator",
     "jacobian",

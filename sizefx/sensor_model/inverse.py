@@ -8,7 +8,7 @@ from ..errors import ConfigError
 from ..omegadot import ESTIMATORS, central, edges_from_increments, savgol
 from .table import MAX_AXES_CONDITION, SensorParams
 
-__all__ = ["inverse", "remove_lever_terms", "check_invertible", "check_estimator"]
+__all__ = ["inverse", "invert_channels", "remove_lever_terms", "check_invertible", "check_estimator"]
 
 
 def check_invertible(p: SensorParams):
@@ -101,6 +101,44 @@ def remove_lever_terms(
     return out
 
 
+def invert_channels(
+    p: SensorParams,
+    gyro_like,
+    accel_like,
+    *,
+    form: str,
+    dt: float,
+    estimator: str | None = None,
+    time_s=None,
+):
+    """Steps 2-5 of :func:`inverse`: ``(omega_like, a_like)`` [N, 3], the gyros corrected and each
+    accelerometer channel's scale factor, quadratic term and bias undone, its lever terms and its
+    axis (step 6) still in. Step 4's lever terms, for the gyros' ``G f_b`` alone, take ``estimator``."""
+    if estimator is None:
+        estimator = "increments" if form == "increments" else "savgol"
+    check_estimator(form, estimator)
+    accel_gain, gyro_gain = check_invertible(p)
+    accel_axes = p.accel_axes()
+    mat_gyro_inv = np.linalg.inv(np.diag(gyro_gain) @ p.gyro_axes())  # (diag(1 + s_g) U_g)^-1
+    accel_axes_inv = np.linalg.inv(accel_axes)  # U^-1: f = U^-1 a
+    # per sample: 1 for rates, dt for increments (a rate bias b adds b dt to each increment)
+    per_sample = 1.0 if form == "rates" else dt
+    a = (
+        _invert_accel_channels(accel_like / per_sample, accel_gain, p.accel_quadratic, p.accel_bias, time_s)
+        * per_sample
+    )  # step 2
+
+    def gyro_from(f_like):  # omega = M^-1 (g - b_g - G f), per sample: b_g dt and G dv for increments
+        return (gyro_like - p.gyro_bias * per_sample - f_like @ p.gyro_g_sensitivity.T) @ mat_gyro_inv.T
+
+    omega_provisional = gyro_from(a @ accel_axes_inv.T)  # step 3
+    lever_terms_out = remove_lever_terms(
+        a, omega_provisional, p.arms("center"), accel_axes, form=form, dt=dt, estimator=estimator
+    )
+    f_reference = lever_terms_out @ accel_axes_inv.T  # step 4
+    return gyro_from(f_reference), a  # step 5
+
+
 def inverse(
     p: SensorParams,
     gyro_like,
@@ -136,30 +174,13 @@ def inverse(
     4. ``f_b = U^-1 (a - lever terms of omega~)`` at the reference point, for ``G f_b`` only;
     5. gyros ``omega = (diag(1 + s_g) U_g)^-1 (g - b_g - G f_b)``;
     6. the lever terms of ``omega`` removed (arms of ``mode``), then ``f = U^-1 a``.
+
+    Steps 2-5 are :func:`invert_channels`; navigation takes step 6 on the increments it forms
+    (:class:`sizefx.sensor_model.Correction`).
     """
-    arms = p.arms(mode)
     if estimator is None:
         estimator = "increments" if form == "increments" else "savgol"
-    check_estimator(form, estimator)
-    accel_gain, gyro_gain = check_invertible(p)
+    omega_like, a = invert_channels(p, gyro_like, accel_like, form=form, dt=dt, estimator=estimator, time_s=time_s)
     accel_axes = p.accel_axes()
-    mat_gyro_inv = np.linalg.inv(np.diag(gyro_gain) @ p.gyro_axes())  # (diag(1 + s_g) U_g)^-1
-    accel_axes_inv = np.linalg.inv(accel_axes)  # U^-1: f = U^-1 a
-    # per sample: 1 for rates, dt for increments (a rate bias b adds b dt to each increment)
-    per_sample = 1.0 if form == "rates" else dt
-    a = (
-        _invert_accel_channels(accel_like / per_sample, accel_gain, p.accel_quadratic, p.accel_bias, time_s)
-        * per_sample
-    )  # step 2
-
-    def gyro_from(f_like):  # omega = M^-1 (g - b_g - G f), per sample: b_g dt and G dv for increments
-        return (gyro_like - p.gyro_bias * per_sample - f_like @ p.gyro_g_sensitivity.T) @ mat_gyro_inv.T
-
-    def without_lever_terms(omega_like, lever_arms):
-        return remove_lever_terms(a, omega_like, lever_arms, accel_axes, form=form, dt=dt, estimator=estimator)
-
-    omega_provisional = gyro_from(a @ accel_axes_inv.T)  # step 3
-    f_reference = without_lever_terms(omega_provisional, p.arms("center")) @ accel_axes_inv.T  # step 4
-    omega_like = gyro_from(f_reference)  # step 5
-    f_like = without_lever_terms(omega_like, arms) @ accel_axes_inv.T  # step 6
-    return omega_like, f_like
+    f_like = remove_lever_terms(a, omega_like, p.arms(mode), accel_axes, form=form, dt=dt, estimator=estimator)
+    return omega_like, f_like @ np.linalg.inv(accel_axes).T  # step 6
