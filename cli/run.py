@@ -83,7 +83,7 @@ def _checked(steps, out_dir, *, batch: bool):
     chain = dict(steps)
     names = [name for name, _ in steps]
     nav = chain.get("navigate", {})
-    check_chain(names, navigate_has_levers=bool(nav.get("levers")), command=command)
+    check_chain(names, navigate_corrects=bool(nav.get("levers") or nav.get("model")), command=command)
     if not out_dir:
         named = nav.get("file") or next(iter(chain.get("calibrate", {}).get("records", ())), None)
         if batch or not named:
@@ -151,9 +151,10 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
     if nav:
         from sizefx_cli.navigate import config_of
 
-        for label, with_levers in (("plain", None), ("compensated", levers)):
-            if label == "compensated" and not with_levers:
-                continue
+        runs = [("plain", {"levers": None, "model": None})]
+        if levers or nav.get("model"):  # the correction: calibrate's or --levers' arms, or a --model
+            runs.append(("compensated", {"levers": levers, "model": nav.get("model")}))
+        for label, correction in runs:
             solutions[label] = str(out / f"{label}.nav.h5")
             steps.append(
                 ChainStep(
@@ -163,14 +164,14 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
                         **{
                             **nav,
                             "file": str(flight),
-                            "levers": with_levers,
+                            **correction,
                             "output": solutions[label],
                             "json_path": str(out / f"{label}.navigate.json"),
                             "force": True,
                             "plot": str(out / f"{label}.navigate.png") if plots else None,
                         }
                     ),
-                    {**nav, "levers": with_levers},
+                    {**nav, **correction},
                 )
             )
     if "compare" in chain:
@@ -222,7 +223,7 @@ def run(out_dir, plots):
 
     calibrate's lever arms (levers.json) go to navigate, which navigates the
     flight twice, plain and compensated (or, without calibrate, with its own
-    --levers); compare sets the compensated solution against the plain one and
+    --levers or --model); compare sets the compensated solution against the plain one and
     both against the flight's /reference (or compare --reference). Every stage
     option keeps its meaning (see each stage's --help). A chain that cannot
     work is refused before any stage runs; run.json (sizefx/run/1) lists what

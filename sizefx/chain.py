@@ -46,11 +46,11 @@ RUN_SCHEMA = "sizefx/run/1"
 RUN_MANIFEST = "run.json"
 
 
-def check_chain(names: list[str], *, navigate_has_levers: bool = False, command: str = "sizefx run") -> None:
+def check_chain(names: list[str], *, navigate_corrects: bool = False, command: str = "sizefx run") -> None:
     """Refuse, before any stage runs, a chain that cannot work: an unknown or repeated stage, stages
     out of order (calibrate feeds navigate, navigate feeds compare), compare with fewer than two
-    solutions to compare (navigate needs lever arms, from calibrate or its own --levers, to navigate
-    a second time compensated)."""
+    solutions to compare (navigate needs a correction, lever arms from calibrate or its own --levers
+    or an effect model with --model, to navigate a second time compensated)."""
     if not names:
         raise ConfigError(f"{command}: give the stages to chain, e.g. 'calibrate T.h5 navigate F.h5 compare'")
     for name in names:
@@ -67,10 +67,10 @@ def check_chain(names: list[str], *, navigate_has_levers: bool = False, command:
     if "compare" in names:
         if "navigate" not in names:
             raise ConfigError(f"{command}: compare has nothing to compare; put navigate FILE before it")
-        if "calibrate" not in names and not navigate_has_levers:
+        if "calibrate" not in names and not navigate_corrects:
             raise ConfigError(
                 f"{command}: compare needs two solutions, and navigate makes only one without lever "
-                "arms; put calibrate before navigate, or give navigate --levers"
+                "arms or a model; put calibrate before navigate, or give navigate --levers or --model"
             )
 
 

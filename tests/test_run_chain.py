@@ -86,6 +86,22 @@ def test_navigate_with_its_own_levers_and_compare(records, tmp_path):
     assert (out / "plain.nav.h5").exists() and (out / "compensated.nav.h5").exists()
 
 
+def test_navigate_with_a_model_and_compare(records, tmp_path):
+    """A --model is navigate's correction in a chain as --levers is: the plain run goes without it,
+    the compensated one with it, and compare sets them side by side."""
+    _, flight = records
+    model = tmp_path / "model.toml"
+    model.write_text('schema = "sizefx/effects/1"\n\n[lever_arm]\nenabled = true\n')
+    out = tmp_path / "out"
+    result = _run("--out", out, "navigate", "--model", model, "--output-rate-hz", "1", flight, "compare")
+    assert result.exit_code == 0, result.output
+    doc = json.loads((out / "run.json").read_text())
+    runs = {s.get("run"): s for s in doc["steps"] if s["stage"] == "navigate"}
+    assert set(runs) == {"plain", "compensated"}
+    assert runs["plain"]["options"]["model"] is None and runs["compensated"]["options"]["model"] == str(model)
+    assert (out / "comparison.json").exists()
+
+
 @pytest.mark.parametrize(
     "chain, needle",
     [
