@@ -13,6 +13,11 @@ from .fleet import combine_arms, recurring_findings, table_figures
 __all__ = ["BatchJob", "RecordOutcome", "BatchResult"]
 
 
+def counted(n: int, noun: str) -> str:
+    """``1 record``, ``2 records``: a count with its noun in the right number."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
 @dataclass(frozen=True)
 class BatchJob:
     """One record's work: the stage's config (built by the caller from the stage's own options, with
@@ -73,8 +78,8 @@ class BatchResult:
     def report(self) -> str:
         c = self.counts()
         lines = [
-            f"batch {self.stage}: {len(self.outcomes)} records in {self.wall_s:.1f} s with {self.workers} "
-            f"worker(s): {c['ok']} ok, {c['skipped']} unchanged (skipped), {c['refused']} refused, "
+            f"batch {self.stage}: {counted(len(self.outcomes), 'record')} in {self.wall_s:.1f} s with "
+            f"{counted(self.workers, 'worker')}: {c['ok']} ok, {c['skipped']} unchanged (skipped), {c['refused']} refused, "
             f"{c['failed']} failed; manifest -> {self.manifest}"
         ]
         table = {o.entry["name"]: table_figures(self.stage, o.entry["headline"]) for o in self.outcomes}
@@ -96,7 +101,7 @@ class BatchResult:
             ]
             if len(values) > 1:
                 lines.append(
-                    f"  {k} across {len(values)} records: mean {fmean(values):.4g}, "
+                    f"  {k} across {counted(len(values), 'record')}: mean {fmean(values):.4g}, "
                     f"std {stdev(values):.3g}, min {min(values):.4g}, max {max(values):.4g}"
                 )
         if self.stage == "diagnose":
@@ -130,10 +135,10 @@ class BatchResult:
         if pace["records_run"]:
             busy = list(pace["busy"].values())
             lines.append(
-                f"  {pace['records_run']} records run: {pace['records_per_s']:.3g} records/s, "
+                f"  {counted(pace['records_run'], 'record')} run: {pace['records_per_s']:.3g} records/s, "
                 f"{pace['samples_per_s']:.3g} samples/s"
                 + (
-                    f"; {len(busy)} workers busy {100 * min(busy):.0f}-{100 * max(busy):.0f} % of the wall time "
+                    f"; {counted(len(busy), 'worker')} busy {100 * min(busy):.0f}-{100 * max(busy):.0f} % of the wall time "
                     f"(mean {100 * pace['busy_mean']:.0f} %)"
                     if busy
                     else ""

@@ -44,7 +44,7 @@ def _reimport_command(tel, output: Path) -> str:
         args += ["--form", "increments", "--gyro-units", g_units, "--accel-units", a_units]
     if tel.site is not None:
         site = (np.degrees(tel.site.lat_rad), np.degrees(tel.site.lon_rad), tel.site.height_m)
-        args += ["--site-deg", ",".join(repr(float(v)) for v in site)]
+        args += ["--site-deg", ",".join(f"{float(v):.12g}" for v in site)]  # 1e-10 deg: 0.01 mm
     return shlex.join(args)
 
 
