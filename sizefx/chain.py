@@ -181,7 +181,7 @@ def run(config: ChainConfig, *, echo=None) -> ChainResult:
 
 @contextlib.contextmanager
 def chain_folder(out_dir):
-    """``out_dir``, made if new and locked (:func:`sizefx.batch.runner.folder_lock`) while a chain writes
+    """``out_dir``, made if new and locked (:func:`sizefx.batch.folder.folder_lock`) while a chain writes
     there. A chain refused (a step's input or option, however late in the chain) leaves no folder of
     its own making behind: bad input leaves nothing."""
     from .batch.inputs import make_out_dir

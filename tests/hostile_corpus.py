@@ -1046,7 +1046,7 @@ def _hdf5_cases(f):
                 kept.append(other)
                 argv, expect = ("compare", str(rec), str(other), "--json", str(d / "cmp.json")), REFUSE
             out.append(Case(name, argv, d, tuple(kept), expect, (str(rec),)))
-    # a gap after every third sample: more gaps than any record can have (sizefx.io.contract.MAX_GAPS),
+    # a gap after every third sample: more gaps than any record can have (sizefx.io.contract.validation.MAX_GAPS),
     # refused even with --allow-gaps, before a list of 100 000 gaps is built and reported
     for command in ("inspect", "navigate"):
         name = f"many-gaps-allowed-{command}"

@@ -71,7 +71,7 @@ def test_on_white_noise_the_state_model_adds_nearly_nothing():
     m = fit_state(_series(0.0, 0.0, 0.0, 1.0))
     white = StateNoise(0.0, 0.0, 0.0, m.variance())
     gain = 2.0 * (m.log_likelihood - state_log_likelihood(_series(0.0, 0.0, 0.0, 1.0), white))
-    assert gain < 9.21  # the calibration's test keeps white noise (sizefx.calibrate.joint.STATE_LR_THRESHOLD)
+    assert gain < 9.21  # the calibration's test keeps white noise (sizefx.calibrate.noise.STATE_LR_THRESHOLD)
     assert m.r == pytest.approx(1.0, rel=0.05)
 
 

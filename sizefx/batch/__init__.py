@@ -18,7 +18,8 @@ command runs (its config, built by the command line from the same options, and t
   they are those it was hashed with, so that a re-run reads only what changed.
 - :mod:`.runner`: the work in ``workers`` processes (the Numba kernels load from the on-disk
   cache once per process); one bad record never stops the others. :mod:`.worker` is what runs in
-  each, :mod:`.outcome` the jobs, the entries and the batch's result with its report.
+  each, :mod:`.outcome` the jobs, the entries and the batch's result with its report;
+  :mod:`.folder` the batch folder's lock and the files in it the batch may replace.
 
 The outputs of a record do not depend on the number of workers or the order: each record is
 the stage run on it alone, and the manifest lists the records sorted by input path.

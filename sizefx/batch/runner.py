@@ -12,17 +12,17 @@ that only the record that kills its process is marked failed.
 With a Dask scheduler (``--scheduler tcp://host:8786``, the optional ``distributed`` package) the same
 :func:`.worker._work` runs as a task per record on the cluster's workers, which read the records where
 they see them; a worker lost with a record is replaced and the record run again.
+
+The folder the batch writes into (its lock, the files the batch keeps there, the check that no path
+it writes is an input or written twice) is :mod:`.folder`'s; its names are imported here too.
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
-import errno
-import fcntl
 import multiprocessing
 import os
-import stat
 import threading
 import time
 import uuid
@@ -31,11 +31,12 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..io.files import file_kind, remove_stale_temporaries, remove_stale_temporaries_below
+from ..io.files import remove_stale_temporaries, remove_stale_temporaries_below
 from .digests import DigestCache
 from .fleet import FLEET_PLOT, plot_fleet
-from .inputs import check_writes, make_out_dir
-from .manifest import MANIFEST_NAME, STORE_FILES, Manifest, reusable
+from .folder import LOCK_NAME, OWN_FILES, check_batch_writes, folder_lock
+from .inputs import make_out_dir
+from .manifest import Manifest, reusable
 from .outcome import BatchJob, BatchResult, RecordOutcome
 from .worker import MEMORY_SHARE, STAGES, _one_line, _start_worker, _work, default_memory_mib
 
@@ -133,53 +134,6 @@ def start_workers(stage: str, workers: int, memory_mib: float | None = None) -> 
     for _ in range(workers):  # the pool spawns a process per task submitted while none is idle
         pool.submit(_nothing)
     return pool
-
-
-#: The lock file in a batch's or a chain's folder, held while it writes there.
-LOCK_NAME = ".sizefx.lock"
-
-
-@contextlib.contextmanager
-def folder_lock(out_dir):
-    """Hold ``out_dir``'s lock (an advisory ``flock`` on :data:`LOCK_NAME`) while a batch or a chain
-    writes there: a second one given the same folder is refused in one line instead of interleaving
-    its outputs and manifest with the first's. Released when the process ends, however it ends.
-    (``flock`` binds processes on one machine and on most local file systems; not across NFS clients.)
-
-    The lock file is opened without following a link (``O_NOFOLLOW``) and must be a regular file:
-    a link planted there (to a record, say) is refused, never written through; so are a folder, a
-    FIFO or a device of that name."""
-    path = Path(out_dir) / LOCK_NAME
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC, 0o666)
-    except OSError as exc:
-        what = "a link" if exc.errno == errno.ELOOP else (exc.strerror or str(exc))
-        raise ConfigError(
-            f"{path}: the batch's lock file cannot be opened ({what}); remove it (sizefx makes its own)"
-        ) from None
-    info = os.fstat(fd)
-    if not stat.S_ISREG(info.st_mode):
-        os.close(fd)
-        raise ConfigError(
-            f"{path}: the batch's lock file is {file_kind(info.st_mode)}; remove it (sizefx makes its own)"
-        )
-    handle = os.fdopen(fd, "r+")
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = handle.read(200).strip() or "another process"
-            raise ConfigError(
-                f"{out_dir}: another sizefx batch or run is writing into this folder ({holder}); "
-                "wait for it to finish or give another --out"
-            ) from None
-        handle.seek(0)
-        handle.truncate()
-        handle.write(f"pid {os.getpid()}")
-        handle.flush()
-        yield
-    finally:
-        handle.close()
 
 
 def _died(
@@ -397,23 +351,6 @@ def run_batch(
             pool.shutdown(wait=False, cancel_futures=True)
         if client is not None:
             client.close()
-
-
-#: The files a batch keeps in its folder besides the records' outputs: name -> what it is.
-OWN_FILES = {
-    MANIFEST_NAME: "the batch's manifest",
-    **{name: "the batch's manifest store" for name in STORE_FILES},
-    LOCK_NAME: "the batch's lock file",
-    FLEET_PLOT: "the batch's figure across the records",
-}
-
-
-def check_batch_writes(out_dir, jobs: list[BatchJob], own: dict | None = None) -> None:
-    """Refuse in one line, before anything is written, a batch into ``out_dir`` that would write over an
-    input, over its own files (:data:`OWN_FILES`, and ``own``: name -> what it is) or one path twice
-    (:func:`.inputs.check_writes`)."""
-    out = Path(out_dir)
-    check_writes(out, jobs, {out / name: what for name, what in {**OWN_FILES, **(own or {})}.items()})
 
 
 def _run_locked(

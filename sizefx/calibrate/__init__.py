@@ -27,8 +27,10 @@ optionally tau. Two estimators:
   the motion cannot reveal are named instead of inverting a singular matrix (:mod:`.joint`).
 
 The package: :mod:`.records` (a record's rates, angular acceleration and attitude),
-:mod:`.per_rotation`, :mod:`.joint`, :mod:`.preflight` (what refuses a calibration before
-the fit), :mod:`.report` (the lines and the paper's Fig. 6); here the stage,
+:mod:`.per_rotation`, :mod:`.design` (the joint fit's rows: layout, increment domain, design),
+:mod:`.noise` (its noise model, whitened normal equations and bound), :mod:`.joint`,
+:mod:`.preflight` (what refuses a calibration before the fit), :mod:`.report` (the lines and the
+paper's Fig. 6); here the stage,
 :class:`CalibrateConfig` -> :func:`run` -> :class:`CalibrateResult`, as ``sizefx calibrate``
 calls it::
 

@@ -16,7 +16,11 @@ The package, from the bottom up (each module imports only those above it in this
   (:func:`predict_readings`) and the measured record next to it (:class:`Predictor`);
 - :mod:`.candidates`: the candidate effects and their Jacobian columns (:func:`jacobian_columns`,
   the sensor model's, and :func:`numeric_jacobian`, the slow twin);
+- :mod:`.mismatch`: the reference against the IMU, step by step (attitude, velocity or position
+  increments), and what ordinary errors explain of the mismatch;
 - :mod:`.integrity`: the reference checked against the IMU before any fit (glitches, jumps, gaps);
+- :mod:`.algebra`: the algebra of summed normal equations (a fit with parameters pinned, the
+  long-run covariance of block scores, the Wald statistic, canonical correlations);
 - :mod:`.normal`: rows, block-wise normal equations, the robust (block sandwich) covariance, the
   Wald test, cross-validation, canonical correlations;
 - :mod:`.bandwidth`: the band where the reference's derivatives can be trusted;
@@ -24,15 +28,24 @@ The package, from the bottom up (each module imports only those above it in this
   level, cross-validation), what the record cannot reveal and why, the pairs it cannot separate;
 - :mod:`.plausibility`: the ranges per sensor grade, the grade inferred from the noise;
 - :mod:`.consistency`: the record's parts fitted alone against the stated errors;
+- :mod:`.kinds`: the kinds of structure a residual may hold, the size a finding needs, its sentence;
+- :mod:`.trends`: the step and trend tests on the residual's block means;
+- :mod:`.lines`: the spectral-line test on the residual's Welch spectrum;
 - :mod:`.structure`: what stays in the residual (lines, trends, steps, correlation with the motion);
 - :mod:`.naming`: each effect found, in its units and in one sentence;
 - :mod:`.records`: warnings, rejections and not-revealed entries, as typed records;
 - :mod:`.residual`: the residual under one model, span by span, its noise and per-channel measures;
 - :mod:`.budget`: the error budget in named parts (white, sandwich, parts, aliases, band);
 - :mod:`.holdout`: the gain out of sample (blocked folds in time, other records);
-- :mod:`.fit`: the Gauss-Newton loop, :func:`diagnose` (one record in memory -> :class:`Diagnosis`);
-- :mod:`.report`: the extended model (``sizefx/effects/1``), the ``sizefx/diagnosis/2`` JSON (and the
-  reader of versions 1 and 2), the text report, the plots;
+- :mod:`.gauss_newton`: the Gauss-Newton loop, the selection redone each pass;
+- :mod:`.judging`: the checks that make a selected effect a finding;
+- :mod:`.not_revealed`: the pairs the record cannot tell apart after the fit (resolved by the grade,
+  counted as hidden, or named as not revealed with the motions that would separate them);
+- :mod:`.fit`: :func:`diagnose` (one record in memory -> :class:`Diagnosis`);
+- :mod:`.extended`: the extended model (``sizefx/effects/1``);
+- :mod:`.plots`: the residuals before and after, and their spectra;
+- :mod:`.report`: the ``sizefx/diagnosis/2`` JSON (and the reader of versions 1 and 2), the text
+  report;
 - here: the stage as ``sizefx diagnose`` calls it: :class:`DiagnoseConfig`, :func:`run`,
   :class:`DiagnoseResult`; the start model; the navigation before and after.
 """

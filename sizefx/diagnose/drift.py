@@ -16,7 +16,7 @@ Estimation and Modulation Theory I*, 3.4) is
 
 independent coefficients on a sine basis. :data:`TERMS` terms hold 97.5 % of the walk's variance
 (``sum_{k<=8} 1/(k-1/2)^2`` over ``pi^2/2``); the rest is faster than the record's effects and
-left to the long-run sandwich (:func:`sizefx.diagnose.normal.long_run_meat`).
+left to the long-run sandwich (:func:`sizefx.diagnose.algebra.long_run_meat`).
 
 - :func:`intensity`: ``q_c`` of each channel, the maximum-likelihood variance component of the
   basis coefficients fitted beside every parameter the motion shows, 0 where the residual shows

@@ -7,13 +7,13 @@
    **residual** is measured minus predicted on the six channels.
 3. **Band** (:mod:`.bandwidth`): without ``bandwidth_hz``, the band where the reference's own
    derivatives are still trustworthy is measured, and the fit is done below it.
-4. **Iterate** (Gauss-Newton): select (:func:`sizefx.diagnose.selection.select`) on the
+4. **Iterate** (Gauss-Newton, :mod:`.gauss_newton`): select (:func:`sizefx.diagnose.selection.select`) on the
    block-wise normal equations linearised at the current estimate, update, recompute
    prediction and regressors. Rows are weighted per channel (``1 / (sigma_c^2 kappa_c)``,
    sigma from the median absolute deviation, kappa the variance inflation of block means) and
    per row by Huber's weights (iteratively re-weighted least squares, from the second pass on):
    a few bad samples move no estimate by more than a fraction of its standard error.
-5. **Judge** what was selected (:func:`_judge`), until nothing changes: an estimate outside its
+5. **Judge** what was selected (:mod:`.judging`), until nothing changes: an estimate outside its
    grade's range (:mod:`.plausibility`) is rejected with the reason; of two selected effects the
    record cannot tell apart (:func:`sizefx.diagnose.selection.aliased_pairs`) neither is a finding
    (the model keeps their sum as the more common one); an effect explaining under :data:`MIN_SHARE`
@@ -25,7 +25,8 @@
 6. **Errors** (:mod:`.budget`): the covariance the residual's spectrum gives (:mod:`.spectrum`), widened by
    the parts' random effect, plus the resolved aliases', the hidden parameters' (fitted beside the
    findings where they take them up, :func:`sizefx.diagnose.aliases.hidden_fit`) and the band's
-   parts; a finding not significant under that error goes to ``not_revealed``.
+   parts; a finding not significant under that error goes to ``not_revealed`` (:mod:`.not_revealed`
+   names what the record cannot reveal, and the motions that would separate each alias).
 7. **Out of sample** (:mod:`.holdout`): the gain cross-validated in blocked folds in time.
 8. **Name what stays unexplained** (:mod:`.structure`): lines, trends, steps and correlations with
    the motion left in each channel's final residual.
@@ -34,7 +35,6 @@
 from __future__ import annotations
 
 import functools
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -43,35 +43,25 @@ import numpy as np
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
-from .aliases import (
-    hidden_fit,
-    hidden_parameters,
-    library_normals,
-    not_significant,
-    resolve,
-    separating_motions,
-)
+from .aliases import hidden_fit, hidden_parameters, not_significant
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
-from .budget import Parts, error_budget, parts_scatter
-from .candidates import CANDIDATES, PRIORITY, columns_between
+from .budget import error_budget, parts_scatter
+from .candidates import CANDIDATES
+
+# REFIT_PASSES too stays importable from here
+from .gauss_newton import MAX_PASSES, REFIT_PASSES, _free, _iterate  # noqa: F401
 from .holdout import OutOfSample, cross_validate
 from .integrity import check_reference, without_bad_rows
+from .judging import MIN_SHARE, _judge, _rejection
 from .naming import name_effect
-from .normal import Normal, Rows, normal_equations, solve
-from .plausibility import infer_grade, judge, likely_cause, noise_density
+from .normal import Rows
+from .not_revealed import _named, _not_revealed, _resolved, _with_aliases
+from .plausibility import infer_grade, noise_density
 from .predictor import Predictor
-from .records import NotRevealed, Rejection, ReportWarning, named
-from .residual import noise_of, per_sample, predicted, residual_under, rms, white
-from .selection import (
-    FAMILY_ALPHA,
-    Chosen,
-    aliased_pairs,
-    aliases_outside,
-    nuisance_aliases,
-    robust_p,
-    select,
-)
+from .records import ReportWarning
+from .residual import per_sample, predicted, residual_under, rms, white
+from .selection import FAMILY_ALPHA, aliases_outside, nuisance_aliases
 from .structure import unexplained as unexplained_structure
 from .theta import CHANNELS, LEVER, PARAMS
 
@@ -79,14 +69,6 @@ __all__ = ["Diagnosis", "diagnose", "MAX_PASSES", "MIN_SHARE"]
 
 #: With a bandwidth, spectral lines are looked for up to this share of it (:func:`_structure`).
 LINE_BAND = 0.5
-#: Gauss-Newton passes at most; selection and estimates settle in two or three.
-MAX_PASSES = 6
-#: Passes at most of a refit with the selection fixed (after judging removed an effect).
-REFIT_PASSES = 3
-#: Least share of the structure on its channels (the residual power beyond white noise, without the
-#: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
-#: more likely a side effect of something else than a finding.
-MIN_SHARE = 0.01
 
 
 @dataclass
@@ -140,187 +122,6 @@ class Diagnosis:
     out_of_sample: OutOfSample | None = None
     #: the extended model on other records (``--validate-on``, :func:`sizefx.diagnose.holdout.validate_on`)
     validated_on: list = field(default_factory=list)
-
-
-# --------------------------------------------------------------------------- the Gauss-Newton loop
-
-
-@dataclass
-class _State:
-    theta: np.ndarray
-    chosen: list
-    unrevealed: dict
-    residual: np.ndarray  #: [m, 6] the rows of the residual at theta
-    nrm: Normal
-    sigma_c: np.ndarray
-    kappa: np.ndarray
-    passes: int
-    ms_full: np.ndarray  #: [6] the residual's full-band mean square over the usable samples
-
-
-def _free(chosen):
-    return np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
-
-
-def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None, start=None) -> _State:
-    """Gauss-Newton from ``theta`` with the selection redone each pass (or ``fixed``), until the
-    selection and the estimates settle. Returns the final state with the normal equations at the
-    final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since).
-    ``start``: the residual's rows at ``theta``, when already known. The residual is held as rows
-    (``_State.residual``), the regressors are formed span by span."""
-    residual = residual_under(pred, rows_of, theta).rows if start is None else start
-    assert residual is not None  # _residual gives rows with rows_of
-    first = residual[rows_of.keep]  # white-noise sigma from first differences to start
-    sigma_c = np.maximum(np.sqrt(np.mean(np.diff(first, axis=0) ** 2, axis=0) / 2.0), 1e-300)
-    kappa, row_w = np.ones(6), None
-    history = []
-    penalty = math.log(max(int(rows_of.keep.sum()) * 6, 2))
-    chosen, unrevealed = list(fixed or []), {}
-    # a refit with the selection fixed starts where the last one ended, with a few parameters reset:
-    # it settles in two passes, three at most
-    for passes in range(1, (MAX_PASSES if fixed is None else REFIT_PASSES) + 1):
-        cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)  # span by span
-        weights = 1.0 / (sigma_c**2 * kappa)
-        nrm = normal_equations(rows_of, residual, cols, weights, row_w)
-        offset = theta0 - theta  # a parameter not selected stays at its nominal value
-        if fixed is None:
-            chosen, unrevealed, steps = select(nrm, offset, penalty)
-            log.append(f"pass {passes}: " + ("; ".join(steps) if steps else "nothing selected"))
-        free = _free(chosen)
-        N, b, yy = nrm.total()
-        x, _, cov = solve(N, b, yy, free, offset)
-        new = theta0.copy()
-        new[free] = theta[free] + x
-        sig = np.sqrt(np.abs(np.diag(cov))) if free.size else np.zeros(0)
-        step = float(np.max(np.abs(x) / np.maximum(sig, 1e-300))) if free.size else 0.0
-        theta = new
-        final = residual_under(pred, rows_of, theta)
-        residual = final.rows
-        assert residual is not None  # _residual gives rows with rows_of
-        sigma_c, kappa, row_w = noise_of(rows_of, residual, robust=True)
-        history.append(tuple(sorted(c.cand.key for c in chosen)))
-        if progress is not None:
-            progress(passes, MAX_PASSES)
-        if passes >= 2 and history[-1] == history[-2] and step < 1e-3:
-            break
-    weights = 1.0 / (sigma_c**2 * kappa)
-    nrm = normal_equations(rows_of, residual, cols, weights, row_w, walk=True)
-    return _State(theta, chosen, unrevealed, residual, nrm, sigma_c, kappa, passes, final.ms_full)
-
-
-# --------------------------------------------------------------------------- judging the selection
-
-
-def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
-    """The residual's rows without effect ``c`` and the channels it acts on: where its contribution, in units
-    of each channel's noise, is at least a tenth of its largest (the tilt acts on the gyros too,
-    through Earth rate, but 1e5 times less)."""
-    without = theta.copy()
-    without[list(c.active)] = theta0[list(c.active)]
-    r_wo = residual_under(pred, rows_of, without).rows
-    size = rms(rows_of, r_wo - residual) / sigma_c
-    chans = np.flatnonzero(size >= 0.1 * size.max()) if size.max() > 0 else np.arange(6)
-    return r_wo, chans
-
-
-def _share(rows_of, r_wo, residual, weights, chans, noise_power):
-    """Share of the structure on ``chans`` (weighted residual power without the effect, minus the white
-    noise's) that the effect removes: in [0, 1] by construction."""
-    p_wo = float(np.sum(weights[chans] * rms(rows_of, r_wo)[chans] ** 2))
-    p_with = float(np.sum(weights[chans] * rms(rows_of, residual)[chans] ** 2))
-    gain = max(0.0, p_wo - p_with)
-    structure = max(p_wo - float(np.sum(weights[chans] * noise_power[chans])), gain)
-    return gain / structure if structure > 0 else 0.0
-
-
-def _rejection(c: Chosen, theta, reason, likely=None) -> Rejection:
-    return Rejection(
-        c.cand.id,
-        c.cand.channel,
-        {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
-        PARAMS[c.cand.idx[0]].unit,
-        reason,
-        likely,
-    )
-
-
-@dataclass
-class _Verdict:
-    """One round of the checks on a selection (:func:`_judge`)."""
-
-    #: key -> (reason, likely cause, implausible) of each effect that is no finding; reason None for
-    #: the member of an aliased pair the model keeps
-    reasons: dict
-    aliased: list  #: (kept, gone, rho): selected pairs the motion cannot tell apart
-    shares: dict  #: key -> share of the structure on its channels the effect explains
-    parts: Parts | None  #: the parts' scatter of this state, when the checks got that far
-
-
-def _judge(
-    pred: Predictor, rows_of: Rows, state: _State, theta0, grade, level, white_rows, beside=(), every_check=False
-) -> _Verdict:
-    """The checks on the selection ``state.chosen`` but the keys ``beside`` (candidates fitted beside
-    the findings, no findings themselves), in order, the later ones only when the earlier pass
-    (unless ``every_check``):
-
-    1. plausible for the grade (:func:`sizefx.diagnose.plausibility.judge`): an implausible value says
-       the reference or the model is wrong, not the sensor;
-    2. separable from the other selected effects (:func:`sizefx.diagnose.selection.aliased_pairs`):
-       of a pair the motion cannot tell apart neither is a finding, the model keeps their sum as the
-       more common one (:data:`sizefx.diagnose.candidates.PRIORITY`);
-    3. of consequence: it explains at least :data:`MIN_SHARE` of the structure on its channels;
-    4. stable across the record's parts: still significant with the errors widened by their random effect
-       (:func:`sizefx.diagnose.budget.parts_scatter`).
-    """
-    judged = {c.cand.key for c in state.chosen} - set(beside)
-    reasons: dict = {}
-    aliased: list = []
-    shares: dict = {}
-    parts = None
-    offset = theta0 - state.theta
-    for c in state.chosen:
-        why = judge(c.cand.id, state.theta[list(c.cand.idx)], grade) if c.cand.key in judged else None
-        if why:
-            reasons[c.cand.key] = (why, likely_cause(c.cand.id), True)
-    if not reasons or every_check:
-        for i, k, rho in aliased_pairs(state.nrm, state.chosen, offset, level):
-            a, b = state.chosen[i], state.chosen[k]
-            if not {a.cand.key, b.cand.key} <= judged:
-                continue  # a finding and what is fitted beside it: alike by construction
-            keep, gone = (a, b) if PRIORITY.index(a.cand.id) <= PRIORITY.index(b.cand.id) else (b, a)
-            if keep.cand.key in reasons or gone.cand.key in reasons:
-                continue
-            reasons[gone.cand.key] = (
-                (None, None, False) if not every_check else (f"indistinguishable from {keep.cand.key}", None, False)
-            )
-            aliased.append((keep, gone, rho))
-    if not reasons or every_check:
-        weights = 1.0 / (state.sigma_c**2 * state.kappa)
-        for c in state.chosen:
-            if c.cand.key not in judged:
-                continue
-            r_wo, chans = _channels_of(pred, rows_of, state.theta, theta0, c, state.residual, state.sigma_c)
-            share = shares[c.cand.key] = _share(rows_of, r_wo, state.residual, weights, chans, white_rows**2)
-            if share < MIN_SHARE and c.cand.key not in reasons:
-                reasons[c.cand.key] = (
-                    f"explains {100 * share:.2f} % of the structure on its channels, under the "
-                    f"{100 * MIN_SHARE:g} % a finding needs",
-                    "a side effect of another effect or of the noise's colour",
-                    False,
-                )
-    if not reasons or every_check:
-        parts = parts_scatter(pred, state.nrm, _free(state.chosen), offset)
-        for i, c in enumerate(state.chosen):
-            if c.cand.key not in judged or c.cand.key in reasons:
-                continue
-            p = robust_p(state.nrm, state.chosen, offset, which=i, factors=parts.factors)
-            if p > level:
-                reasons[c.cand.key] = (
-                    f"not significant (p = {p:.2g}) once its errors take the scatter of the record's parts",
-                    "the noise's colour or an effect that changes along the record",
-                    False,
-                )
-    return _Verdict(reasons, aliased, shares, parts)
 
 
 def diagnose(
@@ -655,120 +456,3 @@ def _structure(pred: Predictor, rows_of: Rows, residual, white_rows, theta):
     # (a 4th-order Butterworth is down 0.1 dB at half its cut-off)
     max_line_hz = None if rows_of.bandwidth_hz is None else LINE_BAND * rows_of.bandwidth_hz
     return unexplained_structure(rows_of.t, residual, rows_of.keep, regressors, white_rows, max_line_hz=max_line_hz)
-
-
-def _with_aliases(unrevealed: dict, aliased, outside) -> dict:
-    """The selection's ``unrevealed`` (key -> (candidate, parameters, reason)) and the other half of
-    each pair the record cannot tell apart: the effect of a selected pair the model does not keep
-    (``aliased``: (kept, gone, rho)) and the candidate left out that a selected effect is no finding
-    beside (``outside``). Held at their start values, they move what is estimated beside them (the
-    antisymmetric gyro misalignment of one axis and a mount, dropped as a pair on a turntable, went
-    whole into the other axis's misalignment: 86 sigma off on a development-range turntable, seed
-    206), so :func:`sizefx.diagnose.aliases.hidden_parameters` counts them: fitted beside the model
-    with their plausible ranges as priors, so that the record still pins what it can of the pair."""
-    out = dict(unrevealed)
-    counted = {j for _, params, _ in unrevealed.values() for j in params}
-    gone = [(g.cand, tuple(g.active)) for _, g, _ in aliased] + [(cand, tuple(seen)) for _, cand, seen, _ in outside]
-    for cand, params in gone:
-        params = tuple(j for j in params if j not in counted)  # a pair's half may also be another's outside
-        if params:
-            counted.update(params)
-            out[f"{cand.key} (alias)"] = (cand, params, "left out beside a selected effect nearly collinear with it")
-    return out
-
-
-def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: Parts, log):
-    """The findings the grade resolves from their aliases (:func:`sizefx.diagnose.aliases.resolve`):
-    ``({finding key: Alternative}, the budget's aliases part [free, free])``. ``aliased``: selected
-    pairs, the first kept; ``outside``: a selected effect and a candidate left out; ``parts``: the
-    errors' sandwich and the parts' factors, against which a finding must stay significant."""
-    resolved: dict = {}
-    alias_cov = np.zeros((free.size, free.size))
-    factors = np.array([parts.factors.get(j, 1.0) for j in free.tolist()])
-    widened = parts.sandwich * np.outer(factors, factors)
-    pairs = [(keep, gone.cand, gone.active, rho) for keep, gone, rho in aliased]
-    pairs += [(c, cand, seen, rho) for c, cand, seen, rho in outside]
-    for finding, alt, seen, rho in pairs:
-        if finding.cand.key in resolved:
-            continue
-        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho, widened, level)
-        if got is not None:
-            resolved[finding.cand.key] = got[0]
-            alias_cov += got[1]
-            log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
-    return resolved, alias_cov
-
-
-def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights) -> list:
-    """What the record cannot reveal, as :class:`~sizefx.diagnose.records.NotRevealed` entries: the
-    parameters the motion does not excite (``unrevealed``, from the selection); the pairs it cannot
-    tell apart (``aliased``: both selected, the model carrying their sum as the first; ``outside``:
-    a selected effect and a candidate left out); the candidates fitted beside a finding
-    (``nuisance``) and the findings no longer one beside them (``weak``). Each alias names the
-    motions that would separate it (:func:`sizefx.diagnose.aliases.separating_motions`, the
-    library's normal matrices formed once, at the model ``theta`` with the record's ``weights``)."""
-    unrev = [
-        NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
-        for cand, hidden, reason in unrevealed.values()
-    ]
-    normals: dict = {}
-    N_record = nrm.N.sum(0)
-
-    def separated_by(a, b):
-        if not normals:
-            normals.update(library_normals(theta, weights))
-        rest = np.setdiff1d(free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
-        return separating_motions(N_record, nrm.rows, list(a), list(b), rest, normals)
-
-    for keep, gone, rho in aliased:
-        motions = separated_by(keep.active, gone.active)
-        for me, other in ((keep, gone), (gone, keep)):
-            unrev = _named(
-                unrev,
-                me.cand,
-                me.active,
-                f"indistinguishable from {other.cand.key} on this motion (canonical correlation {rho:.4f}); "
-                f"the extended model carries their sum as {keep.cand.key}",
-                motions,
-            )
-    for c, cand, seen, rho in outside:
-        motions = separated_by(c.active, seen)
-        for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
-            if any((u.id, u.channel) == (me.id, me.channel) and "on this motion" in u.reason for u in unrev):
-                continue
-            unrev = _named(
-                unrev,
-                me,
-                params,
-                f"indistinguishable from {other} on this motion (canonical correlation {rho:.4f}); "
-                f"the extended model carries it as {c.cand.key}",
-                motions,
-            )
-    finding_of = {c.cand.key: c for c in chosen}
-    for n, of, rho in nuisance:
-        unrev = _named(
-            unrev,
-            n.cand,
-            n.active,
-            f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
-            f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
-            separated_by(n.active, finding_of[of].active),
-        )
-    for c, n, rho, why in weak:
-        unrev = _named(
-            unrev,
-            c.cand,
-            c.active,
-            f"nearly indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): "
-            f"fitted together, it is no longer a finding ({why}); the extended model carries both",
-            separated_by(c.active, n.active),
-        )
-    return unrev
-
-
-def _named(unrev: list, cand, params, reason: str, separated_by=()) -> list:
-    """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``
-    (:func:`sizefx.diagnose.records.named`), and the motions that would separate it."""
-    return named(
-        unrev, NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in params), reason, tuple(separated_by))
-    )

@@ -1,52 +1,28 @@
-"""What diagnose writes and prints: the extended model, the JSON report, the text report, the plots.
+"""What diagnose writes and prints: the JSON report and the text report.
 
-- :func:`model_document` / :func:`model_toml`: the model vector as a complete ``sizefx/effects/1``
-  document (written with :mod:`sizefx.io.toml`; loaded in memory with
-  ``load_effects(base=IDEAL, overrides=model_document(theta))``, no file in between);
 - :func:`to_json`: the ``sizefx/diagnosis/2`` document (``data-schemas/diagnosis-2.json``; version 1
   files still validate against ``diagnosis-1.json``, see :func:`check_diagnosis`);
-- :func:`format_report`: the lines ``sizefx diagnose`` prints;
-- :func:`plot`: residuals before and after (time series, 0.1 s means) and their spectra, PNG.
+- :func:`format_report`: the lines ``sizefx diagnose`` prints.
+
+The extended model (:func:`model_document`, :func:`model_toml`) is :mod:`.extended`'s, the plots
+(:func:`plot`) :mod:`.plots`'; both are imported from here as before.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import numpy as np
-
 from .. import __version__
-from ..constants import ARCSEC, DEG_PER_H, MICRO_G, STANDARD_GRAVITY_MPS2
-from ..effects import EFFECTS_SCHEMA
+from ..constants import DEG_PER_H, MICRO_G
 from ..errors import ConfigError
-from ..geometry import triad_point
 from ..io.documents import read_json
-from ..io.files import atomic_output
 from ..io.schema import check_document, validate_input
-from ..io.toml import dumps_toml
-from ..sensor_model import SensorParams
+
+# model_header too stays importable from here (sizefx.diagnose imports it so)
+from .extended import model_document, model_header, model_toml  # noqa: F401
 from .fit import Diagnosis
 from .holdout import OutOfSample
-from .normal import block_means
+from .plots import PLOT_FILES, plot
 from .selection import FAMILY_ALPHA
-from .theta import (
-    A_BIAS,
-    A_K2,
-    A_MIS,
-    A_SF,
-    CHANNELS,
-    G_BIAS,
-    G_G,
-    G_MIS,
-    G_SF,
-    LEVER,
-    MOUNT,
-    OFFDIAG,
-    PARAMS,
-    TAU_A,
-    TAU_R,
-    TILT,
-)
+from .theta import CHANNELS, PARAMS
 
 __all__ = [
     "DIAGNOSIS_SCHEMA",
@@ -65,104 +41,6 @@ DIAGNOSIS_SCHEMA = "sizefx/diagnosis/2"
 #: Every report version a reader accepts (version 1: before warnings, rejected, unexplained and
 #: consistency).
 DIAGNOSIS_SCHEMAS = ("sizefx/diagnosis/1", DIAGNOSIS_SCHEMA)
-#: The files :func:`plot` writes into the ``--plots`` folder.
-PLOT_FILES = ("residuals.png", "spectra.png")
-
-
-# --------------------------------------------------------------------------- the extended model
-
-
-def _matrix(offdiag=None, full=None) -> list:
-    """A 3x3 list of lists: ``full``, or zeros with the six misalignment terms ``offdiag`` off the diagonal."""
-    m = np.zeros((3, 3)) if full is None else np.array(full, dtype=float)
-    if offdiag is not None:
-        for (i, j), v in zip(OFFDIAG, offdiag):
-            m[i, j] = v
-    return m.tolist()
-
-
-def model_document(theta: np.ndarray) -> dict:
-    """The model vector [NP] as a complete ``sizefx/effects/1`` document (every deterministic section explicit).
-
-    Noise and quantisation are switched off: the document states what the IMU gets wrong
-    deterministically, which ``navigate --model`` and ``compensate --model`` undo. The arms
-    ``r_i = r + d_i`` are split at the triad point ``r`` (where the accelerometer normals meet,
-    as calibrate splits them), so that navigate/compensate ``--mode triad`` and ``center``
-    keep their meaning: ``d_i`` from the triad point, ``r_vehicle_m`` the triad point.
-    """
-    theta = np.asarray(theta, dtype=float)
-    arms = theta[LEVER].reshape(3, 3)
-    offset = triad_point(arms, SensorParams.from_vector(theta).accel_axes()) if np.any(arms) else np.zeros(3)
-    d_arms = arms - offset
-    on = {
-        name: bool(np.any(theta[idx] != 0.0))
-        for name, idx in (
-            ("accel_bias", A_BIAS),
-            ("accel_scale_factor", A_SF),
-            ("accel_misalignment", A_MIS),
-            ("accel_quadratic", A_K2),
-            ("accel_delay", [TAU_A]),
-            ("reference_delay", [TAU_R]),
-            ("level_tilt", TILT),
-            ("gyro_bias", G_BIAS),
-            ("gyro_scale_factor", G_SF),
-            ("gyro_misalignment", G_MIS),
-            ("gyro_g_sensitivity", G_G),
-            ("reference_mount", MOUNT),
-        )
-    }
-    k2_unit = MICRO_G / STANDARD_GRAVITY_MPS2**2
-    g_unit = DEG_PER_H / STANDARD_GRAVITY_MPS2
-    return {
-        "schema": EFFECTS_SCHEMA,
-        "lever_arm": {
-            "enabled": True,
-            "preset": "none",
-            **{f"d_{a}_m": d_arms[i].tolist() for i, a in enumerate("xyz")},
-            "r0_m": [0.0, 0.0, 0.0],
-            "r_plate_m": [0.0, 0.0, 0.0],
-            "r_vehicle_m": offset.tolist(),
-        },
-        "accel_delay": {"enabled": on["accel_delay"], "tau_s": float(theta[TAU_A])},
-        "reference_delay": {"enabled": on["reference_delay"], "tau_s": float(theta[TAU_R])},
-        "level_tilt": {
-            "enabled": on["level_tilt"],
-            "north_arcsec": float(theta[TILT[0]] / ARCSEC),
-            "east_arcsec": float(theta[TILT[1]] / ARCSEC),
-        },
-        "reference_mount": {"enabled": on["reference_mount"], "arcsec": (theta[MOUNT] / ARCSEC).tolist()},
-        "accel_bias": {"enabled": on["accel_bias"], "bias_ug": (theta[A_BIAS] / MICRO_G).tolist()},
-        "accel_scale_factor": {"enabled": on["accel_scale_factor"], "ppm": (theta[A_SF] * 1e6).tolist()},
-        "accel_misalignment": {"enabled": on["accel_misalignment"], "arcsec": _matrix(offdiag=theta[A_MIS] / ARCSEC)},
-        "accel_quadratic": {"enabled": on["accel_quadratic"], "ug_per_g2": (theta[A_K2] / k2_unit).tolist()},
-        "gyro_bias": {"enabled": on["gyro_bias"], "deg_per_h": (theta[G_BIAS] / DEG_PER_H).tolist()},
-        "gyro_scale_factor": {"enabled": on["gyro_scale_factor"], "ppm": (theta[G_SF] * 1e6).tolist()},
-        "gyro_misalignment": {"enabled": on["gyro_misalignment"], "arcsec": _matrix(offdiag=theta[G_MIS] / ARCSEC)},
-        "gyro_g_sensitivity": {
-            "enabled": on["gyro_g_sensitivity"],
-            "deg_per_h_per_g": _matrix(full=theta[G_G].reshape(3, 3) / g_unit),
-        },
-        "accel_noise": {"enabled": False},
-        "gyro_noise": {"enabled": False},
-        "quantisation": {"enabled": False},
-    }
-
-
-def model_header(source: str = "") -> str:
-    """The comment lines above the extended model's TOML."""
-    return "\n".join(
-        [
-            f"sizefx {__version__} diagnose: the extended model{(' of ' + source) if source else ''}.",
-            "Arms r_i from the reference point of the motion (body axes x forward, y right, z down):",
-            "[lever_arm] d_i from the triad point to accelerometer i, r_vehicle_m from the reference "
-            "point to the triad point.",
-        ]
-    )
-
-
-def model_toml(theta: np.ndarray, source: str = "") -> str:
-    """:func:`model_document` as TOML text, with a header naming the record it was found in."""
-    return dumps_toml(model_document(theta), header=model_header(source))
 
 
 # --------------------------------------------------------------------------- the reports
@@ -502,95 +380,6 @@ def _out_of_sample_lines(o: OutOfSample) -> list[str]:
                 f"{w['after']['final_m']:.2f} m -> {w['in_sample']['final_m']:.2f} m"
             )
     return lines
-
-
-def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:
-    """Residuals before/after (time series, 0.1 s means) and their spectra (Welch): the files
-    :data:`PLOT_FILES` in ``folder`` (created if need be; an existing file replaced only with ``force``).
-    ``d`` must keep its series (``diagnose(..., keep_series=True)``)."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise ConfigError("plots need matplotlib: pip install 'sizefx[plots]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from scipy.signal import welch
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    assert d.t is not None and d.mask is not None, "diagnose(..., keep_series=True) keeps the series"
-    assert d.residual_before is not None and d.residual_after is not None, "diagnose(..., keep_series=True)"
-    t, m = d.t[d.mask], d.mask
-    dt = float(np.median(np.diff(d.t)))
-    scale = [1 / DEG_PER_H] * 3 + [1 / MICRO_G] * 3
-    units = ["deg/h"] * 3 + ["ug"] * 3
-    L = max(1, round(0.1 / dt))
-    written = []
-    notes = _plot_notes(d)
-    fig, axes = plt.subplots(6, 1, figsize=(10, 12 + 0.18 * len(notes)), sharex=True, constrained_layout=True)
-    for c, ax in enumerate(axes):
-        for res, label, lw in ((d.residual_before, "start model", 0.6), (d.residual_after, "extended model", 0.8)):
-            ax.plot(block_means(t, L), block_means(res[m, c], L) * scale[c], lw=lw, label=label)
-        for w in d.warnings:  # where the reference is at fault, on every channel
-            if w.time_s is not None:
-                ax.axvline(w.time_s, color="red", lw=0.8, alpha=0.6)
-        ax.set_ylabel(f"{CHANNELS[c]} [{units[c]}]")
-        ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title(
-        "\n".join(
-            notes + [f"{Path(d.path).name}: measured minus predicted (0.1 s means); red lines: reference warnings"]
-        ),
-        fontsize=8,
-        loc="left",
-    )
-    axes[-1].set_xlabel("time [s]")
-    written.append(_save(fig, folder / PLOT_FILES[0], force))
-    plt.close(fig)
-    fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
-    nper = int(min(m.sum(), 2 ** int(np.log2(max(16, 20.0 / dt)))))
-    for c, ax in enumerate(axes.ravel()):
-        for res, label in ((d.residual_before, "start model"), (d.residual_after, "extended model")):
-            f, pxx = welch(res[m, c] * scale[c], fs=1.0 / dt, nperseg=nper)
-            ax.loglog(f[1:], np.sqrt(pxx[1:]), lw=0.8, label=label)
-        for u in d.unexplained:  # lines the model leaves, where they are
-            if u["channel"] == CHANNELS[c] and u.get("frequency_hz"):
-                ax.axvline(u["frequency_hz"], color="red", lw=0.8, ls="--")
-        ax.set_title(
-            CHANNELS[c]
-            + (
-                "  (unexplained: "
-                + ", ".join(sorted({u["kind"] for u in d.unexplained if u["channel"] == CHANNELS[c]}))
-                + ")"
-                if any(u["channel"] == CHANNELS[c] for u in d.unexplained)
-                else ""
-            ),
-            fontsize=9,
-            color="red" if any(u["channel"] == CHANNELS[c] for u in d.unexplained) else "black",
-        )
-        ax.set_xlabel("frequency [Hz]")
-        ax.set_ylabel(f"[{units[c]}/sqrt(Hz)]")
-        ax.grid(alpha=0.3, which="both")
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle(f"{Path(d.path).name}: residual amplitude spectral density")
-    written.append(_save(fig, folder / PLOT_FILES[1], force))
-    plt.close(fig)
-    return written
-
-
-def _plot_notes(d: Diagnosis, most: int = 8) -> list[str]:
-    """The warnings and the unexplained structure, first lines of the residual plot (at most ``most``)."""
-    notes = [f"WARNING {w.kind}: {w.message}" for w in d.warnings]
-    notes += [f"UNEXPLAINED {u['channel']}: {u['sentence']}" for u in d.unexplained]
-    if len(notes) > most:
-        notes = notes[: most - 1] + [f"... and {len(notes) - most + 1} more (see the report)"]
-    return [n if len(n) <= 150 else n[:147] + "..." for n in notes]
-
-
-def _save(fig, path: Path, force: bool) -> str:
-    with atomic_output(path, force=force) as tmp:  # run()'s pre-flight checked each file against the inputs
-        fig.savefig(tmp, dpi=100, format="png")
-    return str(path)
 
 
 def _walk_words(walk) -> str:

@@ -19,7 +19,7 @@ them (report unit, numerical step, excitation floor) and the index arrays of the
     MOUNT    [3]  the IMU's axes against the reference's body axes, psi about x, y, z   rad
 
 52 scalars in all (:data:`NP`). :func:`theta_from_model` fills it from an effect model; the
-extended-model TOML (:func:`sizefx.diagnose.report.model_document`) writes it back.
+extended-model TOML (:func:`sizefx.diagnose.extended.model_document`) writes it back.
 """
 
 from __future__ import annotations

@@ -18,10 +18,12 @@ sensor noise; compensation uses the calibrated arms (turntable) or the true ones
 flight: a perfect calibration), in the paper's two modes: ``triad`` (the accelerometers
 brought to the triad point) and ``center`` (to the rotation centre).
 
-This module runs the experiments and computes their figures; the comparison table and the
-plots are :mod:`sizefx.experiments.paper_report`'s, the sway's closed form is
-:mod:`sizefx.experiments.closed_form`'s (both re-exported here: ``format_results``,
-``schuler_response``).
+This module runs the two navigation experiments (sway, flight) and all three together
+(:func:`run_all`); the paper's figures and the sizes are :mod:`sizefx.experiments.paper_setup`'s,
+the turntable calibration :mod:`sizefx.experiments.paper_turntable`'s, the comparison table and the
+plots :mod:`sizefx.experiments.paper_report`'s, the sway's closed form
+:mod:`sizefx.experiments.closed_form`'s (all re-exported here: ``PAPER``, ``SIZES``, ``Size``,
+``TILT_ARCSEC``, ``turntable_experiment``, ``format_results``, ``schuler_response``).
 """
 
 from __future__ import annotations
@@ -36,26 +38,20 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .. import earth, scenarios
-from ..calibrate import (
-    CalibrationResult,
-    Record,
-    compensation_figure,
-    joint_fit,
-    per_rotation_fit,
-    prepare,
-)
 from ..compare import horizontal_offset_m
-from ..constants import ARCSEC, METRES_PER_NMI
+from ..constants import METRES_PER_NMI
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
-from ..geometry import preset_arms_m, triad_point
 from ..io.telemetry import read_telemetry
 from ..levers import Levers, write_levers
 from ..navigate import NavConfig, navigate
-from ..simulate import SimulateConfig, simulate_in_memory
+from ..simulate import SimulateConfig
 from ..simulate import run as simulate_run
 from .closed_form import schuler_response
 from .paper_report import flight_figures, format_results, sway_figures
+from .paper_setup import PAPER, SIZES, Size, _true_arms_d
+from .paper_turntable import TILT_ARCSEC as TILT_ARCSEC
+from .paper_turntable import turntable_experiment
 
 __all__ = [
     "PAPER",
@@ -68,150 +64,6 @@ __all__ = [
     "to_json",
     "turntable_experiment",
 ]
-
-
-#: The paper's figures, as printed.
-PAPER: dict[str, dict[str, Any]] = {
-    "turntable": {
-        "diff_mean_mm": 0.5,
-        "diff_max_mm": 1.6,
-        "sigma_mean_mm": 0.04,
-        "sigma_max_mm": 0.12,
-        # Delta r_x, Delta r_y, Delta r_z [m], rows: the paper's estimate minus nominal
-        "delta_m": [[0.0007, 0.0000, -0.0009], [-0.0016, 0.0000, -0.0011], [-0.0005, 0.0000, -0.0008]],
-        "sigma_m": [[0.000118, 0.000011, 0.000059], [0.000014, 0.000025, 0.000035], [0.000047, 0.000047, 0.000011]],
-    },  # sigma(r_z) prints a 4th value, 0.000071: left out
-    "sway": {"divergence_km": 3.0},
-    "flight": {"gain_km": 1.1, "gain_nmi_per_h": 0.3, "ground_speed_change_mps": 0.828, "duration_h": 1.8},
-}
-#: The paper's table tilt (Fig. 6: 53 and 29 ug oscillations).
-TILT_ARCSEC = (-11.0, -6.0)
-
-
-@dataclass(frozen=True)
-class Size:
-    """How big each experiment is run."""
-
-    name: str
-    turntable_repeats: int
-    turntable_rate_hz: float
-    sway_rate_hz: float
-    sway_static_s: float
-    sway_segment_s: float
-    flight_rate_hz: float
-    flight_duration_h: float
-
-
-#: ``full``: the paper's sizes (docs/ figures). ``reduced``: the demo's. It keeps every duration
-#: (the Schuler loop needs them) and the sway's 1600 Hz, and runs the turntable (three repeats) and
-#: the flight at 400 Hz: the arm sigma is set by the noise density, not the rate (the spread over
-#: three repeats is rougher), and at 400 Hz the flight's 32 Hz rotor harmonic has 12 samples a
-#: period, which moves the flight's gain by about 10 %.
-#: ``smoke``: for the test suite only (``tests/test_cli.py``): every step of the demo runs and
-#: prints in seconds, at sizes too small for its figures to mean anything.
-SIZES = {
-    "full": Size("full", 5, 1600.0, 1600.0, 600.0, 600.0, 1600.0, 1.8),
-    "reduced": Size("reduced", 3, 400.0, 1600.0, 600.0, 600.0, 400.0, 1.8),
-    "smoke": Size("smoke", 1, 200.0, 200.0, 60.0, 60.0, 100.0, 0.45),
-}
-
-
-def _true_arms_d():
-    """The paper's unit: the high-precision drawing plus its measured deviations."""
-    return preset_arms_m("high-precision") + np.asarray(PAPER["turntable"]["delta_m"])
-
-
-# --------------------------------------------------------------------------- 1. turntable
-
-
-def _per_rotation_matrix(rows):
-    """The per-rotation fit's rows as a [3, 3] arm matrix (mean where two rotations give a component)."""
-    acc: list[list[list[float]]] = [[[] for _ in range(3)] for _ in range(3)]
-    for row in rows:
-        i, j = "xyz".index(row["channel"]), "xyz".index(row["other_component"])
-        acc[i][i].append(row["r_own"])
-        acc[i][j].append(row["r_other"])
-    return np.array([[np.mean(c) if c else np.nan for c in r] for r in acc])
-
-
-def turntable_experiment(out_dir: Path, size: Size, *, seed0: int = 0, log=print) -> dict:
-    """Calibrate ``size.turntable_repeats`` simulated runs of the paper's plan; Fig. 6 of the first."""
-    started = time.perf_counter()
-    traj, _ = scenarios.turntable(scenarios.TurntablePlan())
-    d_true = _true_arms_d()
-    fx = load_effects(
-        overrides={
-            "lever_arm": {
-                "preset": "high-precision",
-                "d_x_m": d_true[0].tolist(),
-                "d_y_m": d_true[1].tolist(),
-                "d_z_m": d_true[2].tolist(),
-            },
-            "level_tilt": {"enabled": True, "north_arcsec": TILT_ARCSEC[0], "east_arcsec": TILT_ARCSEC[1]},
-        }
-    )
-    nominal = preset_arms_m("high-precision")
-    joints: list[np.ndarray] = []
-    sigs: list[np.ndarray] = []
-    per_rots: list[np.ndarray] = []
-    first: tuple[Record, CalibrationResult] | None = None
-    for k in range(size.turntable_repeats):
-        tel = simulate_in_memory(traj, fx, rate_hz=size.turntable_rate_hz, form="rates", seed=seed0 + k)
-        rec = prepare(tel, f"repeat {k + 1}")
-        res = joint_fit([rec])
-        assert res.tilt_rad is not None  # joint_fit fits the tilt unless told not to
-        joints.append(res.arms)
-        sigs.append(res.sigma_arms)
-        per_rots.append(_per_rotation_matrix(per_rotation_fit(rec)))
-        if first is None:
-            first = (rec, res)
-        log(
-            f"  turntable repeat {k + 1}/{size.turntable_repeats}: joint fit sigma mean "
-            f"{res.sigma_arms.mean() * 1e3:.3f} mm, tilt {res.tilt_rad[0] / ARCSEC:.2f}/{res.tilt_rad[1] / ARCSEC:.2f} arcsec"
-        )
-    joint, sig, per_rot = np.array(joints), np.array(sigs), np.array(per_rots)
-    delta_joint = joint.mean(0) - nominal
-    delta_per_rot = np.nanmean(per_rot, axis=0) - nominal
-    spread = joint.std(0, ddof=1) if len(joint) > 1 else sig[0]
-    assert first is not None  # every Size runs one repeat at least
-    rec, res = first
-    assert res.tilt_rad is not None  # joint_fit fits the tilt unless told not to
-    point = triad_point(res.arms)
-    levers = Levers(arms_total=res.arms, offset=point, arms_triad=res.arms - point, sigma=res.sigma_arms)
-    fig6 = out_dir / "fig6_turntable_compensation.png"
-    spans = compensation_figure(
-        rec, levers, fig6, title="Fig. 6 (simulated): horizontal accelerometers, raw and compensated"
-    )
-    paper = PAPER["turntable"]
-    paper_delta = np.asarray(paper["delta_m"])
-    out = {
-        "repeats": size.turntable_repeats,
-        "rate_hz": size.turntable_rate_hz,
-        "true_minus_nominal_mm": (paper_delta * 1e3).tolist(),
-        "joint_minus_nominal_mm": (delta_joint * 1e3).tolist(),
-        "joint_error_mm": ((joint.mean(0) - (nominal + paper_delta)) * 1e3).tolist(),
-        "per_rotation_minus_nominal_mm": (delta_per_rot * 1e3).tolist(),
-        "spread_over_repeats_mm": (spread * 1e3).tolist(),
-        "formal_sigma_mm": (sig.mean(0) * 1e3).tolist(),
-        # the paper's "mean 0.5 mm" matches the mean of its nine signed differences (-0.47 mm);
-        # the mean of their magnitudes is 0.62 mm
-        "diff_mean_mm": float(abs(delta_joint.mean()) * 1e3),
-        "diff_mean_abs_mm": float(np.abs(delta_joint).mean() * 1e3),
-        "paper_diff_mean_abs_mm": float(np.abs(paper_delta).mean() * 1e3),
-        "diff_max_mm": float(np.abs(delta_joint).max() * 1e3),
-        "per_rotation_diff_mean_abs_mm": float(np.nanmean(np.abs(delta_per_rot)) * 1e3),
-        "per_rotation_diff_signed_mean_mm": float(abs(np.nanmean(delta_per_rot)) * 1e3),
-        "per_rotation_diff_max_mm": float(np.nanmax(np.abs(delta_per_rot)) * 1e3),
-        "sigma_mean_mm": float(spread.mean() * 1e3),
-        "sigma_max_mm": float(spread.max() * 1e3),
-        "formal_sigma_mean_mm": float(sig.mean() * 1e3),
-        "formal_sigma_max_mm": float(sig.max() * 1e3),
-        "tilt_arcsec": (res.tilt_rad / ARCSEC).tolist(),
-        "fig6_spans_ug": spans,
-        "figures": [str(fig6)],
-        "wall_s": time.perf_counter() - started,
-    }
-    return out
 
 
 # --------------------------------------------------------------------------- 2. heading sway

@@ -60,7 +60,7 @@ from ..io.telemetry import Reference, Site, Telemetry, read_telemetry
 from ..rotation import euler_to_mat, mat_to_quat
 from ..sanity import GYRO_BAND
 from . import REFERENCE_GRAVITY_ANGLE_MAX_DEG, REFERENCE_RATE_HZ, provenance
-from .table import TIME_UNITS, _Table, _time_units_problem
+from .table_common import TIME_UNITS, _Table, _time_units_problem
 
 __all__ = ["load", "ANGLE_UNITS", "RATE_UNITS"]
 

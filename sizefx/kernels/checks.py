@@ -2,11 +2,11 @@
 not finite and the first beyond the physical limits (:func:`scale_and_check`); the time stamp
 farthest from the uniform grid (:func:`worst_grid_offset`).
 
-The telemetry contract (:meth:`sizefx.io.contract.ContractReader.rows`) checks each read this way.
+The telemetry contract (:meth:`sizefx.io.contract.validation.ContractReader.rows`) checks each read this way.
 Done with NumPy it took eight passes and three temporaries over each chunk (``isfinite``, ``any``,
 the scaling, ``isfinite`` again, two comparisons, their ``or``, ``any``): 44 % of ``sizefx navigate``'s
 time on the 1.8 h flight, and memory traffic that two records in parallel share. The
-NumPy twin is :func:`sizefx.io.contract.invalid_rows` (``tests/test_contract_kernel.py``). The grid
+NumPy twin is :func:`sizefx.io.contract.limits.invalid_rows` (``tests/test_contract_kernel.py``). The grid
 check took seven NumPy passes; its twin is :func:`sizefx.navigate.steps.grid_offsets_periods`.
 """
 

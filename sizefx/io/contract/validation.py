@@ -1,29 +1,29 @@
-"""The checks of the ``sizefx/telemetry/1`` contract on an open HDF5 file.
+"""The validation pass of the ``sizefx/telemetry/1`` contract over an open HDF5 file
+(:mod:`sizefx.io.contract`): :class:`ContractReader` checks the structure, the root attributes, each
+dataset's shape, dtype and units (converted to SI), time stamps, gaps and their declaration, and
+quaternions, within bounds that keep a crafted file from making the check itself the attack.
 
-:class:`ContractReader` makes one validation pass: structure, root attributes, each dataset's
-shape, dtype and units (converted to SI), time stamps, gaps and their declaration, quaternions
-and magnitudes, raising a :class:`~sizefx.errors.TelemetryError` that names the file, the
-dataset and the problem, and says how to fix it. Everything about names, shapes, dtypes and
-units comes from ``data-schemas/telemetry-1.json`` via :mod:`sizefx.io.schema`.
-:func:`open_structure` and :func:`side_groups` are the steps a whole read and a streamed one
-(:mod:`sizefx.io.reader`) share.
+One class of about 420 lines: a pass keeps its state (the units, sizes and gaps found so far, each
+dataset's bounds) across its steps, and :mod:`sizefx.io.reader` drives the steps one by one, whole or
+streamed.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import NoReturn
 
 import h5py
 import numpy as np
 
-from ..constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
-from ..errors import TelemetryError
-from ..kernels.checks import scale_and_check
-from .gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
-from .records import Reference, Site
-from .schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
+from ...constants import GAP_FACTOR, QUATERNION_NORM_TOLERANCE
+from ...errors import TelemetryError
+from ...kernels.checks import scale_and_check
+from ..gaps import GAP_MATCH_TOLERANCE, Gap, gap_rows, nominal_period_s
+from ..schema import POLE_REASON, TELEMETRY_SCHEMA, allowed_units, load_schema, normalise_units, unit_factor
+from .attrs import attr_str
+from .limits import _bounds, limit_problem
+from .storage import storage_problem
 
 #: Deepest group nesting and most objects the link check visits: a telemetry file has two levels
 #: and a few dozen objects; the bounds keep a crafted file (thousands of nested groups, a tree
@@ -36,135 +36,8 @@ MAX_ACCEL_TIME_OFFSET_PERIODS = 10
 #: Most gaps a time dataset may have: each is kept, listed and reported; a record with more dropouts
 #: than this is not one recording that can be navigated (or its time axis is in other units).
 MAX_GAPS = 100_000
-#: Largest HDF5 chunk read at once: one row of a dataset costs its whole chunk, decompressed.
-#: sizefx writes 1.5 MiB chunks; h5py's automatic chunking stays under 1 MiB.
-MAX_CHUNK_BYTES = 64 * 2**20
 
-__all__ = [
-    "ContractReader",
-    "open_hdf5",
-    "open_structure",
-    "check_magnitudes",
-    "magnitude_problem",
-    "side_groups",
-    "site_from_attrs",
-    "invalid_rows",
-    "limit_problem",
-    "storage_problem",
-]
-
-
-def attr_value(value):
-    """An HDF5 attribute as plain Python (str, float, int, list), every text in it valid (:func:`attr_str`)."""
-    if isinstance(value, (bytes, str)):
-        return attr_str(value)
-    if isinstance(value, np.ndarray):
-        return attr_value(value[()]) if value.shape == () else [attr_value(v) for v in value.tolist()]
-    if isinstance(value, list):  # the rows of a multi-dimensional array's tolist()
-        return [attr_value(v) for v in value]
-    if isinstance(value, np.generic):
-        return attr_value(value.item())
-    return value
-
-
-def attr_str(value) -> str:
-    """An HDF5 text attribute as valid text, whatever bytes the file holds.
-
-    HDF5 does not check that a string attribute declared UTF-8 is UTF-8, and h5py hands the bytes that
-    are not over as lone surrogates (``surrogateescape``), which no output can take: h5py refuses to write
-    them into a new file, and stdout and JSON readers choke on them. Those bytes become backslash escapes
-    (``b"caf\\xe9"`` -> ``"caf\\\\xe9"``), not an error: the text attributes sizefx only carries or prints
-    (``description``, the ``/source`` provenance) are informational, and a record is not refused for a
-    comment in Latin-1; they stay readable and travel into every output. The ones sizefx interprets
-    (``schema``, ``units``, ``/simulation`` ``truth_json``) keep their escapes too and are then refused by
-    their own checks, which quote the value."""
-    if isinstance(value, np.ndarray) and value.shape == ():
-        value = value[()]
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "backslashreplace")
-    text = str(value)
-    try:
-        raw = text.encode("utf-8", "surrogateescape")  # the bytes h5py could not decode, back as bytes
-    except UnicodeEncodeError:  # a surrogate that is no escaped byte: keep it visible as \udXXX
-        return text.encode("utf-8", "backslashreplace").decode("utf-8")
-    return raw.decode("utf-8", "backslashreplace")
-
-
-def storage_problem(dset: h5py.Dataset) -> str | None:
-    """What makes a dataset unsafe to read, found before reading it: rows declared but never stored
-    (a sparse chunked dataset reads back as fill values and, read whole, allocates its declared
-    size), or chunks so large that reading one row decompresses more than :data:`MAX_CHUNK_BYTES`.
-    None when it is safe."""
-    if dset.size and dset.id.get_storage_size() == 0:
-        return (
-            f"declares shape {dset.shape} but stores no data (never written); the file is incomplete: write the "
-            "samples, or re-import the source"
-        )
-    if dset.chunks is not None:
-        chunk_bytes = int(np.prod(dset.chunks, dtype=np.int64)) * dset.dtype.itemsize
-        if chunk_bytes > MAX_CHUNK_BYTES:
-            return (
-                f"is stored in chunks of {chunk_bytes / 2**20:.0f} MiB (chunk shape {dset.chunks}); at most "
-                f"{MAX_CHUNK_BYTES // 2**20} MiB can be read at a time (rewrite it with h5py chunks=True, or with "
-                "sizefx import)"
-            )
-    return None
-
-
-def _bounds(schema: dict, name: str, columns: int):
-    """Per column (low, high) of dataset ``name`` from the schema's ``sample_limits`` (one bound for
-    all columns, or one per column, symmetric or [low, high]); None without a limit."""
-    limit = schema["sample_limits"].get(name)
-    if limit is None:
-        return None
-    per_column = limit if isinstance(limit, list) else [limit] * columns
-    return (
-        np.array([b[0] if isinstance(b, list) else -b for b in per_column]),
-        np.array([b[1] if isinstance(b, list) else b for b in per_column]),
-    )
-
-
-def invalid_rows(schema: dict, name: str, data: np.ndarray) -> np.ndarray:
-    """[rows, columns] bool: samples of dataset ``name`` (SI) that are not finite or lie beyond the
-    schema's ``sample_limits``."""
-    values = data.reshape(data.shape[0], -1)
-    bad = ~np.isfinite(values)
-    bounds = _bounds(schema, name, values.shape[1])
-    if bounds is not None:
-        with np.errstate(invalid="ignore"):
-            bad |= (values < bounds[0]) | (values > bounds[1])
-    return bad
-
-
-def limit_problem(schema: dict, name: str, data: np.ndarray, first_row: int = 0) -> str | None:
-    """What is wrong with the rows ``data`` (SI, finite; rows ``first_row ...``) of dataset ``name``
-    against the schema's ``sample_limits``; None when every sample is within them."""
-    if data.size == 0 or _bounds(schema, name, 1) is None:
-        return None
-    values = data.reshape(data.shape[0], -1)
-    bad = invalid_rows(schema, name, values)
-    if not bad.any():
-        return None
-    low, high = _bounds(schema, name, values.shape[1])
-    row, col = (int(v) for v in np.argwhere(bad)[0])
-    if name == "/reference/position" and col == 0 and np.isfinite(values[row, col]):
-        # a latitude is said in degrees; up to 90 deg it is a place (near a pole), beyond it a unit or column error
-        lat_deg = float(np.degrees(values[row, col]))
-        fix = (
-            f"{POLE_REASON}: cut the record where it comes that close to the pole"
-            if abs(lat_deg) <= 90.0
-            else "beyond the poles: check the units attribute and that column 0 is the latitude"
-        )
-        return (
-            f"latitude (column 0) is {lat_deg:.6g} deg at row {row + first_row} ({int(bad.any(axis=1).sum())} rows "
-            f"in this read), outside [{np.degrees(low[col]):.6g}, {np.degrees(high[col]):.6g}] deg; {fix}"
-        )
-    column = f", column {col}" if values.shape[1] > 1 else ""
-    return (
-        f"holds {values[row, col]:.6g} (SI, after its units) at row {row + first_row}{column}, outside the "
-        f"physical limits [{low[col]:g}, {high[col]:g}] ({int(bad.any(axis=1).sum())} rows in this read); check "
-        "the units attribute, or remove or interpolate those samples (sizefx import --drop-invalid-rows)"
-    )
+__all__ = ["ContractReader", "MAX_GROUP_DEPTH", "MAX_OBJECTS", "MAX_ACCEL_TIME_OFFSET_PERIODS", "MAX_GAPS"]
 
 
 class ContractReader:
@@ -588,140 +461,3 @@ class ContractReader:
                 "the order is scalar-first [w, x, y, z]",
             )
         return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def open_hdf5(path: Path, hint: str) -> h5py.File:
-    """Open ``path`` read-only, or raise a one-line error saying why it is not a readable HDF5 file.
-
-    ``hint`` ends the message when the file is not HDF5 at all (what to do instead).
-    """
-    path = Path(path)
-    if not path.exists():
-        raise TelemetryError(path, "/", "file does not exist")
-    if path.is_dir():
-        raise TelemetryError(path, "/", "is a directory, not an HDF5 file")
-    if path.stat().st_size == 0:
-        raise TelemetryError(path, "/", "file is empty (0 bytes)")
-    try:
-        is_hdf5 = h5py.is_hdf5(path)
-    except OSError:
-        is_hdf5 = False
-    if not is_hdf5:
-        raise TelemetryError(path, "/", f"is not an HDF5 file (no HDF5 signature); {hint}")
-    try:
-        return h5py.File(path, "r")
-    except OSError as exc:
-        raise TelemetryError(
-            path, "/", f"cannot be opened as HDF5 ({str(exc).splitlines()[0]}); the file is truncated or corrupt"
-        ) from None
-
-
-def open_structure(path, h5, allow_gaps, check_plausibility):
-    """Links, root attributes, groups and the IMU form: ``(reader, root attributes, form)``."""
-    r = ContractReader(path, h5, allow_gaps, check_plausibility)
-    r.refuse_links_to_other_files()
-    attrs = r.root_attributes()
-    schema = r.schema
-    for gname, gspec in schema["groups"].items():
-        if gname in h5 and not isinstance(h5[gname], h5py.Group):
-            r.fail(gname, "must be a group")
-        if gspec["required"] and gname not in h5:
-            r.fail(gname, "group is missing; IMU samples belong in /imu")
-    # IMU: exactly one form.
-    present = {form: [d for d in spec["datasets"] if d in h5] for form, spec in schema["forms"].items()}
-    complete = [form for form, names in present.items() if len(names) == len(schema["forms"][form]["datasets"])]
-    if len(complete) == 2:
-        r.fail("/imu", "holds both gyro/accel and dtheta/dvel; keep one form")
-    if not complete:
-        partial = [d for names in present.values() for d in names]
-        if partial:
-            form = next(f for f, names in present.items() if names)
-            missing = [d for d in schema["forms"][form]["datasets"] if d not in h5]
-            r.fail(missing[0], f"dataset is missing ({partial[0]} is present; {form} need both)")
-        r.fail("/imu", "holds neither gyro+accel (rates) nor dtheta+dvel (increments)")
-    return r, attrs, complete[0]
-
-
-def magnitude_problem(schema: dict, form: str, period: float, gyro, accel, units: dict) -> tuple[str, str, str] | None:
-    """The first median magnitude outside the schema's ``plausibility`` (specific force, then angular
-    rate) of IMU rows ``gyro``, ``accel`` (SI; increments divided by the sample ``period`` [s]), as
-    ``(dataset, figures, hint)``: what the data read against the plausible range, and the units
-    under which the same numbers would be plausible. None when both are plausible.
-
-    The reader's check (:func:`check_magnitudes`); :func:`sizefx.sanity.implausible` applies it to
-    a record in memory (``sizefx simulate``). ``units``: dataset -> the units the data were read in.
-    """
-    gyro_name, accel_name = schema["forms"][form]["datasets"]
-    f_est = accel if form == "rates" else accel / period
-    w_est = gyro if form == "rates" else gyro / period
-    for name, values, key, what in (
-        (accel_name, f_est, "median_specific_force_mps2", "specific force"),
-        (gyro_name, w_est, "median_angular_rate_rad_s", "angular rate"),
-    ):
-        lo, hi = schema["plausibility"][key]
-        med = float(np.median(np.linalg.norm(values, axis=1)))
-        if lo <= med <= hi:
-            continue
-        quantity = schema["datasets"][name]["quantity"]
-        base = unit_factor(quantity, units[name])
-        # the units under which the same numbers would be plausible: the data look like those
-        fits = [
-            u for u, factor in schema["units"][quantity].items() if u != units[name] and lo <= med / base * factor <= hi
-        ]
-        hint = (
-            f"the data look like {fits[0]}: set the units attribute to '{fits[0]}'"
-            if len(fits) == 1
-            else "the units attribute is probably wrong"
-        )
-        figures = (
-            f"median |{what}| is {med:.4g} in SI after converting from '{units[name]}', outside the "
-            f"plausible {lo:g}..{hi:g}"
-        )
-        return name, figures, hint
-    return None
-
-
-def check_magnitudes(r, form, period, gyro, accel):
-    """Refuse (``r.fail``) median magnitudes that betray wrong units: :func:`magnitude_problem`."""
-    found = magnitude_problem(r.schema, form, period, gyro, accel, r.units)
-    if found is not None:
-        name, figures, hint = found
-        r.fail(name, f"{figures}; {hint}")
-
-
-def side_groups(r, h5, reference: bool = True):
-    """``/reference`` (read whole; None with ``reference=False``), ``/source`` and ``/simulation``."""
-    found: Reference | None = None
-    if reference and "/reference" in h5:
-        ref_t = r.dataset("/reference/time", required=True)
-        r.check_time("/reference/time", ref_t)
-        quat = r.check_unit_quaternions("/reference/quaternion", r.dataset("/reference/quaternion", required=True))
-        pos = r.dataset("/reference/position", required=False)
-        vel = r.dataset("/reference/velocity", required=False)
-        found = Reference(time_s=ref_t, quat_nb=quat, velocity_n_mps=vel)
-        if pos is not None:  # columns within their limits (ContractReader.check_limits)
-            found.lat_rad, found.lon_rad, found.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
-    source = None
-    if "/source" in h5:
-        source = {attr_str(k): attr_value(v) for k, v in h5["/source"].attrs.items()}
-    simulation = None
-    if "/simulation" in h5:
-        sim_attrs = h5["/simulation"].attrs
-        if "truth_json" not in sim_attrs:
-            r.fail("/simulation", "attribute truth_json is missing")
-        try:
-            simulation = json.loads(attr_str(sim_attrs["truth_json"]))
-        except json.JSONDecodeError as exc:
-            r.fail("/simulation", f"attribute truth_json is not valid JSON ({exc})")
-        except (RecursionError, ValueError) as exc:  # nesting past the parser, a 5000-digit integer
-            r.fail(
-                "/simulation",
-                f"attribute truth_json cannot be read ({type(exc).__name__}); it is not one sizefx simulate wrote",
-            )
-    return found, source, simulation
-
-
-def site_from_attrs(attrs):
-    if "latitude_deg" not in attrs:
-        return None
-    return Site(np.radians(attrs["latitude_deg"]), np.radians(attrs["longitude_deg"]), attrs["height_m"])

@@ -1,0 +1,143 @@
+"""The checks on a selection (:func:`_judge`): which selected effects are findings.
+
+In order, the later ones only when the earlier pass: plausible for the grade, separable from the
+other selected effects, of consequence (:data:`MIN_SHARE` of the structure on its channels), and
+stable across the record's parts. :func:`sizefx.diagnose.fit.diagnose` refits without what they
+reject until nothing changes, and judges the findings again beside the candidates fitted with them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .budget import Parts, parts_scatter
+from .candidates import PRIORITY
+from .gauss_newton import _free, _State
+from .normal import Rows
+from .plausibility import judge, likely_cause
+from .predictor import Predictor
+from .records import Rejection
+from .residual import residual_under, rms
+from .selection import Chosen, aliased_pairs, robust_p
+from .theta import PARAMS
+
+__all__ = ["MIN_SHARE"]
+
+#: Least share of the structure on its channels (the residual power beyond white noise, without the
+#: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
+#: more likely a side effect of something else than a finding.
+MIN_SHARE = 0.01
+
+
+def _channels_of(pred, rows_of, theta, theta0, c, residual, sigma_c):
+    """The residual's rows without effect ``c`` and the channels it acts on: where its contribution, in units
+    of each channel's noise, is at least a tenth of its largest (the tilt acts on the gyros too,
+    through Earth rate, but 1e5 times less)."""
+    without = theta.copy()
+    without[list(c.active)] = theta0[list(c.active)]
+    r_wo = residual_under(pred, rows_of, without).rows
+    size = rms(rows_of, r_wo - residual) / sigma_c
+    chans = np.flatnonzero(size >= 0.1 * size.max()) if size.max() > 0 else np.arange(6)
+    return r_wo, chans
+
+
+def _share(rows_of, r_wo, residual, weights, chans, noise_power):
+    """Share of the structure on ``chans`` (weighted residual power without the effect, minus the white
+    noise's) that the effect removes: in [0, 1] by construction."""
+    p_wo = float(np.sum(weights[chans] * rms(rows_of, r_wo)[chans] ** 2))
+    p_with = float(np.sum(weights[chans] * rms(rows_of, residual)[chans] ** 2))
+    gain = max(0.0, p_wo - p_with)
+    structure = max(p_wo - float(np.sum(weights[chans] * noise_power[chans])), gain)
+    return gain / structure if structure > 0 else 0.0
+
+
+def _rejection(c: Chosen, theta, reason, likely=None) -> Rejection:
+    return Rejection(
+        c.cand.id,
+        c.cand.channel,
+        {PARAMS[j].label: float(theta[j] / PARAMS[j].per_unit) for j in c.cand.idx},
+        PARAMS[c.cand.idx[0]].unit,
+        reason,
+        likely,
+    )
+
+
+@dataclass
+class _Verdict:
+    """One round of the checks on a selection (:func:`_judge`)."""
+
+    #: key -> (reason, likely cause, implausible) of each effect that is no finding; reason None for
+    #: the member of an aliased pair the model keeps
+    reasons: dict
+    aliased: list  #: (kept, gone, rho): selected pairs the motion cannot tell apart
+    shares: dict  #: key -> share of the structure on its channels the effect explains
+    parts: Parts | None  #: the parts' scatter of this state, when the checks got that far
+
+
+def _judge(
+    pred: Predictor, rows_of: Rows, state: _State, theta0, grade, level, white_rows, beside=(), every_check=False
+) -> _Verdict:
+    """The checks on the selection ``state.chosen`` but the keys ``beside`` (candidates fitted beside
+    the findings, no findings themselves), in order, the later ones only when the earlier pass
+    (unless ``every_check``):
+
+    1. plausible for the grade (:func:`sizefx.diagnose.plausibility.judge`): an implausible value says
+       the reference or the model is wrong, not the sensor;
+    2. separable from the other selected effects (:func:`sizefx.diagnose.selection.aliased_pairs`):
+       of a pair the motion cannot tell apart neither is a finding, the model keeps their sum as the
+       more common one (:data:`sizefx.diagnose.candidates.PRIORITY`);
+    3. of consequence: it explains at least :data:`MIN_SHARE` of the structure on its channels;
+    4. stable across the record's parts: still significant with the errors widened by their random effect
+       (:func:`sizefx.diagnose.budget.parts_scatter`).
+    """
+    judged = {c.cand.key for c in state.chosen} - set(beside)
+    reasons: dict = {}
+    aliased: list = []
+    shares: dict = {}
+    parts = None
+    offset = theta0 - state.theta
+    for c in state.chosen:
+        why = judge(c.cand.id, state.theta[list(c.cand.idx)], grade) if c.cand.key in judged else None
+        if why:
+            reasons[c.cand.key] = (why, likely_cause(c.cand.id), True)
+    if not reasons or every_check:
+        for i, k, rho in aliased_pairs(state.nrm, state.chosen, offset, level):
+            a, b = state.chosen[i], state.chosen[k]
+            if not {a.cand.key, b.cand.key} <= judged:
+                continue  # a finding and what is fitted beside it: alike by construction
+            keep, gone = (a, b) if PRIORITY.index(a.cand.id) <= PRIORITY.index(b.cand.id) else (b, a)
+            if keep.cand.key in reasons or gone.cand.key in reasons:
+                continue
+            reasons[gone.cand.key] = (
+                (None, None, False) if not every_check else (f"indistinguishable from {keep.cand.key}", None, False)
+            )
+            aliased.append((keep, gone, rho))
+    if not reasons or every_check:
+        weights = 1.0 / (state.sigma_c**2 * state.kappa)
+        for c in state.chosen:
+            if c.cand.key not in judged:
+                continue
+            r_wo, chans = _channels_of(pred, rows_of, state.theta, theta0, c, state.residual, state.sigma_c)
+            share = shares[c.cand.key] = _share(rows_of, r_wo, state.residual, weights, chans, white_rows**2)
+            if share < MIN_SHARE and c.cand.key not in reasons:
+                reasons[c.cand.key] = (
+                    f"explains {100 * share:.2f} % of the structure on its channels, under the "
+                    f"{100 * MIN_SHARE:g} % a finding needs",
+                    "a side effect of another effect or of the noise's colour",
+                    False,
+                )
+    if not reasons or every_check:
+        parts = parts_scatter(pred, state.nrm, _free(state.chosen), offset)
+        for i, c in enumerate(state.chosen):
+            if c.cand.key not in judged or c.cand.key in reasons:
+                continue
+            p = robust_p(state.nrm, state.chosen, offset, which=i, factors=parts.factors)
+            if p > level:
+                reasons[c.cand.key] = (
+                    f"not significant (p = {p:.2g}) once its errors take the scatter of the record's parts",
+                    "the noise's colour or an effect that changes along the record",
+                    False,
+                )
+    return _Verdict(reasons, aliased, shares, parts)

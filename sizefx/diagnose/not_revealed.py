@@ -1,0 +1,135 @@
+"""The pairs a record cannot tell apart, after the fit, and what it cannot reveal.
+
+For :func:`sizefx.diagnose.fit.diagnose`: the findings the grade resolves from their aliases
+(:func:`_resolved`), the other halves of the pairs counted among the hidden parameters
+(:func:`_with_aliases`), and the :class:`~sizefx.diagnose.records.NotRevealed` entries, each alias
+with the motions that would separate it (:func:`_not_revealed`, :func:`_named`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .aliases import library_normals, resolve, separating_motions
+from .budget import Parts
+from .records import NotRevealed, named
+from .theta import PARAMS
+
+__all__: list[str] = []
+
+
+def _with_aliases(unrevealed: dict, aliased, outside) -> dict:
+    """The selection's ``unrevealed`` (key -> (candidate, parameters, reason)) and the other half of
+    each pair the record cannot tell apart: the effect of a selected pair the model does not keep
+    (``aliased``: (kept, gone, rho)) and the candidate left out that a selected effect is no finding
+    beside (``outside``). Held at their start values, they move what is estimated beside them (the
+    antisymmetric gyro misalignment of one axis and a mount, dropped as a pair on a turntable, went
+    whole into the other axis's misalignment: 86 sigma off on a development-range turntable, seed
+    206), so :func:`sizefx.diagnose.aliases.hidden_parameters` counts them: fitted beside the model
+    with their plausible ranges as priors, so that the record still pins what it can of the pair."""
+    out = dict(unrevealed)
+    counted = {j for _, params, _ in unrevealed.values() for j in params}
+    gone = [(g.cand, tuple(g.active)) for _, g, _ in aliased] + [(cand, tuple(seen)) for _, cand, seen, _ in outside]
+    for cand, params in gone:
+        params = tuple(j for j in params if j not in counted)  # a pair's half may also be another's outside
+        if params:
+            counted.update(params)
+            out[f"{cand.key} (alias)"] = (cand, params, "left out beside a selected effect nearly collinear with it")
+    return out
+
+
+def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: Parts, log):
+    """The findings the grade resolves from their aliases (:func:`sizefx.diagnose.aliases.resolve`):
+    ``({finding key: Alternative}, the budget's aliases part [free, free])``. ``aliased``: selected
+    pairs, the first kept; ``outside``: a selected effect and a candidate left out; ``parts``: the
+    errors' sandwich and the parts' factors, against which a finding must stay significant."""
+    resolved: dict = {}
+    alias_cov = np.zeros((free.size, free.size))
+    factors = np.array([parts.factors.get(j, 1.0) for j in free.tolist()])
+    widened = parts.sandwich * np.outer(factors, factors)
+    pairs = [(keep, gone.cand, gone.active, rho) for keep, gone, rho in aliased]
+    pairs += [(c, cand, seen, rho) for c, cand, seen, rho in outside]
+    for finding, alt, seen, rho in pairs:
+        if finding.cand.key in resolved:
+            continue
+        got = resolve(nrm, free, finding, alt, seen, theta, theta0, grade, rho, widened, level)
+        if got is not None:
+            resolved[finding.cand.key] = got[0]
+            alias_cov += got[1]
+            log.append(f"{finding.cand.key} kept against {alt.key}: {got[0].reason}")
+    return resolved, alias_cov
+
+
+def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights) -> list:
+    """What the record cannot reveal, as :class:`~sizefx.diagnose.records.NotRevealed` entries: the
+    parameters the motion does not excite (``unrevealed``, from the selection); the pairs it cannot
+    tell apart (``aliased``: both selected, the model carrying their sum as the first; ``outside``:
+    a selected effect and a candidate left out); the candidates fitted beside a finding
+    (``nuisance``) and the findings no longer one beside them (``weak``). Each alias names the
+    motions that would separate it (:func:`sizefx.diagnose.aliases.separating_motions`, the
+    library's normal matrices formed once, at the model ``theta`` with the record's ``weights``)."""
+    unrev = [
+        NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
+        for cand, hidden, reason in unrevealed.values()
+    ]
+    normals: dict = {}
+    N_record = nrm.N.sum(0)
+
+    def separated_by(a, b):
+        if not normals:
+            normals.update(library_normals(theta, weights))
+        rest = np.setdiff1d(free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
+        return separating_motions(N_record, nrm.rows, list(a), list(b), rest, normals)
+
+    for keep, gone, rho in aliased:
+        motions = separated_by(keep.active, gone.active)
+        for me, other in ((keep, gone), (gone, keep)):
+            unrev = _named(
+                unrev,
+                me.cand,
+                me.active,
+                f"indistinguishable from {other.cand.key} on this motion (canonical correlation {rho:.4f}); "
+                f"the extended model carries their sum as {keep.cand.key}",
+                motions,
+            )
+    for c, cand, seen, rho in outside:
+        motions = separated_by(c.active, seen)
+        for me, other, params in ((c.cand, cand.key, c.active), (cand, c.cand.key, cand.idx)):
+            if any((u.id, u.channel) == (me.id, me.channel) and "on this motion" in u.reason for u in unrev):
+                continue
+            unrev = _named(
+                unrev,
+                me,
+                params,
+                f"indistinguishable from {other} on this motion (canonical correlation {rho:.4f}); "
+                f"the extended model carries it as {c.cand.key}",
+                motions,
+            )
+    finding_of = {c.cand.key: c for c in chosen}
+    for n, of, rho in nuisance:
+        unrev = _named(
+            unrev,
+            n.cand,
+            n.active,
+            f"nearly indistinguishable from {of} on this motion (canonical correlation {rho:.4f}): fitted "
+            f"beside it, so that {of}'s estimate and error do not assume it absent; not a finding of its own",
+            separated_by(n.active, finding_of[of].active),
+        )
+    for c, n, rho, why in weak:
+        unrev = _named(
+            unrev,
+            c.cand,
+            c.active,
+            f"nearly indistinguishable from {n.cand.key} on this motion (canonical correlation {rho:.4f}): "
+            f"fitted together, it is no longer a finding ({why}); the extended model carries both",
+            separated_by(c.active, n.active),
+        )
+    return unrev
+
+
+def _named(unrev: list, cand, params, reason: str, separated_by=()) -> list:
+    """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``
+    (:func:`sizefx.diagnose.records.named`), and the motions that would separate it."""
+    return named(
+        unrev, NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in params), reason, tuple(separated_by))
+    )
