@@ -34,6 +34,10 @@ from _measure import add_output_options, emit, run_measured
 ROOT = Path(__file__).resolve().parents[1]
 
 
+#: Console scripts a test tier runs: name -> (module, function), as the packages declare them.
+CONSOLE_SCRIPTS = {"pytest": ("pytest", "console_main"), "dask": ("dask.__main__", "main")}
+
+
 def _clone_and_install(work: Path) -> tuple[Path, Path]:
     """A fresh clone of HEAD and a venv (this environment's packages visible) with sizefx installed in it."""
     clone = work / "sizefx"
@@ -59,15 +63,17 @@ def _clone_and_install(work: Path) -> tuple[Path, Path]:
         + ["--no-build-isolation", str(clone)],
         check=True,
     )
-    # pytest's console script for this venv (pytest itself is this environment's): the README
-    # runs .venv/bin/pytest, which keeps the clone's folder off sys.path
-    script = venv / "bin" / "pytest"
-    # (the guard matters: a batch test's spawned worker imports the main script again)
-    script.write_text(
-        f"#!{venv / 'bin' / 'python'}\nimport sys\nfrom pytest import console_main\n\n"
-        "if __name__ == '__main__':\n    sys.exit(console_main())\n"
-    )
-    script.chmod(0o755)
+    # the console scripts the tiers call, for this venv (the packages are this environment's): the
+    # README runs .venv/bin/pytest, which keeps the clone's folder off sys.path, and the fleet tests
+    # start a Dask scheduler and worker with the dask script beside the interpreter
+    for name, (module, function) in CONSOLE_SCRIPTS.items():
+        script = venv / "bin" / name
+        # (the guard matters: a batch test's spawned worker imports the main script again)
+        script.write_text(
+            f"#!{venv / 'bin' / 'python'}\nimport sys\nfrom {module} import {function}\n\n"
+            f"if __name__ == '__main__':\n    sys.exit({function}())\n"
+        )
+        script.chmod(0o755)
     return clone, venv
 
 
