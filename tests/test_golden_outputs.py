@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import sys
 import tempfile
 from pathlib import Path
@@ -57,6 +58,10 @@ VOLATILE = {
     "fit_s",
     "time_s_spent",
 }
+
+#: An absolute path inside a string (at its start or after a space): "ideal + /tmp/x/model.toml";
+#: a unit such as "deg/h/g" is no path.
+ABSOLUTE_PATH = re.compile(r"(?:^|(?<=\s))/[^\s,;:)\]'\"]+")
 
 EFFECTS_TOML = """\
 schema = "sizefx/effects/1"
@@ -97,8 +102,8 @@ def _document(doc):
         return {Path(k).name if "/" in k else k: _document(v) for k, v in sorted(doc.items()) if k not in VOLATILE}
     if isinstance(doc, list):
         return [_document(v) for v in doc]
-    if isinstance(doc, str) and ("/" in doc or "\\" in doc):
-        return "<path>"  # a file name: the folder differs from run to run
+    if isinstance(doc, str):
+        return ABSOLUTE_PATH.sub("<path>", doc)  # a file's folder differs from run to run; units stay
     return doc
 
 
