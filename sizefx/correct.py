@@ -68,6 +68,7 @@ from .errors import ConfigError
 from .io.telemetry import Telemetry
 from .omegadot import SAVGOL_WINDOW
 from .sensor_model import INVERTED, NOT_INVERTED, check_estimator, check_invertible, inverse
+from .sensor_model.correction import model_correction_record
 from .sensor_model.table import MAX_AXES_CONDITION
 from .sync import sync_accelerometers
 
@@ -142,17 +143,7 @@ def correct_imu(tel: Telemetry, fx: EffectModel, *, mode: str = "center", estima
     else:
         new = replace(tel, dtheta_rad=omega_like, dvel_mps=f_like)
 
-    applied = {
-        "model": fx.source,
-        "mode": mode,
-        "estimator": estimator,
-        "corrected": [name for name in CORRECTED_SECTIONS if fx.enabled(name)],
-        "ignored": [name for name in IGNORED_SECTIONS if fx.enabled(name)],
-        "accel_delay_s": p.accel_delay,
-        "arms_m": p.arms(mode).tolist(),
-        "accel_axes": p.accel_axes().tolist(),
-        "effects": fx.truth(),
-    }
+    applied = {**model_correction_record(fx, p, mode, estimator), "effects": fx.truth()}
     new.source = {**(tel_in.source or {}), "correction_json": json.dumps(applied)}
     new.description = (
         tel_in.description + " | " if tel_in.description else ""

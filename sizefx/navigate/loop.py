@@ -38,8 +38,8 @@ from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
 from ..omegadot import SAVGOL_WINDOW
-from ..sensor_model import INVERTED, NOT_INVERTED, Correction
-from ..sensor_model.correction import refuse_levers_and_model
+from ..sensor_model import Correction
+from ..sensor_model.correction import model_correction_record, refuse_levers_and_model
 from ..stage import helper_threads
 from ..sync import synced_accel
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_PLOT_ROWS, MIN_ROWS, VERTICAL_MODES, NavConfig
@@ -79,17 +79,9 @@ def resolve_correction(cfg: NavConfig) -> Correction | None:
         return Correction.of_arms(levers.arms_for(cfg.mode), levers.axes, levers.accel_delay_s, cfg.mode, None)
     if cfg.model is None:
         return None
-    fx, p = cfg.model, cfg.model.sensor_params()
-    described = {
-        "model": fx.source,
-        "mode": cfg.mode,
-        "estimator": "increments",  # the lever terms' angular acceleration: edge rates of the increments
-        "corrected": [name for name in INVERTED if fx.enabled(name)],
-        "ignored": [name for name in NOT_INVERTED if fx.enabled(name)],
-        "accel_delay_s": p.accel_delay,
-        "arms_m": p.arms(cfg.mode).tolist(),
-        "accel_axes": p.accel_axes().tolist(),
-    }
+    p = cfg.model.sensor_params()
+    # the lever terms' angular acceleration: edge rates of the increments
+    described = model_correction_record(cfg.model, p, cfg.mode, "increments")
     return Correction.of_model(p, cfg.mode, described)
 
 

@@ -27,9 +27,25 @@ import numpy as np
 
 from ..errors import ConfigError
 from .inverse import check_invertible, invert_channels, remove_lever_terms
-from .table import SensorParams
+from .table import INVERTED, NOT_INVERTED, SensorParams
 
-__all__ = ["Correction", "refuse_levers_and_model"]
+__all__ = ["Correction", "refuse_levers_and_model", "model_correction_record"]
+
+
+def model_correction_record(fx, p: SensorParams, mode: str, estimator: str) -> dict:
+    """What undoing the effect model ``fx`` (an :class:`sizefx.effects.EffectModel`, its parameters
+    ``p``) in ``mode`` corrects, as a run records it: the model's source, the mode, the angular
+    acceleration's estimator, the sections corrected and ignored, the delay, the arms and the axes."""
+    return {
+        "model": fx.source,
+        "mode": mode,
+        "estimator": estimator,
+        "corrected": [name for name in INVERTED if fx.enabled(name)],
+        "ignored": [name for name in NOT_INVERTED if fx.enabled(name)],
+        "accel_delay_s": p.accel_delay,
+        "arms_m": p.arms(mode).tolist(),
+        "accel_axes": p.accel_axes().tolist(),
+    }
 
 
 def refuse_levers_and_model(levers, model) -> None:
