@@ -72,6 +72,8 @@ class Correction:
     params: SensorParams | None = None  #: a model's errors (None: the size effect alone)
     #: what to name in the run's configuration: {"levers": path} or the model's source and sections
     described: dict | None = None
+    #: [3, 3] U^-1, rows of U the axes: a model's step 6 (f = U^-1 a), formed once; None for levers
+    axes_inverse: np.ndarray | None = None
 
     @classmethod
     def of_arms(cls, arms_m, axes, accel_delay_s: float | None, mode: str, described: dict | None) -> Correction:
@@ -90,7 +92,8 @@ class Correction:
         """Every deterministic error of an effect model; refused here, before any chunk, when its
         gains or axes cannot be inverted."""
         check_invertible(p)
-        return cls(mode, p.arms(mode), p.accel_axes(), float(p.accel_delay), p, described)
+        axes = p.accel_axes()
+        return cls(mode, p.arms(mode), axes, float(p.accel_delay), p, described, np.linalg.inv(axes))
 
     def synced(self, time_s, accel_like, accel_time_s, form: str) -> np.ndarray:
         """Step 1: ``accel_like`` on the gyros' ``time_s``."""
@@ -110,6 +113,4 @@ class Correction:
         """Step 6 on increments ``[N, 3]``: ``dvel`` with the lever terms of :attr:`arms_m` removed
         (edge rates from ``dtheta``) and, for a model, the accelerometer axes undone."""
         out = remove_lever_terms(dvel, dtheta, self.arms_m, self.axes, form="increments", dt=dt, estimator="increments")
-        if self.params is None:
-            return out
-        return out @ np.linalg.inv(self.axes).T
+        return out if self.axes_inverse is None else out @ self.axes_inverse.T
