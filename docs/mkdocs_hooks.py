@@ -21,6 +21,7 @@ The pages under ``docs/`` link to files beside them in the repository (result fi
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 from pathlib import Path, PurePosixPath
@@ -43,11 +44,23 @@ EXTERNAL = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]*:|^#|^/")
 LISTINGS: set[str] = set()
 
 
+def _reference_generator():
+    """``docs/reference/generate.py``, whose :func:`slug` writes the reference pages' anchors (it
+    imports only the standard library and click, which mkdocs brings)."""
+    spec = importlib.util.spec_from_file_location("sizefx_reference_generate", DOCS / "reference" / "generate.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_SLUG = _reference_generator().slug
+
+
 def github_slug(value: str, separator: str = "-") -> str:
-    """The anchor a repository host gives a heading: lower case, everything but letters, digits,
-    ``_``, ``-`` and spaces dropped, each space a hyphen (no collapsing, no ASCII folding)."""
-    text = re.sub(r"[^\w\- ]", "", value.strip().lower())
-    return text.replace(" ", separator)
+    """The anchor a repository host gives a heading, as the reference pages' generator writes them
+    (``slug``: lower case, punctuation but ``-`` and ``_`` dropped, spaces as hyphens); the signature
+    of the toc extension's ``slugify``, whose separator is always ``-`` here."""
+    return _SLUG(value)
 
 
 def github_unique(id: str, ids: set, counters: dict | None = None) -> str:
