@@ -137,9 +137,10 @@ def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausib
     uniform: 173 arcsec), and the finding could be it whole. A parameter hidden because the motion
     does not excite it counts as well where the findings nearly explain it: held in its range where
     the record cannot tell it from them at all, fitted beside them where it can a little (the
-    reference's mount, whose excitation is measured on the gyros), left out where it is not
-    collinear with them or could move none of them by a tenth of its error."""
-    from sizefx.diagnose.aliases import hidden_fit, hidden_parameters, masked_by_hidden
+    reference's mount, whose excitation is measured on the gyros). One the record tells apart from
+    them is weak: fitted beside them when its range could move one by its error (it widens the
+    errors, it masks no finding), left out when it could move none of them by a tenth of its error."""
+    from sizefx.diagnose.aliases import hidden_fit, hidden_parameters, masked_by_hidden, weak_parameters
     from sizefx.diagnose.candidates import CANDIDATES
     from sizefx.diagnose.normal import Normal
     from sizefx.diagnose.selection import Chosen
@@ -184,12 +185,18 @@ def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_plausib
         N = 1e8 * X.T @ X
         nrm_m = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
         unexcited = {mount.key: (mount, (m,), "the motion in this record does not excite it")}
-        assert hidden_parameters(nrm_m, chosen, unexcited, "navigation") == ([(mount, [m], True)] if counted else [])
+        hidden = hidden_parameters(nrm_m, chosen, unexcited, "navigation")
+        assert hidden == ([(mount, [m], True)] if counted else [])
+        # not collinear, its +-5 deg could still move x->z by far more than its 5 urad error: weak
+        assert weak_parameters(nrm_m, chosen, unexcited, "navigation", hidden) == (
+            [] if counted else [(mount, [m], True)]
+        )
     # a regressor of numerical noise, collinear or not, moves nothing: left out (MIN_REACH)
     X[:, m] = 1e-12 * (X[:, j] + 0.1 * rng.normal(size=400))
     N = 1e8 * X.T @ X
     nrm_m = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
     assert hidden_parameters(nrm_m, chosen, unexcited, "navigation") == []
+    assert weak_parameters(nrm_m, chosen, unexcited, "navigation", []) == []
 
 
 def test_a_scale_factor_under_its_floor_that_a_misalignment_takes_up_is_fitted_beside_it():

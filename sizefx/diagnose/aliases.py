@@ -39,6 +39,7 @@ __all__ = [
     "Alternative",
     "hidden_fit",
     "hidden_parameters",
+    "weak_parameters",
     "masked_by_hidden",
     "not_significant",
     "hidden_reach",
@@ -157,6 +158,13 @@ def significant_within(x, cov, S, half) -> float:
 #: one horizontal axis: 2e-9 s^-2), which no covariance of it can be formed from. Set from that bound,
 #: not from the validation protocol.
 MIN_REACH = 0.1
+#: A parameter the selection left out (not significant, or not excited) that anywhere in its grade's
+#: plausible range moves an estimate of the model by this many of its white standard errors is fitted
+#: beside the model with that range as a prior, however weakly correlated: held at zero it would bias
+#: the estimate by more than its error says (an accelerometer-x scale factor of -12 ppm on a tumble
+#: moved the x arm's z component by 0.19 mm, 4.4 sigma: development seed 35). One standard error: the
+#: size from which a bias changes what a reported error means; not chosen by the validation protocol.
+CONSIDER_REACH = 1.0
 
 
 def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> list:
@@ -181,21 +189,11 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> lis
       misalignment towards z took a true -16 ppm as -1.0 +- 0.1 arcsec (development seed 55).
       These are ``fitted``: what the record says of them moves the estimates (:func:`hidden_fit`),
       as a nuisance's does."""
-    N = nrm.N.sum(0)
-    free = sorted({j for c in chosen for j in c.active})
-    out = []
-    for cand, params, reason in unrevealed.values():
-        if cand.key in skip or cand.id not in RANGES:
+    out: list = []
+    for cand, mine, _, rho in _screen(nrm, chosen, unrevealed, grade, skip):
+        if rho is None:  # indistinguishable: held anywhere in its range
+            out.append((cand, mine, False))
             continue
-        mine = [j for j in params if j not in free]
-        if reason.startswith("indistinguishable"):
-            if mine:
-                out.append((cand, mine, False))
-            continue
-        if not free:
-            continue
-        mine = [j for j in mine if _reach(nrm, free, j, _half_range(cand.id, 1, grade)[0]) >= MIN_REACH]
-        rho = {j: canonical_correlation(N, free, [j]) for j in mine}
         # from ALIAS_CORRELATION on, the record cannot tell the parameter from the findings at all:
         # held anywhere in its range as an indistinguishable one is (fitting it would only invert noise)
         held = [j for j in mine if rho[j] >= ALIAS_CORRELATION]
@@ -204,6 +202,60 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> lis
             if group:
                 out.append((cand, group, beside))
     return out
+
+
+def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, skip=()) -> list:
+    """``[(candidate, [param], True)]``: the parameters of ``unrevealed`` (as for
+    :func:`hidden_parameters`) the record tells apart from the findings (canonical correlation under
+    :data:`sizefx.diagnose.selection.NUISANCE_CORRELATION`) but which anywhere in their plausible range
+    would move a finding by its own white standard error or more (:data:`CONSIDER_REACH`), to be fitted
+    beside the model with that range as a prior (:func:`hidden_fit`), furthest reaching first.
+
+    One nearly collinear with the model, the ``hidden`` parameters fitted beside it and the weak ones
+    taken so far is skipped: two left out together (a bias and a scale factor under constant gravity)
+    have no joint covariance, and the first taken stands for both.
+
+    The selection tested each finding against these (it can tell them apart), so they widen the
+    errors the findings are reported with but do not mask a finding (:func:`not_significant`)."""
+    N = nrm.N.sum(0)
+    basis = sorted({j for c in chosen for j in c.active}) + [
+        j for _, params, beside in hidden if beside for j in params
+    ]
+    weak = [
+        (reach[j], cand, j)
+        for cand, mine, reach, rho in _screen(nrm, chosen, unrevealed, grade, skip)
+        if rho is not None
+        for j in mine
+        if rho[j] < NUISANCE_CORRELATION and reach[j] >= CONSIDER_REACH
+    ]
+    out = []
+    for _, cand, j in sorted(weak, key=lambda w: -w[0]):
+        if canonical_correlation(N, basis, [j]) < NUISANCE_CORRELATION:
+            out.append((cand, [j], True))
+            basis.append(j)
+    return out
+
+
+def _screen(nrm, chosen, unrevealed: dict, grade: str, skip):
+    """Per entry of ``unrevealed`` the model ``chosen`` does not hold already: ``(candidate, its
+    parameters, None, None)`` for one hidden as indistinguishable; otherwise ``(candidate, parameters
+    that could move a finding by MIN_REACH or more, {param: reach}, {param: canonical correlation with
+    the findings})``."""
+    N = nrm.N.sum(0)
+    free = sorted({j for c in chosen for j in c.active})
+    for cand, params, reason in unrevealed.values():
+        if cand.key in skip or cand.id not in RANGES:
+            continue
+        mine = [j for j in params if j not in free]
+        if reason.startswith("indistinguishable"):
+            if mine:
+                yield cand, mine, None, None
+            continue
+        if not free:
+            continue
+        reach = {j: _reach(nrm, free, j, _half_range(cand.id, 1, grade)[0]) for j in mine}
+        mine = [j for j in mine if reach[j] >= MIN_REACH]
+        yield cand, mine, reach, {j: canonical_correlation(N, free, [j]) for j in mine}
 
 
 def hidden_fit(nrm, free, hidden: list, grade: str, offset):
@@ -251,7 +303,12 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     _, white, robust = covariance(nrm, joint[order], offset)
     at = np.searchsorted(joint[order], idx)
     V = honest(white, robust)[np.ix_(at, at)]
-    C_r = np.linalg.pinv(0.5 * (V + V.T), rcond=1e-12, hermitian=True)
+    # halved before the sum: a weak parameter the record hardly holds has a variance near the float
+    # limit; one beyond it says the record holds nothing of it (its prior alone then speaks)
+    V = 0.5 * V + 0.5 * V.T
+    ok = np.isfinite(V).all(axis=0)
+    C_r = np.zeros_like(V)
+    C_r[np.ix_(ok, ok)] = np.linalg.pinv(V[np.ix_(ok, ok)], rcond=1e-12, hermitian=True)
     return S @ dh, dh, added + S @ np.linalg.pinv(C_r + prior) @ S.T
 
 
@@ -282,17 +339,26 @@ def hidden_reach(nrm, free, active, cov, hidden: list, grade: str) -> list:
     return [k for k, v in sorted(reach.items(), key=lambda kv: -kv[1]) if v >= 1.0]
 
 
-def not_significant(nrm, free, reported, theta, theta0, budget, hidden: list, grade: str, level: float) -> dict:
+def not_significant(
+    nrm, free, reported, theta, theta0, budget, hidden: list, grade: str, level: float, added=None
+) -> dict:
     """``{finding key: reason}``: the findings of ``reported`` (:class:`~sizefx.diagnose.selection.Chosen`
     effects of the model ``free``) not significant at the selection's ``level`` under the error they
     are reported with (``budget``: :class:`sizefx.diagnose.budget.ErrorBudget`), every part in but
-    that of a resolved alias (:func:`masked_by_hidden`): most often a ``hidden`` parameter
-    (:func:`hidden_parameters`) could explain them anywhere in its plausible range, and the reason
-    names it (:func:`hidden_reach`)."""
+    that of a resolved alias and of the weak parameters (:func:`masked_by_hidden`): most often a
+    ``hidden`` parameter (:func:`hidden_parameters`) could explain them anywhere in its plausible
+    range, and the reason names it (:func:`hidden_reach`). ``added`` [free, free]: the ``hidden``
+    parameters' part alone (:func:`hidden_fit` of them without the weak ones); the budget's hidden
+    part when not given.
+
+    A weak parameter (:func:`weak_parameters`) the record tells apart from the findings: the
+    selection tested each finding beside it, so its part widens the error reported and does not
+    mask the finding."""
     # a finding resolved from its alias by the grade passed its own test with the alternative anywhere
     # in its range (significant_within): that part is not counted twice
-    added = budget.hidden if budget.hidden is not None else np.zeros((free.size, free.size))
-    cov = budget.covariance() - added - (budget.aliases if budget.aliases is not None else 0.0)
+    in_budget = budget.hidden if budget.hidden is not None else np.zeros((free.size, free.size))
+    added = in_budget if added is None else added
+    cov = budget.covariance() - in_budget - (budget.aliases if budget.aliases is not None else 0.0)
     out = {}
     for c in reported:
         pos = np.searchsorted(free, c.active)

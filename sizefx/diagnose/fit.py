@@ -43,7 +43,7 @@ import numpy as np
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
-from .aliases import hidden_fit, hidden_parameters, not_significant
+from .aliases import hidden_fit, hidden_parameters, not_significant, weak_parameters
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .budget import error_budget, parts_scatter
@@ -56,7 +56,7 @@ from .integrity import check_reference, without_bad_rows
 from .judging import MIN_SHARE, _judge, _rejection
 from .naming import name_effect
 from .normal import Rows
-from .not_revealed import _named, _not_revealed, _resolved, _with_aliases
+from .not_revealed import _named, _not_revealed, _resolved, _with_aliases, _with_left_out
 from .plausibility import infer_grade, noise_density
 from .predictor import Predictor
 from .records import ReportWarning
@@ -266,23 +266,33 @@ def diagnose(
     # the parameters hidden from the selection that still move its estimates (aliases.hidden_fit):
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
     # plausible ranges as priors; every one adds to the errors what the record cannot say of it
-    hidden = hidden_parameters(
-        nrm, chosen, _with_aliases(unrevealed, aliased, outside), grade, skip={a.key for a in resolved.values()}
-    )
-    dx, dh, hidden_cov = hidden_fit(nrm, free, hidden, grade, offset)
+    # those the record tells apart from the findings but whose plausible range could move one by its
+    # error are fitted beside as well (weak: they widen the errors, they mask no finding)
+    left_out = _with_left_out(_with_aliases(unrevealed, aliased, outside), chosen)
+    skip = {a.key for a in resolved.values()}
+    hidden = hidden_parameters(nrm, chosen, left_out, grade, skip=skip)
+    weak_hidden = weak_parameters(nrm, chosen, left_out, grade, hidden, skip=skip)
+    dx, dh, hidden_cov = hidden_fit(nrm, free, hidden + weak_hidden, grade, offset)
+    # the significance test takes the model without the weak ones (estimates and errors), as the
+    # selection that tested each finding beside them did
+    dx_masking, _, masking_cov = hidden_fit(nrm, free, hidden, grade, offset) if weak_hidden else (dx, dh, hidden_cov)
+    theta_masking = theta.copy()
+    theta_masking[free] += dx_masking
     ms_full = state.ms_full
+    weak_idx = [j for _, params, _ in weak_hidden for j in params]
     if dh.size:
         fitted = [(c, params) for c, params, beside in hidden if beside]
         theta = theta.copy()
         theta[free] += dx
-        theta[[j for _, params in fitted for j in params]] += dh
+        theta[[j for _, params in fitted for j in params] + weak_idx] += dh
         after = residual_under(pred, rows_of, theta)
         assert after.rows is not None  # made with rows_of
         residual, ms_full = after.rows, after.ms_full
-        log.append(
-            "fitted beside the findings: "
-            + ", ".join(f"{c.key}:{','.join(PARAMS[j].label for j in params)}" for c, params in fitted)
-        )
+        for what, group in (("fitted beside the findings", fitted), ("weak, fitted beside the findings", weak_hidden)):
+            if group:
+                log.append(
+                    f"{what}: " + ", ".join(f"{c[0].key}:{','.join(PARAMS[j].label for j in c[1])}" for c in group)
+                )
     aliased = [a for a in aliased if a[0].cand.key not in resolved]
     outside = [o for o in outside if o[0].cand.key not in resolved]
     budget = error_budget(
@@ -301,8 +311,19 @@ def diagnose(
     cov[np.ix_(free, free)] = budget.covariance()
     sig, sig_white = budget.sigma(), budget.sigma_white()
     warnings += budget.warnings()
+    # the extended model is the start model and its findings: the weak parameters' values are no
+    # findings (their part is in the findings' estimates and errors), so they go back to their start
+    # values in what is reported and written, and the residual after is that of the model written
+    theta_out = theta.copy()
+    theta_out[weak_idx] = theta0[weak_idx]
+    if weak_idx:
+        after = residual_under(pred, rows_of, theta_out)
+        assert after.rows is not None  # made with rows_of
+        residual, ms_full = after.rows, after.ms_full
     geometry = (
-        split_arms(theta[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)], SensorParams.from_vector(theta).accel_axes())
+        split_arms(
+            theta_out[LEVER].reshape(3, 3), cov[np.ix_(LEVER, LEVER)], SensorParams.from_vector(theta_out).accel_axes()
+        )
         if np.intersect1d(free, LEVER).size
         else None
     )
@@ -312,9 +333,10 @@ def diagnose(
     alias_keys |= {c.cand.key for c, _, _, _ in outside}
     alias_keys |= nuisance_keys | {w[0].cand.key for w in weak}
     reported = [c for c in chosen if c.cand.key not in alias_keys]
-    # a finding is significant under the error it is reported with, or no finding: a hidden parameter
-    # may explain it anywhere in its plausible range
-    masked = not_significant(nrm, free, reported, theta, theta0, budget, hidden, grade, level)
+    # a finding is significant under the error it is reported with, less the weak parameters' part (the
+    # selection tested it beside them), or no finding: a hidden parameter may explain it anywhere in
+    # its plausible range
+    masked = not_significant(nrm, free, reported, theta_masking, theta0, budget, hidden, grade, level, masking_cov)
     log += [f"{key} no finding: {why}" for key, why in masked.items()]
     reported = [c for c in reported if c.cand.key not in masked]
     effects = [
@@ -326,8 +348,8 @@ def diagnose(
     for c in chosen:
         if c.cand.key in masked:
             unrev = _named(unrev, c.cand, c.active, masked[c.cand.key])
-    structure = _structure(pred, rows_of, residual, white_rows, theta)
-    series_after = residual_under(pred, None, theta, series=True).series if keep_series else None  # for the plots
+    structure = _structure(pred, rows_of, residual, white_rows, theta_out)
+    series_after = residual_under(pred, None, theta_out, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)
     assert before.rows is not None  # made with rows_of
     out_of_sample = cross_validate(
@@ -335,7 +357,7 @@ def diagnose(
         rows_of,
         nrm,
         theta0,
-        theta,
+        theta_out,
         free,
         {c.cand.key: list(c.active) for c in reported},
         weights,
@@ -368,7 +390,7 @@ def diagnose(
         rms_before=dict(zip(CHANNELS, rms_b.tolist())),
         rms_after=dict(zip(CHANNELS, rms_a.tolist())),
         theta_nominal=theta0,
-        theta=theta,
+        theta=theta_out,
         sigma_theta=sig,
         samples=int(pred.mask.sum()),
         block=rows_of.L,

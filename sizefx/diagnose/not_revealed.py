@@ -12,6 +12,7 @@ import numpy as np
 
 from .aliases import library_normals, resolve, separating_motions
 from .budget import Parts
+from .candidates import CANDIDATES
 from .records import NotRevealed, named
 from .theta import PARAMS
 
@@ -35,6 +36,21 @@ def _with_aliases(unrevealed: dict, aliased, outside) -> dict:
         if params:
             counted.update(params)
             out[f"{cand.key} (alias)"] = (cand, params, "left out beside a selected effect nearly collinear with it")
+    return out
+
+
+def _with_left_out(entries: dict, chosen) -> dict:
+    """``entries`` (key -> (candidate, parameters, reason), as :func:`_with_aliases` gives them) and
+    every other candidate parameter the selected model ``chosen`` does not hold: what the selection
+    left out as not significant is held at its start value by the fit, and may move the findings'
+    estimates by more than their errors (:data:`sizefx.diagnose.aliases.CONSIDER_REACH`)."""
+    out = dict(entries)
+    counted = {j for _, params, _ in entries.values() for j in params} | {j for c in chosen for j in c.active}
+    for cand in CANDIDATES:
+        params = tuple(j for j in cand.idx if j not in counted)
+        if params:
+            counted.update(params)
+            out[f"{cand.key} (left out)"] = (cand, params, "left out by the selection")
     return out
 
 
