@@ -164,7 +164,7 @@ def navigate_source(
     t0 = (t_head[1] if prep.rates else t_head[0]) - dt  # start of the first increment
     # the reference is read by time window: a summary decides the initialisation and the vertical
     # channel, and each chunk reads the rows it needs
-    approximate = bool(src.source and src.source.get("reference_is_approximate"))
+    approximate = src.source is not None and src.source.reference_is_approximate
     ref = src.reference
     init, vertical, stationary = choose(src.path, ref.summary() if ref is not None else None, approximate, cfg, t0)
     ref0 = reference_at(ref.window(t0, t0), np.array([t0])) if ref is not None else None
