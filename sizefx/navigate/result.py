@@ -13,9 +13,11 @@ if TYPE_CHECKING:  # annotations only: the stage's config is read without NumPy 
 __all__ = ["NavResult", "format_summary"]
 
 
-@dataclass
+@dataclass(frozen=True)
 class NavResult:
-    """A navigation solution: the output rows, what was done, and the errors against ``/reference``."""
+    """A navigation solution: the output rows, what was done, and the errors against ``/reference``.
+    Built once, by the loop (:func:`sizefx.navigate.navigate_source`); the stage's (:func:`sizefx.navigate.run`)
+    is the loop's with the files it wrote and its own account of the time."""
 
     time_s: np.ndarray  #: [M] end of each navigation interval
     quat_nb: np.ndarray  #: [M, 4]
