@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..constants import METRES_PER_NMI
+from ..constants import METRES_PER_NMI, SECONDS_PER_HOUR
 from ..io.telemetry import Reference
 from ..kernels.errors import compared_steps, navigation_errors
 from ..rotation import quat_interp
@@ -159,7 +159,9 @@ class Errors:
         return {
             "final_horizontal_error_m": horizontal,
             "max_horizontal_error_m": None if horizontal is None else self.max["horizontal"],
-            "drift_nmi_per_h": None if horizontal is None else horizontal / METRES_PER_NMI / (duration_s / 3600.0),
+            "drift_nmi_per_h": None
+            if horizontal is None
+            else horizontal / METRES_PER_NMI / (duration_s / SECONDS_PER_HOUR),
             "final_velocity_error_mps": velocity,
             "final_attitude_error_deg": None if attitude is None else float(np.degrees(attitude)),
             "max_attitude_error_deg": None if attitude is None else float(np.degrees(self.max["attitude"])),
