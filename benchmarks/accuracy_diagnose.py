@@ -554,7 +554,7 @@ def broad_holdout():
             run_import("broad", REAL / "broad" / name, h5[trial])
         for trial in BROAD_TRIALS:
             others = [t for t in BROAD_TRIALS if t != trial]
-            d = D.run(
+            res = D.run(
                 D.DiagnoseConfig(
                     h5[trial],
                     nominal="none",
@@ -563,7 +563,8 @@ def broad_holdout():
                     force=True,
                     validate_on=tuple(h5[t] for t in others),
                 )
-            ).diagnosis
+            )
+            d = res.diagnosis
             cv = d.out_of_sample
             assert cv is not None  # every BROAD trial finds its arms
             entry = {
@@ -579,7 +580,7 @@ def broad_holdout():
                 "not_generalising": [e.key for e in cv.effects if not e.generalises],
                 "validated_on": {},
             }
-            for t, o in zip(others, d.validated_on):
+            for t, o in zip(others, res.checks.validated_on):
                 entry["validated_on"][t] = {
                     "gain_pct": 100.0 * o.gain,
                     "p": o.p,

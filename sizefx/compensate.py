@@ -19,14 +19,13 @@ Steps:
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .correct import correct_imu, load_model
 from .errors import ConfigError
-from .io.telemetry import Telemetry, read_telemetry, refuse_gaps, write_telemetry
+from .io.telemetry import Provenance, Telemetry, read_telemetry, refuse_gaps, write_telemetry
 from .levers import Levers, read_levers
 from .omegadot import ESTIMATORS, SAVGOL_WINDOW
 from .sensor_model import check_estimator, remove_lever_terms
@@ -82,7 +81,6 @@ def compensate(
         centripetal=centripetal,
         tangential=tangential,
     )
-    new = replace(tel, accel_mps2=out) if tel.form == "rates" else replace(tel, dvel_mps=out)
     applied = {
         "mode": mode,
         "estimator": estimator,
@@ -91,12 +89,15 @@ def compensate(
         "accel_delay_s": tau,
         "arms_m": arms.tolist(),
         "axes": axes.tolist(),
+        **segment_note(tel_in),
     }
-    new.source = {**(tel_in.source or {}), "compensation_json": json.dumps(applied)}
-    new.description = (
-        tel_in.description + " | " if tel_in.description else ""
-    ) + f"size effect compensated ({mode}, {estimator}, delay {tau * 1e6:.1f} us)"
-    return new
+    return replace(
+        tel,
+        **{"accel_mps2" if tel.form == "rates" else "dvel_mps": out},
+        source=replace(tel_in.source or Provenance(), compensation=applied),
+        description=(tel_in.description + " | " if tel_in.description else "")
+        + f"size effect compensated ({mode}, {estimator}, delay {tau * 1e6:.1f} us)",
+    )
 
 
 #: Why compensation refuses a record with IMU gaps unless told to bridge them (--allow-gaps).
@@ -115,15 +116,7 @@ def read_continuous(path, *, allow_gaps: bool, segment: int | None, command: str
 
 def segment_note(tel: Telemetry) -> dict:
     """What ``/source`` records of the segment a record was cut to (empty for a whole record)."""
-    seg = tel.segment
-    if seg is None:
-        return {}
-    return {
-        "segment": seg.number,
-        "segment_of": seg.of,
-        "segment_rows": [seg.first_row, seg.stop_row],
-        "segment_time_s": [seg.start_s, seg.end_s],
-    }
+    return {} if tel.segment is None else tel.segment.note()
 
 
 @dataclass(frozen=True)
@@ -179,7 +172,8 @@ class CompensateConfig:
 @dataclass(frozen=True)
 class CompensateResult:
     """What :func:`run` wrote: the output, its samples, and what was applied (as ``/source``
-    records it: ``compensation_json`` for levers, ``correction_json`` for a model)."""
+    records it: :attr:`~sizefx.io.provenance.Provenance.compensation` for levers,
+    :attr:`~sizefx.io.provenance.Provenance.correction` for a model)."""
 
     output: str
     samples: int
@@ -208,7 +202,7 @@ class CompensateResult:
         return {"path": self.output, "samples": self.samples, **self.applied}
 
 
-#: What the result keeps of a model's ``correction_json`` (the effects themselves are in the model file).
+#: What the result keeps of a model's correction record (the effects themselves are in the model file).
 _MODEL_SUMMARY = ("model", "mode", "estimator", "corrected", "ignored", "accel_delay_s")
 
 
@@ -225,7 +219,7 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
     extra: str | None  # the model or the levers file: an input of the output
     if config.model:
         new = correct_imu(tel, load_model(config.model), mode=config.mode, estimator=config.estimator)
-        key, extra = "correction_json", config.model
+        extra = config.model
     else:
         new = compensate(
             tel,
@@ -236,16 +230,15 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
             tangential=config.tangential,
             accel_delay_s=config.accel_delay_s,
         )
-        key, extra = "compensation_json", config.levers
-    assert new.source is not None  # correct_imu and compensate record what they did in the copy's source
-    if tel.segment is not None:
-        new.source[key] = json.dumps({**json.loads(new.source[key]), **segment_note(tel)})
+        extra = config.levers
     if progress is not None:
         progress(2, 3)
     write_telemetry(config.output, new, inputs=[config.input, extra], force=config.force)
     if progress is not None:
         progress(3, 3)
-    applied = json.loads(new.source[key])
-    if config.model:
-        applied = {k: applied[k] for k in _MODEL_SUMMARY}
+    # correct_imu and compensate record what they did (with the segment) in the copy's provenance
+    assert new.source is not None
+    done = new.source.correction if config.model else new.source.compensation
+    assert done is not None
+    applied = {k: done[k] for k in _MODEL_SUMMARY} if config.model else dict(done)
     return CompensateResult(str(config.output), new.n_samples, applied, with_model=bool(config.model))

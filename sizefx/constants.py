@@ -20,10 +20,15 @@ SOMIGLIANA_K = 0.00193185265241  #: Somigliana constant [-]
 #: Standard gravity, used only to convert "g" units and ug figures [m/s^2].
 STANDARD_GRAVITY_MPS2 = 9.80665
 
+#: Seconds in an hour [s/h]: a rate per second times it is the rate per hour.
+SECONDS_PER_HOUR = 3600.0
+#: Its square root [sqrt(s/h)]: a random walk per sqrt(s) times it is the walk per sqrt(h).
+SQRT_SECONDS_PER_HOUR = 60.0
+
 DEG = math.pi / 180.0  #: one degree [rad]
 ARCSEC = DEG / 3600.0  #: one arc second [rad]
-DEG_PER_H = DEG / 3600.0  #: one degree per hour [rad/s]
-DEG_PER_SQRT_H = DEG / 60.0  #: one deg/sqrt(h) [rad/sqrt(s)], angle random walk
+DEG_PER_H = DEG / SECONDS_PER_HOUR  #: one degree per hour [rad/s]
+DEG_PER_SQRT_H = DEG / SQRT_SECONDS_PER_HOUR  #: one deg/sqrt(h) [rad/sqrt(s)], angle random walk
 MICRO_G = 1e-6 * STANDARD_GRAVITY_MPS2  #: one ug [m/s^2]
 PPM = 1e-6  #: one part per million [-]
 

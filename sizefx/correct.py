@@ -60,12 +60,11 @@ the file omits is off.
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 
 from .effects import IDEAL, EffectModel, load_effects
 from .errors import ConfigError
-from .io.telemetry import Telemetry
+from .io.telemetry import Provenance, Telemetry
 from .omegadot import SAVGOL_WINDOW
 from .sensor_model import INVERTED, NOT_INVERTED, check_estimator, check_invertible, inverse
 from .sensor_model.correction import model_correction_record
@@ -114,7 +113,8 @@ def correct_imu(tel: Telemetry, fx: EffectModel, *, mode: str = "center", estima
         Same form and time stamps; gyros read ``omega_ib_b``, accelerometers
         ``f_b`` at the reference point (``center``) or the triad point
         (``triad``), on the gyro time base (``accel_time_s`` None). ``source``
-        gains ``correction_json``: what was applied.
+        gains :attr:`~sizefx.io.provenance.Provenance.correction`: what was applied (and the
+        segment, for a record read as one).
     """
     if mode not in ("center", "triad"):
         raise ConfigError(f"correction mode '{mode}': use center or triad")
@@ -138,14 +138,14 @@ def correct_imu(tel: Telemetry, fx: EffectModel, *, mode: str = "center", estima
         estimator=estimator,
         time_s=tel.time_s,
     )  # steps 2-6
-    if tel.form == "rates":
-        new = replace(tel, gyro_rad_s=omega_like, accel_mps2=f_like)
-    else:
-        new = replace(tel, dtheta_rad=omega_like, dvel_mps=f_like)
-
     applied = {**model_correction_record(fx, p, mode, estimator), "effects": fx.truth()}
-    new.source = {**(tel_in.source or {}), "correction_json": json.dumps(applied)}
-    new.description = (
-        tel_in.description + " | " if tel_in.description else ""
-    ) + f"corrected with effect model {fx.source} ({mode}, {estimator})"
-    return new
+    if tel_in.segment is not None:  # what was corrected is a segment of the record
+        applied.update(tel_in.segment.note())
+    names = ("gyro_rad_s", "accel_mps2") if tel.form == "rates" else ("dtheta_rad", "dvel_mps")
+    return replace(
+        tel,
+        **dict(zip(names, (omega_like, f_like))),
+        source=replace(tel_in.source or Provenance(), correction=applied),
+        description=(tel_in.description + " | " if tel_in.description else "")
+        + f"corrected with effect model {fx.source} ({mode}, {estimator})",
+    )

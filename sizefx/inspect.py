@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .constants import ARCSEC, MICRO_G, PPM, STANDARD_GRAVITY_MPS2
+from .constants import ARCSEC, MICRO_G, PPM, SECONDS_PER_HOUR, SQRT_SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 from .io.documents import write_json
 from .io.schema import TELEMETRY_SCHEMA, allowed_units
 from .io.telemetry import Telemetry, imu_segments, read_telemetry
@@ -61,15 +61,16 @@ def _effects_found(sim: dict) -> list[str]:
         )
     if on("gyro_bias"):
         lines.append(
-            "gyro_bias [deg/h]: " + ", ".join(f"{np.degrees(v) * 3600:.4f}" for v in fx["gyro_bias"]["bias_rad_s"])
+            "gyro_bias [deg/h]: "
+            + ", ".join(f"{np.degrees(v) * SECONDS_PER_HOUR:.4f}" for v in fx["gyro_bias"]["bias_rad_s"])
         )
     if on("gyro_g_sensitivity"):
         lines.append("gyro_g_sensitivity: on")
     if on("gyro_noise"):
         g = fx["gyro_noise"]
         lines.append(
-            f"gyro_noise: ARW {np.degrees(g['arw_rad_per_sqrt_s']) * 60:.5f} deg/sqrt(h), "
-            f"RRW {np.degrees(g['rrw_rad_s_per_sqrt_s']) * 3600 * 60:.5f} deg/h/sqrt(h)"
+            f"gyro_noise: ARW {np.degrees(g['arw_rad_per_sqrt_s']) * SQRT_SECONDS_PER_HOUR:.5f} deg/sqrt(h), "
+            f"RRW {np.degrees(g['rrw_rad_s_per_sqrt_s']) * SECONDS_PER_HOUR * SQRT_SECONDS_PER_HOUR:.5f} deg/h/sqrt(h)"
         )
     if on("accel_noise"):
         a = fx["accel_noise"]
@@ -157,7 +158,7 @@ def format_summary(s: dict) -> str:
     lines = [
         f"{s['path']}: valid {s['schema']}",
         f"  IMU       {s['samples']} samples of {s['form']}, {s['sample_rate_hz']:.6g} Hz, "
-        f"{s['duration_s']:.3f} s ({s['duration_s'] / 3600:.3f} h) from t = {s['start_s']:.6g} s",
+        f"{s['duration_s']:.3f} s ({s['duration_s'] / SECONDS_PER_HOUR:.3f} h) from t = {s['start_s']:.6g} s",
         "  units     " + ", ".join(f"{k} [{v}] {s['stored_dtypes'][k]}" for k, v in s["stored_units"].items()),
     ]
     if s["accel_time"]:

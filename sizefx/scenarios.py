@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .constants import DEG, PAPER_AIRFIELD_DEG, STANDARD_GRAVITY_MPS2
+from .constants import DEG, PAPER_AIRFIELD_DEG, SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 from .errors import ConfigError
 from .motion import (
     ConstantProfile,
@@ -323,7 +323,7 @@ def flight(plan: FlightPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajector
     t_out_min = (60.0 + 5 * weave_T if weave else 0.0) + 30.0
     if end_time(t_out_min) > plan.duration_s:
         raise ConfigError(
-            f"flight: {plan.duration_s:.0f} s (--duration-h {plan.duration_s / 3600.0:g}) is too short for "
+            f"flight: {plan.duration_s:.0f} s (--duration-h {plan.duration_s / SECONDS_PER_HOUR:g}) is too short for "
             f"{plan.align_s:g} s of alignment (--align-s), take-off, a turn and landing (at least "
             f"{end_time(t_out_min):.0f} s in all); lengthen --duration-h or shorten --align-s"
         )

@@ -31,7 +31,7 @@ from sizefx.effects import IDEAL, load_effects
 from sizefx.errors import ConfigError, OutputError, SizefxError, TelemetryError
 from sizefx.frames import geodetic_from_local_ned
 from sizefx.io.navigation import write_navigation
-from sizefx.io.telemetry import write_telemetry
+from sizefx.io.telemetry import Provenance, write_telemetry
 from sizefx.motion import (
     ConstantProfile,
     FlightPath,
@@ -560,12 +560,10 @@ def test_bad_input_exits_2_with_one_line(flight_files, tmp_path, make):
 
 
 def test_approximate_reference_attitude_is_left_out(flight_files, tmp_path):
-    tel = flight_files["tel"]
-    tel.source = {"reference_is_approximate": True}
-    try:
-        path = write_telemetry(tmp_path / "approx.h5", tel)
-    finally:
-        tel.source = None
+    path = write_telemetry(
+        tmp_path / "approx.h5",
+        dataclasses.replace(flight_files["tel"], source=Provenance(extra={"reference_is_approximate": True})),
+    )
     track = C.read_track(path)
     assert track.quat_nb is None and "approximate" in track.notes[0]
     res = C.compare(C.read_track(flight_files["a"]), track)

@@ -192,9 +192,9 @@ def test_a_model_file_switches_off_what_it_omits(tmp_path, records):
         rtol=0.0,
         atol=1e-15,
     )  # rounding of rates up to 3 rad/s
-    applied = json.loads(out.source["correction_json"])
-    assert applied["corrected"] == ["gyro_bias"]
-    assert applied["ignored"] == ["reference_delay", "level_tilt", "accel_noise"]
+    applied = out.source.correction
+    assert applied["corrected"] == ("gyro_bias",)
+    assert applied["ignored"] == ("reference_delay", "level_tilt", "accel_noise")
 
 
 @pytest.mark.parametrize(
@@ -251,7 +251,7 @@ def test_compensate_and_navigate_take_a_model(tmp_path, sim_with_model):
     expected = correct_imu(read_telemetry(sim), load_model(model_path), mode="center")
     np.testing.assert_array_equal(written.accel_mps2, expected.accel_mps2)
     np.testing.assert_array_equal(written.gyro_rad_s, expected.gyro_rad_s)
-    assert json.loads(written.source["correction_json"])["mode"] == "center"
+    assert written.source.correction["mode"] == "center"
 
     def horizontal_error_m(*extra):
         js = tmp_path / "nav.json"

@@ -14,6 +14,7 @@ time, and the seeds are fixed.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import tomllib
 
@@ -401,6 +402,20 @@ def test_cli_writes_report_and_model(tumble_file, tmp_path):
     # is test_model_file_round_trip_and_second_pass_finds_nothing's, a diagnosis less here)
     back = D.theta_from_model(load_effects(model, base=IDEAL))
     assert back[D.LEVER][3:6] == pytest.approx(lever["parameters"]["r_m"], abs=1e-12)  # accelerometer y's arm
+
+
+def test_the_stage_result_is_made_once_and_cannot_be_changed(tumble_file, tmp_path):
+    """run() makes its result at the end, with what it did after the fit (ModelChecks): the document it
+    returns is the file it wrote, the model file is in both and in the report; the fit alone names none.
+    The fit, the checks and the result are frozen."""
+    js, model = tmp_path / "d.json", tmp_path / "m.toml"
+    res = D.run(D.DiagnoseConfig(tumble_file, json_path=js, model_out=model, navigation=False))
+    assert js.read_text() == json.dumps(res.document, indent=2, default=float) + "\n"  # io.documents.write_json's form
+    assert res.model_path == str(model) == res.document["model"] and f"extended model -> {model}" in res.report()
+    assert D.to_json(res.diagnosis, res.start)["model"] is None  # the fit alone: no stage's file
+    for record, name in ((res, "document"), (res.diagnosis, "theta"), (res.checks, "model_path")):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(record, name, None)
 
 
 # long tier: the plots (a second of drawing); fast twins: test_cli_writes_report_and_model, and the

@@ -105,7 +105,7 @@ def test_bag_import_export_import_gives_the_same_record(imported, tmp_path, sour
     _same_imu(first, second)
     assert second.site == first.site  # None for the ROS 1 bag: imported without a site
     for key in ("stamp_origin_ns", "imu_topic", "imu_frame_id", "axes", "stamps"):
-        assert second.source[key] == first.source[key], key
+        assert second.source.extra[key] == first.source.extra[key], key
     # the messages themselves: the source bag's stamps, no orientation (REP 145)
     sent = [m for m in _bag_messages(bag) if m[0] == topic]
     exported = _bag_messages(out)

@@ -136,7 +136,7 @@ def test_compensate_refuses_a_gap_offers_segments_and_bridges_with_allow_gaps(ga
     seg = _run("compensate", path, "--levers", levers, "-o", tmp_path / "seg.h5", "--segment", "1")
     assert seg.exit_code == 0, seg.output
     out = read_telemetry(tmp_path / "seg.h5")
-    assert out.n_samples == GAP_ROW and out.gaps == [] and '"segment": 1' in out.source["compensation_json"]
+    assert out.n_samples == GAP_ROW and out.gaps == [] and out.source.compensation["segment"] == 1
     bridged = _run("compensate", path, "--levers", levers, "-o", tmp_path / "all.h5", "--allow-gaps")
     assert bridged.exit_code == 0, bridged.output
     assert [g.declared for g in read_telemetry(tmp_path / "all.h5").gaps] == [True]  # still declared

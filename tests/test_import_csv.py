@@ -179,7 +179,7 @@ def test_same_file_reference_with_its_own_time_column(tmp_path):
     np.testing.assert_allclose(tel.reference.time_s, T_S[REF_ROWS] + 0.003, rtol=0, atol=1e-12)
     tel.reference.time_s = tel.reference.time_s - 0.003
     _assert_truth(tel.reference)
-    assert tel.source["reference_time_column"] == "t_ref" and "reference_file" not in tel.source
+    assert tel.source.extra["reference_time_column"] == "t_ref" and "reference_file" not in tel.source.extra
 
 
 def test_same_file_reference_at_the_imu_time(tmp_path):
@@ -191,7 +191,7 @@ def test_same_file_reference_at_the_imu_time(tmp_path):
     src = _write(tmp_path / "both.csv", IMU_HEADER + [*EULER_COLS, *VEL_COLS, *POS_COLS], rows)
     tel, _ = _import(tmp_path, src, **_ref_opts("euler"))
     _assert_truth(tel.reference)
-    assert tel.source["reference_time_column"] == "(IMU time)"
+    assert tel.source.extra["reference_time_column"] == "(IMU time)"
 
 
 def test_separate_file_equals_same_file(tmp_path):
@@ -220,7 +220,7 @@ def test_reference_time_units_default_to_the_imu_s(tmp_path):
     ref_ms = _reference_file(tmp_path, time_scale=1e3)
     tel, _ = _import(tmp_path, imu_ms, time_units="ms", reference_file=ref_ms, reference_time="t", **_ref_opts())
     _assert_truth(tel.reference)
-    assert tel.source["reference_time_units"] == "ms"
+    assert tel.source.extra["reference_time_units"] == "ms"
 
 
 def test_dropouts_are_left_out_and_reported(tmp_path):
@@ -233,7 +233,7 @@ def test_dropouts_are_left_out_and_reported(tmp_path):
     tel, summary = _import(tmp_path, _imu_file(tmp_path), reference_file=ref, **_ref_opts())
     kept = np.delete(REF_ROWS, [10, 11, 30])
     _assert_truth(tel.reference, kept)
-    assert tel.source["reference_dropout_rows"] == 3 and tel.source["reference_rows"] == kept.size
+    assert tel.source.extra["reference_dropout_rows"] == 3 and tel.source.extra["reference_rows"] == kept.size
     assert summary["reference_gaps"] == 2  # rows 10-11 one gap, row 30 another
     assert "3 rows with empty or NaN cells left out" in tel.description
 
@@ -241,11 +241,11 @@ def test_dropouts_are_left_out_and_reported(tmp_path):
 def test_provenance_records_the_column_map(tmp_path):
     ref = _reference_file(tmp_path, "euler")
     tel, _ = _import(tmp_path, _imu_file(tmp_path), reference_file=ref, **_ref_opts("euler"))
-    src = tel.source
+    src = tel.source.extra
     assert src["reference_file"] == "ref.csv" and len(src["reference_sha256"]) == 64
-    assert src["reference_euler_columns"] == list(EULER_COLS) and src["reference_euler_units"] == "deg"
-    assert src["reference_velocity_columns"] == list(VEL_COLS)
-    assert src["reference_position_columns"] == list(POS_COLS) and src["reference_frame"] == "ned"
+    assert src["reference_euler_columns"] == tuple(EULER_COLS) and src["reference_euler_units"] == "deg"
+    assert src["reference_velocity_columns"] == tuple(VEL_COLS)
+    assert src["reference_position_columns"] == tuple(POS_COLS) and src["reference_frame"] == "ned"
     assert "reference from reference file ref.csv" in tel.description and "roll_deg" in tel.description
 
 
@@ -638,5 +638,5 @@ def test_a_source_named_in_latin1_is_carried_with_escapes(tmp_path):
 
     src = _write(tmp_path / os.fsdecode(b"caf\xe9.csv"), IMU_HEADER, _imu_rows())
     tel, _ = _import(tmp_path, src)
-    assert tel.source["file"] == "caf\\xe9.csv"
+    assert tel.source.file == "caf\\xe9.csv"
     assert tel.description.startswith("imported from CSV caf\\xe9.csv: ")

@@ -110,11 +110,12 @@ def test_import_gives_the_simulated_truth(truth, tmp_path, kind):
     # the twist is in the child frame (FLU): NED velocity = mat_nb @ (x, -y, -z)
     want_v = np.einsum("kij,kj->ki", quat_to_mat(truth.reference.quat_nb), twist @ FRD_FLU.T)
     np.testing.assert_allclose(ref.velocity_n_mps, want_v, rtol=0, atol=VELOCITY_TOL_MPS)
-    assert tel.source["format"] == "rosbag" and tel.source["stamp_origin_ns"] == START_NS
-    assert tel.source["imu_topic"] == "/imu/data" and tel.source["imu_frame_id"] == "imu_link"
-    assert tel.source["axes"] == "flu" and tel.source["stamps"] == "header"
+    src = tel.source.extra
+    assert tel.source.format == "rosbag" and src["stamp_origin_ns"] == START_NS
+    assert src["imu_topic"] == "/imu/data" and src["imu_frame_id"] == "imu_link"
+    assert src["axes"] == "flu" and src["stamps"] == "header"
     if kind != "ros1":
-        assert tel.source["bag_files"] == ["metadata.yaml", f"rec.{'mcap' if kind == 'mcap' else 'db3'}"]
+        assert src["bag_files"] == ("metadata.yaml", f"rec.{'mcap' if kind == 'mcap' else 'db3'}")
 
 
 def test_pose_and_tf_references_and_ned_frames(truth, tmp_path):
@@ -150,7 +151,7 @@ def test_receive_stamps_and_a_site_from_navsatfix(truth, tmp_path):
     assert result.exit_code == 0, result.output
     assert "site: the first fix of /fix (message 1): 48.4000000 deg" in result.output
     tel = read_telemetry(tmp_path / "rec.h5")
-    assert tel.source["stamp_origin_ns"] == START_NS + LATENCY_NS and tel.source["stamps"] == "receive"
+    assert tel.source.extra["stamp_origin_ns"] == START_NS + LATENCY_NS and tel.source.extra["stamps"] == "receive"
     np.testing.assert_allclose(np.degrees([tel.site.lat_rad, tel.site.lon_rad]), [48.4, 8.5], rtol=0, atol=1e-9)
     assert tel.site.height_m == 500.0
     np.testing.assert_allclose(tel.reference.time_s, truth.reference.time_s, rtol=0, atol=TIME_TOL_S)

@@ -231,9 +231,9 @@ def test_a_three_axis_turntable_log_gives_the_simulators_attitude(records, tmp_p
     assert result.exit_code == 0, result.output
     assert _attitude_error_rad(out, truth) < ATTITUDE_TOL_RAD
     back = read_telemetry(out)
-    assert back.source["angle_wraps"][0] > 0 and back.source["format"] == "table-log"
+    assert back.source.extra["angle_wraps"][0] > 0 and back.source.format == "table-log"
     assert back.reference.time_s == pytest.approx(t, abs=1e-12) and back.site is not None
-    assert back.source["imu_record"] == "turntable_imu.h5" and "undone" in result.output
+    assert back.source.extra["imu_record"] == "turntable_imu.h5" and "undone" in result.output
     sim = read_telemetry(records["turntable"].with_name("turntable_sim.h5"))  # the simulator's own /reference
     rows = np.rint(t * IMU_RATE_HZ).astype(int)  # the simulated reference is at the IMU's rate
     assert np.max(quat_angle_between(sim.reference.quat_nb[rows], back.reference.quat_nb)) < ATTITUDE_TOL_RAD
@@ -268,7 +268,7 @@ def test_counts_that_roll_over_are_unwrapped(records, tmp_path, modulus):
     result = _cli(_args(log, records["zyx"], out, 3, *extra))
     assert result.exit_code == 0, result.output
     assert _attitude_error_rad(out, truth) < COUNTS_TOL_RAD
-    wraps = read_telemetry(out).source["angle_wraps"]
+    wraps = read_telemetry(out).source.extra["angle_wraps"]
     assert wraps[0] > 0, wraps  # the heading swings through +-120 deg: the counter rolls over below zero
 
 

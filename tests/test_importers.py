@@ -40,8 +40,8 @@ def imported(tmp_path_factory):
 def test_every_real_file_imports_and_validates(imported, name):
     summary, tel = imported[name]
     assert tel.n_samples == summary["samples"] > 1000
-    assert tel.source["format"] == REAL_FILES[name][0]
-    assert len(tel.source["sha256"]) == 64
+    assert tel.source.format == REAL_FILES[name][0]
+    assert len(tel.source.sha256) == 64
     assert tel.description
 
 
@@ -126,8 +126,8 @@ def test_broad_gyros_agree_with_the_motion_capture_rate(imported, name):
 @needs_real
 def test_broad_dropouts_are_left_out_of_the_reference(imported):
     summary, tel = imported["broad07"]
-    assert summary["reference_rows"] == tel.n_samples - tel.source["reference_dropout_rows"]
-    assert tel.source["reference_dropout_rows"] == 1594
+    assert summary["reference_rows"] == tel.n_samples - tel.source.extra["reference_dropout_rows"]
+    assert tel.source.extra["reference_dropout_rows"] == 1594
     assert np.all(np.isfinite(tel.reference.quat_nb)) and np.all(np.isfinite(tel.reference.lat_rad))
 
 
@@ -164,8 +164,8 @@ def test_fog_mems_record_moves_forward_along_body_x(imported):
     roll_ref, _, _ = mat_to_euler(mat_nb[0])
     assert np.degrees(roll_accel) == pytest.approx(np.degrees(roll_ref), abs=0.3)
     # biases carried over, in FRD: (x, y, z)_FRD = (y, x, -z)_RFU
-    rfu = np.asarray(tel.source["psins_eb0_rad_s_rfu"])
-    np.testing.assert_array_equal(tel.source["gyro_bias_rad_s_frd"], [rfu[1], rfu[0], -rfu[2]])
+    rfu = np.asarray(tel.source.extra["psins_eb0_rad_s_rfu"])
+    np.testing.assert_array_equal(tel.source.extra["gyro_bias_rad_s_frd"], [rfu[1], rfu[0], -rfu[2]])
 
 
 @needs_real

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
@@ -383,6 +384,26 @@ def test_navigate_command_on_a_simulated_file(tmp_path, short_turntable_plan):
         assert h5["euler"].shape[1] == 3 and json.loads(h5.attrs["configuration_json"])["subsamples"] == 4
     again = CliRunner().invoke(main, ["navigate", str(sim), "-o", str(sim), "--force"])
     assert again.exit_code == 2 and "overwrite the input" in again.output
+
+
+def test_the_stage_result_is_the_loops_with_what_the_stage_did(tmp_path, short_turntable_plan):
+    """The loop builds its solution once; the stage's result is that solution with the files it wrote and
+    its own time (open_checks beside the loop's phases), made once at the end; neither can be changed."""
+    from sizefx.navigate import NavigateConfig, run
+    from sizefx.simulate import SimulateConfig
+    from sizefx.simulate import run as simulate
+
+    sim, js = tmp_path / "tt.h5", tmp_path / "nav.json"
+    simulate(SimulateConfig("turntable", sim, plan=short_turntable_plan, ideal=True))
+    loop = navigate_file(sim)
+    res = run(NavigateConfig(str(sim), json_path=str(js)))
+    assert loop.written is None and res.written == {"--json": str(js)} and res.path == str(sim)
+    assert loop.phases_s is not None and res.phases_s is not None
+    assert set(res.phases_s) == {"open_checks", *loop.phases_s} and "open_checks" not in loop.phases_s
+    assert res.summary["samples"] == loop.summary["samples"] == json.loads(js.read_text())["samples"]
+    for result in (loop, res):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            result.summary = {}  # type: ignore[misc]
 
 
 def test_navigate_without_position_is_a_clear_error(tmp_path):

@@ -413,7 +413,7 @@ def test_calibrate_compensate_navigate_commands(tmp_path):
     from sizefx.io.telemetry import read_telemetry
 
     comp = read_telemetry(out)
-    assert json.loads(comp.source["compensation_json"])["mode"] == "center"
+    assert comp.source.compensation["mode"] == "center"
     r = CliRunner().invoke(main, ["navigate", str(sim), "--levers", str(lev), "--mode", "triad"])
     assert r.exit_code == 0, r.output
 
@@ -454,7 +454,7 @@ def test_compensate_stage_config_run_result(tmp_path):
     )
     doc = res.to_json()
     assert doc["path"] == str(tmp_path / "api.h5") and doc["samples"] == n and doc["tangential"] is False
-    written = json.loads(read_telemetry(tmp_path / "api.h5").source["compensation_json"])
+    written = read_telemetry(tmp_path / "api.h5").source.compensation
     assert written == {k: v for k, v in doc.items() if k not in ("path", "samples")}
     cli = CliRunner().invoke(
         main,

@@ -14,7 +14,7 @@ from support import RATE_HZ, N, write_raw
 from sizefx.errors import OutputError, TelemetryError
 from sizefx.io.files import HASH_CHUNK_BYTES, sha256_of
 from sizefx.io.schema import load_schema
-from sizefx.io.telemetry import Reference, Site, Telemetry, read_telemetry, write_telemetry
+from sizefx.io.telemetry import Provenance, Reference, Site, Telemetry, read_telemetry, write_telemetry
 
 DEG = np.pi / 180
 
@@ -395,16 +395,18 @@ def test_valid_raw_file_reads(raw_file):
 
 def test_source_attributes_round_trip(tmp_path):
     tel = _telemetry("rates")
-    tel.source = {
-        "format": "csv",
-        "file": "x.csv",
-        "axis_map": ["y", "x", "-z"],
-        "gyro_bias_rad_s_frd": [1e-5, 0.0, 2.0],
-        "dropouts": 3,
-        "approximate": True,
-    }
+    tel.source = Provenance(
+        format="csv",
+        file="x.csv",
+        extra={
+            "axis_map": ["y", "x", "-z"],
+            "gyro_bias_rad_s_frd": [1e-5, 0.0, 2.0],
+            "dropouts": 3,
+            "approximate": True,
+        },
+    )
     back = read_telemetry(write_telemetry(tmp_path / "s.h5", tel), check_plausibility=False)
-    assert back.source == tel.source
+    assert back.source == tel.source and back.source.extra["axis_map"] == ("y", "x", "-z")
 
 
 def test_reference_gaps_are_reported_not_refused(tmp_path):
@@ -493,9 +495,10 @@ def test_text_attributes_that_are_not_utf8_are_carried_with_escapes(tmp_path):
 
     tel = read_telemetry(write_raw(tmp_path / "latin1.h5", mutate=mutate))
     assert tel.description == NOT_UTF8_ESCAPED
-    assert tel.source == {"comment": NOT_UTF8_ESCAPED, "note" + NOT_UTF8_ESCAPED: NOT_UTF8_ESCAPED}
+    assert tel.source is not None
+    assert tel.source.extra == {"comment": NOT_UTF8_ESCAPED, "note" + NOT_UTF8_ESCAPED: NOT_UTF8_ESCAPED}
     out = write_telemetry(tmp_path / "copy.h5", tel)
     with h5py.File(out) as h5:
         assert h5.attrs["description"] == NOT_UTF8_ESCAPED
-        assert dict(h5["source"].attrs) == tel.source
+        assert dict(h5["source"].attrs) == tel.source.extra
     assert read_telemetry(out).description.encode("utf-8")  # valid text all the way

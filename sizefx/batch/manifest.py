@@ -30,8 +30,8 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import ConfigError
-from ..io.documents import read_json
-from ..io.files import atomic_output, file_kind, sha256_of
+from ..io.documents import read_json, write_json_streamed
+from ..io.files import file_kind, sha256_of
 from ..io.schema import check_document, validate_input
 from .digests import DigestCache
 
@@ -215,19 +215,20 @@ class Manifest:
         what the user needs. The batch checked before it started that this path is no input
         (:func:`.inputs.check_writes`)."""
         assert self._db is not None
-        target = self.out_dir / MANIFEST_NAME
-        head = json.dumps(self._document(options, []), indent=2)
-        assert head.endswith('"records": []\n}')
-        # published also after a signal stopped the batch (interrupted=True), unlike a record's outputs
-        with atomic_output(target, force=True, interrupted=True) as tmp, open(tmp, "w") as f:
-            f.write(head[: -len("[]\n}")] + "[")
+        db = self._db
+
+        def entries():  # each as the store keeps it: its JSON text
             try:
-                for k, (text,) in enumerate(self._db.execute("SELECT entry FROM records ORDER BY input")):
-                    f.write(("," if k else "") + "\n    " + text)
+                for (text,) in db.execute("SELECT entry FROM records ORDER BY input"):
+                    yield text
             except sqlite3.Error as exc:
                 raise self._fail(exc) from None
-            f.write("\n  ]\n}\n")
-        return target
+
+        # published also after a signal stopped the batch (interrupted=True), unlike a record's outputs
+        doc = self._document(options, [])
+        return write_json_streamed(
+            self.out_dir / MANIFEST_NAME, doc, "records", entries(), force=True, interrupted=True
+        )
 
     def close(self) -> None:
         if self._db is not None:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..constants import METRES_PER_NMI
+from ..constants import METRES_PER_NMI, SECONDS_PER_HOUR
 from ..errors import TelemetryError
 from ..rotation import mat_to_euler, quat_conjugate, quat_interp, quat_multiply, quat_to_mat
 from .geodesy import MIN_GROUND_SPEED_MPS, along_cross_track_m, horizontal_offset_m, velocity_from_position
@@ -238,7 +238,7 @@ def compare(a: Track, b: Track, label: str = "A vs B", track: Track | None = Non
 
     elapsed = float(t[-1] - t[0])
     k_max = int(np.argmax(horiz))
-    per_hour = 3600.0 / elapsed / METRES_PER_NMI if elapsed > 0.0 else float("nan")
+    per_hour = SECONDS_PER_HOUR / elapsed / METRES_PER_NMI if elapsed > 0.0 else float("nan")
     summary = {
         "label": label,
         "a": a.name,

@@ -149,7 +149,7 @@ def _read_telemetry_track(path: Path) -> Track:
         )
     notes = []
     quat: np.ndarray | None = ref.quat_nb
-    if tel.source and tel.source.get("reference_is_approximate"):
+    if tel.source is not None and tel.source.reference_is_approximate:
         # As sizefx navigate does: an importer marked the attitude as approximate (e.g. PSINS's).
         quat = None
         notes.append(

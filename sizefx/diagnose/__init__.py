@@ -53,7 +53,7 @@ The package, from the bottom up (each module imports only those above it in this
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -74,6 +74,7 @@ from .naming import Effect
 from .normal import FOLDS, MAX_ROWS, TARGET_BLOCKS
 from .plausibility import GRADES, check_grade
 from .predictor import Predictor, predict_readings
+from .records import ModelChecks
 from .reference import (
     EDGE_REFERENCE_PERIODS,
     EDGE_S,
@@ -124,6 +125,7 @@ __all__ = [
     # the stage
     "DiagnoseConfig",
     "DiagnoseResult",
+    "ModelChecks",
     "run",
     "start_model",
     "navigation_gain",
@@ -262,23 +264,26 @@ class DiagnoseConfig:
         return out
 
 
-@dataclass
+@dataclass(frozen=True)
 class DiagnoseResult:
-    """What :func:`run` found and wrote. ``report()`` is what ``sizefx diagnose`` prints."""
+    """What :func:`run` found and wrote, made once at its end. ``report()`` is what ``sizefx diagnose``
+    prints."""
 
-    diagnosis: Diagnosis
+    diagnosis: Diagnosis  #: the fit
     start: str  #: what the prediction started from, in words
     document: dict  #: the ``sizefx/diagnosis/2`` document (``plots`` added when plots were written)
     json_path: str | None = None
     plots: list = field(default_factory=list)  #: the PNG files written
+    #: what was done with the extended model after the fit: its file, the navigation, other records
+    checks: ModelChecks = field(default_factory=ModelChecks)
 
     @property
     def model_path(self) -> str:
-        assert self.diagnosis.model_path is not None  # run() writes the model before it makes the result
-        return self.diagnosis.model_path
+        assert self.checks.model_path is not None  # run() writes the model before it makes the result
+        return self.checks.model_path
 
     def report(self) -> str:
-        lines = [format_report(self.diagnosis, self.start)]
+        lines = [format_report(self.diagnosis, self.start, self.checks)]
         if self.json_path:
             lines.append(f"report -> {self.json_path}")
         lines += [f"plot -> {path}" for path in self.plots]
@@ -342,20 +347,20 @@ def _navigation_errors(tel: Telemetry, **models: np.ndarray) -> dict:
     return out
 
 
-def _navigated_folds(tel: Telemetry, d: Diagnosis, theta0: np.ndarray) -> OutOfSample | None:
-    """The cross-validation with a navigation-length record navigated over each of its windows
+def _window_navigation(tel: Telemetry, d: Diagnosis, theta0: np.ndarray) -> dict | None:
+    """A navigation-length record navigated over each window of its cross-validation
     (:data:`sizefx.diagnose.holdout.NAVIGATION_WINDOWS`) on its own, from the reference at the
     window's start: under the start model, the model fitted without the window, and the model
-    fitted to the whole record."""
+    fitted to the whole record (:attr:`ModelChecks.window_navigation`); None without them."""
     cv = d.out_of_sample
     if cv is None or not cv.windows or not _navigable(tel):
-        return cv
+        return None
     windows = []
     for t0, t1, theta in cv.windows:
         part = crop(tel, t0, t1)
         nav = _navigation_errors(part, before=theta0, after=theta, in_sample=d.theta)
         windows.append({"t0_s": t0, "t1_s": t1, "duration_s": float(part.duration_s), **nav})
-    return replace(cv, navigation={"windows": windows})
+    return {"windows": windows}
 
 
 def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
@@ -395,25 +400,26 @@ def run(config: DiagnoseConfig, *, progress=None) -> DiagnoseResult:
     inputs = [p for p in config.inputs().values() if p is not None]
     model_out = config.model_out_path
     write_toml(model_out, model_document(d.theta), header=model_header(str(path)), inputs=inputs, force=config.force)
-    d.model_path = str(model_out)
+    navigation = windows = None
     if config.navigation:
-        d.navigation = navigation_gain(tel, theta0, d.theta)
-        d.out_of_sample = _navigated_folds(crop(tel, config.from_s, config.to_s), d, theta0)
+        navigation = navigation_gain(tel, theta0, d.theta)
+        windows = _window_navigation(crop(tel, config.from_s, config.to_s), d, theta0)
     weights = 1.0 / (d.weights_sigma**2 * d.kappa)
+    validated = []
     for other in config.validate_on:
         tel_o = read_telemetry(other, allow_gaps=config.allow_gaps)
         nav = navigation_gain(tel_o, theta0, d.theta) if config.navigation else None
-        d.validated_on.append(validate_on(tel_o, theta0, d.theta, d.bandwidth_hz, weights, navigation=nav))
-    doc = to_json(d, start)
+        validated.append(validate_on(tel_o, theta0, d.theta, d.bandwidth_hz, weights, navigation=nav))
+    checks = ModelChecks(str(model_out), navigation, windows, tuple(validated))
+    doc = to_json(d, start, checks)
     if config.json_path:
         write_json(config.json_path, doc, inputs=inputs, force=config.force)
     written = plot(d, config.plots, force=config.force) if config.plots else []
-    if written:
-        doc["plots"] = written
     return DiagnoseResult(
         diagnosis=d,
         start=start,
-        document=doc,
+        document={**doc, "plots": written} if written else doc,  # the file, written before them, has none
         json_path=None if not config.json_path else str(config.json_path),
         plots=written,
+        checks=checks,
     )

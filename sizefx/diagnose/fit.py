@@ -71,10 +71,11 @@ __all__ = ["Diagnosis", "diagnose", "MAX_PASSES", "MIN_SHARE"]
 LINE_BAND = 0.5
 
 
-@dataclass
+@dataclass(frozen=True)
 class Diagnosis:
-    """What :func:`diagnose` found in one record (SI), and what :func:`sizefx.diagnose.run` adds:
-    the path of the extended model and the navigation gain."""
+    """What :func:`diagnose` found in one record (SI), built once when the fit ends. What
+    :func:`sizefx.diagnose.run` does with the extended model afterwards (the file it writes, the
+    navigation, other records) is :class:`~sizefx.diagnose.records.ModelChecks`, beside it."""
 
     path: str
     effects: list
@@ -98,8 +99,6 @@ class Diagnosis:
     residual_after: np.ndarray | None = None
     t: np.ndarray | None = None
     mask: np.ndarray | None = None
-    model_path: str | None = None
-    navigation: dict | None = None
     bandwidth_hz: float | None = None
     white_sigma: dict | None = None  #: per channel: the residual's sample-to-sample (first-difference) noise
     rms_full_before: dict | None = None  #: full-band RMS (differs from rms_* when bandwidth_hz is set)
@@ -120,8 +119,6 @@ class Diagnosis:
     #: blocked cross-validation in time (:func:`sizefx.diagnose.holdout.cross_validate`); None when
     #: nothing was estimated
     out_of_sample: OutOfSample | None = None
-    #: the extended model on other records (``--validate-on``, :func:`sizefx.diagnose.holdout.validate_on`)
-    validated_on: list = field(default_factory=list)
 
 
 def diagnose(

@@ -147,8 +147,8 @@ class OutOfSample:
     effects: tuple = ()  #: of :class:`EffectGain` (folds only)
     record: str | None = None  #: the other record's path
     #: the other record's free-inertial horizontal error, {"duration_s", "before", "after"}
-    #: (:func:`sizefx.diagnose.navigation_gain`); None for a record too short to navigate; folds: the
-    #: navigation windows', {"windows": [{"t0_s", "t1_s", "duration_s", "before", "after", "in_sample"}]}
+    #: (:func:`sizefx.diagnose.navigation_gain`); None for a record too short to navigate (the folds'
+    #: navigation over their windows is the stage's: :class:`~sizefx.diagnose.records.ModelChecks`)
     navigation: dict | None = None
     #: folds: (t0_s, t1_s, theta) of :data:`NAVIGATION_WINDOWS` stretches, each with the model
     #: fitted without it (for the navigation over it)

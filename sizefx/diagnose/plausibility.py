@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ..constants import ARCSEC, DEG, DEG_PER_H, MICRO_G, STANDARD_GRAVITY_MPS2
+from ..constants import ARCSEC, DEG, DEG_PER_H, MICRO_G, SQRT_SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 from ..errors import ConfigError
 
 __all__ = ["GRADES", "NOISE_BAND", "RANGES", "check_grade", "infer_grade", "judge", "likely_cause", "noise_density"]
@@ -153,7 +153,7 @@ def infer_grade(density) -> tuple[str, str]:
     """The grade the IMU's white noise suggests (``density`` [6] from :func:`noise_density`: gyro x, y,
     z in rad/s*sqrt(s), accelerometer x, y, z in m/s^2*sqrt(s)), and a sentence saying how it was
     inferred: the coarser of what the quietest gyro and the quietest accelerometer say."""
-    arw = float(min(density[:3])) / DEG * 60.0  # rad/sqrt(s) -> deg/sqrt(h)
+    arw = float(min(density[:3])) / DEG * SQRT_SECONDS_PER_HOUR  # rad/sqrt(s) -> deg/sqrt(h)
     vrw = float(min(density[3:])) / MICRO_G
     g = sum(arw > lim for lim in ARW_LIMITS_DEG_SQRT_H)
     a = sum(vrw > lim for lim in VRW_LIMITS_UG_SQRT_HZ)

@@ -1,16 +1,17 @@
-"""What a diagnosis lists beside its findings, as typed records: warnings, rejections, and what the
-record cannot reveal.
+"""What a diagnosis lists beside its findings, as typed records: warnings, rejections, what the
+record cannot reveal, and what ``sizefx diagnose`` did with the extended model after the fit.
 
 Warnings are made by :mod:`.integrity` (the reference) and :mod:`.fit` (the estimates and the
-errors), rejections and not-revealed entries by :mod:`.fit` only; :mod:`.report` reads them, and
-:meth:`as_dict` alone turns them into the ``sizefx/diagnosis/2`` fields.
+errors), rejections and not-revealed entries by :mod:`.fit` only, :class:`ModelChecks` by the stage
+(:func:`sizefx.diagnose.run`); :mod:`.report` reads them, and :meth:`as_dict` alone turns the first
+three into the ``sizefx/diagnosis/2`` fields.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ReportWarning", "Rejection", "NotRevealed", "named"]
+__all__ = ["ReportWarning", "Rejection", "NotRevealed", "ModelChecks", "named"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,25 @@ class NotRevealed:
         if self.separated_by:
             out["separated_by"] = [{"motion": m, "canonical_correlation": rho} for m, rho in self.separated_by]
         return out
+
+
+@dataclass(frozen=True)
+class ModelChecks:
+    """What ``sizefx diagnose`` did with the extended model after the fit (:func:`sizefx.diagnose.run`):
+    wrote it, navigated with it, and applied it to other records. The reports give them beside the fit
+    (:func:`sizefx.diagnose.to_json`, :func:`sizefx.diagnose.format_report`); a fit alone has none."""
+
+    model_path: str | None = None  #: the extended model written (``--model-out``)
+    #: the record's free-inertial horizontal error under the start and the extended model,
+    #: ``{"duration_s", "before", "after"}`` (:func:`sizefx.diagnose.navigation_gain`); None: not navigated
+    navigation: dict | None = None
+    #: the same over each stretch of the record the cross-validation held out, from the reference at its
+    #: start, also under the model fitted without it:
+    #: ``{"windows": [{"t0_s", "t1_s", "duration_s", "before", "after", "in_sample"}]}``; None: not navigated
+    window_navigation: dict | None = None
+    #: the extended model on other records (``--validate-on``): an
+    #: :class:`~sizefx.diagnose.holdout.OutOfSample` each
+    validated_on: tuple = ()
 
 
 def named(entries: list, entry: NotRevealed) -> list:

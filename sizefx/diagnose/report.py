@@ -21,6 +21,7 @@ from .extended import model_document, model_header, model_toml  # noqa: F401
 from .fit import Diagnosis
 from .holdout import OutOfSample
 from .plots import PLOT_FILES, plot
+from .records import ModelChecks
 from .selection import FAMILY_ALPHA
 from .theta import CHANNELS, PARAMS
 
@@ -56,8 +57,10 @@ def _sigma_entry(d: Diagnosis, j: int) -> dict:
     }
 
 
-def to_json(d: Diagnosis, start: str) -> dict:
-    """The ``sizefx/diagnosis/2`` document (checked against ``data-schemas/diagnosis-2.json``)."""
+def to_json(d: Diagnosis, start: str, checks: ModelChecks | None = None) -> dict:
+    """The ``sizefx/diagnosis/2`` document (checked against ``data-schemas/diagnosis-2.json``) of the fit
+    ``d`` and, when the stage made them, ``checks``: the model file, the navigation, the other records."""
+    checks = checks or ModelChecks()
     cons = dict(d.consistency)
     cons["standard_errors"] = [_sigma_entry(d, j) for j in sorted(d.sigma_theta)]
     doc = {
@@ -101,7 +104,7 @@ def to_json(d: Diagnosis, start: str) -> dict:
             "bias_mps2": "m/s^2",
             "bias_rad_s": "rad/s",
         },
-        "model": d.model_path,
+        "model": checks.model_path,
         "samples": d.samples,
         "block_samples": d.block,
         "noise_sigma": dict(zip(CHANNELS, d.weights_sigma.tolist())),
@@ -109,13 +112,14 @@ def to_json(d: Diagnosis, start: str) -> dict:
         "bias_walk": dict(zip(CHANNELS, d.bias_walk.tolist())),
         "passes": d.passes,
         "selection_log": d.log,
-        "navigation": d.navigation,
+        "navigation": checks.navigation,
         "wall_s": d.wall_s,
     }
     if d.out_of_sample is not None:
-        doc["out_of_sample"] = d.out_of_sample.as_dict()
-    if d.validated_on:
-        doc["validated_on"] = [o.as_dict() for o in d.validated_on]
+        windows = {} if checks.window_navigation is None else {"navigation": checks.window_navigation}
+        doc["out_of_sample"] = {**d.out_of_sample.as_dict(), **windows}
+    if checks.validated_on:
+        doc["validated_on"] = [o.as_dict() for o in checks.validated_on]
     check_document(doc, DIAGNOSIS_SCHEMA)  # our writer against our contract: a bug if it fails
     return doc
 
@@ -170,11 +174,13 @@ def _geometry_lines(g: dict) -> list[str]:
     return lines
 
 
-def format_report(d: Diagnosis, start: str) -> str:
+def format_report(d: Diagnosis, start: str, checks: ModelChecks | None = None) -> str:
     """The report ``sizefx diagnose`` prints. What may make the result untrustworthy comes first (the
     warnings), then what the model cannot explain; then the effects found, those rejected and what the
     record cannot reveal; the band, grade and error checks; the residual RMS per channel before and
-    after, the navigation gain and where the model went."""
+    after, and, from ``checks`` (the stage's), the navigation gain, the other records and where the
+    model went."""
+    checks = checks or ModelChecks()
     how = (
         f", low-passed at {d.bandwidth_hz:g} Hz (every {d.block} samples)"
         if d.bandwidth_hz
@@ -283,19 +289,19 @@ def format_report(d: Diagnosis, start: str) -> str:
         lines.append("full band (the reference's differentiated noise included):")
         for name in CHANNELS:
             lines.append(_rms_line(name, d.rms_full_before[name], d.rms_full_after[name]))
-    if d.navigation:
-        nav = d.navigation
+    if checks.navigation:
+        nav = checks.navigation
         lines.append(
             f"navigation over {nav['duration_s']:.0f} s (free inertial, against /reference): final "
             f"horizontal error {nav['before']['final_m']:.2f} m -> {nav['after']['final_m']:.2f} m, "
             f"maximum {nav['before']['max_m']:.2f} m -> {nav['after']['max_m']:.2f} m"
         )
     if d.out_of_sample is not None:
-        lines += _out_of_sample_lines(d.out_of_sample)
-    for other in d.validated_on:
+        lines += _out_of_sample_lines(d.out_of_sample, checks.window_navigation)
+    for other in checks.validated_on:
         lines += _out_of_sample_lines(other)
-    if d.model_path:
-        lines.append(f"extended model -> {d.model_path} (sizefx navigate/compensate/diagnose --model accept it)")
+    if checks.model_path:
+        lines.append(f"extended model -> {checks.model_path} (sizefx navigate/compensate/diagnose --model accept it)")
     return "\n".join(lines)
 
 
@@ -329,9 +335,9 @@ def _percent(g: float) -> str:
     return f"{100 * g:.1f} %"
 
 
-def _out_of_sample_lines(o: OutOfSample) -> list[str]:
-    """The gain on data the model was not fitted to (:mod:`.holdout`): the record's own folds, or
-    another record."""
+def _out_of_sample_lines(o: OutOfSample, windows: dict | None = None) -> list[str]:
+    """The gain on data the model was not fitted to (:mod:`.holdout`): the record's own folds (with
+    ``windows``, :attr:`ModelChecks.window_navigation`), or another record."""
     test = f"positive beyond chance: one-sided p = {o.p:.2g} over the blocks"
     if o.kind == "other record":
         lines = [
@@ -369,12 +375,12 @@ def _out_of_sample_lines(o: OutOfSample) -> list[str]:
             f"  {e.key}: removes {_percent(e.gain_in_sample)} in sample, {_percent(e.gain_held_out)} held out "
             f"(p = {e.p:.2g})" + ("" if e.generalises else ": not shown to generalise")
         )
-    if o.navigation and o.navigation.get("windows"):
+    if windows and windows.get("windows"):
         lines.append(
             "  navigation over each fifth of the record, from the reference at its start (final horizontal error, "
             "start model -> fitted without it -> fitted to the whole record):"
         )
-        for w in o.navigation["windows"]:
+        for w in windows["windows"]:
             lines.append(
                 f"    {w['t0_s']:.0f}-{w['t1_s']:.0f} s: {w['before']['final_m']:.2f} m -> "
                 f"{w['after']['final_m']:.2f} m -> {w['in_sample']['final_m']:.2f} m"

@@ -60,7 +60,7 @@ def run_demo(out_dir: Path, *, seed: int = 0, size: str = "reduced"):
         )
     )
     yield "diagnose: accelerometer y placed 2.5 mm out and 1.0 mm up from the drawing, accelerometers 0.5 ms late:"
-    yield diagnose.format_report(found.diagnosis, found.start)  # the demo lists the plots itself, below
+    yield diagnose.format_report(found.diagnosis, found.start, found.checks)  # the demo lists the plots itself, below
     figures = sorted(p.name for p in out_dir.glob("*.png")) + [
         f"diagnosis/{p.name}" for p in sorted((out_dir / "diagnosis").glob("*.png"))
     ]

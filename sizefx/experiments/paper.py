@@ -39,7 +39,7 @@ from scipy.optimize import brentq
 
 from .. import earth, scenarios
 from ..compare import horizontal_offset_m
-from ..constants import METRES_PER_NMI
+from ..constants import METRES_PER_NMI, SECONDS_PER_HOUR
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
 from ..io.telemetry import read_telemetry
@@ -258,7 +258,7 @@ FLIGHT_OFFSET_M = (0.5, 0.1, -0.3)
 
 def flight_experiment(out_dir: Path, size: Size, *, seed: int = 0, log=print) -> dict:
     started = time.perf_counter()
-    plan = scenarios.FlightPlan(duration_s=size.flight_duration_h * 3600.0, vib_rate_dps=FLIGHT_VIBRATION_DPS)
+    plan = scenarios.FlightPlan(duration_s=size.flight_duration_h * SECONDS_PER_HOUR, vib_rate_dps=FLIGHT_VIBRATION_DPS)
     d_true = _true_arms_d()
     overrides = {
         "lever_arm": {

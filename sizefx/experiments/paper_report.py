@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..compare.plots import pyplot
+from ..constants import SECONDS_PER_HOUR
 from .closed_form import schuler_response
 
 __all__ = ["MODE_LABELS", "flight_figures", "format_results", "sway_figures"]
@@ -71,7 +72,7 @@ def sway_figures(out_dir, navs, closed, t, starts, plan):
     axes[-1].set_xlabel("time [min]")
     # Where each law holds: the last amplitude continued for 3 h, closed forms only
     ax = fig.add_subplot(grid[2])
-    t_long = np.linspace(0.0, 3 * 3600.0, 2000)
+    t_long = np.linspace(0.0, 3 * SECONDS_PER_HOUR, 2000)
     b = closed["b_north"]
     t2, sch = schuler_response(t_long, [(0.0, b)], closed["omega_s"])
     ax.plot(t_long / 60.0, t2 / 1e3, "k--", lw=0.8, label="t^2 law")

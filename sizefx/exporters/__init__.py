@@ -27,7 +27,7 @@ from types import MappingProxyType
 from typing import Any
 
 from ..errors import ConfigError, TelemetryError
-from ..io.telemetry import read_telemetry
+from ..io.telemetry import Provenance, read_telemetry
 
 __all__ = ["FORMATS", "ExportConfig", "ExportDetails", "ExportResult", "run", "refuse_separate_accel_stamps"]
 
@@ -104,11 +104,12 @@ class ExportResult:
         return "\n".join(lines)
 
 
-def _corrected(source) -> str:
-    src = source or {}
-    if "correction_json" in src:
+def _corrected(source: Provenance | None) -> str:
+    if source is None:
+        return ""
+    if source.correction is not None:
         return "corrected by an effect model (sizefx compensate --model)"
-    if "compensation_json" in src:
+    if source.compensation is not None:
         return "size effect compensated (sizefx compensate)"
     return ""
 

@@ -101,8 +101,8 @@ def write(
             "export csv keeps the increments"
         )
     refuse_separate_accel_stamps(tel, "a sensor_msgs/Imu message")
-    src = tel.source or {}
-    from_bag = src.get("format") == "rosbag"
+    from_bag = tel.source is not None and tel.source.format == "rosbag"
+    src = tel.source.extra if tel.source is not None else {}  # the bag importer's own fields
     axes = axes or (str(src.get("axes")) if from_bag and src.get("axes") in ROS_AXES else "flu")
     topic = topic or (str(src["imu_topic"]) if from_bag and src.get("imu_topic") else DEFAULT_TOPIC)
     if frame_id is None:

@@ -2,7 +2,7 @@
 
 Each module exposes ``load(path, **options) -> Telemetry`` that converts axes to
 body FRD, the reference to NED, and units to SI, and records where the data
-came from in ``Telemetry.source`` (written to ``/source``). The stage
+came from in ``Telemetry.source`` (:func:`provenance`, written to ``/source``). The stage
 (:class:`ImportConfig` -> :func:`run` -> :class:`ImportResult`, see :mod:`sizefx.stage`)
 declares the IMU gaps it finds in ``/imu/gaps`` (the reader's own definition of a
 gap, :func:`sizefx.io.telemetry.find_imu_gaps`), writes the result atomically, reads it
@@ -26,6 +26,7 @@ from ..errors import ConfigError, OutputError, SourceError, TelemetryError
 from ..io.contract import invalid_rows, limit_problem
 from ..io.files import atomic_output, sha256_of
 from ..io.gaps import nominal_period_s
+from ..io.provenance import Provenance
 from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema, site_problem
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 from ..rotation import quat_to_mat
@@ -84,18 +85,19 @@ INPUT_OPTIONS = {"reference_file": "--reference-file", "imu_record": "--imu"}
 REFERENCE_GRAVITY_ANGLE_MAX_DEG = 45.0
 
 
-def provenance(path: Path, fmt: str, credits: str = "", *, digest: str | None = None, **extra) -> dict:
-    """``/source`` attributes: the original file, its checksum, the importer and credits.
+def provenance(
+    path: Path, fmt: str, credits: str = "", *, digest: str | None = None, imu: Provenance | None = None, **extra
+) -> Provenance:
+    """Where an imported record came from (``/source``): the original file, its checksum, the
+    importer, the credits and ``extra``, the importer's own fields, in order.
 
     ``digest``: the SHA-256 when the caller has it (a source that is a folder of files); by default
-    that of ``path``'s bytes."""
+    that of ``path``'s bytes. ``imu``: the provenance of a sizefx record whose IMU the import took
+    (``import table-log --imu``)."""
     if digest is None:
         digest = sha256_of(path, mapped=False)  # this command's own process: no SIGBUS risk
-    out = {"format": fmt, "file": Path(path).name, "sha256": digest, "importer": f"sizefx {__version__}"}
-    if credits:
-        out["credits"] = credits
-    out.update(extra)
-    return out
+    name, importer, credited = Path(path).name, f"sizefx {__version__}", credits or None
+    return Provenance(format=fmt, file=name, sha256=digest, importer=importer, credits=credited, extra=extra, imu=imu)
 
 
 def median_rate_hz(time_s) -> float | None:
@@ -149,7 +151,7 @@ def _units_context(fmt: str, tel):
     """
     from ..sanity import FORM_QUANTITIES, UNITS_OUTSIDE_CONTRACT
 
-    src = tel.source or {}
+    src = tel.source.extra if tel.source is not None else {}
     names = dict(zip(("gyro", "accel"), FORM_QUANTITIES[tel.form]))
     datasets = {
         "gyro": "/imu/gyro" if tel.form == "rates" else "/imu/dtheta",
@@ -373,12 +375,12 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
     )
 
 
-def _conversion_lines(source) -> list | None:
-    """``/source`` ``conversion`` (text, or a list of texts) as a list of lines; None without one."""
-    found = (source or {}).get("conversion")
+def _conversion_lines(source: Provenance | None) -> list | None:
+    """``/source`` ``conversion`` (text, or texts) as a list of lines; None without one."""
+    found = None if source is None else source.extra.get("conversion")
     if found is None:
         return None
-    return [str(v) for v in found] if isinstance(found, list) else [str(found)]
+    return [str(v) for v in found] if isinstance(found, tuple) else [str(found)]
 
 
 def _check_imu_rate(tel, fmt: str, source) -> None:

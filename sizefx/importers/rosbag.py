@@ -41,6 +41,7 @@ import hashlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -309,7 +310,7 @@ def _telemetry(path, state: _Imu, ref, fix, stamps, frame, body_frame, site_deg,
         f"time: the {stamps} stamps of {topic}, in seconds after the first, {stamp_text(origin_ns)} "
         "(/source stamp_origin_ns)",
     ]
-    source = {
+    source: dict[str, Any] = {
         "storage": storage_of(path),
         "imu_topic": topic,
         "imu_frame_id": imu_frame,
@@ -354,7 +355,8 @@ def _telemetry(path, state: _Imu, ref, fix, stamps, frame, body_frame, site_deg,
     else:
         conversion.append("site: none (navigation needs one: --site-deg or --navsat-topic)")
     tel.description = description
-    tel.source = provenance(path, "rosbag", digest=_bag_sha256(path), **source, conversion=conversion)
-    if path.is_dir():
-        tel.source["bag_files"] = [f.name for f in bag_files(path)]
+    source["conversion"] = conversion
+    if path.is_dir():  # the files the checksum is of
+        source["bag_files"] = [f.name for f in bag_files(path)]
+    tel.source = provenance(path, "rosbag", digest=_bag_sha256(path), **source)
     return tel

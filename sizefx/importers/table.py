@@ -33,6 +33,7 @@ shares with :mod:`.table_log` (the text table, the time units, the column option
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -191,9 +192,7 @@ def load(
         f"imported from CSV {path.name}: time '{time}' [{time_units}], {form} columns {', '.join(gyro)} "
         f"[{gyro_units}] and {', '.join(accel)} [{accel_units}], body axes = sensor ({', '.join(axes)})"
     )
-    source = provenance(
-        path,
-        "csv",
+    source: dict[str, Any] = dict(
         time_column=time,
         time_units=time_units,
         gyro_columns=list(gyro),
@@ -216,5 +215,5 @@ def load(
         description += "; " + _describe_reference(spec, ref_t.size, dropouts)
         source.update(_reference_provenance(spec, ref_t.size, dropouts))
     tel.description = description
-    tel.source = source
+    tel.source = provenance(path, "csv", **source)
     return tel

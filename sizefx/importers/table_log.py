@@ -437,9 +437,7 @@ def load(
     if imu.reference is not None:
         conversion.append(f"the /reference of {imu_path.name} ({imu.reference.time_s.size} rows) is replaced")
 
-    source = provenance(
-        path,
-        "table-log",
+    source = dict(
         imu_record=imu_path.name,
         imu_record_sha256=sha256_of(imu_path, mapped=False),
         time_column=time,
@@ -459,9 +457,8 @@ def load(
         source["counter_modulus"] = float(units.wrap)
     if rates:
         source.update(rate_columns=list(rates), rate_units=units.rate)
-    for key, value in (imu.source or {}).items():  # where the IMU came from, kept beside
-        source[f"imu_source_{key}"] = value
-    cut.reference, cut.site, cut.source = Reference(time_s=t, quat_nb=quat_nb), site, source
+    cut.reference, cut.site = Reference(time_s=t, quat_nb=quat_nb), site
+    cut.source = provenance(path, "table-log", **source, imu=imu.source)  # where the IMU came from, kept beside
     cut.description = (
         f"IMU of {imu_path.name} with the reference attitude of the table log {path.name} "
         f"(axes {axes_text}, zero heading {float(table_heading_deg):g} deg)"

@@ -13,10 +13,11 @@ import numpy as np
 from ..constants import DEG, QUATERNION_NORM_TOLERANCE
 from ..errors import SourceError
 from ..frames import enu_to_ned, quat_nb_from_enu_body
+from ..io.files import sha256_of
 from ..io.schema import POLE_REASON, TELEMETRY_SCHEMA, load_schema
 from ..io.telemetry import Reference
 from ..rotation import euler_to_mat, mat_to_quat, quat_to_mat
-from . import REFERENCE_GRAVITY_ANGLE_MAX_DEG, REFERENCE_RATE_HZ, provenance, reference_up_angle_deg
+from . import REFERENCE_GRAVITY_ANGLE_MAX_DEG, REFERENCE_RATE_HZ, reference_up_angle_deg
 from .table_common import TIME_UNITS, _columns, _Table, _time_units_problem
 
 __all__ = ["ANGLE_UNITS", "REFERENCE_FRAMES"]
@@ -332,7 +333,7 @@ def _reference_provenance(spec: _ReferenceColumns, n_rows: int, dropouts: int) -
     }
     if spec.separate:
         out["reference_file"] = spec.path.name
-        out["reference_sha256"] = provenance(spec.path, "csv")["sha256"]
+        out["reference_sha256"] = sha256_of(spec.path, mapped=False)  # this command's own process
     if spec.time:
         out["reference_time_units"] = spec.time_units
     if spec.quaternion:

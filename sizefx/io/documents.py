@@ -1,5 +1,6 @@
 """Small text documents a user gives sizefx (effect models in TOML, lever arms and reports in JSON),
-read with bounds (and JSON documents written: :func:`write_json`): a size limit checked before reading, UTF-8 checked, nesting that would exhaust
+read with bounds (and JSON documents written: :func:`write_json`, and :func:`write_json_streamed` for
+one too long to hold): a size limit checked before reading, UTF-8 checked, nesting that would exhaust
 the parser's recursion refused, each as a one-line :class:`~sizefx.errors.ConfigError` naming the
 file. What the document must contain is checked by its reader against its schema afterwards.
 """
@@ -15,7 +16,15 @@ from pathlib import Path
 from ..errors import ConfigError
 from .files import atomic_output
 
-__all__ = ["MAX_DOCUMENT_BYTES", "MAX_TOML_BYTES", "parse_toml", "read_json", "read_toml", "write_json"]
+__all__ = [
+    "MAX_DOCUMENT_BYTES",
+    "MAX_TOML_BYTES",
+    "parse_toml",
+    "read_json",
+    "read_toml",
+    "write_json",
+    "write_json_streamed",
+]
 
 #: Largest JSON document read: a levers file is a few kB, a diagnosis report with its selection log
 #: some 100 kB; anything near this is not one of ours.
@@ -100,10 +109,33 @@ def read_json(path, what: str = "JSON file", **loads_options):
         raise ConfigError(f"{path}: {what} holds a value Python cannot convert ({exc})") from None
 
 
+def _json_text(doc, *, allow_nan: bool = True) -> str:
+    """``doc`` as the text of a JSON document sizefx writes: indented, NumPy scalars as floats, no final
+    newline."""
+    return json.dumps(doc, indent=2, default=float, allow_nan=allow_nan)
+
+
 def write_json(path, doc, *, inputs=(), force: bool = False, allow_nan: bool = True) -> Path:
-    """Write ``doc`` as indented UTF-8 JSON, ending in a newline, to ``path`` atomically (never over an
-    input; an existing file only with ``force``); NumPy scalars as floats. ``allow_nan=False``: a NaN
-    or infinity is a ValueError instead of the ``NaN`` strict JSON readers refuse."""
+    """Write ``doc`` as indented UTF-8 JSON, ending in a newline, to ``path`` atomically
+    (never over an input; an existing file only with ``force``); NumPy scalars as floats.
+    ``allow_nan=False``: a NaN or infinity is a ValueError instead of the ``NaN`` strict JSON readers refuse."""
     with atomic_output(path, inputs=inputs, force=force) as tmp:
-        Path(tmp).write_text(json.dumps(doc, indent=2, default=float, allow_nan=allow_nan) + "\n", encoding="utf-8")
+        Path(tmp).write_text(_json_text(doc, allow_nan=allow_nan) + "\n", encoding="utf-8")
+    return Path(path)
+
+
+def write_json_streamed(path, doc: dict, key: str, items, *, force: bool = False, interrupted: bool = False) -> Path:
+    """Write ``doc`` as :func:`write_json` does, but with its last entry ``key`` (an empty list in
+    ``doc``) filled from ``items``, each the JSON text of one element, one element a line, as they
+    come: a document too large to hold whole (a batch's manifest of any length). Atomically;
+    ``interrupted``: published also when a signal stops the writing (:func:`~sizefx.io.files.atomic_output`)."""
+    head = _json_text(doc)
+    empty = f'"{key}": []\n}}'
+    if not head.endswith(empty):
+        raise ValueError(f"write_json_streamed: {key!r} must be the document's last entry, an empty list")
+    with atomic_output(path, force=force, interrupted=interrupted) as tmp, open(tmp, "w", encoding="utf-8") as f:
+        f.write(head[: -len("[]\n}")] + "[")
+        for k, text in enumerate(items):
+            f.write(("," if k else "") + "\n    " + text)
+        f.write("\n  ]\n}\n")
     return Path(path)

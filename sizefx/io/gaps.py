@@ -66,6 +66,16 @@ class Segment:
     def samples(self) -> int:
         return self.stop_row - self.first_row
 
+    def note(self) -> dict:
+        """What a stage that changes the samples records of the segment it worked on (``/source``'s
+        ``compensation_json`` and ``correction_json``): its number, the count, its rows and its span [s]."""
+        return {
+            "segment": self.number,
+            "segment_of": self.of,
+            "segment_rows": [self.first_row, self.stop_row],
+            "segment_time_s": [self.start_s, self.end_s],
+        }
+
 
 def count_noun(n: int, noun: str) -> str:
     """``"1 gap"``, ``"8 gaps"``."""

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .gaps import Segment, imu_segments
+from .provenance import Provenance
 
 __all__ = ["Site", "Reference", "Telemetry"]
 
@@ -61,7 +62,8 @@ class Telemetry:
     site: Site | None = None
     description: str = ""
     simulation: dict | None = None
-    source: dict | None = None  #: provenance written by the importers (/source attributes)
+    #: where the record came from and what was done to it since (``/source``); None: nothing is known
+    source: Provenance | None = None
     path: str | None = None
     stored_units: dict = field(default_factory=dict)
     stored_dtypes: dict = field(default_factory=dict)

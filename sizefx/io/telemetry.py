@@ -10,6 +10,7 @@ This module holds no code: it re-exports the public names of the modules that do
 each (none of them imports this one):
 
 - :mod:`sizefx.io.records`: the dataclasses :class:`Telemetry`, :class:`Reference`, :class:`Site`;
+- :mod:`sizefx.io.provenance`: :class:`Provenance`, ``/source`` (where a record came from), and its attributes;
 - :mod:`sizefx.io.gaps`: :class:`Gap`, :class:`Segment` and the one definition of a gap;
 - :mod:`sizefx.io.contract`: the contract's checks on an open file, :func:`open_hdf5`;
 - :mod:`sizefx.io.reader`: :func:`read_telemetry`, :class:`TelemetryStream`, :class:`ReferenceStream`;
@@ -29,6 +30,7 @@ from .gaps import (
     nominal_period_s,
     refuse_gaps,
 )
+from .provenance import Provenance
 from .reader import SCAN_ROWS, ReferenceStream, TelemetryStream, read_telemetry
 from .records import Reference, Site, Telemetry
 from .writer import WRITE_CHUNK_ROWS, TelemetryWriter, write_telemetry
@@ -40,6 +42,7 @@ __all__ = [
     "TelemetryStream",
     "ReferenceStream",
     "Telemetry",
+    "Provenance",
     "read_telemetry",
     "TelemetryWriter",
     "write_telemetry",

@@ -13,6 +13,7 @@ import numpy as np
 
 from .contract import attr_str, attr_value
 from .files import atomic_output
+from .provenance import Provenance, to_attributes
 from .records import Site, Telemetry
 from .schema import TELEMETRY_SCHEMA, load_schema
 
@@ -48,7 +49,7 @@ class TelemetryWriter:
         site: Site | None = None,
         description: str = "",
         simulation: dict | None = None,
-        source: dict | None = None,
+        source: Provenance | None = None,
         inputs=(),
         force: bool = False,
         dtype=np.float64,
@@ -131,7 +132,7 @@ class TelemetryWriter:
             dset.attrs["units"] = next(iter(self.schema["units"][spec["quantity"]]))
         if self.source is not None:
             g = h5.create_group("source")
-            for key, value in self.source.items():
+            for key, value in to_attributes(self.source).items():
                 g.attrs[attr_str(key)] = attr_value(value)
         if self.simulation is not None:
             g = h5.create_group("simulation")

@@ -118,9 +118,9 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
     if config.model is not None:
         cfg = replace(cfg, model=load_effects(config.model, base=IDEAL))  # a section the file omits is off
     path = config.input
-    written = {}
+    written = {option: value for option, value in config.outputs().items() if value}  # each, or an error
     # refused before any work when one of them would hold nothing (a record shorter than an output row)
-    outputs = tuple(option for option, value in config.outputs().items() if value and option != "--json")
+    outputs = tuple(option for option in written if option != "--json")
     if config.chunk_samples == 0:
         from ..io.telemetry import read_telemetry
 
@@ -145,18 +145,14 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
             raise
         if writer is not None:
             writer.close(res.config, res.summary)
-    res.path = str(path)
     if config.json_path:
         write_json(config.json_path, res.to_json(), inputs=[path], force=config.force)
-        written["--json"] = config.json_path
-    if config.output:
-        written["-o"] = config.output
     if config.plot:
         plot_errors(res, config.plot, f"{Path(path).name}: free-inertial position error")
-        written["--plot"] = config.plot
-    res.written = written
+    phases = None
     if res.phases_s is not None:  # the stage's own time around the loop's phases
         ended = time.perf_counter()
-        res.phases_s["write"] += ended - published
-        res.phases_s = {"open_checks": ended - started - sum(res.phases_s.values()), **res.phases_s}
-    return res
+        loop = {**res.phases_s, "write": res.phases_s["write"] + ended - published}
+        phases = {"open_checks": ended - started - sum(loop.values()), **loop}
+    # the loop's solution, with what only the stage knows: the path as given, the files, the whole time
+    return replace(res, path=str(path), written=written, phases_s=phases)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import earth
+from ..constants import SECONDS_PER_HOUR
 from ..errors import ConfigError
 from ..kernels.strapdown import VERTICAL_HELD, pack_state
 from ..rotation import mat_to_euler, mat_to_quat, rotvec_to_mat
@@ -151,6 +152,6 @@ def initial_state(
         "coarse_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll_c, pitch_c, heading_c % (2 * np.pi))],
         "fine_roll_pitch_heading_deg": [float(np.degrees(a)) for a in (roll, pitch, heading % (2 * np.pi))],
         "mean_specific_force_mps2": f_b.tolist(),
-        "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * 3600.0),
+        "north_gyro_drift_deg_per_h": float(np.degrees(drift_n) * SECONDS_PER_HOUR),
     }
     return mat_to_quat(mat_f), np.zeros(3), (lat0, lon0, h0), details

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import time as _time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, replace
+from dataclasses import fields
 
 import numpy as np
 
@@ -164,7 +164,7 @@ def navigate_source(
     t0 = (t_head[1] if prep.rates else t_head[0]) - dt  # start of the first increment
     # the reference is read by time window: a summary decides the initialisation and the vertical
     # channel, and each chunk reads the rows it needs
-    approximate = bool(src.source and src.source.get("reference_is_approximate"))
+    approximate = src.source is not None and src.source.reference_is_approximate
     ref = src.reference
     init, vertical, stationary = choose(src.path, ref.summary() if ref is not None else None, approximate, cfg, t0)
     ref0 = reference_at(ref.window(t0, t0), np.array([t0])) if ref is not None else None
@@ -227,8 +227,11 @@ def navigate_source(
         if pool:
             pool.shutdown(wait=True, cancel_futures=True)
     config = {
-        **asdict(replace(cfg, model=None)),
-        "model": cfg.model.source if cfg.model is not None else None,
+        # the options as given, the effect model by its source (the model itself is in the correction)
+        **{
+            f.name: cfg.model.source if f.name == "model" and cfg.model is not None else getattr(cfg, f.name)
+            for f in fields(cfg)
+        },
         "correction": correction.described if correction is not None else None,
         "init": init,
         "vertical": vertical,
@@ -245,7 +248,26 @@ def navigate_source(
         **(segment_config(src.segment) if src.segment is not None else {}),
     }
     t_out, q_out, v_out, lat_out, lon_out, h_out = (np.concatenate(out[k]) for k in ("t", "q", "v", "lat", "lon", "h"))
-    res = NavResult(
+    duration = last[0] - t_first_nav + T
+    wall_s = _time.perf_counter() - started
+    summary = {
+        "samples": int(n_steps * n_sub),
+        "duration_s": duration,
+        **errors.figures(duration),
+        "final_latitude_deg": float(np.degrees(last[1])),
+        "final_longitude_deg": float(np.degrees(last[2])),
+        "final_height_m": last[3],
+        "kernel_s": kernel_s,
+        "wall_s": wall_s,
+    }
+    phases_s = {
+        "initial": loop_started - started,
+        "read": read_s,
+        "kernels": kernel_s,
+        "write": write_s,
+        "other": wall_s - (loop_started - started) - read_s - kernel_s - write_s,
+    }
+    return NavResult(
         t_out,
         q_out,
         v_out,
@@ -253,35 +275,11 @@ def navigate_source(
         lon_out,
         h_out,
         config,
-        {},
+        summary,
+        errors=errors.errors(),
         path=None if src.path is None else str(src.path),
+        phases_s=phases_s,
     )
-    duration = last[0] - t_first_nav + T
-    summary = {
-        "samples": int(n_steps * n_sub),
-        "duration_s": duration,
-        "final_horizontal_error_m": None,
-        "max_horizontal_error_m": None,
-        "drift_nmi_per_h": None,
-        "final_velocity_error_mps": None,
-        "final_attitude_error_deg": None,
-        "max_attitude_error_deg": None,
-        "final_latitude_deg": float(np.degrees(last[1])),
-        "final_longitude_deg": float(np.degrees(last[2])),
-        "final_height_m": last[3],
-    }
-    res.summary = errors.into(summary, duration)
-    res.summary["kernel_s"] = kernel_s
-    res.summary["wall_s"] = _time.perf_counter() - started
-    res.errors = errors.errors()
-    res.phases_s = {
-        "initial": loop_started - started,
-        "read": read_s,
-        "kernels": kernel_s,
-        "write": write_s,
-        "other": res.summary["wall_s"] - (loop_started - started) - read_s - kernel_s - write_s,
-    }
-    return res
 
 
 def output_stride(cfg: NavConfig, step_s: float) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..constants import METRES_PER_NMI
+from ..constants import METRES_PER_NMI, SECONDS_PER_HOUR
 from ..io.telemetry import Reference
 from ..kernels.errors import compared_steps, navigation_errors
 from ..rotation import quat_interp
@@ -152,18 +152,20 @@ class Errors:
             return None
         return {k: np.concatenate(v) for k, v in self.history.items() if v}
 
-    def into(self, summary: dict, duration_s: float) -> dict:
-        """``summary`` with the final and maximum errors and the drift filled in."""
-        if "horizontal" in self.final:
-            summary["final_horizontal_error_m"] = self.final["horizontal"]
-            summary["max_horizontal_error_m"] = self.max["horizontal"]
-            summary["drift_nmi_per_h"] = self.final["horizontal"] / METRES_PER_NMI / (duration_s / 3600.0)
-        if "velocity" in self.final:
-            summary["final_velocity_error_mps"] = self.final["velocity"]
-        if "attitude" in self.final:
-            summary["final_attitude_error_deg"] = float(np.degrees(self.final["attitude"]))
-            summary["max_attitude_error_deg"] = float(np.degrees(self.max["attitude"]))
-        return summary
+    def figures(self, duration_s: float) -> dict:
+        """The summary's final and maximum errors and the drift over ``duration_s`` [s]; None where the
+        reference has nothing to compare with (no position, no velocity, an approximate attitude)."""
+        horizontal, velocity, attitude = (self.final.get(k) for k in ("horizontal", "velocity", "attitude"))
+        return {
+            "final_horizontal_error_m": horizontal,
+            "max_horizontal_error_m": None if horizontal is None else self.max["horizontal"],
+            "drift_nmi_per_h": None
+            if horizontal is None
+            else horizontal / METRES_PER_NMI / (duration_s / SECONDS_PER_HOUR),
+            "final_velocity_error_mps": velocity,
+            "final_attitude_error_deg": None if attitude is None else float(np.degrees(attitude)),
+            "max_attitude_error_deg": None if attitude is None else float(np.degrees(self.max["attitude"])),
+        }
 
 
 def _doubled(ref: Reference) -> Reference:

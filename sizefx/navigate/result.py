@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ..constants import SECONDS_PER_HOUR
 from .config import JITTER_REPORTED
 
 if TYPE_CHECKING:  # annotations only: the stage's config is read without NumPy (a batch's re-run)
@@ -13,9 +14,11 @@ if TYPE_CHECKING:  # annotations only: the stage's config is read without NumPy 
 __all__ = ["NavResult", "format_summary"]
 
 
-@dataclass
+@dataclass(frozen=True)
 class NavResult:
-    """A navigation solution: the output rows, what was done, and the errors against ``/reference``."""
+    """A navigation solution: the output rows, what was done, and the errors against ``/reference``.
+    Built once, by the loop (:func:`sizefx.navigate.navigate_source`); the stage's (:func:`sizefx.navigate.run`)
+    is the loop's with the files it wrote and its own account of the time."""
 
     time_s: np.ndarray  #: [M] end of each navigation interval
     quat_nb: np.ndarray  #: [M, 4]
@@ -53,7 +56,7 @@ class NavResult:
 def format_summary(path, res: NavResult) -> str:
     s, c = res.summary, res.config
     lines = [
-        f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / 3600:.3f} h), "
+        f"{path}: {s['samples']} samples, {s['duration_s']:.1f} s ({s['duration_s'] / SECONDS_PER_HOUR:.3f} h), "
         f"{c['subsamples']} sub-samples -> {c['nav_rate_hz']:.6g} Hz navigation, kernel {s['kernel_s']:.2f} s"
     ]
     if c.get("segment"):

@@ -9,7 +9,7 @@ import numpy as np
 from .. import earth, scenarios
 from ..calibrate.joint import information, unobservable
 from ..calibrate.records import Record
-from ..constants import MICRO_G
+from ..constants import MICRO_G, SQRT_SECONDS_PER_HOUR
 from ..effects import IDEAL, load_effects
 from ..simulate import true_motion
 from .request import PlanError, Prediction
@@ -96,7 +96,7 @@ def predict(
     colour = {
         "markov_density_mps2_per_sqrt_hz": markov_ug_per_sqrt_hz * MICRO_G,
         "markov_correlation_s": markov_correlation_s,
-        "bias_rw_mps2_per_sqrt_s": bias_rw_ug_per_sqrt_h * MICRO_G / 60.0,
+        "bias_rw_mps2_per_sqrt_s": bias_rw_ug_per_sqrt_h * MICRO_G / SQRT_SECONDS_PER_HOUR,
     }
     names, fisher = _fisher(plan, noise_ug_per_sqrt_hz, sway=sway, colour=colour)
     sigma = _sigmas(names, fisher, plan.axes)

@@ -27,6 +27,7 @@ import json
 import h5py
 import numpy as np
 
+from ..provenance import from_attributes
 from ..records import Reference, Site
 
 # what the single module sizefx.io.contract held stays importable from here
@@ -90,7 +91,8 @@ def check_magnitudes(r, form, period, gyro, accel):
 
 
 def side_groups(r, h5, reference: bool = True):
-    """``/reference`` (read whole; None with ``reference=False``), ``/source`` and ``/simulation``."""
+    """``/reference`` (read whole; None with ``reference=False``), ``/source`` (a
+    :class:`~sizefx.io.provenance.Provenance`) and ``/simulation``."""
     found: Reference | None = None
     if reference and "/reference" in h5:
         ref_t = r.dataset("/reference/time", required=True)
@@ -103,7 +105,7 @@ def side_groups(r, h5, reference: bool = True):
             found.lat_rad, found.lon_rad, found.height_m = pos[:, 0], pos[:, 1], pos[:, 2]
     source = None
     if "/source" in h5:
-        source = {attr_str(k): attr_value(v) for k, v in h5["/source"].attrs.items()}
+        source = from_attributes({attr_str(k): attr_value(v) for k, v in h5["/source"].attrs.items()})
     simulation = None
     if "/simulation" in h5:
         sim_attrs = h5["/simulation"].attrs
