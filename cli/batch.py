@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import click
 
+from sizefx.options import config_from, declared
+
 from .options import quiet_option, span
 
 
@@ -192,7 +194,11 @@ def _make(name: str, spec: _Stage) -> click.Command:
         from sizefx.batch.manifest import Manifest, canonical_options
         from sizefx.batch.runner import local_workers, start_workers
 
-        accepted = inspect.signature(module.config_of).parameters
+        config_class = getattr(single, "config_class", None)
+        if config_class is not None:
+            accepted = {name for name, _ in declared(config_class)}
+        else:  # a command not yet made from its config's declarations
+            accepted = inspect.signature(module.config_of).parameters
         records = expand_inputs(inputs)
         given_pairs = {param: options.pop(f"paired_{param}") for param in spec.paired}
         partners = {
@@ -223,7 +229,8 @@ def _make(name: str, spec: _Stage) -> click.Command:
                     **paired,
                     spec.input_param: (str(record),) if spec.many else str(record),
                 }
-                config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
+                chosen = {k: v for k, v in given.items() if k in accepted}
+                config = config_from(config_class, chosen) if config_class else module.config_of(**chosen)
                 # the files the options name (--levers, --model, --nominal, --against, --reference): refused
                 # once, before any work, and hashed with each record, so that a re-calibration into the
                 # same levers.json reruns the records

@@ -112,3 +112,52 @@ def test_the_command_line_refuses_in_the_declarations_words_and_converts_the_uni
     assert ok.exit_code == 0 and f"delay_s={5 * 1e-6!r}" in ok.output, ok.output  # us times 1e-6, as before
     bad = CliRunner().invoke(probe, ["x.h5", "--rate-hz", "0"])
     assert bad.exit_code == 2 and "--rate-hz: 0 is outside (0, 100] Hz" in bad.output, bad.output
+
+
+# ------------------------------------------------------------------------------- the stages
+
+
+def _stages():
+    """(command path, config class, the command's own options, in order) of every stage made from its config."""
+    from sizefx.configs.inspect import InspectConfig
+
+    return [
+        (("inspect",), InspectConfig, ()),
+    ]
+
+
+STAGES = _stages()
+#: Fields a config has for Python callers only, with no option on the command line.
+LIBRARY_ONLY: dict[str, set] = {}
+
+
+def _command(path: tuple) -> click.Command:
+    command = main
+    for name in path:
+        command = command.commands[name]
+    return command
+
+
+@pytest.mark.parametrize("path,config,own", STAGES, ids=[" ".join(p) for p, _, _ in STAGES])
+def test_every_field_of_a_stage_config_is_a_declared_option(path, config, own):
+    """Each field says how the command line writes it, what it holds and, for a physical quantity,
+    its unit (which the help shows as [unit])."""
+    for f in dataclasses.fields(config):
+        if f.name in LIBRARY_ONLY.get(config.__name__, set()):
+            continue
+        assert "option" in f.metadata or "group" in f.metadata, f"{config.__name__}.{f.name} is not declared"
+    for name, option in declared(config):
+        assert option.argument or option.help, f"{config.__name__}.{name} has no help"
+        if option.kind == "number" and option.unit is not None:
+            assert f"[{option.unit}" in option.help, f"{option.name}: help does not show [{option.unit}]"
+
+
+@pytest.mark.parametrize("path,config,own", STAGES, ids=[" ".join(p) for p, _, _ in STAGES])
+def test_the_stage_command_is_made_from_its_config(path, config, own):
+    command = _command(path)
+    assert command.config_class is config
+    names = [name for name, _ in declared(config)]
+    assert [p.name for p in command.params] == [*names, *own], "the declared options, in order, then the command's"
+    for param, (_, option) in zip(command.params, declared(config), strict=False):
+        if option.argument is None:
+            assert option.name in (*param.opts, *param.secondary_opts)
