@@ -18,6 +18,8 @@ from pathlib import Path
 
 import click
 
+from sizefx.options import config_from
+
 from .batch import BatchProgress, batch_params
 from .options import quiet_option
 
@@ -175,24 +177,19 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
                 )
             )
     if "compare" in chain:
-        from sizefx_cli.compare import config_of
+        from sizefx.configs.compare import CompareConfig
 
         options = chain["compare"]
-        steps.append(
-            ChainStep(
-                "compare",
-                None,
-                config_of(
-                    a=solutions["compensated"],
-                    b=solutions["plain"],
-                    reference=options.get("reference") or str(flight),
-                    json_path=str(out / "comparison.json"),
-                    plots_dir=str(out / "compare-plots") if plots else None,
-                    force=True,
-                ),
-                options,
-            )
-        )
+        given = {
+            **options,
+            "a": solutions["compensated"],
+            "b": solutions["plain"],
+            "reference": options.get("reference") or str(flight),
+            "json_path": str(out / "comparison.json"),
+            "plots_dir": str(out / "compare-plots") if plots else None,
+            "force": True,
+        }
+        steps.append(ChainStep("compare", None, config_from(CompareConfig, given), options))
     return steps
 
 

@@ -119,10 +119,12 @@ def test_the_command_line_refuses_in_the_declarations_words_and_converts_the_uni
 
 def _stages():
     """(command path, config class, the command's own options, in order) of every stage made from its config."""
+    from sizefx.configs.compare import CompareConfig
     from sizefx.configs.inspect import InspectConfig
 
     return [
         (("inspect",), InspectConfig, ()),
+        (("compare",), CompareConfig, ()),
     ]
 
 
