@@ -131,18 +131,12 @@ def _nominal_file(nominal):
 
 def _calibrate_step(chain, out: Path, plots: bool):
     from sizefx.chain import ChainStep
-    from sizefx_cli.calibrate import config_of
+    from sizefx.configs.calibrate import CalibrateConfig
 
     options = chain["calibrate"]
     levers = str(out / "levers.json")
-    return ChainStep(
-        "calibrate",
-        None,
-        config_of(
-            **{**options, "json_path": levers, "force": True, "plot": str(out / "calibrate.png") if plots else None}
-        ),
-        options,
-    ), levers
+    given = {**options, "json_path": levers, "force": True, "plot": str(out / "calibrate.png") if plots else None}
+    return ChainStep("calibrate", None, config_from(CalibrateConfig, given), options), levers
 
 
 def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:

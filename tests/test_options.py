@@ -119,11 +119,13 @@ def test_the_command_line_refuses_in_the_declarations_words_and_converts_the_uni
 
 def _stages():
     """(command path, config class, the command's own options, in order) of every stage made from its config."""
+    from sizefx.configs.calibrate import CalibrateConfig
     from sizefx.configs.compare import CompareConfig
     from sizefx.configs.inspect import InspectConfig
 
     return [
         (("inspect",), InspectConfig, ()),
+        (("calibrate",), CalibrateConfig, ()),
         (("compare",), CompareConfig, ()),
     ]
 

@@ -1141,7 +1141,7 @@ def option_text(field: dataclasses.Field, options: dict) -> str:
     option = options.get(field.name)
     if option is None:
         return ""
-    valid = {"number": interval(option), "integer": interval(option), "choice": " \\| ".join(option.choices)}
+    valid = {"number": interval(option), "integer": interval(option), "choice": " | ".join(option.choices)}
     parts = [code(option.name)] + ([code(valid[option.kind])] if option.kind in valid else [])
     if option.kind == "switch" and not option.sets and not any("/" in f for f in option.flags):
         parts[0] += " sets it False"

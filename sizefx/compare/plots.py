@@ -19,6 +19,7 @@ from ..io.files import atomic_output
 
 __all__ = ["PLOT_NAMES", "plot_names", "pyplot", "write_plots"]
 
+
 def pyplot():
     """matplotlib.pyplot on the Agg back end, or a ConfigError saying how to install it."""
     try:
