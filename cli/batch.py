@@ -40,7 +40,7 @@ STAGES = {
     "navigate": _Stage(
         "file", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"}, dropped=("quiet",)
     ),
-    "compensate": _Stage("file", {"output": ".compensated.h5"}, summary=True),
+    "compensate": _Stage("input", {"output": ".compensated.h5"}, summary=True),
     "calibrate": _Stage("records", {"json_path": ".levers.json"}, {"plot": ".calibrate.png"}, many=True),
     "diagnose": _Stage(
         "measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"}, {"plots": ".diagnose-plots"}

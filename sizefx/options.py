@@ -163,10 +163,12 @@ def path(
     many: bool = False,
     metavar: str | None = None,
     dash: bool = False,
+    required: bool = False,
 ) -> Any:
-    """A file (``kind="file"``), a folder or either (``"path"``); ``argument``: a positional one
-    (required unless it takes several, ``many``); ``many`` options repeat and collect a tuple."""
-    if argument is not None and default is None:
+    """A file (``kind="file"``), a folder or either (``"path"``); ``argument``: a positional one,
+    which is required (one or, ``many``, any number); ``many`` options repeat and collect a tuple;
+    ``required`` options have no default."""
+    if argument is not None or required:
         default = MISSING
     return _declare(kind, default, help=help, flags=flags, argument=argument, many=many, metavar=metavar, dash=dash)
 

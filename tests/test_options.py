@@ -121,18 +121,20 @@ def _stages():
     """(command path, config class, the command's own options, in order) of every stage made from its config."""
     from sizefx.configs.calibrate import CalibrateConfig
     from sizefx.configs.compare import CompareConfig
+    from sizefx.configs.compensate import CompensateConfig
     from sizefx.configs.inspect import InspectConfig
 
     return [
         (("inspect",), InspectConfig, ()),
         (("calibrate",), CalibrateConfig, ()),
         (("compare",), CompareConfig, ()),
+        (("compensate",), CompensateConfig, ()),
     ]
 
 
 STAGES = _stages()
 #: Fields a config has for Python callers only, with no option on the command line.
-LIBRARY_ONLY: dict[str, set] = {}
+LIBRARY_ONLY = {"CompensateConfig": {"centripetal"}}
 
 
 def _command(path: tuple) -> click.Command:

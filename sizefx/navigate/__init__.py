@@ -106,9 +106,9 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
     loop with one chunk, the same figures.
     """
     started = time.perf_counter()
+    from ..configs import refuse_levers_and_model
     from ..effects import IDEAL, load_effects
     from ..io.navigation import NavigationWriter, write_navigation
-    from ..sensor_model.correction import refuse_levers_and_model
     from .loop import navigate, navigate_file
     from .output import check_plottable, plot_errors
 

@@ -33,13 +33,14 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
+from ..configs import refuse_levers_and_model
 from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
 from ..omegadot import SAVGOL_WINDOW
 from ..sensor_model import Correction
-from ..sensor_model.correction import model_correction_record, refuse_levers_and_model
+from ..sensor_model.correction import model_correction_record
 from ..stage import helper_threads
 from ..sync import synced_accel
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_PLOT_ROWS, MIN_ROWS, VERTICAL_MODES, NavConfig
