@@ -38,7 +38,7 @@ class _Stage:
 
 STAGES = {
     "navigate": _Stage(
-        "file", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"}, dropped=("quiet",)
+        "input", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"}, dropped=("quiet",)
     ),
     "compensate": _Stage("input", {"output": ".compensated.h5"}, summary=True),
     "calibrate": _Stage("records", {"json_path": ".levers.json"}, {"plot": ".calibrate.png"}, many=True),

@@ -84,6 +84,7 @@ class Option:
     sets: bool = True
     metavar: str | None = None
     dash: bool = False  #: a path option that also takes '-' (stdout)
+    allow_none: bool = False  #: None is a value too, though the default is not (the config says what it means)
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -118,9 +119,11 @@ def number(
     high_open: bool = False,
     scale: float = 1.0,
     flags: tuple = (),
+    allow_none: bool = False,
 ) -> Any:
     """A finite real in [low, high] (either end open) of ``unit`` (None: a pure number); the field
-    holds ``scale`` times what the command line takes. Default None: the option may be left out."""
+    holds ``scale`` times what the command line takes. Default None: the option may be left out;
+    ``allow_none``: None is valid beside another default."""
     return _declare(
         "number",
         default,
@@ -132,6 +135,7 @@ def number(
         high_open=high_open,
         scale=scale,
         flags=flags,
+        allow_none=allow_none,
     )
 
 
@@ -247,8 +251,10 @@ def declared(config_class: Any) -> tuple[tuple[str, Option], ...]:
     return tuple(found)
 
 
-def _bound(x: float) -> str:
-    return "inf" if x == math.inf else "-inf" if x == -math.inf else f"{x:g}"
+def _bound(x: float, integer: bool) -> str:
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return str(int(x)) if integer else f"{x:g}"
 
 
 def interval(option: Option) -> str:
@@ -258,7 +264,8 @@ def interval(option: Option) -> str:
     left = "(" if option.low_open or low == -math.inf else "["
     right = ")" if option.high_open or high == math.inf else "]"
     unit = f" {option.unit}" if option.unit else ""
-    return f"{left}{_bound(low)}, {_bound(high)}{right}{unit}"
+    integer = option.kind == "integer"
+    return f"{left}{_bound(low, integer)}, {_bound(high, integer)}{right}{unit}"
 
 
 def _shown(value, scale: float = 1.0) -> str:
@@ -305,7 +312,7 @@ def refusal(option: Option, value) -> str | None:
     refusal uses (``--align-s: 0 is outside (0, 86400] s``); None when it is valid. None is valid
     where the default is None (the option left out)."""
     if value is None:
-        return None if option.default is None else f"{option.name}: give a value (None is not one)"
+        return None if option.default is None or option.allow_none else f"{option.name}: give a value (None is not one)"
     if option.many and (isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list))):
         return f"{option.name}: {_shown(value)} is not a tuple of values"
     values = value if option.many else (value,)

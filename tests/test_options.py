@@ -123,18 +123,20 @@ def _stages():
     from sizefx.configs.compare import CompareConfig
     from sizefx.configs.compensate import CompensateConfig
     from sizefx.configs.inspect import InspectConfig
+    from sizefx.configs.navigate import NavigateConfig
 
     return [
         (("inspect",), InspectConfig, ()),
         (("calibrate",), CalibrateConfig, ()),
         (("compare",), CompareConfig, ()),
         (("compensate",), CompensateConfig, ()),
+        (("navigate",), NavigateConfig, ("quiet",)),
     ]
 
 
 STAGES = _stages()
 #: Fields a config has for Python callers only, with no option on the command line.
-LIBRARY_ONLY = {"CompensateConfig": {"centripetal"}}
+LIBRARY_ONLY = {"CompensateConfig": {"centripetal"}, "NavConfig": {"model"}}
 
 
 def _command(path: tuple) -> click.Command:
@@ -148,10 +150,14 @@ def _command(path: tuple) -> click.Command:
 def test_every_field_of_a_stage_config_is_a_declared_option(path, config, own):
     """Each field says how the command line writes it, what it holds and, for a physical quantity,
     its unit (which the help shows as [unit])."""
-    for f in dataclasses.fields(config):
-        if f.name in LIBRARY_ONLY.get(config.__name__, set()):
-            continue
-        assert "option" in f.metadata or "group" in f.metadata, f"{config.__name__}.{f.name} is not declared"
+    configs = [config]
+    while configs:
+        current = configs.pop()
+        for f in dataclasses.fields(current):
+            if f.name in LIBRARY_ONLY.get(current.__name__, set()):
+                continue
+            assert "option" in f.metadata or "group" in f.metadata, f"{current.__name__}.{f.name} is not declared"
+            configs += [f.metadata["group"]] if "group" in f.metadata else []
     for name, option in declared(config):
         assert option.argument or option.help, f"{config.__name__}.{name} has no help"
         if option.kind == "number" and option.unit is not None:
@@ -167,3 +173,36 @@ def test_the_stage_command_is_made_from_its_config(path, config, own):
     for param, (_, option) in zip(command.params, declared(config), strict=False):
         if option.argument is None:
             assert option.name in (*param.opts, *param.secondary_opts)
+
+
+#: A bad value per stage: the command line's arguments, and the config that Python makes with it.
+BAD_VALUES = [
+    (["navigate", "f.h5", "--align-s", "0"], lambda: _navigate(align_s=0.0)),
+    (["navigate", "f.h5", "--subsamples", "5"], lambda: _navigate(subsamples=5)),
+    (["navigate", "f.h5", "--output-rate-hz", "0.0005"], lambda: _navigate(output_rate_hz=0.0005)),
+    (["navigate", "f.h5", "--vertical", "sideways"], lambda: _navigate(vertical="sideways")),
+    (["compensate", "f.h5", "-o", "o.h5", "--levers", "l.json", "--accel-delay-us", "2e5"], lambda: _compensate()),
+]
+
+
+def _navigate(**options):
+    from sizefx.configs.navigate import NavConfig, NavigateConfig
+
+    return NavigateConfig("f.h5", options=NavConfig(**options))
+
+
+def _compensate():
+    from sizefx.configs.compensate import CompensateConfig
+
+    return CompensateConfig("f.h5", "o.h5", levers="l.json", accel_delay_s=0.2)
+
+
+@pytest.mark.parametrize("args,make", BAD_VALUES, ids=[f"{a[0]} {a[-2]} {a[-1]}" for a, _ in BAD_VALUES])
+def test_a_bad_value_is_refused_in_the_same_words_from_python_and_the_command_line(tmp_path, args, make):
+    with pytest.raises(ConfigError) as from_python:
+        make()
+    words = str(from_python.value)
+    assert words.startswith(args[-2])  # names the option as the command line writes it
+    result = CliRunner().invoke(main, args)
+    lines = result.stderr.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and words in lines[0], (words, result.stderr)

@@ -33,7 +33,6 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
-from ..configs import refuse_levers_and_model
 from ..errors import ConfigError, TelemetryError
 from ..io.telemetry import Telemetry, TelemetryStream, refuse_gaps
 from ..kernels.strapdown import coning_coefficients, pack_state
@@ -73,8 +72,7 @@ class MemorySource:
 
 def resolve_correction(cfg: NavConfig) -> Correction | None:
     """The levers file or the effect model of ``cfg`` as the run's one :class:`Correction` (None:
-    neither), read and checked before any chunk; both together are refused."""
-    refuse_levers_and_model(cfg.levers, cfg.model)
+    neither), read and checked before any chunk (``cfg`` refused both together when it was made)."""
     if cfg.levers:
         levers = read_levers(cfg.levers)
         return Correction.of_arms(levers.arms_for(cfg.mode), levers.axes, levers.accel_delay_s, cfg.mode, None)
