@@ -1,10 +1,10 @@
 """``sizefx run --out DIR calibrate T.h5 navigate F.h5 compare``: stages chained in one command, and
 ``sizefx batch run --out DIR calibrate T.h5 navigate FLIGHTS compare``: the chain per flight.
 
-Each stage of the chain is the single-file command's own (its click options and its ``config_of``),
-less the output paths, which the chain names in DIR: calibrate's lever arms go to navigate, which
-navigates the flight plain and compensated with them, and compare sets the two solutions against
-the flight's reference. Which chains can work is :func:`sizefx.chain.check_chain`'s, decided with
+Each stage of the chain is the single-file command's own (its click options, and its config made
+from them by :func:`sizefx.options.config_from`), less the output paths, which the chain names in
+DIR: calibrate's lever arms go to navigate, which navigates the flight plain and compensated with
+them, and compare sets the two solutions against the flight's reference. Which chains can work is :func:`sizefx.chain.check_chain`'s, decided with
 every input checked before any stage runs; the steps run in :func:`sizefx.chain.run`. In a batch,
 calibrate runs once and each flight's navigate and compare steps are a batch record
 (:func:`sizefx.batch.run_batch`), into ``DIR/NAME/``.

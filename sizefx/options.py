@@ -146,9 +146,9 @@ def integer(
     return _declare("integer", default, help=help, low=low, high=high, metavar=metavar, flags=flags)
 
 
-def choice(default, choices: tuple, *, help: str, flags: tuple = ()) -> Any:
-    """One word of ``choices`` (or None when the default is None)."""
-    return _declare("choice", default, help=help, choices=tuple(choices), flags=flags)
+def choice(default, choices: tuple, *, help: str, flags: tuple = (), allow_none: bool = False) -> Any:
+    """One word of ``choices`` (or None when the default is None, or ``allow_none``)."""
+    return _declare("choice", default, help=help, choices=tuple(choices), flags=flags, allow_none=allow_none)
 
 
 def switch(default: bool = False, *, help: str, flags: tuple = (), sets: bool | None = None) -> Any:

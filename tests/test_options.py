@@ -122,6 +122,7 @@ def _stages():
     from sizefx.configs.calibrate import CalibrateConfig
     from sizefx.configs.compare import CompareConfig
     from sizefx.configs.compensate import CompensateConfig
+    from sizefx.configs.diagnose import DiagnoseConfig
     from sizefx.configs.inspect import InspectConfig
     from sizefx.configs.navigate import NavigateConfig
 
@@ -130,6 +131,7 @@ def _stages():
         (("calibrate",), CalibrateConfig, ()),
         (("compare",), CompareConfig, ()),
         (("compensate",), CompensateConfig, ()),
+        (("diagnose",), DiagnoseConfig, ()),
         (("navigate",), NavigateConfig, ("quiet",)),
     ]
 
