@@ -184,7 +184,18 @@ BAD_VALUES = [
     (["navigate", "f.h5", "--output-rate-hz", "0.0005"], lambda: _navigate(output_rate_hz=0.0005)),
     (["navigate", "f.h5", "--vertical", "sideways"], lambda: _navigate(vertical="sideways")),
     (["compensate", "f.h5", "-o", "o.h5", "--levers", "l.json", "--accel-delay-us", "2e5"], lambda: _compensate()),
+    (["calibrate", "t.h5", "--triad-point", "middle"], lambda: _stage("calibrate", "CalibrateConfig", triad="middle")),
+    (["diagnose", "m.h5", "--bandwidth-hz", "0"], lambda: _stage("diagnose", "DiagnoseConfig", bandwidth_hz=0.0)),
+    (["diagnose", "m.h5", "--grade", "consumer"], lambda: _stage("diagnose", "DiagnoseConfig", grade="consumer")),
 ]
+
+
+def _stage(module: str, name: str, **options):
+    """A stage's config made in Python with one file (as its first field) and ``options``."""
+    import importlib
+
+    config = getattr(importlib.import_module(f"sizefx.configs.{module}"), name)
+    return config(("t.h5",) if name == "CalibrateConfig" else "m.h5", **options)
 
 
 def _navigate(**options):
