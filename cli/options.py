@@ -10,7 +10,7 @@ import click
 
 from sizefx.errors import ConfigError
 from sizefx.io.documents import parse_toml
-from sizefx.options import NO_UNITS_CHECK_HELP, Option, config_from, declared, refusal
+from sizefx.options import Option, config_from, declared, refusal
 
 
 class Span(click.FloatRange):
@@ -80,31 +80,6 @@ def force_option(f=None, *, text: str = FORCE_HELP):
 
 def quiet_option(f):
     return click.option("--quiet", "-q", is_flag=True, help="No progress bar.")(f)
-
-
-def allow_gaps_option(f):
-    return click.option(
-        "--allow-gaps",
-        is_flag=True,
-        help="Accept IMU time steps longer than 1.5 sample periods that /imu/gaps does not "
-        "declare (they are reported) instead of refusing the file; declared gaps need "
-        "no option.",
-    )(f)
-
-
-def no_units_check_option(f):
-    """import's --no-units-check (inspect declares its own in its config, with the same help)."""
-    return click.option("--no-units-check", is_flag=True, help=NO_UNITS_CHECK_HELP)(f)
-
-
-def segment_option(f):
-    return click.option(
-        "--segment",
-        type=click.IntRange(min=1),
-        metavar="K",
-        help="Process only continuous segment K of a record with IMU gaps (1-based, in time "
-        "order, as sizefx inspect lists them).",
-    )(f)
 
 
 class Progress:
