@@ -2,19 +2,20 @@
 
 Each batch command is made from the single-file command itself: the same click options (less the
 record argument and the output paths, which the batch names in DIR), turned into the stage's
-config by the same ``config_of`` the single-file command calls, so an option can never mean
-something else in a batch. The work and the manifest are :mod:`sizefx.batch`'s.
+config by the same declarations (:func:`sizefx.options.config_from` of the command's
+``config_class``), so an option can never mean something else in a batch. The work and the manifest are :mod:`sizefx.batch`'s.
 """
 
 from __future__ import annotations
 
 import importlib
-import inspect
 import json
 import sys
 from dataclasses import dataclass, field
 
 import click
+
+from sizefx.options import config_from, declared
 
 from .options import quiet_option, span
 
@@ -36,12 +37,12 @@ class _Stage:
 
 STAGES = {
     "navigate": _Stage(
-        "file", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"}, dropped=("quiet",)
+        "input", {"output": ".nav.h5", "json_path": ".navigate.json"}, {"plot": ".navigate.png"}, dropped=("quiet",)
     ),
-    "compensate": _Stage("file", {"output": ".compensated.h5"}, summary=True),
+    "compensate": _Stage("input", {"output": ".compensated.h5"}, summary=True),
     "calibrate": _Stage("records", {"json_path": ".levers.json"}, {"plot": ".calibrate.png"}, many=True),
     "diagnose": _Stage(
-        "measured", {"json_path": ".diagnosis.json", "model_out": ".model.toml"}, {"plots": ".diagnose-plots"}
+        "input", {"json_path": ".diagnosis.json", "model_out": ".model.toml"}, {"plots": ".diagnose-plots"}
     ),
     "inspect": _Stage("file", summary=True, dropped=("json_path",)),
     "compare": _Stage(
@@ -162,8 +163,7 @@ def batch_params(record_plots: bool, chain: bool = False) -> list:
 
 
 def _make(name: str, spec: _Stage) -> click.Command:
-    module = importlib.import_module(f"sizefx_cli.{name}")
-    single = getattr(module, name)
+    single = getattr(importlib.import_module(f"sizefx_cli.{name}"), name)
     skip = {spec.input_param, "force", *spec.outputs, *spec.plots, *spec.dropped, *spec.paired}
     stage_params = [p for p in single.params if p.name not in skip]
     paired_params = [
@@ -192,7 +192,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
         from sizefx.batch.manifest import Manifest, canonical_options
         from sizefx.batch.runner import local_workers, start_workers
 
-        accepted = inspect.signature(module.config_of).parameters
+        accepted = {name for name, _ in declared(single.config_class)}
         records = expand_inputs(inputs)
         given_pairs = {param: options.pop(f"paired_{param}") for param in spec.paired}
         partners = {
@@ -223,7 +223,7 @@ def _make(name: str, spec: _Stage) -> click.Command:
                     **paired,
                     spec.input_param: (str(record),) if spec.many else str(record),
                 }
-                config = module.config_of(**{k: v for k, v in given.items() if k in accepted})
+                config = config_from(single.config_class, {k: v for k, v in given.items() if k in accepted})
                 # the files the options name (--levers, --model, --nominal, --against, --reference): refused
                 # once, before any work, and hashed with each record, so that a re-calibration into the
                 # same levers.json reruns the records

@@ -5,8 +5,9 @@ from __future__ import annotations
 import click
 
 from sizefx.constants import BROAD_SITE_DEG
+from sizefx.options import NO_UNITS_CHECK_HELP
 
-from .options import NO_UNITS_CHECK_HELP, force_option, parse_vector, span
+from .options import force_option, parse_vector, span
 
 #: Where --no-units-check and --drop-invalid-rows leave their values for :func:`run_import` (click's
 #: per-invocation ``meta``).

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import MISSING
 
 import click
 
 from sizefx.errors import ConfigError
 from sizefx.io.documents import parse_toml
+from sizefx.options import Option, config_from, declared, refusal
 
 
 class Span(click.FloatRange):
@@ -80,40 +82,6 @@ def quiet_option(f):
     return click.option("--quiet", "-q", is_flag=True, help="No progress bar.")(f)
 
 
-def allow_gaps_option(f):
-    return click.option(
-        "--allow-gaps",
-        is_flag=True,
-        help="Accept IMU time steps longer than 1.5 sample periods that /imu/gaps does not "
-        "declare (they are reported) instead of refusing the file; declared gaps need "
-        "no option.",
-    )(f)
-
-
-#: Help of --no-units-check of import and inspect, in one place (simulate's, which writes rather
-#: than reads: cli/simulate.py).
-NO_UNITS_CHECK_HELP = (
-    "Skip the physics check of the units (specific force at rest against gravity, gyros against "
-    "the reference attitude or the tilt the accelerometers see), which refuses data that look like "
-    "deg/s labelled rad/s or g labelled m/s^2. For a record you know is right that the check "
-    "misjudges (an IMU on a centrifuge, in free fall or in orbit); say so when you share the file."
-)
-
-
-def no_units_check_option(f):
-    return click.option("--no-units-check", is_flag=True, help=NO_UNITS_CHECK_HELP)(f)
-
-
-def segment_option(f):
-    return click.option(
-        "--segment",
-        type=click.IntRange(min=1),
-        metavar="K",
-        help="Process only continuous segment K of a record with IMU gaps (1-based, in time "
-        "order, as sizefx inspect lists them).",
-    )(f)
-
-
 class Progress:
     """A progress bar on stderr (``tqdm``), only on a terminal and without ``--quiet``.
 
@@ -157,3 +125,126 @@ class Progress:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+# ------------------------------------------------------ a stage's command, made from its config
+
+
+def _checked(option: Option, value, ctx):
+    """``value`` (in the config's unit) if the declared option accepts it; else the option's own
+    refusal (:func:`sizefx.options.refusal`), the words a config made in Python raises."""
+    problem = refusal(option, value)
+    if problem is not None:
+        raise click.UsageError(problem, ctx)
+    return value
+
+
+class DeclaredSpan(Span):
+    """A declared number: click parses it and shows its range; the declaration judges it, and the
+    field receives it in the config's unit (``--accel-delay-us`` fills seconds)."""
+
+    def __init__(self, option: Option):
+        super().__init__(option.low, option.high, min_open=option.low_open, max_open=option.high_open)
+        self.option = option
+
+    def convert(self, value, param, ctx):
+        number = click.FLOAT.convert(value, param, ctx)
+        return _checked(self.option, number if self.option.scale == 1.0 else number * self.option.scale, ctx)
+
+
+class DeclaredIntRange(click.IntRange):
+    """A declared integer: click parses it and shows its range; the declaration judges it."""
+
+    def __init__(self, option: Option):
+        super().__init__(option.low, option.high)
+        self.option = option
+
+    def convert(self, value, param, ctx):
+        return _checked(self.option, click.INT.convert(value, param, ctx), ctx)
+
+
+class DeclaredChoice(click.Choice):
+    """A declared word from a list: click shows the list; the declaration judges it."""
+
+    def __init__(self, option: Option):
+        super().__init__(option.choices)
+        self.option = option
+
+    def convert(self, value, param, ctx):
+        return _checked(self.option, value, ctx)
+
+
+def _type(option: Option):
+    kind = option.kind
+    if kind == "number":
+        return DeclaredSpan(option)
+    if kind == "integer":
+        return DeclaredIntRange(option)
+    if kind == "choice":
+        return DeclaredChoice(option)
+    if kind == "file":
+        return click.Path(dir_okay=False, allow_dash=option.dash)
+    if kind == "folder":
+        return click.Path(file_okay=False)
+    if kind == "path":
+        return click.Path()
+    return None  # text: click's STRING
+
+
+def declared_param(name: str, option: Option) -> click.Parameter:
+    """The click argument or option of one declared option, named after the config's field."""
+    if option.argument is not None:
+        metavar = option.argument + ("..." if option.many else "")
+        return click.Argument(
+            [name], type=_type(option), nargs=-1 if option.many else 1, required=True, metavar=metavar
+        )
+    if option.kind == "switch":
+        if any("/" in flag for flag in option.flags):  # --tilt/--no-tilt: either way, the default shown
+            return click.Option([*option.flags, name], default=option.default, show_default=True, help=option.help)
+        return click.Option(
+            [*option.flags, name], is_flag=True, flag_value=option.sets, default=option.default, help=option.help
+        )
+    extra = {}
+    if option.default is MISSING:
+        extra["required"] = True
+    elif option.default is not None and not option.many:
+        # click converts the default as it converts what the user types: in the command line's unit
+        extra.update(default=option.default / option.scale if option.scale != 1.0 else option.default)
+        extra.update(show_default=True)
+    return click.Option(
+        [*option.flags, name],
+        type=_type(option),
+        multiple=option.many,
+        metavar=option.metavar,
+        help=option.help or None,
+        **extra,
+    )
+
+
+def declared_params(config_class: type) -> list[click.Parameter]:
+    """The command line's parameters of every option ``config_class`` declares, in its order."""
+    return [declared_param(name, option) for name, option in declared(config_class)]
+
+
+def stage_command(config_class: type, **attrs):
+    """``@click.command()`` for a stage: its arguments and options made from the options
+    ``config_class`` declares (:mod:`sizefx.options`), then the command's own (``--quiet``, declared
+    below this decorator as usual). The function is called with the config made from them and the
+    command's own options by name; ``sizefx batch`` and ``sizefx run`` make their per-record configs
+    from the same declarations (the command's ``config_class``)."""
+
+    def decorator(f):
+        names = [name for name, _ in declared(config_class)]
+
+        def callback(**values):
+            config = config_from(config_class, {name: values.pop(name) for name in names})
+            return f(config, **values)
+
+        callback.__name__, callback.__doc__ = f.__name__, f.__doc__
+        own = getattr(f, "__click_params__", [])  # click keeps them bottom-up and reverses them
+        callback.__click_params__ = [*own, *reversed(declared_params(config_class))]  # type: ignore[attr-defined]
+        command = click.command(**attrs)(callback)
+        command.config_class = config_class  # type: ignore[attr-defined]
+        return command
+
+    return decorator

@@ -1,10 +1,10 @@
 """``sizefx run --out DIR calibrate T.h5 navigate F.h5 compare``: stages chained in one command, and
 ``sizefx batch run --out DIR calibrate T.h5 navigate FLIGHTS compare``: the chain per flight.
 
-Each stage of the chain is the single-file command's own (its click options and its ``config_of``),
-less the output paths, which the chain names in DIR: calibrate's lever arms go to navigate, which
-navigates the flight plain and compensated with them, and compare sets the two solutions against
-the flight's reference. Which chains can work is :func:`sizefx.chain.check_chain`'s, decided with
+Each stage of the chain is the single-file command's own (its click options, and its config made
+from them by :func:`sizefx.options.config_from`), less the output paths, which the chain names in
+DIR: calibrate's lever arms go to navigate, which navigates the flight plain and compensated with
+them, and compare sets the two solutions against the flight's reference. Which chains can work is :func:`sizefx.chain.check_chain`'s, decided with
 every input checked before any stage runs; the steps run in :func:`sizefx.chain.run`. In a batch,
 calibrate runs once and each flight's navigate and compare steps are a batch record
 (:func:`sizefx.batch.run_batch`), into ``DIR/NAME/``.
@@ -17,6 +17,8 @@ import sys
 from pathlib import Path
 
 import click
+
+from sizefx.options import config_from
 
 from .batch import BatchProgress, batch_params
 from .options import quiet_option
@@ -61,7 +63,9 @@ def _link(name: str, batch: bool) -> click.Command:
             return name, _records(**options)
 
     if name == "navigate" and batch:
-        params = [click.Argument(["file"], type=click.Path()) if p.name == "file" else p for p in params]
+        params = [
+            click.Argument(["input"], type=click.Path(), metavar="FILE") if p.name == "input" else p for p in params
+        ]
     where = "see sizefx batch run --help" if batch else "see sizefx run --help"
     return click.Command(
         name,
@@ -85,7 +89,7 @@ def _checked(steps, out_dir, *, batch: bool):
     nav = chain.get("navigate", {})
     check_chain(names, navigate_corrects=bool(nav.get("levers") or nav.get("model")), command=command)
     if not out_dir:
-        named = nav.get("file") or next(iter(chain.get("calibrate", {}).get("records", ())), None)
+        named = nav.get("input") or next(iter(chain.get("calibrate", {}).get("records", ())), None)
         if batch or not named:
             raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
         out_dir = f"run-{Path(named).stem}"  # the everyday form: sizefx run calibrate T.h5 navigate F.h5 compare
@@ -101,11 +105,11 @@ def _checked(steps, out_dir, *, batch: bool):
         )
     if batch and "navigate" not in chain:
         raise ConfigError("sizefx batch run: the chain runs per flight: put navigate FLIGHTS in it")
-    flights = expand_inputs([nav["file"]]) if batch else ([Path(nav["file"])] if nav.get("file") else [])
+    flights = expand_inputs([nav["input"]]) if batch else ([Path(nav["input"])] if nav.get("input") else [])
     # every file the chain reads, before any stage runs
     given = {
         **{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
-        **({} if batch else {"navigate FILE": nav.get("file")}),
+        **({} if batch else {"navigate FILE": nav.get("input")}),
         "navigate --levers": nav.get("levers"),
         "navigate --model": nav.get("model"),
         "compare --reference": chain.get("compare", {}).get("reference"),
@@ -113,9 +117,9 @@ def _checked(steps, out_dir, *, batch: bool):
     }
     check_option_files(given)  # the lever arms and the model read by their readers, too
     if "compare" in chain and not chain["compare"].get("reference") and not batch:
-        check_truth(nav["file"])  # in a batch each flight is checked in its own record
+        check_truth(nav["input"])  # in a batch each flight is checked in its own record
     out = check_out_dir(
-        out_dir, [nav["file"]] if batch else [], [*(Path(p).resolve() for p in given.values() if p), *flights]
+        out_dir, [nav["input"]] if batch else [], [*(Path(p).resolve() for p in given.values() if p), *flights]
     )
     return names, chain, nav, flights, out
 
@@ -129,18 +133,12 @@ def _nominal_file(nominal):
 
 def _calibrate_step(chain, out: Path, plots: bool):
     from sizefx.chain import ChainStep
-    from sizefx_cli.calibrate import config_of
+    from sizefx.configs.calibrate import CalibrateConfig
 
     options = chain["calibrate"]
     levers = str(out / "levers.json")
-    return ChainStep(
-        "calibrate",
-        None,
-        config_of(
-            **{**options, "json_path": levers, "force": True, "plot": str(out / "calibrate.png") if plots else None}
-        ),
-        options,
-    ), levers
+    given = {**options, "json_path": levers, "force": True, "plot": str(out / "calibrate.png") if plots else None}
+    return ChainStep("calibrate", None, config_from(CalibrateConfig, given), options), levers
 
 
 def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
@@ -149,7 +147,7 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
 
     steps, solutions = [], {}
     if nav:
-        from sizefx_cli.navigate import config_of
+        from sizefx.configs.navigate import NavigateConfig
 
         runs = [("plain", {"levers": None, "model": None})]
         if levers or nav.get("model"):  # the correction: calibrate's or --levers' arms, or a --model
@@ -160,39 +158,35 @@ def _flight_steps(chain, nav, flight, levers, out: Path, plots: bool) -> list:
                 ChainStep(
                     "navigate",
                     label,
-                    config_of(
-                        **{
+                    config_from(
+                        NavigateConfig,
+                        {
                             **nav,
-                            "file": str(flight),
+                            "input": str(flight),
                             **correction,
                             "output": solutions[label],
                             "json_path": str(out / f"{label}.navigate.json"),
                             "force": True,
                             "plot": str(out / f"{label}.navigate.png") if plots else None,
-                        }
+                        },
                     ),
                     {**nav, **correction},
                 )
             )
     if "compare" in chain:
-        from sizefx_cli.compare import config_of
+        from sizefx.configs.compare import CompareConfig
 
         options = chain["compare"]
-        steps.append(
-            ChainStep(
-                "compare",
-                None,
-                config_of(
-                    a=solutions["compensated"],
-                    b=solutions["plain"],
-                    reference=options.get("reference") or str(flight),
-                    json_path=str(out / "comparison.json"),
-                    plots_dir=str(out / "compare-plots") if plots else None,
-                    force=True,
-                ),
-                options,
-            )
-        )
+        given = {
+            **options,
+            "a": solutions["compensated"],
+            "b": solutions["plain"],
+            "reference": options.get("reference") or str(flight),
+            "json_path": str(out / "comparison.json"),
+            "plots_dir": str(out / "compare-plots") if plots else None,
+            "force": True,
+        }
+        steps.append(ChainStep("compare", None, config_from(CompareConfig, given), options))
     return steps
 
 
@@ -241,7 +235,7 @@ def _execute(steps, out_dir, plots):
         if "calibrate" in chain:
             step, levers = _calibrate_step(chain, out, plots)
             chain_steps.append(step)
-        chain_steps += _flight_steps(chain, nav, nav.get("file"), levers, out, plots)
+        chain_steps += _flight_steps(chain, nav, nav.get("input"), levers, out, plots)
         result = chain_stage.run(
             chain_stage.ChainConfig(tuple(chain_steps), str(out)),
             echo=lambda title, text: click.echo(f"{title}\n{text}"),
@@ -310,7 +304,7 @@ def _batch_chain(
             for stage, opts in chain.items()
             if stage != "calibrate"
             for k, v in opts.items()
-            if not (stage == "navigate" and k == "file")
+            if not (stage == "navigate" and k == "input")
         }
     )
     flight_names = output_names(flights)

@@ -84,8 +84,8 @@ def write_run_manifest(out_dir, steps: list[dict]) -> None:
 @dataclass(frozen=True)
 class ChainStep:
     """One stage run of a chain: the stage, which run of it (navigate: plain or compensated), its
-    config (built from its own options by the command line's ``config_of``) and those options as
-    given (for run.json)."""
+    config (made from its own options by :func:`sizefx.options.config_from`, as the command line
+    makes it) and those options as given (for run.json)."""
 
     stage: str
     run: str | None

@@ -23,13 +23,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .configs.compensate import CompensateConfig
 from .correct import correct_imu, load_model
 from .errors import ConfigError
 from .io.telemetry import Provenance, Telemetry, read_telemetry, refuse_gaps, write_telemetry
 from .levers import Levers, read_levers
-from .omegadot import ESTIMATORS, SAVGOL_WINDOW
+from .omegadot import SAVGOL_WINDOW
 from .sensor_model import check_estimator, remove_lever_terms
-from .sensor_model.correction import refuse_levers_and_model
 from .stage import preflight
 from .sync import sync_accelerometers
 
@@ -120,56 +120,6 @@ def segment_note(tel: Telemetry) -> dict:
 
 
 @dataclass(frozen=True)
-class CompensateConfig:
-    """``sizefx compensate FILE -o OUT --levers L`` (or ``--model M``): the record, exactly one
-    of a levers file and an effect-model file, the options and the output.
-
-    ``centripetal``/``tangential``: the terms to remove, and ``accel_delay_s``: the
-    accelerometers' known delay behind the gyros [s] (None: the levers file's) apply to
-    ``levers``; a model removes both terms and takes its delay from ``[accel_delay]``.
-    ``estimator``: the angular acceleration (None: ``savgol`` for rates, ``increments`` for
-    increments). ``segment``: one continuous segment (1-based) of a record with IMU gaps;
-    ``allow_gaps``: compensate across them instead.
-    """
-
-    input: str
-    output: str
-    levers: str | None = None  #: ``--levers``: ``sizefx/levers/1`` JSON
-    model: str | None = None  #: ``--model``: ``sizefx/effects/1`` TOML
-    mode: str = "triad"  #: triad (to the triad point, arms d_i) | center (to the rotation centre, r_i)
-    estimator: str | None = None
-    centripetal: bool = True
-    tangential: bool = True
-    accel_delay_s: float | None = None
-    allow_gaps: bool = False
-    segment: int | None = None
-    force: bool = False
-
-    def inputs(self) -> dict:
-        return {"FILE": self.input, "--levers": self.levers, "--model": self.model}
-
-    def outputs(self) -> dict:
-        return {"-o": self.output}
-
-    def check_options(self) -> None:
-        """The options alone, before any file is looked at (one-line refusals naming them)."""
-        refuse_levers_and_model(self.levers, self.model)
-        if not self.levers and not self.model:
-            raise ConfigError("give the lever arms (--levers LEVERS.json) or an effect model (--model MODEL.toml)")
-        if self.model and (not self.centripetal or not self.tangential or self.accel_delay_s is not None):
-            raise ConfigError(
-                "--centripetal-only and --accel-delay-us apply to --levers; with --model the "
-                "delay comes from the model's [accel_delay] and both terms are removed"
-            )
-        if self.mode not in ("triad", "center"):
-            raise ConfigError(f"--mode {self.mode}: use triad or center")
-        if self.estimator is not None and self.estimator not in ESTIMATORS:
-            raise ConfigError(f"estimator '{self.estimator}': use one of {', '.join(ESTIMATORS)}")
-        if self.accel_delay_s is not None and not np.isfinite(self.accel_delay_s):
-            raise ConfigError(f"--accel-delay-us {self.accel_delay_s * 1e6}: give a finite delay")
-
-
-@dataclass(frozen=True)
 class CompensateResult:
     """What :func:`run` wrote: the output, its samples, and what was applied (as ``/source``
     records it: :attr:`~sizefx.io.provenance.Provenance.compensation` for levers,
@@ -211,7 +161,6 @@ def run(config: CompensateConfig, *, progress=None) -> CompensateResult:
     error of the model (``model``, :func:`sizefx.correct.correct_imu`), write ``config.output``
     in the input's form. ``progress(done, total)`` is called after reading, compensating and
     writing (total 3)."""
-    config.check_options()
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     tel = read_continuous(config.input, allow_gaps=config.allow_gaps, segment=config.segment, command="compensate")
     if progress is not None:

@@ -64,3 +64,14 @@ MAX_WHOLE_READ_ROWS = 12_000_000
 #: rate sizefx simulate writes by default and the paper's (tests/test_consistent_inputs.py checks
 #: the two agree). A longer calibration is several records, each planned on its own.
 MAX_PLAN_S = 7500.0
+
+# Words the command line offers as choices, kept here free of numpy so that ``sizefx --help`` can
+# show them without importing the code that uses them.
+#: Where a correction brings the accelerometers (``--mode``): to the triad point (arms d_i) or to the
+#: rotation centre (arms r_i).
+CORRECTION_MODES = ("triad", "center")
+#: Angular-acceleration estimators (``--estimator``, :mod:`sizefx.omegadot`).
+ESTIMATORS = ("central", "savgol", "increments")
+#: Sensor grades whose plausible ranges a diagnosis judges by (``--grade``,
+#: :mod:`sizefx.diagnose.plausibility`).
+GRADES = ("navigation", "tactical", "industrial")

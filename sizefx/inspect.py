@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .configs.inspect import InspectConfig
 from .constants import ARCSEC, MICRO_G, PPM, SECONDS_PER_HOUR, SQRT_SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 from .io.documents import write_json
 from .io.schema import TELEMETRY_SCHEMA, allowed_units
@@ -241,25 +242,6 @@ def _units_fix(check) -> str:
         if check.looks_like in UNITS_OUTSIDE_CONTRACT.get(q, {}):
             return f"multiply {check.dataset} by {UNITS_OUTSIDE_CONTRACT[q][check.looks_like]:g} to make it {check.declared}"
     return f"check the units attribute of {check.dataset}"
-
-
-@dataclass(frozen=True)
-class InspectConfig:
-    """What ``sizefx inspect FILE`` is asked to do (see :mod:`sizefx.stage`)."""
-
-    file: str | Path  #: the sizefx/telemetry/1 file
-    allow_gaps: bool = False  #: accept undeclared IMU gaps (they are listed)
-    #: check the units against physics (:mod:`sizefx.sanity`) and refuse data that look like another unit
-    check_units: bool = True
-    #: write the summary there as JSON (sizefx/inspect's fields); ``"-"`` is stdout, which the command prints
-    json_path: str | Path | None = None
-    force: bool = False  #: replace an existing ``json_path`` (never an input)
-
-    def inputs(self) -> dict:
-        return {"FILE": self.file}
-
-    def outputs(self) -> dict:
-        return {"--json": self.json_path} if self.json_path not in (None, "-") else {}
 
 
 @dataclass

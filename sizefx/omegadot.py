@@ -19,11 +19,10 @@ import functools
 
 import numpy as np
 
+from .constants import ESTIMATORS
 from .kernels.omegadot import savgol_derivative, savgol_weights
 
 __all__ = ["central", "savgol", "savgol_rows", "edges_from_increments", "response", "noise_gain", "ESTIMATORS"]
-
-ESTIMATORS = ("central", "savgol", "increments")
 
 #: default Savitzky-Golay window: 41 samples (25 ms at 1600 Hz), quadratic; its -3 dB point
 #: lies near 30 Hz, above turntable and sway motion, and cuts the noise gain about 35 times.

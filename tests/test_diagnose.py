@@ -437,8 +437,8 @@ def test_cli_bad_input_is_one_line(tmp_path):
     both = CliRunner().invoke(main, ["diagnose", str(no_ref), "--nominal", "compact", "--model", "x.toml"])
     assert both.exit_code == 2 and "not both" in both.output
     for option, value, words in (
-        ("--bandwidth-hz", "0", "'--bandwidth-hz': 0.0 is not in the range 0.01<=x"),
-        ("--bandwidth-hz", "nan", "'nan' is not a finite number"),
+        ("--bandwidth-hz", "0", "--bandwidth-hz: 0 is outside [0.01, 100000] Hz"),
+        ("--bandwidth-hz", "nan", "--bandwidth-hz: nan is not a finite number"),
         ("--to-s", "-1", "span is empty"),
     ):
         bad = CliRunner().invoke(main, ["diagnose", str(no_ref), "--from-s", "0", option, value])

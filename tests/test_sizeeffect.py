@@ -489,8 +489,12 @@ def test_compensate_stage_refuses_before_any_work(tmp_path):
         (dict(), ConfigError, "give the lever arms"),
         (dict(model=str(lev), tangential=False), ConfigError, "apply to --levers"),
         (dict(levers=str(tmp_path / "none.json")), ConfigError, "--levers: no such file"),
-        (dict(levers=str(lev), accel_delay_s=float("nan")), ConfigError, "finite delay"),
-        (dict(levers=str(lev), estimator="spline"), ConfigError, "use one of central, savgol, increments"),
+        (
+            dict(levers=str(lev), accel_delay_s=float("nan")),
+            ConfigError,
+            "--accel-delay-us: nan is not a finite number",
+        ),
+        (dict(levers=str(lev), estimator="spline"), ConfigError, "--estimator: 'spline' is not one of central, savgol"),
     ]
     for options, error, words in cases:
         with pytest.raises(error, match=words):

@@ -1131,8 +1131,28 @@ def first_paragraph(doc: str | None) -> str:
     return blocks[0] if blocks and not blocks[0].startswith("```") else ""
 
 
+def option_text(field: dataclasses.Field, options: dict) -> str:
+    """A declared option's description (:mod:`sizefx.options`): how the command line writes it, its
+    valid values, its help; a group's: whose options it holds."""
+    from sizefx.options import interval
+
+    if "group" in field.metadata:
+        return f"the options of {code(field.metadata['group'].__name__)}, declared there"
+    option = options.get(field.name)
+    if option is None:
+        return ""
+    valid = {"number": interval(option), "integer": interval(option), "choice": " | ".join(option.choices)}
+    parts = [code(option.name)] + ([code(valid[option.kind])] if option.kind in valid else [])
+    if option.kind == "switch" and not option.sets and not any("/" in f for f in option.flags):
+        parts[0] += " sets it False"
+    return ", ".join(parts) + (f": {rst_inline(option.help)}" if option.help else "")
+
+
 def field_rows(cls: type) -> list[list[str]]:
+    from sizefx.options import declared
+
     comments, lambdas = field_comments(cls), lambda_factories(cls)
+    options = dict(declared(cls))
     rows = []
     for field in dataclasses.fields(cls):
         if field.default is not dataclasses.MISSING:
@@ -1146,7 +1166,12 @@ def field_rows(cls: type) -> list[list[str]]:
         if not field.init:
             default = "set by the class"
         rows.append(
-            [code(field.name), code(annotation_text(field.type)), default, rst_inline(comments.get(field.name, ""))]
+            [
+                code(field.name),
+                code(annotation_text(field.type)),
+                default,
+                rst_inline(comments[field.name]) if comments.get(field.name) else option_text(field, options),
+            ]
         )
     return rows
 

@@ -239,11 +239,8 @@ def check_writes(out: Path, jobs, own: dict | None = None) -> None:
 
 
 def check_stage_options(config) -> None:
-    """A batch's stage options checked once, before its first record: the config's own option checks
-    (``check_options``, where the stage has them) and its option files (:func:`check_option_files`)."""
-    check = getattr(config, "check_options", None)
-    if check is not None:
-        check()
+    """A batch's stage options checked once, before its first record: its option files
+    (:func:`check_option_files`); the options themselves were checked when the config was made."""
     check_option_files({k: v for k, v in config.inputs().items() if v and str(k).split()[-1].startswith("-")})
 
 

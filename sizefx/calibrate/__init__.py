@@ -44,8 +44,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..configs.calibrate import CalibrateConfig
 from ..constants import ARCSEC
-from ..geometry import PRESETS, triad_point
+from ..geometry import triad_point
 from ..io.telemetry import read_telemetry
 from ..levers import Levers, nominal_levers, write_levers
 from ..stage import preflight as stage_preflight
@@ -91,37 +92,6 @@ __all__ = [
     "VERTICAL_WITHIN_RAD",
     "PREFLIGHT_ROWS",
 ]
-
-#: ``--triad-point``: where the split r_i = r + d_i puts the triad point.
-TRIAD_POINTS = ("normals", "x-accelerometer")
-
-
-@dataclass(frozen=True)
-class CalibrateConfig:
-    """``sizefx calibrate RECORDS``: the records, the options, the outputs.
-
-    ``nominal``: a preset (high-precision, compact, none) or a ``sizefx/levers/1`` file to
-    compare with. ``with_tilt``, ``with_delay``: estimate the table's tilt, the accelerometers'
-    delay. ``triad``: the triad point of the split r_i = r + d_i (:data:`TRIAD_POINTS`).
-    ``json_path`` (``--json``): the lever arms; ``plot`` (``--plot``): the paper's Fig. 6.
-    """
-
-    records: tuple
-    nominal: str = "high-precision"
-    with_tilt: bool = True
-    with_delay: bool = False
-    triad: str = "normals"
-    allow_gaps: bool = False
-    json_path: str | None = None
-    plot: str | None = None
-    force: bool = False
-
-    def inputs(self) -> dict:
-        files = {f"RECORDS ({k + 1})" if len(self.records) > 1 else "RECORDS": p for k, p in enumerate(self.records)}
-        return {**files, "--nominal": None if self.nominal in PRESETS else self.nominal}
-
-    def outputs(self) -> dict:
-        return {"--json": self.json_path, "--plot": self.plot}
 
 
 @dataclass
@@ -175,8 +145,6 @@ def run(config: CalibrateConfig, *, progress=None) -> CalibrateResult:
         raise CalibrationError("no record given; give one or more telemetry files with /reference attitude")
     if len({Path(p).resolve() for p in paths}) != len(paths):
         raise CalibrationError("a record is given twice; give each record once")
-    if config.triad not in TRIAD_POINTS:
-        raise CalibrationError(f"triad point '{config.triad}': use normals or x-accelerometer")
     stage_preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     nom = nominal_levers(config.nominal)
     preflight(paths, with_delay=config.with_delay, allow_gaps=config.allow_gaps)

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..configs.compare import CompareConfig
 from ..io.documents import write_json
 from ..stage import preflight
 from .geodesy import (
@@ -39,7 +40,7 @@ from .geodesy import (
     velocity_from_position,
 )
 from .metrics import Comparison, compare
-from .plots import PLOT_NAMES, plot_names, pyplot, write_plots
+from .plots import plot_names, pyplot, write_plots
 from .read import NAVIGATION_SCHEMA, Track, read_track
 from .report import COMPARISON_SCHEMA, format_comparison, format_report, to_json
 
@@ -62,47 +63,6 @@ __all__ = [
     "to_json",
     "velocity_from_position",
 ]
-
-
-@dataclass(frozen=True)
-class CompareConfig:
-    """Everything ``sizefx compare`` needs; the options of the command line, by their names.
-
-    Attributes
-    ----------
-    a, b : path
-        The two tracks (``sizefx/navigation/1`` or telemetry with ``/reference/position``);
-        A is compared with B on A's time stamps, every difference is A - B.
-    reference : path or None
-        The truth: then A vs REF, B vs REF and A vs B (``--reference``).
-    json_path : path or None
-        Where to write the ``sizefx/comparison/1`` document (``--json``).
-    plots_dir : path or None
-        Folder of the PNG figures (``--plots``), created if missing (its parent must exist).
-    force : bool
-        Replace existing outputs (never an input).
-    """
-
-    a: Path | str
-    b: Path | str
-    reference: Path | str | None = None
-    json_path: Path | str | None = None
-    plots_dir: Path | str | None = None
-    force: bool = False
-
-    def inputs(self) -> dict:
-        """The files read, by the argument or option that named them."""
-        return {"A": self.a, "B": self.b, "--reference": self.reference}
-
-    def outputs(self) -> dict:
-        """The files written, by option: ``--json`` and, in an existing ``--plots`` folder, every
-        PNG a run may write there (a new folder holds nothing to replace). ``attitude.png`` is
-        among them although it is drawn only when attitude is compared: that is known only after
-        reading, and pre-flight comes before it."""
-        out = {"--json": self.json_path}
-        if self.plots_dir and Path(self.plots_dir).is_dir():
-            out.update({f"--plots {name}": Path(self.plots_dir) / name for name in PLOT_NAMES})
-        return out
 
 
 @dataclass

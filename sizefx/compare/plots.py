@@ -13,12 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from .. import earth
+from ..configs.compare import PLOT_NAMES
 from ..errors import ConfigError
 from ..io.files import atomic_output
 
 __all__ = ["PLOT_NAMES", "plot_names", "pyplot", "write_plots"]
-
-PLOT_NAMES = ("trajectories.png", "horizontal_error.png", "velocity.png", "attitude.png")
 
 
 def pyplot():

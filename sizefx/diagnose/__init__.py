@@ -52,15 +52,13 @@ The package, from the bottom up (each module imports only those above it in this
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
+from ..configs.diagnose import DiagnoseConfig, one_start_model
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
-from ..geometry import PRESETS
 from ..io.documents import write_json
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry, read_telemetry
@@ -72,7 +70,7 @@ from .fit import MAX_PASSES, Diagnosis, diagnose
 from .holdout import HOLDOUT_FOLDS, OVERFIT_ALPHA, OutOfSample, validate_on
 from .naming import Effect
 from .normal import FOLDS, MAX_ROWS, TARGET_BLOCKS
-from .plausibility import GRADES, check_grade
+from .plausibility import GRADES
 from .predictor import Predictor, predict_readings
 from .records import ModelChecks
 from .reference import (
@@ -196,75 +194,6 @@ NAVIGATION_MIN_S = 600.0
 
 
 @dataclass(frozen=True)
-class DiagnoseConfig:
-    """``sizefx diagnose MEASURED``: the record, the start model, the fit's options, the outputs.
-
-    Options that contradict each other or themselves (``--nominal`` with ``--model``, ``--segment``
-    with ``--from-s/--to-s``, an empty span, a bandwidth that is no frequency) are refused here,
-    when the config is made; the files are checked by :func:`run`'s pre-flight.
-    """
-
-    input: str | Path  #: MEASURED: the record (``sizefx/telemetry/1`` with ``/reference``)
-    nominal: str | None = None  #: ``--nominal``: a geometry preset or a ``sizefx/levers/1`` file [high-precision]
-    model: str | Path | None = None  #: ``--model``: start from this ``sizefx/effects/1`` TOML instead
-    json_path: str | Path | None = None  #: ``--json``: the report, ``sizefx/diagnosis/2``
-    plots: str | Path | None = None  #: ``--plots``: a folder for :data:`PLOT_FILES`
-    model_out: str | Path | None = None  #: ``--model-out``: the extended model [MEASURED with .model.toml]
-    bandwidth_hz: float | None = None  #: ``--bandwidth-hz``: fit the residual low-passed here [Hz]; None: measured
-    grade: str | None = None  #: ``--grade``: navigation, tactical, industrial; None (auto): inferred from the noise
-    from_s: float | None = None  #: ``--from-s``: diagnose from this time on [s, IMU clock]
-    to_s: float | None = None  #: ``--to-s``: up to this time [s]
-    segment: int | None = None  #: ``--segment``: one continuous segment of a record with gaps
-    allow_gaps: bool = False  #: ``--allow-gaps``
-    navigation: bool = True  #: ``--navigation/--no-navigation``: navigate before and after (long records)
-    #: ``--validate-on``: other records of the same IMU the extended model is measured on
-    validate_on: tuple = ()
-    force: bool = False  #: ``--force``: replace existing outputs (never an input)
-
-    def __post_init__(self):
-        _one_start_model(self.nominal, self.model)
-        if self.segment is not None and (self.from_s is not None or self.to_s is not None):
-            raise ConfigError(
-                f"{self.input}: --segment {self.segment} and --from-s/--to-s both choose the span; "
-                "give one (sizefx inspect lists each segment's times)"
-            )
-        if self.bandwidth_hz is not None and not (math.isfinite(self.bandwidth_hz) and self.bandwidth_hz > 0.0):
-            raise ConfigError(
-                f"--bandwidth-hz {self.bandwidth_hz:g} must be a positive frequency [Hz] (below 0.8 "
-                "times the record's Nyquist frequency)"
-            )
-        object.__setattr__(self, "grade", check_grade(self.grade))
-        if self.from_s is not None and self.to_s is not None and not self.from_s < self.to_s:
-            raise ConfigError(
-                f"--from-s {self.from_s:g} and --to-s {self.to_s:g}: the span is empty; give --from-s before --to-s"
-            )
-
-    @property
-    def model_out_path(self) -> Path:
-        """``--model-out``, or MEASURED with its suffix replaced by ``.model.toml``."""
-        if self.model_out is not None:
-            return Path(self.model_out)
-        return Path(str(Path(self.input).with_suffix("")) + ".model.toml")
-
-    def inputs(self) -> dict:
-        levers_file = self.nominal if self.nominal is not None and self.nominal not in PRESETS else None
-        return {
-            "MEASURED": self.input,
-            "--model": self.model,
-            "--nominal": levers_file,
-            **{f"--validate-on {p}": p for p in self.validate_on},
-        }
-
-    def outputs(self) -> dict:
-        """Every file :func:`run` writes, by option: each plot too, once its folder exists (a folder
-        still to be made holds nothing to collide with)."""
-        out = {"--json": self.json_path, "--model-out": self.model_out_path}
-        if self.plots and Path(self.plots).is_dir():
-            out.update({f"--plots {name}": Path(self.plots) / name for name in PLOT_FILES})
-        return out
-
-
-@dataclass(frozen=True)
 class DiagnoseResult:
     """What :func:`run` found and wrote, made once at its end. ``report()`` is what ``sizefx diagnose``
     prints."""
@@ -293,11 +222,6 @@ class DiagnoseResult:
         return self.document
 
 
-def _one_start_model(nominal, model) -> None:
-    if model is not None and nominal is not None:
-        raise ConfigError("give --nominal or --model, not both: a model file carries its own lever arms")
-
-
 def start_model(nominal: str | None = None, model: str | None = None):
     """The model vector the diagnosis starts from, and a phrase saying what it is.
 
@@ -305,7 +229,7 @@ def start_model(nominal: str | None = None, model: str | None = None):
     ``nominal`` geometry (a preset or a ``sizefx/levers/1`` file; default high-precision)
     with no delays and no sensor errors.
     """
-    _one_start_model(nominal, model)
+    one_start_model(nominal, model)
     if model is not None:
         return theta_from_model(load_effects(model, base=IDEAL)), f"model {model}"
     name = nominal or "high-precision"

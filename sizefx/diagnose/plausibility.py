@@ -38,12 +38,10 @@ import math
 
 import numpy as np
 
-from ..constants import ARCSEC, DEG, DEG_PER_H, MICRO_G, SQRT_SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
-from ..errors import ConfigError
+from ..constants import ARCSEC, DEG, DEG_PER_H, GRADES, MICRO_G, SQRT_SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 
-__all__ = ["GRADES", "NOISE_BAND", "RANGES", "check_grade", "infer_grade", "judge", "likely_cause", "noise_density"]
+__all__ = ["GRADES", "NOISE_BAND", "RANGES", "infer_grade", "judge", "likely_cause", "noise_density"]
 
-GRADES = ("navigation", "tactical", "industrial")
 #: Per effect: (SI per report unit, report unit, (navigation, tactical, industrial) in report units).
 RANGES = {
     "accel_bias": (MICRO_G, "ug", (2e3, 2e4, 2e5)),
@@ -69,15 +67,6 @@ ARW_LIMITS_DEG_SQRT_H = (0.01, 0.15)
 #: (at 1600 Hz: 80 Hz; at 286 Hz: 14 Hz), whatever the motion's band.
 NOISE_BAND = 0.1
 VRW_LIMITS_UG_SQRT_HZ = (30.0, 150.0)
-
-
-def check_grade(grade: str | None) -> str | None:
-    """``--grade``: one of :data:`GRADES` or None (infer); anything else is refused."""
-    if grade is None or grade == "auto":
-        return None
-    if grade not in GRADES:
-        raise ConfigError(f"--grade {grade}: give one of {', '.join(GRADES)} or auto (inferred from the noise)")
-    return grade
 
 
 def noise_density(measured, mask, dt_s: float) -> np.ndarray:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..configs.diagnose import PLOT_FILES
 from ..constants import DEG_PER_H, MICRO_G
 from ..errors import ConfigError
 from ..io.files import atomic_output
@@ -17,9 +18,6 @@ from .normal import block_means
 from .theta import CHANNELS
 
 __all__ = ["PLOT_FILES", "plot"]
-
-#: The files :func:`plot` writes into the ``--plots`` folder.
-PLOT_FILES = ("residuals.png", "spectra.png")
 
 
 def plot(d: Diagnosis, folder, *, force: bool = False) -> list[str]:

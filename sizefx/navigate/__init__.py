@@ -2,23 +2,26 @@
 
 The package, from the bottom up:
 
-- :mod:`.config`: the options (:class:`NavConfig`) and the constants, each with its reason;
+- :mod:`.config`: the constants, each with its reason (the options, :class:`NavConfig`, are declared in
+  :mod:`sizefx.configs.navigate`);
 - :mod:`.result`: the result (:class:`NavResult`) and the summary lines that present it;
 - :mod:`.steps`: the sampling grid, rates to increments, the strapdown kernel call;
 - :mod:`.initial`: the initial state, from ``/reference`` or by static alignment;
 - :mod:`.reference`: ``/reference`` by time window and the errors against it;
 - :mod:`.loop`: the one loop (read chunk, correct, integrate, write) for files and records in memory;
 - :mod:`.output`: the error plot (the ``sizefx/navigation/1`` file is :mod:`sizefx.io.navigation`'s);
-- here: the stage, :class:`NavigateConfig` and :func:`run`, as ``sizefx navigate`` calls it.
+- here: the stage, :func:`run` of a :class:`NavigateConfig` (declared in :mod:`sizefx.configs.navigate`),
+  as ``sizefx navigate`` calls it.
 """
 
 from __future__ import annotations
 
 import importlib
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
+from ..configs.navigate import NavigateConfig
 from ..io.documents import write_json
 from ..stage import preflight
 from .config import CHUNK_SAMPLES, GAPS_WHY, NavConfig
@@ -73,31 +76,6 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-@dataclass(frozen=True)
-class NavigateConfig:
-    """``sizefx navigate FILE``: the record, the options, the outputs.
-
-    ``model``: an effect-model file (``sizefx/effects/1`` TOML), loaded by :func:`run` into
-    ``options.model``. ``chunk_samples``: IMU rows per chunk (memory is bounded by it; results
-    are identical); 0 reads the whole record into memory first.
-    """
-
-    input: str
-    options: NavConfig = field(default_factory=NavConfig)
-    model: str | None = None
-    output: str | None = None  #: ``-o``: the solution, ``sizefx/navigation/1``
-    json_path: str | None = None  #: ``--json``: the summary and the configuration
-    plot: str | None = None  #: ``--plot``: the position error against time (PNG)
-    force: bool = False
-    chunk_samples: int = CHUNK_SAMPLES
-
-    def inputs(self) -> dict:
-        return {"FILE": self.input, "--levers": self.options.levers, "--model": self.model}
-
-    def outputs(self) -> dict:
-        return {"--json": self.json_path, "-o": self.output, "--plot": self.plot}
-
-
 def run(config: NavigateConfig, *, progress=None) -> NavResult:
     """Navigate ``config.input``; write what was asked; return the result (``report()`` prints it).
 
@@ -108,12 +86,10 @@ def run(config: NavigateConfig, *, progress=None) -> NavResult:
     started = time.perf_counter()
     from ..effects import IDEAL, load_effects
     from ..io.navigation import NavigationWriter, write_navigation
-    from ..sensor_model.correction import refuse_levers_and_model
     from .loop import navigate, navigate_file
     from .output import check_plottable, plot_errors
 
     cfg = config.options
-    refuse_levers_and_model(cfg.levers, config.model or cfg.model)  # the options first, then the files
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     if config.model is not None:
         cfg = replace(cfg, model=load_effects(config.model, base=IDEAL))  # a section the file omits is off

@@ -1,17 +1,13 @@
-"""What a navigation run is asked (:class:`NavConfig`).
+"""The constants that decide how a record is navigated, each with its reason.
 
-The constants that decide how a record is navigated live here too, each with its reason.
+The run's options (:class:`NavConfig`) and the default chunk (:data:`CHUNK_SAMPLES`) are declared
+with the stage's config in :mod:`sizefx.configs.navigate`, and given here too.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
+from ..configs.navigate import CHUNK_SAMPLES, NavConfig
 from ..kernels.modes import VERTICAL_FREE, VERTICAL_HELD, VERTICAL_REFERENCE
-
-if TYPE_CHECKING:  # the options are read without loading the effect model's code (Numba)
-    from ..effects import EffectModel
 
 __all__ = [
     "NavConfig",
@@ -41,8 +37,6 @@ JITTER_REPORTED = 0.05
 #: Why navigation refuses a record with IMU gaps (:func:`sizefx.io.telemetry.refuse_gaps`).
 GAPS_WHY = "integrates every sample and cannot bridge a gap (--allow-gaps does not help here)"
 
-#: Default IMU rows per chunk (2^20: 24 MiB of rates, a few hundred MiB of working set).
-CHUNK_SAMPLES = 1 << 20
 #: Extra rows read on each side of a chunk, so that every filter sees the neighbours it sees in a
 #: whole-record run: the four-point increment stencil, the edge rates of the increment-domain
 #: compensation, the Savitzky-Golay window (20 rows) of a rates-domain model correction, and the
@@ -54,22 +48,3 @@ MIN_ROWS = 512
 #: Fewest output rows (``--output-rate-hz``) the error plot (``--plot``) is drawn from: a curve joins two
 #: points, and a single one draws an empty figure.
 MIN_PLOT_ROWS = 2
-
-
-@dataclass(frozen=True)
-class NavConfig:
-    """The options of a navigation run (the file and the outputs are the stage's, :mod:`sizefx.navigate`)."""
-
-    subsamples: int = 4  #: sub-samples per navigation interval (1..4)
-    vertical: str = "auto"  #: auto | free | held | reference
-    init: str = "auto"  #: auto | reference | align
-    align_s: float = 300.0  #: alignment window [s] when init is align
-    output_rate_hz: float | None = 10.0  #: rate of the written solution (None: every interval)
-    allow_gaps: bool = False
-    #: navigate only this continuous segment (1-based, between IMU gaps, as sizefx inspect numbers them)
-    segment: int | None = None
-    levers: str | None = None  #: sizefx/levers/1 file: remove the size effect of its arms before navigating
-    #: effect model (sizefx.correct.load_model): undo the IMU's errors and the size effect before
-    #: navigating; not together with ``levers`` (both become one sizefx.sensor_model.Correction)
-    model: EffectModel | None = None
-    mode: str = "triad"  #: triad | center: the arms d_i from the triad point, or r_i from the reference point

@@ -39,7 +39,7 @@ from ..kernels.strapdown import coning_coefficients, pack_state
 from ..levers import read_levers
 from ..omegadot import SAVGOL_WINDOW
 from ..sensor_model import Correction
-from ..sensor_model.correction import model_correction_record, refuse_levers_and_model
+from ..sensor_model.correction import model_correction_record
 from ..stage import helper_threads
 from ..sync import synced_accel
 from .config import CHUNK_SAMPLES, GAPS_WHY, MARGIN, MIN_PLOT_ROWS, MIN_ROWS, VERTICAL_MODES, NavConfig
@@ -72,8 +72,7 @@ class MemorySource:
 
 def resolve_correction(cfg: NavConfig) -> Correction | None:
     """The levers file or the effect model of ``cfg`` as the run's one :class:`Correction` (None:
-    neither), read and checked before any chunk; both together are refused."""
-    refuse_levers_and_model(cfg.levers, cfg.model)
+    neither), read and checked before any chunk (``cfg`` refused both together when it was made)."""
     if cfg.levers:
         levers = read_levers(cfg.levers)
         return Correction.of_arms(levers.arms_for(cfg.mode), levers.axes, levers.accel_delay_s, cfg.mode, None)

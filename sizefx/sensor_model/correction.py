@@ -25,11 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
 from .inverse import check_invertible, invert_channels, remove_lever_terms
 from .table import INVERTED, NOT_INVERTED, SensorParams
 
-__all__ = ["Correction", "refuse_levers_and_model", "model_correction_record"]
+__all__ = ["Correction", "model_correction_record"]
 
 
 def model_correction_record(fx, p: SensorParams, mode: str, estimator: str) -> dict:
@@ -46,18 +45,6 @@ def model_correction_record(fx, p: SensorParams, mode: str, estimator: str) -> d
         "arms_m": p.arms(mode).tolist(),
         "accel_axes": p.accel_axes().tolist(),
     }
-
-
-def refuse_levers_and_model(levers, model) -> None:
-    """The one refusal of a levers file beside an effect model (navigate, compensate and the
-    chains alike): a model has its own arms."""
-    if levers and model is not None and model != "":
-        raise ConfigError(
-            "--levers and --model both given: the effect model has its own lever arms ([lever_arm]); give one of them"
-        )
-
-
-MODES = ("triad", "center")
 
 
 @dataclass(frozen=True, eq=False)

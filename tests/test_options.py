@@ -1,0 +1,221 @@
+"""One declaration per option (:mod:`sizefx.options`): the check of every value, its one wording, and
+the commands made from the stages' configs (``cli/options.py``'s ``stage_command``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from sizefx.errors import ConfigError
+from sizefx.options import (
+    check_options,
+    choice,
+    config_from,
+    declared,
+    group,
+    integer,
+    interval,
+    number,
+    path,
+    refusal,
+    switch,
+)
+from sizefx_cli.main import main
+from sizefx_cli.options import DeclaredSpan, declared_params
+
+# ------------------------------------------------------------------------------ the mechanism
+
+
+@dataclasses.dataclass(frozen=True)
+class _Inner:
+    rate_hz: float = number(10.0, unit="Hz", low=0.0, high=100.0, low_open=True, help="A rate [Hz].")
+
+    def __post_init__(self):
+        check_options(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Outer:
+    record: str = path(argument="FILE")
+    delay_s: float | None = number(unit="us", low=-10.0, high=10.0, scale=1e-6, flags=("--delay-us",), help="[us]")
+    count: int = integer(3, low=1, high=5, help="How many.")
+    how: str = choice("a", ("a", "b"), help="Which.")
+    on: bool = switch(help="Whether.")
+    inner: _Inner = group(_Inner)
+
+    def __post_init__(self):
+        check_options(self)
+
+
+def test_a_refusal_names_the_option_the_value_and_what_is_valid():
+    with pytest.raises(ConfigError) as bad:
+        _Outer("x.h5", count=0)
+    assert str(bad.value) == "--count: 0 is outside [1, 5]"
+    with pytest.raises(ConfigError) as bad:
+        _Inner(rate_hz=0.0)
+    assert str(bad.value) == "--rate-hz: 0 is outside (0, 100] Hz"
+    with pytest.raises(ConfigError) as bad:
+        _Inner(rate_hz=math.nan)
+    assert str(bad.value) == "--rate-hz: nan is not a finite number; give a value in (0, 100] Hz"
+    with pytest.raises(ConfigError) as bad:
+        _Outer("x.h5", how="c")
+    assert str(bad.value) == "--how: 'c' is not one of a, b"
+    with pytest.raises(ConfigError) as bad:
+        _Outer("x.h5", count=2.5)
+    assert str(bad.value) == "--count: 2.5 is not an integer"
+    with pytest.raises(ConfigError) as bad:
+        _Outer("x.h5", on="yes")
+    assert str(bad.value) == "--on: 'yes' is not true or false"
+    with pytest.raises(ConfigError) as bad:
+        _Outer(None)
+    assert str(bad.value) == "FILE: give a value (None is not one)"
+    with pytest.raises(ConfigError, match="inner: .* is not a _Inner"):
+        _Outer("x.h5", inner={"rate_hz": 5.0})
+    assert _Outer("x.h5", delay_s=None, count=5, how="b", on=True).count == 5  # the edges and None are valid
+
+
+def test_a_scaled_option_is_judged_and_named_in_the_command_lines_unit():
+    """The field holds seconds; the user wrote microseconds, and reads microseconds back."""
+    option = dict(declared(_Outer))["delay_s"]
+    assert refusal(option, 10e-6) is None and refusal(option, -10e-6) is None
+    assert refusal(option, 20e-6) == "--delay-us: 20 is outside [-10, 10] us"
+    assert interval(option) == "[-10, 10] us"
+
+
+def test_a_config_is_made_from_the_values_by_name_groups_too():
+    made = config_from(_Outer, {"record": "x.h5", "count": 4, "rate_hz": 50.0})
+    assert made == _Outer("x.h5", count=4, inner=_Inner(rate_hz=50.0))
+    with pytest.raises(TypeError, match="declares no option colour"):
+        config_from(_Outer, {"record": "x.h5", "colour": "red"})
+
+
+def test_the_command_lines_parameters_are_the_declarations():
+    params = {p.name: p for p in declared_params(_Outer)}
+    assert list(params) == ["record", "delay_s", "count", "how", "on", "rate_hz"]
+    assert isinstance(params["record"], click.Argument) and params["record"].metavar == "FILE"
+    assert params["delay_s"].opts == ["--delay-us"] and isinstance(params["delay_s"].type, DeclaredSpan)
+    assert params["count"].default == 3 and params["count"].show_default
+    assert params["on"].is_flag and not params["on"].default
+
+
+def test_the_command_line_refuses_in_the_declarations_words_and_converts_the_unit():
+    @click.command()
+    def probe(**values):
+        click.echo(repr(config_from(_Outer, values)))
+
+    probe.params = declared_params(_Outer)
+    ok = CliRunner().invoke(probe, ["x.h5", "--delay-us", "5"])
+    assert ok.exit_code == 0 and f"delay_s={5 * 1e-6!r}" in ok.output, ok.output  # us times 1e-6, as before
+    bad = CliRunner().invoke(probe, ["x.h5", "--rate-hz", "0"])
+    assert bad.exit_code == 2 and "--rate-hz: 0 is outside (0, 100] Hz" in bad.output, bad.output
+
+
+# ------------------------------------------------------------------------------- the stages
+
+
+def _stages():
+    """(command path, config class, the command's own options, in order) of every stage made from its config."""
+    from sizefx.configs.calibrate import CalibrateConfig
+    from sizefx.configs.compare import CompareConfig
+    from sizefx.configs.compensate import CompensateConfig
+    from sizefx.configs.diagnose import DiagnoseConfig
+    from sizefx.configs.inspect import InspectConfig
+    from sizefx.configs.navigate import NavigateConfig
+
+    return [
+        (("inspect",), InspectConfig, ()),
+        (("calibrate",), CalibrateConfig, ()),
+        (("compare",), CompareConfig, ()),
+        (("compensate",), CompensateConfig, ()),
+        (("diagnose",), DiagnoseConfig, ()),
+        (("navigate",), NavigateConfig, ("quiet",)),
+    ]
+
+
+STAGES = _stages()
+#: Fields a config has for Python callers only, with no option on the command line.
+LIBRARY_ONLY = {"CompensateConfig": {"centripetal"}, "NavConfig": {"model"}}
+
+
+def _command(path: tuple) -> click.Command:
+    command = main
+    for name in path:
+        command = command.commands[name]
+    return command
+
+
+@pytest.mark.parametrize("path,config,own", STAGES, ids=[" ".join(p) for p, _, _ in STAGES])
+def test_every_field_of_a_stage_config_is_a_declared_option(path, config, own):
+    """Each field says how the command line writes it, what it holds and, for a physical quantity,
+    its unit (which the help shows as [unit])."""
+    configs = [config]
+    while configs:
+        current = configs.pop()
+        for f in dataclasses.fields(current):
+            if f.name in LIBRARY_ONLY.get(current.__name__, set()):
+                continue
+            assert "option" in f.metadata or "group" in f.metadata, f"{current.__name__}.{f.name} is not declared"
+            configs += [f.metadata["group"]] if "group" in f.metadata else []
+    for name, option in declared(config):
+        assert option.argument or option.help, f"{config.__name__}.{name} has no help"
+        if option.kind == "number" and option.unit is not None:
+            assert f"[{option.unit}" in option.help, f"{option.name}: help does not show [{option.unit}]"
+
+
+@pytest.mark.parametrize("path,config,own", STAGES, ids=[" ".join(p) for p, _, _ in STAGES])
+def test_the_stage_command_is_made_from_its_config(path, config, own):
+    command = _command(path)
+    assert command.config_class is config
+    names = [name for name, _ in declared(config)]
+    assert [p.name for p in command.params] == [*names, *own], "the declared options, in order, then the command's"
+    for param, (_, option) in zip(command.params, declared(config), strict=False):
+        if option.argument is None:
+            assert option.name in (*param.opts, *param.secondary_opts)
+
+
+#: A bad value per stage: the command line's arguments, and the config that Python makes with it.
+BAD_VALUES = [
+    (["navigate", "f.h5", "--align-s", "0"], lambda: _navigate(align_s=0.0)),
+    (["navigate", "f.h5", "--subsamples", "5"], lambda: _navigate(subsamples=5)),
+    (["navigate", "f.h5", "--output-rate-hz", "0.0005"], lambda: _navigate(output_rate_hz=0.0005)),
+    (["navigate", "f.h5", "--vertical", "sideways"], lambda: _navigate(vertical="sideways")),
+    (["compensate", "f.h5", "-o", "o.h5", "--levers", "l.json", "--accel-delay-us", "2e5"], lambda: _compensate()),
+    (["calibrate", "t.h5", "--triad-point", "middle"], lambda: _stage("calibrate", "CalibrateConfig", triad="middle")),
+    (["diagnose", "m.h5", "--bandwidth-hz", "0"], lambda: _stage("diagnose", "DiagnoseConfig", bandwidth_hz=0.0)),
+    (["diagnose", "m.h5", "--grade", "consumer"], lambda: _stage("diagnose", "DiagnoseConfig", grade="consumer")),
+]
+
+
+def _stage(module: str, name: str, **options):
+    """A stage's config made in Python with one file (as its first field) and ``options``."""
+    import importlib
+
+    config = getattr(importlib.import_module(f"sizefx.configs.{module}"), name)
+    return config(("t.h5",) if name == "CalibrateConfig" else "m.h5", **options)
+
+
+def _navigate(**options):
+    from sizefx.configs.navigate import NavConfig, NavigateConfig
+
+    return NavigateConfig("f.h5", options=NavConfig(**options))
+
+
+def _compensate():
+    from sizefx.configs.compensate import CompensateConfig
+
+    return CompensateConfig("f.h5", "o.h5", levers="l.json", accel_delay_s=0.2)
+
+
+@pytest.mark.parametrize("args,make", BAD_VALUES, ids=[f"{a[0]} {a[-2]} {a[-1]}" for a, _ in BAD_VALUES])
+def test_a_bad_value_is_refused_in_the_same_words_from_python_and_the_command_line(tmp_path, args, make):
+    with pytest.raises(ConfigError) as from_python:
+        make()
+    words = str(from_python.value)
+    assert words.startswith(args[-2])  # names the option as the command line writes it
+    result = CliRunner().invoke(main, args)
+    lines = result.stderr.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and words in lines[0], (words, result.stderr)
