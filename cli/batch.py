@@ -16,7 +16,7 @@ import sys
 
 import click
 
-from sizefx.configs.batch import BATCH_STAGES, batch_options
+from sizefx.configs.batch import BATCH_STAGES, MAX_WORKERS, MEMORY_MIB_RANGE, batch_options
 
 from .options import quiet_option, span
 
@@ -79,12 +79,12 @@ def batch_params(record_plots: bool, chain: bool = False) -> list:
         ),
         click.Option(
             ["--workers"],
-            type=click.IntRange(1, 1024),
+            type=click.IntRange(1, MAX_WORKERS),
             help="Worker processes [default: the cores]; each loads the kernels once.",
         ),
         click.Option(
             ["--memory-per-worker-mib", "memory_mib"],
-            type=span(256.0, 2.0**40),
+            type=span(*MEMORY_MIB_RANGE),
             help="Each local worker's memory bound [MiB]: a record that needs more fails alone "
             "(MemoryError) [default: 80 % of the machine's memory over the workers].",
         ),

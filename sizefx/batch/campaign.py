@@ -17,7 +17,7 @@ import os
 from dataclasses import MISSING
 from pathlib import Path
 
-from ..configs.batch import BatchStage, batch_options, batch_stage
+from ..configs.batch import MAX_WORKERS, MEMORY_MIB_RANGE, BatchStage, batch_options, batch_stage
 from ..errors import ConfigError
 from ..options import config_from, declared, option_values
 from . import runner
@@ -26,11 +26,6 @@ from .manifest import Manifest, canonical_options
 from .outcome import BatchJob, BatchResult
 
 __all__ = ["run"]
-
-#: The workers a batch may ask for (the command line's --workers range).
-MAX_WORKERS = 1024
-#: The smallest memory bound of a local worker [MiB] (a worker's start alone takes about 150 MiB).
-MIN_MEMORY_MIB = 256.0
 
 
 def _listed(paths) -> list:
@@ -90,8 +85,9 @@ def run(
         isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS
     ):
         raise ConfigError(f"--workers: {workers!r} is not an integer in [1, {MAX_WORKERS}]")
-    if memory_mib is not None and not MIN_MEMORY_MIB <= memory_mib < float("inf"):
-        raise ConfigError(f"--memory-per-worker-mib: {memory_mib!r} is outside [{MIN_MEMORY_MIB:g}, inf) MiB")
+    low, high = MEMORY_MIB_RANGE
+    if memory_mib is not None and not (isinstance(memory_mib, (int, float)) and low <= memory_mib <= high):
+        raise ConfigError(f"--memory-per-worker-mib: {memory_mib!r} is outside [{low:g}, {high:g}] MiB")
     if stage == "run":
         from .chains import run_chains
 

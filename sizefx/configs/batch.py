@@ -26,6 +26,8 @@ from .inspect import InspectConfig
 from .navigate import NavigateConfig
 
 __all__ = [
+    "MAX_WORKERS",
+    "MEMORY_MIB_RANGE",
     "BatchStage",
     "BATCH_STAGES",
     "CHAIN_CONFIGS",
@@ -34,6 +36,13 @@ __all__ = [
     "batch_options",
     "chain_options",
 ]
+
+
+#: The local worker processes a batch may ask for (``--workers``, ``workers``).
+MAX_WORKERS = 1024
+#: A local worker's memory bound [MiB] (``--memory-per-worker-mib``, ``memory_mib``): from what a
+#: worker with NumPy, Numba and h5py loaded and a record in hand needs at the least, to a TiB.
+MEMORY_MIB_RANGE = (256.0, 2.0**40)
 
 
 @dataclass(frozen=True)
