@@ -131,7 +131,7 @@ from . import run as _run  # noqa: E402 (after `main`)
 from . import simulate as _simulate  # noqa: E402 (after `main`)
 
 main.add_command(_batch.batch)
-_batch.batch.add_command(_run.batch_run)  # the chain per flight (cli/run.py builds both chains)
+_batch.batch.add_command(_run.batch_run)  # the chain per flight (cli/run.py parses both chains)
 main.add_command(_calibrate.calibrate)
 main.add_command(_compare.compare)
 main.add_command(_compensate.compensate)

@@ -1,35 +1,48 @@
-"""Stages chained in one command: ``sizefx run calibrate T.h5 navigate F.h5 compare --out DIR``.
+"""Stages chained: ``sizefx.chain.run(STAGES, OUT)``, which is ``sizefx run --out OUT calibrate T.h5
+navigate F.h5 compare``.
+
+    sizefx.chain.run({"calibrate": {"records": ["T.h5"]}, "navigate": {"input": "F.h5"}, "compare": {}}, "DIR")
 
 The everyday workflow is calibrate on the turntable record, navigate the flight without and with
-those lever arms, and compare the two solutions against the flight's reference. The command line
-(``sizefx_cli.run``) builds each stage's config from its own options and calls its ``run``; this
-module holds what does not depend on the command line: which chains can work
-(:func:`check_chain`, before any stage runs) and the folder's ``run.json`` (``sizefx/run/1``,
-``data-schemas/run-1.json``): per stage its inputs, options, outputs, duration and headline figures.
+those lever arms, and compare the two solutions against the flight's reference. :func:`run` takes
+the chain as the command line does (each stage's options by its config's field names), refuses
+one that cannot work before any stage runs (:func:`check_stages`: which chains can work,
+:func:`check_chain`, and every file the chain reads), builds each step's config from the stage's
+own declarations (:func:`sizefx.options.config_from`), with the outputs named in DIR, and runs the
+steps, writing the folder's ``run.json`` (``sizefx/run/1``, ``data-schemas/run-1.json``) after
+each: per stage its inputs, options, outputs, duration and headline figures. The command line
+(``sizefx_cli.run``) only parses the chain and prints.
 
-:func:`run` executes a chain's steps (each the stage's own ``run`` on the config the command line
-built), for ``sizefx run`` and, per flight, for ``sizefx batch run`` (where it is a batch stage
-like the others: :class:`ChainConfig` in, a result with ``to_json`` and ``report`` out).
+A batch of chains (``sizefx batch run``, :mod:`sizefx.batch.chains`) builds a :class:`ChainConfig`
+per flight (:func:`flight_steps`) and runs it with the same :func:`run`, as a batch stage like the
+others (:class:`ChainConfig` in, a result with ``to_json`` and ``report`` out).
 """
 
 from __future__ import annotations
 
 import contextlib
 import importlib
+import os
 import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .configs.batch import CHAIN_CONFIGS, chain_options
 from .errors import ConfigError, SizefxError
 from .io.documents import write_json
 from .io.schema import as_json, check_document
+from .options import config_from, option_values
 
 __all__ = [
     "CHAIN_STAGES",
     "RUN_SCHEMA",
     "RUN_MANIFEST",
     "check_chain",
+    "check_stages",
+    "CheckedChain",
+    "calibrate_step",
+    "flight_steps",
     "write_run_manifest",
     "ChainStep",
     "ChainConfig",
@@ -72,6 +85,160 @@ def check_chain(names: list[str], *, navigate_corrects: bool = False, command: s
                 f"{command}: compare needs two solutions, and navigate makes only one without lever "
                 "arms or a model; put calibrate before navigate, or give navigate --levers or --model"
             )
+
+
+def _stages(stages, *, command: str, batch: bool) -> list:
+    """The chain as ``[(stage, options), ...]`` in the order given, each stage's options complete by
+    field name (:func:`sizefx.options.option_values`: what the command line gives, defaults
+    included). ``stages``: a mapping ``{stage: options}`` or a sequence of ``(stage, options)``
+    pairs (the command line's, which may repeat a stage for :func:`check_chain` to refuse). In a
+    batch navigate's ``input`` is not an option: the flights are the batch's inputs."""
+    pairs = list(stages.items()) if hasattr(stages, "items") else list(stages)
+    out: list[tuple[str, dict]] = []
+    for pair in pairs:
+        if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
+            raise ConfigError(f"{command}: give the chain as {{stage: options}} or (stage, options) pairs")
+        name, given = pair
+        if name not in CHAIN_CONFIGS:  # refused by check_chain, with the stages that can be chained
+            out.append((name, {}))
+            continue
+        offered = [o for o in chain_options(name) if not (batch and name == "navigate" and o == "input")]
+        options = option_values(CHAIN_CONFIGS[name], given, offered=offered, where=f"{command}: {name}")
+        required = {"calibrate": ("records", "the records to fit"), "navigate": ("input", "the flight")}.get(name)
+        if required and required[0] in offered and required[0] not in options:
+            raise ConfigError(f"{command}: {name} needs {required[0]!r}, {required[1]}")
+        out.append((name, options))
+    return out
+
+
+@dataclass(frozen=True)
+class CheckedChain:
+    """A chain that can work (:func:`check_stages`): its stages in order, each one's options, the
+    folder, and the flights (a batch's every flight; a single chain's one, or none)."""
+
+    names: list  #: the stages, in the order given
+    stages: dict  #: stage -> its options by field name (navigate's in a batch with its ``input`` as given)
+    out: Path  #: the folder, resolved
+    flights: list  #: a batch's every flight, resolved; a single chain's navigate input as given, or none
+
+    @property
+    def navigate(self) -> dict:
+        return self.stages.get("navigate", {})
+
+
+def check_stages(stages, out=None, *, flights=None) -> CheckedChain:
+    """The chain ``stages`` (as :func:`run` takes it) refused in one line before anything runs or
+    is written when it cannot work: the stages (:func:`check_chain`), a stage's options, lever arms
+    both from calibrate and from navigate's ``levers``, a model beside lever arms, every file the
+    chain reads (the lever arms and a model read by their readers: :func:`sizefx.batch.inputs.check_option_files`),
+    a flight without the truth compare needs, the folder ``out`` (default ``run-NAME``, NAME the
+    flight's file name, or calibrate's record's). ``flights``: a batch of chains, one per flight
+    (files, folders or globs, expanded here); None: one chain, on navigate's ``input``."""
+    from .batch.inputs import check_option_files, check_out_dir, expand_inputs
+
+    batch = flights is not None
+    command = "sizefx batch run" if batch else "sizefx run"
+    pairs = _stages(stages, command=command, batch=batch)
+    chain = dict(pairs)
+    names = [name for name, _ in pairs]
+    nav = chain.get("navigate", {})
+    check_chain(names, navigate_corrects=bool(nav.get("levers") or nav.get("model")), command=command)
+    if out is None or not str(out):
+        named = nav.get("input") or next(iter(chain.get("calibrate", {}).get("records", ())), None)
+        if batch or not named:
+            raise ConfigError(f"{command}: give --out DIR, the folder for every stage's outputs")
+        out = f"run-{Path(named).stem}"  # the everyday form: sizefx run calibrate T.h5 navigate F.h5 compare
+    if "calibrate" in chain and nav.get("levers"):
+        raise ConfigError(
+            f"{command}: navigate --levers and calibrate in one chain: the chain passes calibrate's "
+            "lever arms to navigate; leave out one of the two"
+        )
+    if nav.get("model") and ("calibrate" in chain or nav.get("levers")):
+        raise ConfigError(
+            f"{command}: navigate --model cannot be combined with lever arms (from calibrate or "
+            "--levers); navigate the model on its own"
+        )
+    if batch and "navigate" not in chain:
+        raise ConfigError("sizefx batch run: the chain runs per flight: put navigate FLIGHTS in it")
+    if batch:
+        given_flights = [flights] if isinstance(flights, (str, os.PathLike)) else list(flights)
+        found = expand_inputs(given_flights)
+        # run.json records what navigate was given, as the command line's FILE: the flights' pattern
+        shown = [str(f) for f in given_flights]
+        chain["navigate"] = {"input": shown[0] if len(shown) == 1 else shown, **nav}
+    else:
+        found = [Path(nav["input"])] if nav.get("input") else []
+    # every file the chain reads, before any stage runs
+    given = {
+        **{f"calibrate RECORDS ({k + 1})": r for k, r in enumerate(chain.get("calibrate", {}).get("records", ()))},
+        **({} if batch else {"navigate FILE": nav.get("input")}),
+        "navigate --levers": nav.get("levers"),
+        "navigate --model": nav.get("model"),
+        "compare --reference": chain.get("compare", {}).get("reference"),
+        "calibrate --nominal": _nominal_file(chain.get("calibrate", {}).get("nominal")),
+    }
+    check_option_files(given)  # the lever arms and the model read by their readers, too
+    if "compare" in chain and not chain["compare"].get("reference") and not batch:
+        check_truth(nav["input"])  # in a batch each flight is checked in its own record
+    folder = check_out_dir(
+        out, given_flights if batch else [], [*(Path(p).resolve() for p in given.values() if p), *found]
+    )
+    return CheckedChain(names, chain, folder, found)
+
+
+def _nominal_file(nominal):
+    """calibrate --nominal when it names a file (not one of the presets)."""
+    from .geometry import PRESETS
+
+    return nominal if nominal and nominal not in PRESETS else None
+
+
+def calibrate_step(chain: CheckedChain, out, plots: bool) -> tuple:
+    """calibrate's step of ``chain`` into ``out``, and the lever arms' file it writes (levers.json)."""
+    options = chain.stages["calibrate"]
+    levers = str(Path(out) / "levers.json")
+    plot = str(Path(out) / "calibrate.png") if plots else None
+    given = {**options, "json_path": levers, "force": True, "plot": plot}
+    return ChainStep("calibrate", None, config_from(CHAIN_CONFIGS["calibrate"], given), options), levers
+
+
+def flight_steps(chain: CheckedChain, flight, levers, out, plots: bool) -> list:
+    """navigate ``flight`` plain (and compensated, with the lever arms ``levers`` or navigate's
+    model), then compare, into ``out``: the steps of ``chain`` after calibrate."""
+    out = Path(out)
+    nav = chain.navigate
+    steps, solutions = [], {}
+    if nav:
+        runs = [("plain", {"levers": None, "model": None})]
+        if levers or nav.get("model"):  # the correction: calibrate's or --levers' arms, or a --model
+            runs.append(("compensated", {"levers": levers, "model": nav.get("model")}))
+        for label, correction in runs:
+            solutions[label] = str(out / f"{label}.nav.h5")
+            given = {
+                **nav,
+                "input": str(flight),
+                **correction,
+                "output": solutions[label],
+                "json_path": str(out / f"{label}.navigate.json"),
+                "force": True,
+                "plot": str(out / f"{label}.navigate.png") if plots else None,
+            }
+            steps.append(
+                ChainStep("navigate", label, config_from(CHAIN_CONFIGS["navigate"], given), {**nav, **correction})
+            )
+    if "compare" in chain.stages:
+        options = chain.stages["compare"]
+        given = {
+            **options,
+            "a": solutions["compensated"],
+            "b": solutions["plain"],
+            "reference": options.get("reference") or str(flight),
+            "json_path": str(out / "comparison.json"),
+            "plots_dir": str(out / "compare-plots") if plots else None,
+            "force": True,
+        }
+        steps.append(ChainStep("compare", None, config_from(CHAIN_CONFIGS["compare"], given), options))
+    return steps
 
 
 def write_run_manifest(out_dir, steps: list[dict]) -> None:
@@ -145,10 +312,41 @@ class ChainResult:
         return "\n".join(lines)
 
 
-def run(config: ChainConfig, *, echo=None) -> ChainResult:
-    """Run the chain's steps in order into ``config.out_dir`` (made if new), rewriting its run.json after
-    each; ``echo(title, report)`` after each step (the command prints the stages as they finish).
-    A stage that refuses stops the chain (its error propagates): the steps after it need its outputs."""
+def run(stages, out=None, *, with_plots: bool = False, echo=None) -> ChainResult:
+    """Run a chain of stages: what ``sizefx run --out OUT [--with-plots] calibrate ... navigate ...
+    compare`` does.
+
+    ``stages``: the stages in order, each with its options by field name as its config declares them
+    (``sizefx run``'s options, less the outputs the chain names), as a mapping
+    ``{"calibrate": {"records": ["T.h5"]}, "navigate": {"input": "F.h5"}, "compare": {}}`` or as
+    ``(stage, options)`` pairs; options left out keep their defaults. calibrate's lever arms go to
+    navigate, which navigates the flight plain and compensated (with them, or with its own ``levers``
+    or ``model``); compare sets the two solutions against the flight's reference (or its
+    ``reference``). A chain that cannot work is refused before any stage runs (:func:`check_stages`).
+
+    ``out``: the folder for every output and run.json (default ``run-NAME`` in the current folder,
+    NAME the flight's file name or calibrate's record's), made if new and locked while the chain
+    writes; a chain refused leaves no folder of its own making behind (:func:`chain_folder`).
+    ``with_plots``: each stage's plots too. ``echo(title, report)`` after each step (the command
+    prints the stages as they finish). A stage that refuses stops the chain (its error propagates):
+    the steps after it need its outputs.
+
+    ``stages`` may also be a :class:`ChainConfig` already built, a batch's flight: its steps run as
+    they are into its folder (made if new, not locked: the batch holds its own folder's lock)."""
+    if isinstance(stages, ChainConfig):
+        return _run_steps(stages, echo)
+    chain = check_stages(stages, out)
+    with chain_folder(chain.out):
+        steps, levers = [], chain.navigate.get("levers")
+        if "calibrate" in chain.stages:
+            step, levers = calibrate_step(chain, chain.out, with_plots)
+            steps.append(step)
+        steps += flight_steps(chain, chain.navigate.get("input"), levers, chain.out, with_plots)
+        return _run_steps(ChainConfig(tuple(steps), str(chain.out)), echo)
+
+
+def _run_steps(config: ChainConfig, echo) -> ChainResult:
+    """The chain's steps in order into ``config.out_dir`` (made if new), its run.json rewritten after each."""
     from .batch.fleet import headline  # the batch's figures: a chain's steps and a batch's records alike
 
     if config.truth is not None:

@@ -1,9 +1,13 @@
-"""One stage over many records: ``sizefx batch STAGE ... INPUTS --out DIR``.
+"""One stage over many records: ``sizefx.batch.run(STAGE, INPUTS, OUT, options=...)``, which is
+``sizefx batch STAGE ... INPUTS --out OUT``.
 
 A test campaign is dozens of records; each goes through the very stage code the single-file
-command runs (its config, built by the command line from the same options, and the stage's
-``run``), in warm worker processes, into one folder with a manifest:
+command runs (its config, made from the same option declarations, and the stage's ``run``), in
+warm worker processes, into one folder with a manifest:
 
+- :mod:`.campaign`: :func:`run`, the batch from its inputs to its result: each record's config and
+  outputs (named after it in the folder), compare's partners paired by name, the option files read
+  once, the folder's manifest read to resume; :mod:`.chains` the chain per flight (``"run"``).
 - :mod:`.inputs`: files, folders and globs expanded to records, checked (unreadable folders,
   duplicates, an output folder inside an input folder, anything but a regular file: one line,
   nothing written), the name each record's outputs get in the folder, and the check that no path
@@ -27,6 +31,7 @@ the stage run on it alone, and the manifest lists the records sorted by input pa
 
 from __future__ import annotations
 
+from .campaign import run
 from .inputs import expand_inputs, output_names
 from .manifest import BATCH_SCHEMA, read_manifest
 from .runner import BatchJob, BatchResult, RecordOutcome, run_batch
@@ -39,5 +44,6 @@ __all__ = [
     "expand_inputs",
     "output_names",
     "read_manifest",
+    "run",
     "run_batch",
 ]
