@@ -20,9 +20,12 @@ from sizefx.options import (
     integer,
     interval,
     number,
+    numbers,
+    one_of,
     path,
     refusal,
     switch,
+    words,
 )
 from sizefx_cli.main import main
 from sizefx_cli.options import DeclaredSpan, declared_params
@@ -112,6 +115,84 @@ def test_the_command_line_refuses_in_the_declarations_words_and_converts_the_uni
     assert ok.exit_code == 0 and f"delay_s={5 * 1e-6!r}" in ok.output, ok.output  # us times 1e-6, as before
     bad = CliRunner().invoke(probe, ["x.h5", "--rate-hz", "0"])
     assert bad.exit_code == 2 and "--rate-hz: 0 is outside (0, 100] Hz" in bad.output, bad.output
+
+
+@dataclasses.dataclass(frozen=True)
+class _Lists:
+    offset_mm: tuple | None = numbers(unit="mm", count=3, metavar="X,Y,Z", help="An offset [mm].")
+    amplitudes_dps: tuple = numbers((10.0, 20.0), unit="deg/s", low=0.0, low_open=True, high=50.0, help="[deg/s]")
+    columns: tuple = words(("a", "b"), help="Column names.")
+
+    def __post_init__(self):
+        check_options(self)
+
+
+def test_a_list_is_judged_value_by_value_and_counted():
+    assert _Lists(offset_mm=(1.0, 0.0, -2.0)).offset_mm == (1.0, 0.0, -2.0)
+    for kwargs, words_ in (
+        ({"offset_mm": (1.0, 2.0)}, "--offset-mm: 2 values; give 3 (X,Y,Z)"),
+        ({"offset_mm": "1,2,3"}, "--offset-mm: '1,2,3' is not a tuple of values"),
+        ({"amplitudes_dps": (10.0, 0.0)}, "--amplitudes-dps: 0 is outside (0, 50] deg/s"),
+        ({"amplitudes_dps": (10.0, math.inf)}, "--amplitudes-dps: inf is not a finite number; give a value in"),
+        ({"amplitudes_dps": ()}, "--amplitudes-dps: 0 values; give at least one"),
+        ({"columns": ("a", 3)}, "--columns: 3 is not text"),
+    ):
+        with pytest.raises(ConfigError) as bad:
+            _Lists(**kwargs)
+        assert str(bad.value).startswith(words_), (kwargs, str(bad.value))
+
+
+def test_a_list_is_written_comma_separated_on_the_command_line():
+    @click.command()
+    def probe(**values):
+        click.echo(repr(config_from(_Lists, values)))
+
+    probe.params = declared_params(_Lists)
+    assert probe.params[1].show_default == "10,20" and probe.params[2].show_default == "a,b"
+    ok = CliRunner().invoke(probe, ["--offset-mm", "1,0,-2", "--columns", "x,y"])
+    assert ok.exit_code == 0 and "offset_mm=(1.0, 0.0, -2.0)" in ok.output and "('x', 'y')" in ok.output, ok.output
+    for args, words_ in (
+        (["--offset-mm", "1,2"], "--offset-mm: 2 values; give 3 (X,Y,Z)"),
+        (["--offset-mm", "1,a,2"], "--offset-mm: '1,a,2' is not 3 comma-separated numbers"),
+        (["--amplitudes-dps", "10,x"], "--amplitudes-dps: '10,x' is not a list of numbers"),
+    ):
+        bad = CliRunner().invoke(probe, args)
+        assert bad.exit_code == 2 and words_ in bad.output, bad.output
+
+
+@dataclasses.dataclass
+class _Fast:
+    speed: float = number(1.0, unit="m/s", low=0.5, high=2.0, help="[m/s]")
+
+
+@dataclasses.dataclass
+class _Slow:
+    steps: int = integer(2, low=1, high=3, help="How many.")
+
+
+@dataclasses.dataclass(frozen=True)
+class _Variant:
+    kind: str = choice(None, ("fast", "slow"), argument="KIND", help="Which.")
+    plan: _Fast | _Slow | None = one_of("kind", {"fast": _Fast, "slow": _Slow})
+    record: str | None = path(help="A record.")
+
+    def __post_init__(self):
+        check_options(self)
+
+
+def test_one_of_shows_and_checks_the_class_its_key_chooses():
+    assert [name for name, _ in declared(_Variant, {"kind": "slow"})] == ["steps", "record"]
+    assert [name for name, _ in declared(_Variant, {"kind": "fast", "record": None})] == ["speed"]
+    assert config_from(_Variant, {"steps": 3}, {"kind": "slow"}) == _Variant("slow", _Slow(3))
+    assert config_from(_Variant, {}, {"kind": "slow"}).plan is None  # none given: the class's defaults
+    with pytest.raises(ConfigError) as bad:  # the plan does not check itself; the config that holds it does
+        _Variant("fast", _Fast(speed=3.0))
+    assert str(bad.value) == "--speed: 3 is outside [0.5, 2] m/s"
+    with pytest.raises(ConfigError, match="plan: .* is not a _Slow"):
+        _Variant("slow", _Fast())
+    with pytest.raises(ConfigError) as bad:
+        _Variant("medium")
+    assert str(bad.value) == "KIND: 'medium' is not one of fast, slow"
 
 
 # ------------------------------------------------------------------------------- the stages
