@@ -184,7 +184,7 @@ class DeclaredList(click.ParamType):
         self.option = option
 
     def convert(self, value, param, ctx):
-        if isinstance(value, tuple):  # the default, already a value
+        if isinstance(value, tuple):  # a value already (a config's, not typed)
             return _checked(self.option, value, ctx)
         try:
             parsed = parse_list(self.option, value)
@@ -234,7 +234,8 @@ def declared_param(name: str, option: Option) -> click.Parameter:
     if option.default is MISSING:
         extra["required"] = True
     elif option.kind in ("numbers", "words") and option.default is not None:
-        extra.update(default=option.default, show_default=_list_text(option, option.default))
+        # as the user writes it (click shows a show_default text in parentheses): "10,20,30"
+        extra.update(default=_list_text(option, option.default), show_default=True)
     elif option.default is not None and not option.many:
         # click converts the default as it converts what the user types: in the command line's unit
         extra.update(default=option.default / option.scale if option.scale != 1.0 else option.default)

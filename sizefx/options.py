@@ -129,6 +129,7 @@ def number(
     scale: float = 1.0,
     flags: tuple = (),
     allow_none: bool = False,
+    metavar: str | None = None,
 ) -> Any:
     """A finite real in [low, high] (either end open) of ``unit`` (None: a pure number); the field
     holds ``scale`` times what the command line takes. Default None: the option may be left out;
@@ -145,6 +146,7 @@ def number(
         scale=scale,
         flags=flags,
         allow_none=allow_none,
+        metavar=metavar,
     )
 
 

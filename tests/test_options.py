@@ -148,7 +148,7 @@ def test_a_list_is_written_comma_separated_on_the_command_line():
         click.echo(repr(config_from(_Lists, values)))
 
     probe.params = declared_params(_Lists)
-    assert probe.params[1].show_default == "10,20" and probe.params[2].show_default == "a,b"
+    assert probe.params[1].default == "10,20" and probe.params[2].default == "a,b"  # as the user writes them
     ok = CliRunner().invoke(probe, ["--offset-mm", "1,0,-2", "--columns", "x,y"])
     assert ok.exit_code == 0 and "offset_mm=(1.0, 0.0, -2.0)" in ok.output and "('x', 'y')" in ok.output, ok.output
     for args, words_ in (
