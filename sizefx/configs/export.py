@@ -3,6 +3,7 @@ options (:class:`RosbagExportOptions`); the stage is :mod:`sizefx.exporters`."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -59,7 +60,7 @@ class ExportConfig:
         help="The file to write (csv: one header line), or the ROS 2 bag folder (rosbag: metadata.yaml and "
         "one storage file).",
     )
-    options: NoOptions | RosbagExportOptions | None = one_of("format", EXPORT_OPTIONS)
+    options: NoOptions | RosbagExportOptions | Mapping | None = one_of("format", EXPORT_OPTIONS)
     force: bool = force(
         "Replace the -o file if it exists, or the -o folder if it is a ROS 2 bag (never an input; any other "
         "folder is refused)."
@@ -71,9 +72,10 @@ class ExportConfig:
 
     def writer_options(self) -> dict:
         """The format's own options by name, as its exporter's ``write`` takes them."""
-        if self.options is None:  # never, once made: None is the format's defaults, made in __post_init__
-            return {}
-        return {f.name: getattr(self.options, f.name) for f in fields(self.options)}
+        options = self.options
+        # made into the format's class in __post_init__ (from None, the defaults, or a mapping by name)
+        assert options is not None and not isinstance(options, Mapping)
+        return {f.name: getattr(options, f.name) for f in fields(options)}
 
     def inputs(self) -> dict:
         return {"RECORD": self.record}
