@@ -199,13 +199,19 @@ def test_one_of_shows_and_checks_the_class_its_key_chooses():
 
 
 def _stages():
-    """(command path, config class, the command's own options, in order) of every stage made from its config."""
+    """(command path, config class, the command's own options, in order) of every stage made from its
+    config; a command per scenario or format (simulate, import, export) fixes one value of it."""
     from sizefx.configs.calibrate import CalibrateConfig
     from sizefx.configs.compare import CompareConfig
     from sizefx.configs.compensate import CompensateConfig
     from sizefx.configs.diagnose import DiagnoseConfig
+    from sizefx.configs.export import EXPORT_OPTIONS, ExportConfig
+    from sizefx.configs.import_ import IMPORT_OPTIONS, ImportConfig
     from sizefx.configs.inspect import InspectConfig
     from sizefx.configs.navigate import NavigateConfig
+    from sizefx.configs.plan import PlanConfig
+    from sizefx.configs.scenarios import SCENARIO_PLANS
+    from sizefx.configs.simulate import SimulateConfig
 
     return [
         (("inspect",), InspectConfig, ()),
@@ -214,12 +220,26 @@ def _stages():
         (("compensate",), CompensateConfig, ()),
         (("diagnose",), DiagnoseConfig, ()),
         (("navigate",), NavigateConfig, ("quiet",)),
+        (("plan",), PlanConfig, ()),
+        *[(("simulate", scenario), SimulateConfig, ("quiet",)) for scenario in SCENARIO_PLANS],
+        *[(("import", fmt), ImportConfig, ()) for fmt in IMPORT_OPTIONS],
+        *[(("export", fmt), ExportConfig, ()) for fmt in EXPORT_OPTIONS],
     ]
 
 
 STAGES = _stages()
 #: Fields a config has for Python callers only, with no option on the command line.
-LIBRARY_ONLY = {"CompensateConfig": {"centripetal"}, "NavConfig": {"model"}}
+LIBRARY_ONLY = {
+    "CompensateConfig": {"centripetal"},
+    "NavConfig": {"model"},
+    "SimulateConfig": {"overrides", "chunk_samples"},
+    # what a plan holds beyond the scenario's options: the table's ramps and dwells, the flight's
+    # manoeuvres and vibration, the tumble's amplitudes (the plan search and the tests set them)
+    "TurntablePlan": {"ramp_s", "dwell_s", "reposition_s", "settle_s"},
+    "SwayPlan": {"heading_deg"},
+    "FlightPlan": {"turn_rate_dps", "vib_rate_dps", "vib_accel_mps2", "cruise_pitch_deg", "weave_deg", "climb_step_m"},
+    "TumblePlan": {"amplitudes_deg", "freqs_hz"},
+}
 
 
 def _command(path: tuple) -> click.Command:
@@ -239,9 +259,11 @@ def test_every_field_of_a_stage_config_is_a_declared_option(path, config, own):
         for f in dataclasses.fields(current):
             if f.name in LIBRARY_ONLY.get(current.__name__, set()):
                 continue
-            assert "option" in f.metadata or "group" in f.metadata, f"{current.__name__}.{f.name} is not declared"
+            kinds = {"option", "group", "one_of"} & set(f.metadata)
+            assert kinds, f"{current.__name__}.{f.name} is not declared"
             configs += [f.metadata["group"]] if "group" in f.metadata else []
-    for name, option in declared(config):
+            configs += list(f.metadata["one_of"][1].values()) if "one_of" in f.metadata else []
+    for name, option in declared(config, _command(path).fixed):
         assert option.argument or option.help, f"{config.__name__}.{name} has no help"
         if option.kind == "number" and option.unit is not None:
             assert f"[{option.unit}" in option.help, f"{option.name}: help does not show [{option.unit}]"
@@ -251,11 +273,19 @@ def test_every_field_of_a_stage_config_is_a_declared_option(path, config, own):
 def test_the_stage_command_is_made_from_its_config(path, config, own):
     command = _command(path)
     assert command.config_class is config
-    names = [name for name, _ in declared(config)]
+    options = declared(config, command.fixed)
+    names = [name for name, _ in options]
     assert [p.name for p in command.params] == [*names, *own], "the declared options, in order, then the command's"
-    for param, (_, option) in zip(command.params, declared(config), strict=False):
+    assert not set(command.fixed) & {p.name for p in command.params}, "what the command fixes is no option of it"
+    for param, (_, option) in zip(command.params, options, strict=False):
         if option.argument is None:
             assert option.name in (*param.opts, *param.secondary_opts)
+
+
+#: The required options of import table-log and csv, on the command line and from Python.
+TABLE_LOG = ["--imu", "r.h5", "--axes", "z", "--time", "t", "--angles", "a"]
+CSV = ["--time", "t", "--gyro", "gx,gy,gz", "--accel", "ax,ay,az"]
+CSV_OPTIONS = dict(time="t", gyro=("gx", "gy", "gz"), accel=("ax", "ay", "az"))
 
 
 #: A bad value per stage: the command line's arguments, and the config that Python makes with it.
@@ -268,6 +298,30 @@ BAD_VALUES = [
     (["calibrate", "t.h5", "--triad-point", "middle"], lambda: _stage("calibrate", "CalibrateConfig", triad="middle")),
     (["diagnose", "m.h5", "--bandwidth-hz", "0"], lambda: _stage("diagnose", "DiagnoseConfig", bandwidth_hz=0.0)),
     (["diagnose", "m.h5", "--grade", "consumer"], lambda: _stage("diagnose", "DiagnoseConfig", grade="consumer")),
+    (["simulate", "turntable", "-o", "o.h5", "--cycles", "0"], lambda: _simulate("turntable", cycles=0)),
+    (
+        ["simulate", "sway", "-o", "o.h5", "--amplitudes-dps", "10,0"],
+        lambda: _simulate("sway", amplitudes_dps=(10.0, 0.0)),
+    ),
+    (["simulate", "flight", "-o", "o.h5", "--duration-h", "30"], lambda: _simulate("flight", duration_s=30 * 3600.0)),
+    (["simulate", "tumble", "-o", "o.h5", "--latitude-deg", "90"], lambda: _simulate("tumble", latitude_deg=90.0)),
+    (["simulate", "tumble", "-o", "o.h5", "--offset-mm", "1,2"], lambda: _simulate("tumble", offset_mm=(1.0, 2.0))),
+    (["import", "rosbag", "b", "-o", "o.h5", "--stamps", "sideways"], lambda: _import("rosbag", stamps="sideways")),
+    (
+        ["import", "table-log", "l.csv", "-o", "o.h5", *TABLE_LOG, "--mount-deg", "1,2"],
+        lambda: _import("table-log", imu_record="r.h5", axes=("z",), time="t", angles=("a",), mount_deg=(1.0, 2.0)),
+    ),
+    (
+        ["import", "csv", "s.csv", "-o", "o.h5", *CSV, "--rate-hz", "0"],
+        lambda: _import("csv", **CSV_OPTIONS, rate_hz=0.0),
+    ),
+    (["export", "rosbag", "r.h5", "-o", "bag", "--storage", "zip"], lambda: _export(storage="zip")),
+    (["export", "rosbag", "r.h5", "-o", "bag", "--frame", "enu"], lambda: _export(axes="enu")),
+    (["plan", "--budget-s", "300", "--noise-ug", "0"], lambda: _plan(0.0, budget_s=300.0)),
+    (
+        ["plan", "--noise-ug", "3", "--budget-s", "300", "--max-rate-dps", "0"],
+        lambda: _plan(3.0, 300.0, max_rate_dps=0.0),
+    ),
 ]
 
 
@@ -277,6 +331,41 @@ def _stage(module: str, name: str, **options):
 
     config = getattr(importlib.import_module(f"sizefx.configs.{module}"), name)
     return config(("t.h5",) if name == "CalibrateConfig" else "m.h5", **options)
+
+
+def _simulate(scenario: str, **options):
+    """``sizefx simulate SCENARIO -o o.h5`` made in Python: ``options`` of the plan, the site or the config."""
+    from sizefx.configs.scenarios import SCENARIO_PLANS, SiteSpec
+    from sizefx.configs.simulate import SimulateConfig
+
+    plan_class = SCENARIO_PLANS[scenario]
+    plan = {k: options.pop(k) for k in list(options) if k in {f.name for f in dataclasses.fields(plan_class)}}
+    site = {k: options.pop(k) for k in list(options) if k in {f.name for f in dataclasses.fields(SiteSpec)}}
+    return SimulateConfig(
+        scenario,
+        "o.h5",
+        plan=plan_class(**plan) if plan else None,
+        site=SiteSpec(**site) if site else None,
+        **options,
+    )
+
+
+def _import(fmt: str, **options):
+    from sizefx.configs.import_ import ImportConfig
+
+    return ImportConfig(fmt, "s", "o.h5", options=options)
+
+
+def _export(**options):
+    from sizefx.configs.export import ExportConfig
+
+    return ExportConfig("rosbag", "r.h5", "bag", options=options)
+
+
+def _plan(noise_ug: float, budget_s: float, **table):
+    from sizefx.configs.plan import PlanConfig, PlanRequest, TableLimits
+
+    return PlanConfig(PlanRequest(noise_ug, TableLimits(**table), budget_s=budget_s))
 
 
 def _navigate(**options):
@@ -300,3 +389,59 @@ def test_a_bad_value_is_refused_in_the_same_words_from_python_and_the_command_li
     result = CliRunner().invoke(main, args)
     lines = result.stderr.strip().splitlines()
     assert result.exit_code == 2 and len(lines) == 1 and words in lines[0], (words, result.stderr)
+
+
+def test_the_scenarios_and_formats_declared_are_those_the_stages_know():
+    """The configs name the scenarios and formats without numpy; the stages' tables of builders,
+    readers and writers (with numpy) must know the same ones."""
+    from sizefx import constants, exporters, frames, importers, simulate
+    from sizefx.configs.export import EXPORT_OPTIONS
+    from sizefx.configs.import_ import IMPORT_OPTIONS
+    from sizefx.configs.scenarios import SCENARIO_PLANS
+
+    assert list(IMPORT_OPTIONS) == list(importers.FORMATS)
+    assert list(EXPORT_OPTIONS) == list(exporters.FORMATS)
+    assert {name: plan for name, (_, plan) in simulate.SCENARIOS.items()} == SCENARIO_PLANS
+    assert constants.ROS_AXES_NAMES == tuple(frames.ROS_AXES)
+
+
+def test_a_format_option_a_reader_does_not_take_is_refused_when_the_config_is_made():
+    """Each declared option of a format is a keyword of its reader or writer, and a name neither
+    declares is refused before any file is read."""
+    import importlib
+    import inspect
+
+    from sizefx import exporters, importers
+    from sizefx.configs.export import EXPORT_OPTIONS
+    from sizefx.configs.import_ import IMPORT_OPTIONS, ImportConfig
+
+    for fmt, (module, function) in importers.FORMATS.items():
+        reader = inspect.signature(getattr(importlib.import_module(f"sizefx.importers.{module}"), function))
+        assert {name for name, _ in declared(IMPORT_OPTIONS[fmt])} <= set(reader.parameters), fmt
+    for fmt, module in exporters.FORMATS.items():
+        writer = inspect.signature(importlib.import_module(f"sizefx.exporters.{module}").write)
+        assert {name for name, _ in declared(EXPORT_OPTIONS[fmt])} <= set(writer.parameters), fmt
+    with pytest.raises(ConfigError) as bad:
+        ImportConfig("rosbag", "b", "o.h5", options={"topic": "/imu"})
+    assert str(bad.value) == (
+        "import rosbag: no option topic; its options: imu, reference, body_frame, stamps, frame, site_deg, navsat"
+    )
+
+
+def test_a_plan_file_beside_the_scenarios_own_options_is_refused_from_python_and_the_command_line():
+    """The command passes a plan only when the user gave one of its options (so --plan alone is
+    no conflict); the config names the options that set it, or all of them when one repeats a default."""
+    from sizefx.configs.scenarios import TurntablePlan
+    from sizefx.configs.simulate import SimulateConfig
+
+    words = "--plan p.toml holds the plan; leave out --cycles (or edit the plan file)"
+    with pytest.raises(ConfigError) as from_python:
+        SimulateConfig("turntable", "o.h5", plan=TurntablePlan(cycles=3), plan_path="p.toml")
+    assert str(from_python.value) == words
+    args = ["simulate", "turntable", "-o", "o.h5", "--plan", "p.toml"]
+    result = CliRunner().invoke(main, [*args, "--cycles", "3"])
+    assert result.exit_code == 2 and result.stderr.strip() == f"sizefx: error: {words}", result.stderr
+    repeated = CliRunner().invoke(main, [*args, "--cycles", "5"])
+    assert "leave out --vertical-axes, --static-s, --seconds-per-axis, --cycles," in repeated.stderr
+    alone = CliRunner().invoke(main, args)  # refused for the missing file, by the pre-flight
+    assert alone.exit_code == 2 and "holds the plan" not in alone.stderr and "p.toml" in alone.stderr
