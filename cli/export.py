@@ -1,22 +1,14 @@
-"""``sizefx export csv|rosbag RECORD -o OUT``."""
+"""``sizefx export csv|rosbag RECORD -o OUT``: each format's command is made from
+:class:`~sizefx.configs.export.ExportConfig` with the format fixed, its own options those of
+:data:`~sizefx.configs.export.EXPORT_OPTIONS`."""
 
 from __future__ import annotations
 
 import click
 
-from .options import force_option
+from sizefx.configs.export import ExportConfig
 
-
-def run_export(fmt, record, output, *, force, **options):
-    """Build the stage's config, run it, print its report (the library is imported when a command
-    runs, not for ``--help``)."""
-    from sizefx.exporters import ExportConfig, run
-
-    click.echo(run(ExportConfig(fmt, record, output, force=force, options=options)).report())
-
-
-def record_argument(f):
-    return click.argument("record", type=click.Path(dir_okay=False))(f)
+from .options import stage_command
 
 
 @click.group(name="export")
@@ -29,52 +21,35 @@ def export():
     """
 
 
-@export.command()
-@record_argument
-@click.option(
-    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV file to write (one header line)."
-)
-@force_option
-def csv(record, output, force):
+def _format(name: str):
+    """The command of the format ``name``, registered with the group."""
+
+    def decorator(f):
+        command = stage_command(ExportConfig, fixed={"format": name}, name=name)(f)
+        export.add_command(command)
+        return command
+
+    return decorator
+
+
+def _run(config):
+    from sizefx.exporters import run
+
+    click.echo(run(config).report())
+
+
+@_format("csv")
+def csv(config):
     """time_s, gyro_x..z [rad/s], accel_x..z [m/s^2] (increments: dtheta [rad], dvel [m/s]), body FRD.
 
     The columns sizefx import csv reads; the report prints the command that
     imports the file back.
     """
-    run_export("csv", record, output, force=force)
+    _run(config)
 
 
-@export.command()
-@record_argument
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(),
-    help="ROS 2 bag folder to write (metadata.yaml and one storage file); --force replaces only a bag.",
-)
-@click.option(
-    "--storage",
-    type=click.Choice(["mcap", "sqlite3"]),
-    default="mcap",
-    show_default=True,
-    help="Storage plug-in of the ROS 2 bag (as ros2 bag record --storage).",
-)
-@click.option(
-    "--imu-topic", "topic", metavar="TOPIC", help="Topic [default: the source bag's IMU topic, else /imu/data]."
-)
-@click.option("--frame-id", metavar="FRAME", help="header.frame_id [default: the source bag's, else imu_link].")
-@click.option(
-    "--frame",
-    "axes",
-    type=click.Choice(["flu", "frd"]),
-    help="Axes of the messages: flu (REP 103, forward-left-up) or frd (REP 103's *_ned frames) [default: the "
-    "source bag's, else flu].",
-)
-@force_option(
-    text="Replace the -o folder if it exists and is a ROS 2 bag (never an input; any other folder is refused)."
-)
-def rosbag(record, output, storage, topic, frame_id, axes, force):
+@_format("rosbag")
+def rosbag(config):
     """sensor_msgs/Imu in the source bag's frames, topic and stamps (needs pip install 'sizefx[ros]').
 
     \b
@@ -83,4 +58,4 @@ def rosbag(record, output, storage, topic, frame_id, axes, force):
     ROS estimator the corrected stream on the clock it came with. No
     orientation (orientation_covariance[0] = -1, REP 145). Rates only.
     """
-    run_export("rosbag", record, output, force=force, storage=storage, topic=topic, frame_id=frame_id, axes=axes)
+    _run(config)

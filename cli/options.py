@@ -10,7 +10,7 @@ import click
 
 from sizefx.errors import ConfigError
 from sizefx.io.documents import parse_toml
-from sizefx.options import Option, config_from, declared, refusal
+from sizefx.options import Option, chosen, config_from, declared, parse_list, refusal
 
 
 class Span(click.FloatRange):
@@ -174,8 +174,34 @@ class DeclaredChoice(click.Choice):
         return _checked(self.option, value, ctx)
 
 
+class DeclaredList(click.ParamType):
+    """A declared list (numbers, words), written comma-separated: parsed by the declaration's own
+    :func:`~sizefx.options.parse_list` and judged by it, in the same words as from Python."""
+
+    name = "text"
+
+    def __init__(self, option: Option):
+        self.option = option
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):  # a value already (a config's, not typed)
+            return _checked(self.option, value, ctx)
+        try:
+            parsed = parse_list(self.option, value)
+        except ConfigError as exc:
+            raise click.UsageError(str(exc), ctx) from None
+        return _checked(self.option, parsed, ctx)
+
+
+def _list_text(option: Option, value: tuple) -> str:
+    """A list's default as the command line writes it: ``10,20,30``."""
+    return ",".join(f"{v:.15g}" if option.kind == "numbers" else str(v) for v in value)
+
+
 def _type(option: Option):
     kind = option.kind
+    if kind in ("numbers", "words"):
+        return DeclaredList(option)
     if kind == "number":
         return DeclaredSpan(option)
     if kind == "integer":
@@ -207,6 +233,9 @@ def declared_param(name: str, option: Option) -> click.Parameter:
     extra = {}
     if option.default is MISSING:
         extra["required"] = True
+    elif option.kind in ("numbers", "words") and option.default is not None:
+        # as the user writes it (click shows a show_default text in parentheses): "10,20,30"
+        extra.update(default=_list_text(option, option.default), show_default=True)
     elif option.default is not None and not option.many:
         # click converts the default as it converts what the user types: in the command line's unit
         extra.update(default=option.default / option.scale if option.scale != 1.0 else option.default)
@@ -221,30 +250,53 @@ def declared_param(name: str, option: Option) -> click.Parameter:
     )
 
 
-def declared_params(config_class: type) -> list[click.Parameter]:
-    """The command line's parameters of every option ``config_class`` declares, in its order."""
-    return [declared_param(name, option) for name, option in declared(config_class)]
+def declared_params(config_class: type, fixed: dict | None = None) -> list[click.Parameter]:
+    """The command line's parameters of every option ``config_class`` declares, in its order (less
+    the fields ``fixed`` gives, :func:`sizefx.options.declared`)."""
+    return [declared_param(name, option) for name, option in declared(config_class, fixed)]
 
 
-def stage_command(config_class: type, **attrs):
+def _given(ctx: click.Context, names) -> bool:
+    """Whether any of the parameters ``names`` came from the user rather than from its default."""
+    from click.core import ParameterSource
+
+    defaults = (ParameterSource.DEFAULT, ParameterSource.DEFAULT_MAP, None)
+    return any(ctx.get_parameter_source(name) not in defaults for name in names)
+
+
+def stage_command(config_class: type, *, fixed: dict | None = None, **attrs):
     """``@click.command()`` for a stage: its arguments and options made from the options
     ``config_class`` declares (:mod:`sizefx.options`), then the command's own (``--quiet``, declared
     below this decorator as usual). The function is called with the config made from them and the
     command's own options by name; ``sizefx batch`` and ``sizefx run`` make their per-record configs
-    from the same declarations (the command's ``config_class``)."""
+    from the same declarations (the command's ``config_class``).
+
+    ``fixed``: the config's values this command fixes (``{"scenario": "flight"}``: one command per
+    scenario or format); a :func:`~sizefx.options.one_of` field shows the chosen class's options and
+    is left None (the class's defaults) when the user gives none of them, so that the config can
+    tell a plan given on the command line from none (``--plan FILE`` beside a scenario's options)."""
+    fixed = dict(fixed or {})
 
     def decorator(f):
-        names = [name for name, _ in declared(config_class)]
+        names = [name for name, _ in declared(config_class, fixed)]
+        variants = [[name for name, _ in declared(cls)] for cls in chosen(config_class, fixed).values()]
 
         def callback(**values):
-            config = config_from(config_class, {name: values.pop(name) for name in names})
+            mine = {name: values.pop(name) for name in names}
+            ctx = click.get_current_context()
+            for own in variants:
+                if not _given(ctx, own):
+                    for name in own:
+                        del mine[name]
+            config = config_from(config_class, mine, fixed)
             return f(config, **values)
 
         callback.__name__, callback.__doc__ = f.__name__, f.__doc__
         own = getattr(f, "__click_params__", [])  # click keeps them bottom-up and reverses them
-        callback.__click_params__ = [*own, *reversed(declared_params(config_class))]  # type: ignore[attr-defined]
+        callback.__click_params__ = [*own, *reversed(declared_params(config_class, fixed))]  # type: ignore[attr-defined]
         command = click.command(**attrs)(callback)
         command.config_class = config_class  # type: ignore[attr-defined]
+        command.fixed = fixed  # type: ignore[attr-defined]
         return command
 
     return decorator

@@ -28,11 +28,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .configs.batch import CHAIN_CONFIGS, chain_options
+from .configs.batch import CHAIN_CONFIGS, chain_options, option_values
 from .errors import ConfigError, SizefxError
 from .io.documents import write_json
 from .io.schema import as_json, check_document
-from .options import config_from, option_values
+from .options import config_from
 
 __all__ = [
     "CHAIN_STAGES",
@@ -89,7 +89,7 @@ def check_chain(names: list[str], *, navigate_corrects: bool = False, command: s
 
 def _stages(stages, *, command: str, batch: bool) -> list:
     """The chain as ``[(stage, options), ...]`` in the order given, each stage's options complete by
-    field name (:func:`sizefx.options.option_values`: what the command line gives, defaults
+    field name (:func:`sizefx.configs.batch.option_values`: what the command line gives, defaults
     included). ``stages``: a mapping ``{stage: options}`` or a sequence of ``(stage, options)``
     pairs (the command line's, which may repeat a stage for :func:`check_chain` to refuse). In a
     batch navigate's ``input`` is not an option: the flights are the batch's inputs."""

@@ -72,6 +72,13 @@ MAX_PLAN_S = 7500.0
 CORRECTION_MODES = ("triad", "center")
 #: Angular-acceleration estimators (``--estimator``, :mod:`sizefx.omegadot`).
 ESTIMATORS = ("central", "savgol", "increments")
+#: The axes of a ROS message's frames (``--frame`` of import and export rosbag): REP 103's
+#: forward-left-up, or its ``*_ned`` frames' forward-right-down; the names of
+#: :data:`sizefx.frames.ROS_AXES`, which holds their matrices.
+ROS_AXES_NAMES = ("flu", "frd")
+#: Storage plug-ins of a ROS 2 bag (``export rosbag --storage``): MCAP (the default since ROS 2 Iron) or sqlite3.
+ROS_STORAGES = ("mcap", "sqlite3")
+
 #: Sensor grades whose plausible ranges a diagnosis judges by (``--grade``,
 #: :mod:`sizefx.diagnose.plausibility`).
 GRADES = ("navigation", "tactical", "industrial")

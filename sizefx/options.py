@@ -3,8 +3,10 @@ check of every value.
 
 A stage's config (a frozen dataclass, :mod:`sizefx.configs`) declares each option as a field whose
 default is made here: :func:`number`, :func:`integer`, :func:`choice`, :func:`switch`, :func:`path`,
-:func:`text`, or :func:`group` (another config whose options are this one's too: navigate's
-:class:`~sizefx.navigate.NavConfig`). The field's metadata holds an :class:`Option`: how the user
+:func:`text`, :func:`numbers` and :func:`words` (a comma-separated list), or :func:`group` (another
+config whose options are this one's too: navigate's :class:`~sizefx.navigate.NavConfig`) and
+:func:`one_of` (the config of whichever class another field names: a simulated scenario's plan, an
+import format's own options). The field's metadata holds an :class:`Option`: how the user
 writes it (``--align-s``), its unit, valid range or choices, default and help. From it
 
 - the config checks its values (:func:`check_options`, from its ``__post_init__``), every refusal in
@@ -23,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import numbers
+import numbers as numeric  # the module; `numbers` is the declaration below
 import os
 from dataclasses import MISSING, dataclass
 from typing import Any
@@ -38,7 +40,10 @@ __all__ = [
     "switch",
     "path",
     "text",
+    "numbers",
+    "words",
     "group",
+    "one_of",
     "allow_gaps",
     "segment",
     "units_check",
@@ -47,14 +52,16 @@ __all__ = [
     "refusal",
     "check_options",
     "config_from",
-    "option_values",
     "interval",
+    "parse_list",
 ]
 
 #: A scaled value this close (relative) to a bound is at it: the unit's conversion rounds in the last bits.
 SCALED_TOLERANCE = 1e-12
 #: The kinds of value an option takes. Paths: a file, a folder, or either (a ROS 2 bag is a folder).
-KINDS = ("number", "integer", "choice", "switch", "file", "folder", "path", "text")
+KINDS = ("number", "integer", "choice", "switch", "file", "folder", "path", "text", "numbers", "words")
+#: The kinds whose value is a tuple that the command line writes as one comma-separated word.
+LISTS = ("numbers", "words")
 
 
 @dataclass(frozen=True)
@@ -86,6 +93,7 @@ class Option:
     metavar: str | None = None
     dash: bool = False  #: a path option that also takes '-' (stdout)
     allow_none: bool = False  #: None is a value too, though the default is not (the config says what it means)
+    count: int | None = None  #: a list's number of values (numbers, words); None: any number, at least one
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -121,6 +129,7 @@ def number(
     scale: float = 1.0,
     flags: tuple = (),
     allow_none: bool = False,
+    metavar: str | None = None,
 ) -> Any:
     """A finite real in [low, high] (either end open) of ``unit`` (None: a pure number); the field
     holds ``scale`` times what the command line takes. Default None: the option may be left out;
@@ -137,6 +146,7 @@ def number(
         scale=scale,
         flags=flags,
         allow_none=allow_none,
+        metavar=metavar,
     )
 
 
@@ -147,9 +157,17 @@ def integer(
     return _declare("integer", default, help=help, low=low, high=high, metavar=metavar, flags=flags)
 
 
-def choice(default, choices: tuple, *, help: str, flags: tuple = (), allow_none: bool = False) -> Any:
-    """One word of ``choices`` (or None when the default is None, or ``allow_none``)."""
-    return _declare("choice", default, help=help, choices=tuple(choices), flags=flags, allow_none=allow_none)
+def choice(
+    default, choices: tuple, *, help: str, flags: tuple = (), allow_none: bool = False, argument: str | None = None
+) -> Any:
+    """One word of ``choices`` (or None when the default is None, or ``allow_none``); ``argument``:
+    a required word a command fixes (``sizefx simulate SCENARIO``: each scenario its own command),
+    named so in a refusal."""
+    if argument is not None:
+        default = MISSING
+    return _declare(
+        "choice", default, help=help, choices=tuple(choices), flags=flags, allow_none=allow_none, argument=argument
+    )
 
 
 def switch(default: bool = False, *, help: str, flags: tuple = (), sets: bool | None = None) -> Any:
@@ -178,15 +196,70 @@ def path(
     return _declare(kind, default, help=help, flags=flags, argument=argument, many=many, metavar=metavar, dash=dash)
 
 
-def text(default=None, *, help: str, flags: tuple = (), metavar: str | None = None) -> Any:
-    """Free text the config interprets itself (a preset name or a file, a list of axes)."""
-    return _declare("text", default, help=help, flags=flags, metavar=metavar)
+def text(default=None, *, help: str, flags: tuple = (), metavar: str | None = None, many: bool = False) -> Any:
+    """Free text the config interprets itself (a preset name or a file, a list of axes); ``many``:
+    a repeatable option that collects a tuple (default empty)."""
+    if many and default is None:
+        default = ()
+    return _declare("text", default, help=help, flags=flags, metavar=metavar, many=many)
 
 
-def group(config_class: type) -> Any:
+def numbers(
+    default=None,
+    *,
+    help: str,
+    unit: str | None,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+    count: int | None = None,
+    metavar: str | None = None,
+    flags: tuple = (),
+) -> Any:
+    """A tuple of finite reals, each in [low, high] (either end open, or absent), ``count`` of them
+    (None: one or more); the command line writes them comma-separated (``--offset-mm 10,0,0``)."""
+    return _declare(
+        "numbers",
+        default,
+        help=help,
+        unit=unit,
+        low=low,
+        high=high,
+        low_open=low_open,
+        high_open=high_open,
+        count=count,
+        metavar=metavar,
+        flags=flags,
+    )
+
+
+def words(default=None, *, help: str, count: int | None = None, metavar: str | None = None, flags: tuple = ()) -> Any:
+    """A tuple of texts (column names, signed axes), ``count`` of them (None: one or more); the
+    command line writes them comma-separated (``--gyro gx,gy,gz``). What each word must be is the
+    reader's to judge (it knows the file's columns)."""
+    return _declare("words", default, help=help, count=count, metavar=metavar, flags=flags)
+
+
+def group(config_class: type, *, required: bool = False) -> Any:
     """A field holding another config whose declared options are this config's too (navigate's
-    ``options: NavConfig``); the command line shows them in its place."""
+    ``options: NavConfig``); the command line shows them in its place. The field defaults to that
+    config's defaults unless ``required`` (one with a required option of its own: plan's request)."""
+    if required:
+        return dataclasses.field(metadata={"group": config_class})
     return dataclasses.field(default_factory=config_class, metadata={"group": config_class})
+
+
+def one_of(key: str, classes: dict) -> Any:
+    """A field holding the config of the class ``classes[config.<key>]``: a simulated scenario's plan
+    (``key="scenario"``), an import format's own options. A command made for one value of ``key``
+    (:func:`declared`'s ``fixed``) shows that class's options in the field's place. Default None:
+    the class's defaults, as the config that holds the field reads it.
+
+    Unlike a :func:`group`'s, the class's options are checked here, by the config that holds them
+    (:func:`check_options`): a scenario's plan is plain data that other code also builds, with
+    values no command line would give (a sway of zero amplitude, the plan search's candidates)."""
+    return dataclasses.field(default=None, metadata={"one_of": (key, dict(classes))})
 
 
 # --------------------------------------------------------------- options several stages share
@@ -234,13 +307,36 @@ def force(help: str = "Replace the -o file if it exists (never an input).") -> A
 # ------------------------------------------------------------------------ reading and checking
 
 
-def declared(config_class: Any) -> tuple[tuple[str, Option], ...]:
+def chosen(config_class: Any, fixed: dict | None) -> dict:
+    """``{field name: class}`` of every :func:`one_of` field of ``config_class`` whose key ``fixed``
+    gives (a command for one scenario or format)."""
+    fixed = fixed or {}
+    out = {}
+    for f in dataclasses.fields(config_class):
+        if "one_of" in f.metadata:
+            key, classes = f.metadata["one_of"]
+            if fixed.get(key) in classes:
+                out[f.name] = classes[fixed[key]]
+    return out
+
+
+def declared(config_class: Any, fixed: dict | None = None) -> tuple[tuple[str, Option], ...]:
     """``(field name, Option)`` of every option a config declares, in field order, a :func:`group`'s
-    in its place; the flags filled in (``--`` and the name with dashes where none are given)."""
+    in its place; the flags filled in (``--`` and the name with dashes where none are given).
+
+    ``fixed``: values a command fixes (``{"scenario": "flight"}``): those fields are no options of
+    it, and a :func:`one_of` field whose key it fixes shows the chosen class's options in its place
+    (without the key, a :func:`one_of` field shows none)."""
+    fixed = fixed or {}
+    variants = chosen(config_class, fixed)
     found: list[tuple[str, Option]] = []
     for f in dataclasses.fields(config_class):
+        if f.name in fixed:
+            continue
         if "group" in f.metadata:
             found += declared(f.metadata["group"])
+        elif f.name in variants:
+            found += declared(variants[f.name])
         elif "option" in f.metadata:
             option = f.metadata["option"]
             if not option.flags and option.argument is None:
@@ -270,7 +366,7 @@ def interval(option: Option) -> str:
 
 
 def _shown(value, scale: float = 1.0) -> str:
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+    if isinstance(value, numeric.Real) and not isinstance(value, bool):
         return f"{float(value) / scale:.15g}"
     return repr(value)
 
@@ -281,9 +377,9 @@ def _is_path(value) -> bool:
 
 def _one(option: Option, value) -> str | None:
     """Why one value is wrong for ``option`` (the words after the option's name), or None."""
-    kind = option.kind
+    kind = {"numbers": "number", "words": "text"}.get(option.kind, option.kind)  # a list's values, each
     if kind in ("number", "integer"):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral if kind == "integer" else numbers.Real):
+        if isinstance(value, bool) or not isinstance(value, numeric.Integral if kind == "integer" else numeric.Real):
             return f"{_shown(value)} is not {'an integer' if kind == 'integer' else 'a number'}"
         shown, value = _shown(value, option.scale), float(value)
         if not math.isfinite(value):
@@ -314,9 +410,14 @@ def refusal(option: Option, value) -> str | None:
     where the default is None (the option left out)."""
     if value is None:
         return None if option.default is None or option.allow_none else f"{option.name}: give a value (None is not one)"
-    if option.many and (isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list))):
+    if (option.many or option.kind in LISTS) and (
+        isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list))
+    ):
         return f"{option.name}: {_shown(value)} is not a tuple of values"
-    values = value if option.many else (value,)
+    if option.kind in LISTS and (len(value) != option.count if option.count is not None else not value):
+        wanted = f"give {option.count}" if option.count is not None else "give at least one"
+        return f"{option.name}: {len(value)} values; {wanted}" + (f" ({option.metavar})" if option.metavar else "")
+    values = value if option.many or option.kind in LISTS else (value,)
     problem = next((p for p in map(functools.partial(_one, option), values) if p is not None), None)
     return None if problem is None else f"{option.name}: {problem}"
 
@@ -330,22 +431,39 @@ def check_options(config) -> None:
         value = getattr(config, f.name)
         if "group" in f.metadata and not isinstance(value, f.metadata["group"]):
             raise ConfigError(f"{f.name}: {value!r} is not a {f.metadata['group'].__name__}")
+        if "one_of" in f.metadata and value is not None:
+            key, classes = f.metadata["one_of"]
+            wanted = classes.get(getattr(config, key))
+            if wanted is not None and not isinstance(value, wanted):
+                raise ConfigError(f"{f.name}: {value!r} is not a {wanted.__name__} ({key} {getattr(config, key)})")
+            check_options(value)
         if "option" in f.metadata:
             problem = refusal(options[f.name], value)
             if problem is not None:
                 raise ConfigError(problem)
 
 
-def config_from(config_class: type, values: dict):
+def config_from(config_class: type, values: dict, fixed: dict | None = None):
     """``config_class`` made from option values by field name, as the command line parses them (a
-    :func:`group`'s config made from its own); an option left out keeps its default."""
-    known = {name for name, _ in declared(config_class)}
+    :func:`group`'s config made from its own); an option left out keeps its default. ``fixed``: the
+    values a command fixes (:func:`declared`); a :func:`one_of` field is made of the chosen class
+    when any of its options is given, and keeps its default (None) otherwise."""
+    fixed = fixed or {}
+    known = {name for name, _ in declared(config_class, fixed)}
     unknown = set(values) - known
     if unknown:
         raise TypeError(f"{config_class.__name__} declares no option {', '.join(sorted(unknown))}")
-    kwargs = {}
+    variants = chosen(config_class, fixed)
+    kwargs = dict(fixed)
     for f in dataclasses.fields(config_class):
-        if "group" in f.metadata:
+        if f.name in fixed:
+            continue
+        if f.name in variants:
+            own = {name for name, _ in declared(variants[f.name])}
+            given = {k: v for k, v in values.items() if k in own}
+            if given:
+                kwargs[f.name] = config_from(variants[f.name], given)
+        elif "group" in f.metadata:
             inner = f.metadata["group"]
             own = {name for name, _ in declared(inner)}
             kwargs[f.name] = config_from(inner, {k: v for k, v in values.items() if k in own})
@@ -354,60 +472,16 @@ def config_from(config_class: type, values: dict):
     return config_class(**kwargs)
 
 
-def _plain(value):
-    """A value as the command line gives it: a path as text, a list as a tuple."""
-    if isinstance(value, os.PathLike):
-        return os.fspath(value)
-    if isinstance(value, (list, tuple)):
-        return tuple(_plain(v) for v in value)
-    return value
-
-
-def _declared_values(config) -> dict:
-    """Every declared option of the config ``config`` by field name, a :func:`group`'s in its place."""
-    values = {}
-    for f in dataclasses.fields(config):
-        if "group" in f.metadata:
-            values.update(_declared_values(getattr(config, f.name)))
-        elif "option" in f.metadata:
-            values[f.name] = getattr(config, f.name)
-    return values
-
-
-def option_values(config_class: type, given, *, offered, where: str) -> dict:
-    """The options a caller in Python gives a stage of ``config_class`` that runs as a batch's record
-    or a chain's step, complete as the command line gives them: every option named in ``offered``
-    (field names), those ``given`` first in their order, the others at their declared default (an
-    option without one left out). Paths come back as text and sequences as tuples, so that the
-    manifest and run.json hold what the command would write.
-
-    ``given``: None, a mapping by field name, or a config whose declared options are read (a
-    :func:`group`'s, such as navigate's ``NavConfig``, or the stage's own config as a template: the
-    options ``offered`` leaves out, its record and outputs, are not read from it). A name the config
-    does not declare, or one that ``offered`` leaves out (the batch or the chain names it), is
-    refused in one line (:class:`~sizefx.errors.ConfigError`) that begins with ``where``."""
-    offered = tuple(offered)
-    declared_here = {name: option for name, option in declared(config_class)}
-    if given is None:
-        values = {}
-    elif dataclasses.is_dataclass(given) and not isinstance(given, type):
-        values = {k: v for k, v in _declared_values(given).items() if k in offered}
-    elif hasattr(given, "keys"):
-        values = dict(given)
-        for name in values:
-            if name not in declared_here:
-                raise ConfigError(
-                    f"{where}: {config_class.__name__} has no option {name!r}; give some of {', '.join(offered)}"
-                )
-            if name not in offered:
-                raise ConfigError(
-                    f"{where}: {name!r} is not an option here: the batch or the chain sets it (the record, "
-                    "the outputs, force); leave it out"
-                )
-    else:
-        raise ConfigError(f"{where}: give the options as a dict by name or a config, not {type(given).__name__}")
-    out = {name: _plain(value) for name, value in values.items()}
-    for name in offered:
-        if name not in out and declared_here[name].default is not MISSING:
-            out[name] = declared_here[name].default
-    return out
+def parse_list(option: Option, text: str) -> tuple:
+    """A list option's value as the command line writes it (``"10,0,0"``) -> a tuple (of floats for
+    :func:`numbers`, of texts for :func:`words`), for :func:`refusal` to judge; text that is not
+    comma-separated numbers refused as :class:`~sizefx.errors.ConfigError`, in the same words."""
+    parts = text.split(",")
+    if option.kind == "words":
+        return tuple(parts)
+    try:
+        return tuple(float(p) for p in parts)
+    except ValueError:
+        shown = text if len(text) <= 60 else text[:60] + "..."
+        wanted = f"{option.count} comma-separated numbers" if option.count else "a list of numbers (comma-separated)"
+        raise ConfigError(f"{option.name}: {shown!r} is not {wanted}") from None

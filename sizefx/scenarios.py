@@ -3,15 +3,26 @@
 Each builder returns a :class:`~sizefx.motion.Trajectory` of the reference
 point (the table's rotation centre, or the vehicle's navigation point) and a
 dict of the parameters used, which the simulator stores in ``/simulation``.
+The plans and the site, with their options declared, are :mod:`sizefx.configs.scenarios`
+(without numpy, for the command line's help); they are re-exported here.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 
-from .constants import DEG, PAPER_AIRFIELD_DEG, SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
+from .configs.scenarios import (
+    PAPER_AIRFIELD,
+    TABLE_ORIENTATIONS_DEG,
+    FlightPlan,
+    SiteSpec,
+    SwayPlan,
+    TumblePlan,
+    TurntablePlan,
+)
+from .constants import DEG, SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 from .errors import ConfigError
 from .motion import (
     ConstantProfile,
@@ -33,6 +44,7 @@ __all__ = [
     "TurntablePlan",
     "SwayPlan",
     "FlightPlan",
+    "TumblePlan",
     "turntable",
     "sway",
     "flight",
@@ -45,89 +57,7 @@ E_EAST = np.array([0.0, 1.0, 0.0])
 E_DOWN = np.array([0.0, 0.0, 1.0])
 
 
-@dataclass
-class SiteSpec:
-    """Site or start position in degrees and metres (CLI units)."""
-
-    latitude_deg: float = PAPER_AIRFIELD_DEG[0]
-    longitude_deg: float = PAPER_AIRFIELD_DEG[1]
-    height_m: float = PAPER_AIRFIELD_DEG[2]
-
-    def radians(self):
-        return self.latitude_deg * DEG, self.longitude_deg * DEG, self.height_m
-
-
-#: The paper's airfield "Lugovskoe" (start of the flight test); see
-#: :data:`sizefx.constants.PAPER_AIRFIELD_DEG`.
-PAPER_AIRFIELD = SiteSpec()
-
-
 # --------------------------------------------------------------------------- turntable
-
-#: Gimbal angles (middle about north, inner about east), in degrees, that put
-#: body axis X, Y or Z along the table's vertical (down) axis.
-TABLE_ORIENTATIONS_DEG = {"X": (0.0, -90.0), "Y": (90.0, 0.0), "Z": (0.0, 0.0)}
-
-
-@dataclass
-class TurntablePlan:
-    """The paper's calibration plan (Fig. 4, 5): rotations about Y, then X, then Z.
-
-    Each axis in turn is vertical; the outer (azimuth) axis swings it through
-    ``cycles`` positive and negative rotations in ``seconds_per_axis``: dwell,
-    jerk-limited acceleration to ``peak_rate_dps`` at ``accel_dps2``, cruise,
-    deceleration, dwell, then the same negative.
-    """
-
-    axes: str = "YXZ"
-    static_s: float = 60.0
-    seconds_per_axis: float = 120.0
-    cycles: int = 5
-    peak_rate_dps: float = 20.0
-    accel_dps2: float = 10.0
-    ramp_s: float = 0.5  #: duration of each jerk-limited acceleration transition
-    dwell_s: float = 0.5  #: rest at each end of a rotation
-    reposition_s: float = 10.0
-    settle_s: float = 10.0
-
-    @property
-    def overhead_s(self) -> float:
-        """Seconds not spent rotating: the lead-in, the turns to each next axis, the last settling."""
-        return self.static_s + (len(self.axes) - 1) * (self.reposition_s + self.settle_s) + self.settle_s
-
-    @property
-    def duration_s(self) -> float:
-        """Seconds the plan takes (:func:`turntable`'s trajectory is this long)."""
-        return self.overhead_s + len(self.axes) * self.seconds_per_axis
-
-    def check(self):
-        if not self.axes or any(a not in TABLE_ORIENTATIONS_DEG for a in self.axes):
-            raise ConfigError(f"turntable axes '{self.axes}': use letters X, Y, Z (e.g. YXZ)")
-        for name in (
-            "static_s",
-            "seconds_per_axis",
-            "peak_rate_dps",
-            "accel_dps2",
-            "ramp_s",
-            "reposition_s",
-            "settle_s",
-        ):
-            if not getattr(self, name) > 0:
-                raise ConfigError(f"turntable: {name} = {getattr(self, name)} must be positive")
-        if self.dwell_s < 0:
-            raise ConfigError(f"turntable: dwell_s = {self.dwell_s} must not be negative")
-        half = self.seconds_per_axis / (2 * self.cycles)
-        # ProfileBuilder.change_rate: ramp, hold, ramp; with no room for a hold it takes two ramps
-        spin = max(self.peak_rate_dps / self.accel_dps2, self.ramp_s) + self.ramp_s
-        cruise = half - 2 * spin - 2 * self.dwell_s
-        if cruise <= 0:
-            raise ConfigError(
-                f"turntable: {self.cycles} cycles (--cycles) in {self.seconds_per_axis} s "
-                f"(--seconds-per-axis) leave no time at {self.peak_rate_dps} deg/s (--peak-rate-dps) "
-                f"reached at {self.accel_dps2} deg/s^2 (--accel-dps2); allow more seconds per axis, "
-                "fewer cycles, a lower rate or a higher acceleration"
-            )
-        return half, cruise
 
 
 def turntable(plan: TurntablePlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:
@@ -185,35 +115,6 @@ def turntable(plan: TurntablePlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Tra
 # --------------------------------------------------------------------------- sway
 
 
-@dataclass
-class SwayPlan:
-    """The paper's sway test: static, then rate = A sin(2 pi f t) for each amplitude in turn."""
-
-    axis: str = "heading"  #: heading (about down), roll (about body x) or pitch (about body y)
-    amplitudes_dps: tuple = (10.0, 20.0, 30.0)
-    frequency_hz: float = 1.0
-    static_s: float = 600.0
-    segment_s: float = 600.0
-    heading_deg: float = 0.0
-
-    @property
-    def duration_s(self) -> float:
-        """Seconds the plan takes (:func:`sway`'s trajectory is this long)."""
-        return self.static_s + len(self.amplitudes_dps) * self.segment_s
-
-    def check(self):
-        if not (self.frequency_hz > 0 and self.static_s > 0 and self.segment_s > 0):
-            raise ConfigError("sway: --frequency-hz, --static-s and --segment-s must be positive")
-        if self.axis not in ("heading", "roll", "pitch"):
-            raise ConfigError(f"sway axis '{self.axis}': use heading, roll or pitch")
-        cycles = self.segment_s * self.frequency_hz
-        if abs(cycles - round(cycles)) > 1e-9 or round(cycles) < 1:
-            raise ConfigError(
-                f"sway: {self.segment_s} s (--segment-s) at {self.frequency_hz} Hz (--frequency-hz) "
-                "is not a whole number of periods; choose a segment that is"
-            )
-
-
 def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, dict]:
     plan.check()
     n = len(plan.amplitudes_dps)
@@ -239,29 +140,6 @@ def sway(plan: SwayPlan, site: SiteSpec = PAPER_AIRFIELD) -> tuple[Trajectory, d
 
 
 # --------------------------------------------------------------------------- flight
-
-
-@dataclass
-class FlightPlan:
-    """A helicopter-like flight: align, take off, out, turn, back to the start, land.
-
-    Rotor-induced vibration: angular (roll, pitch, yaw) and linear (N, E, D) at
-    the first, second and fourth harmonics of ``rotor_hz``, fading in 120 s
-    before take-off and out after landing.
-    """
-
-    duration_s: float = 1.8 * 3600.0
-    align_s: float = 600.0
-    speed_mps: float = 40.0
-    altitude_m: float = 300.0
-    heading_deg: float = 45.0
-    turn_rate_dps: float = 3.0
-    rotor_hz: float = 8.0
-    vib_rate_dps: tuple = (1.5, 1.0, 0.5)  #: roll, pitch, yaw rate amplitude at 1x rotor; halved at 2x, quartered at 4x
-    vib_accel_mps2: tuple = (0.3, 0.3, 1.0)  #: N, E, D acceleration amplitude at 2x rotor
-    cruise_pitch_deg: float = -3.0  #: nose-down attitude at cruise speed
-    weave_deg: float = 10.0  #: S-turn manoeuvre on the way out (0: none)
-    climb_step_m: float = 150.0  #: climb and descent manoeuvre on the way back (0: none)
 
 
 def _flat_plan(speed, track, t_end, dt=0.5):
@@ -468,19 +346,8 @@ def tumble(
     )
 
 
-@dataclass
-class TumblePlan:
-    """A diagnosis record: the table tumbles about ``axes`` (see :func:`tumble`)."""
-
-    duration_s: float = 120.0
-    axes: str = "zyx"
-    amplitudes_deg: tuple = (120.0, 70.0, 80.0)
-    freqs_hz: tuple = (0.05, 0.083, 0.117)
-
-
 def tumble_scenario(plan: TumblePlan, site: SiteSpec = PAPER_AIRFIELD):
     """:func:`tumble` from a plan, with the plan as the scenario's parameters."""
-    if not plan.axes or set(plan.axes) - set("xyz"):
-        raise ConfigError(f"--gimbals '{plan.axes}': use a subset of x, y, z (e.g. zyx, or z for the vertical only)")
+    plan.check()
     traj = tumble(plan.duration_s, site, amplitudes_deg=plan.amplitudes_deg, freqs_hz=plan.freqs_hz, axes=plan.axes)
     return traj, asdict(plan)

@@ -52,9 +52,9 @@ def test_a_rejected_import_leaves_no_output(tmp_path):
     [
         (["simulate", "turntable", "--reference-rate-hz", "7"], "must divide the IMU rate"),
         (["simulate", "sway", "--amplitudes-dps", "10,x"], "not a list of numbers"),
-        (["simulate", "turntable", "--static-s", "0"], "'--static-s': 0.0 is not in the range 1.0<=x"),
-        (["simulate", "turntable", "--accel-dps2", "0"], "'--accel-dps2': 0.0 is not in the range 0.01<=x"),
-        (["simulate", "turntable", "--accel-dps2", "nan"], "'nan' is not a finite number"),
+        (["simulate", "turntable", "--static-s", "0"], "--static-s: 0 is outside [1, 86400] s"),
+        (["simulate", "turntable", "--accel-dps2", "0"], "--accel-dps2: 0 is outside [0.01, 100000] deg/s^2"),
+        (["simulate", "turntable", "--accel-dps2", "nan"], "nan is not a finite number"),
     ],
 )
 def test_bad_simulate_options_are_one_line(tmp_path, args, words):

@@ -1131,17 +1131,36 @@ def first_paragraph(doc: str | None) -> str:
     return blocks[0] if blocks and not blocks[0].startswith("```") else ""
 
 
+def list_text(option) -> str:
+    """A list option's valid values: ``3 values [mm]``, ``one or more, each in (0, 5000] deg/s``."""
+    from sizefx.options import interval
+
+    many = f"{option.count} values" if option.count else "one or more"
+    if option.low is None and option.high is None:
+        return many + (f" [{option.unit}]" if option.unit else "")
+    return f"{many}, each in {interval(option)}"
+
+
 def option_text(field: dataclasses.Field, options: dict) -> str:
     """A declared option's description (:mod:`sizefx.options`): how the command line writes it, its
-    valid values, its help; a group's: whose options it holds."""
+    valid values, its help; a group's (or a one_of's): whose options it holds."""
     from sizefx.options import interval
 
     if "group" in field.metadata:
         return f"the options of {code(field.metadata['group'].__name__)}, declared there"
+    if "one_of" in field.metadata:
+        key, classes = field.metadata["one_of"]
+        chosen = ", ".join(f"{name}: {code(cls.__name__)}" for name, cls in classes.items())
+        return f"the options of the class `{key}` chooses ({chosen}), declared there; None: its defaults"
     option = options.get(field.name)
     if option is None:
         return ""
-    valid = {"number": interval(option), "integer": interval(option), "choice": " | ".join(option.choices)}
+    valid = {
+        "number": interval(option),
+        "integer": interval(option),
+        "choice": " | ".join(option.choices),
+        "numbers": list_text(option),
+    }
     parts = [code(option.name)] + ([code(valid[option.kind])] if option.kind in valid else [])
     if option.kind == "switch" and not option.sets and not any("/" in f for f in option.flags):
         parts[0] += " sets it False"

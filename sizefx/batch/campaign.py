@@ -17,9 +17,9 @@ import os
 from dataclasses import MISSING
 from pathlib import Path
 
-from ..configs.batch import MAX_WORKERS, MEMORY_MIB_RANGE, BatchStage, batch_options, batch_stage
+from ..configs.batch import MAX_WORKERS, MEMORY_MIB_RANGE, BatchStage, batch_options, batch_stage, option_values
 from ..errors import ConfigError
-from ..options import config_from, declared, option_values
+from ..options import config_from, declared
 from . import runner
 from .inputs import check_out_dir, check_stage_options, expand_inputs, output_names, pair_inputs
 from .manifest import Manifest, canonical_options

@@ -10,9 +10,13 @@ declared option on its own (:func:`sizefx.options.check_options`), then its rule
 
 from __future__ import annotations
 
-from ..errors import ConfigError
+from collections.abc import Mapping
+from dataclasses import dataclass
 
-__all__ = ["refuse_levers_and_model"]
+from ..errors import ConfigError
+from ..options import config_from, declared
+
+__all__ = ["refuse_levers_and_model", "NoOptions", "format_options"]
 
 
 def refuse_levers_and_model(levers, model) -> None:
@@ -22,3 +26,24 @@ def refuse_levers_and_model(levers, model) -> None:
         raise ConfigError(
             "--levers and --model both given: the effect model has its own lever arms ([lever_arm]); give one of them"
         )
+
+
+@dataclass(frozen=True)
+class NoOptions:
+    """The options of a format that takes none of its own (``sizefx import psins-imu``, ``export csv``)."""
+
+
+def format_options(command: str, fmt: str, classes: dict, given):
+    """A format's own options as the config holds them: an instance of ``classes[fmt]`` (the
+    :func:`~sizefx.options.one_of` field's), made from a mapping of them by name (a Python caller's
+    ``options={"stamps": "receive"}``), or its defaults for None; anything else is left for
+    :func:`~sizefx.options.check_options` to refuse. An unknown format is left alone: its
+    declaration refuses it."""
+    chosen = classes.get(fmt)
+    if chosen is None or not (given is None or isinstance(given, Mapping)):
+        return given
+    names = [name for name, _ in declared(chosen)]
+    unknown = sorted(set(given or {}) - set(names))
+    if unknown:
+        raise ConfigError(f"{command} {fmt}: no option {', '.join(unknown)}; its options: {', '.join(names) or 'none'}")
+    return config_from(chosen, dict(given or {}))

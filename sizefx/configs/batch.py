@@ -7,14 +7,17 @@ each output, the plots written with ``with_plots``), pairs compare's other solut
 with each record by name, and offers the rest of the stage's options unchanged; a chain names
 every stage's outputs in its folder and passes each stage's outputs to the next
 (:data:`CHAIN_NAMED`). The command line builds ``sizefx batch STAGE`` and ``sizefx run``'s stages
-from these tables, and :mod:`sizefx.batch` and :mod:`sizefx.chain` the configs: one table, so that
-an option can never mean something else in a batch. Like the other configs, this module imports
+from these tables, and :mod:`sizefx.batch` and :mod:`sizefx.chain` the configs (from options a
+Python caller gives by name or as a config: :func:`option_values`): one table, so that an option
+can never mean something else in a batch. Like the other configs, this module imports
 only the standard library and :mod:`sizefx.options` (``sizefx --help`` reads it).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import dataclasses
+import os
+from dataclasses import MISSING, dataclass, field
 
 from ..errors import ConfigError
 from ..options import declared
@@ -35,6 +38,7 @@ __all__ = [
     "batch_stage",
     "batch_options",
     "chain_options",
+    "option_values",
 ]
 
 
@@ -131,3 +135,62 @@ def chain_options(stage: str) -> tuple:
     """The field names of the options ``stage`` takes in a chain, in its config's order (the record
     that the chain reads included: navigate's ``input``, calibrate's ``records``)."""
     return tuple(name for name, _ in declared(CHAIN_CONFIGS[stage]) if name not in CHAIN_NAMED[stage])
+
+
+def _plain(value):
+    """A value as the command line gives it: a path as text, a list as a tuple."""
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, (list, tuple)):
+        return tuple(_plain(v) for v in value)
+    return value
+
+
+def _declared_values(config) -> dict:
+    """Every declared option of the config ``config`` by field name, a :func:`group`'s in its place."""
+    values = {}
+    for f in dataclasses.fields(config):
+        if "group" in f.metadata:
+            values.update(_declared_values(getattr(config, f.name)))
+        elif "option" in f.metadata:
+            values[f.name] = getattr(config, f.name)
+    return values
+
+
+def option_values(config_class: type, given, *, offered, where: str) -> dict:
+    """The options a caller in Python gives a stage of ``config_class`` that runs as a batch's record
+    or a chain's step, complete as the command line gives them: every option named in ``offered``
+    (field names), those ``given`` first in their order, the others at their declared default (an
+    option without one left out). Paths come back as text and sequences as tuples, so that the
+    manifest and run.json hold what the command would write.
+
+    ``given``: None, a mapping by field name, or a config whose declared options are read (a
+    :func:`group`'s, such as navigate's ``NavConfig``, or the stage's own config as a template: the
+    options ``offered`` leaves out, its record and outputs, are not read from it). A name the config
+    does not declare, or one that ``offered`` leaves out (the batch or the chain names it), is
+    refused in one line (:class:`~sizefx.errors.ConfigError`) that begins with ``where``."""
+    offered = tuple(offered)
+    declared_here = {name: option for name, option in declared(config_class)}
+    if given is None:
+        values = {}
+    elif dataclasses.is_dataclass(given) and not isinstance(given, type):
+        values = {k: v for k, v in _declared_values(given).items() if k in offered}
+    elif hasattr(given, "keys"):
+        values = dict(given)
+        for name in values:
+            if name not in declared_here:
+                raise ConfigError(
+                    f"{where}: {config_class.__name__} has no option {name!r}; give some of {', '.join(offered)}"
+                )
+            if name not in offered:
+                raise ConfigError(
+                    f"{where}: {name!r} is not an option here: the batch or the chain sets it (the record, "
+                    "the outputs, force); leave it out"
+                )
+    else:
+        raise ConfigError(f"{where}: give the options as a dict by name or a config, not {type(given).__name__}")
+    out = {name: _plain(value) for name, value in values.items()}
+    for name in offered:
+        if name not in out and declared_here[name].default is not MISSING:
+            out[name] = declared_here[name].default
+    return out

@@ -11,7 +11,7 @@
     (:mod:`sizefx.exporters.rosbag`).
 
 The stage (:class:`ExportConfig` -> :func:`run` -> :class:`ExportResult`, see :mod:`sizefx.stage`)
-reads the record through the validating reader (whole: at most
+(its options declared in :mod:`sizefx.configs.export`) reads the record through the validating reader (whole: at most
 :data:`~sizefx.constants.MAX_WHOLE_READ_ROWS` rows; gaps, declared or not, go out as they are)
 and writes the output atomically, never over an input. Each exporter module exposes
 ``write(tel, output, *, force, inputs, **options) -> ExportDetails``.
@@ -20,44 +20,18 @@ and writes the output atomically, never over an input. Each exporter module expo
 from __future__ import annotations
 
 import importlib
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
-from types import MappingProxyType
-from typing import Any
 
-from ..errors import ConfigError, TelemetryError
+from ..configs.export import ExportConfig
+from ..errors import TelemetryError
 from ..io.telemetry import Provenance, read_telemetry
 
 __all__ = ["FORMATS", "ExportConfig", "ExportDetails", "ExportResult", "run", "refuse_separate_accel_stamps"]
 
-#: format name -> the module of this package that writes it
+#: format name -> the module of this package that writes it (the formats of
+#: :data:`sizefx.configs.export.EXPORT_OPTIONS`, which declares each one's own options)
 FORMATS = {"csv": "table", "rosbag": "rosbag"}
-
-
-@dataclass(frozen=True)
-class ExportConfig:
-    """What ``sizefx export FORMAT RECORD -o OUTPUT`` is asked to do (see :mod:`sizefx.stage`).
-
-    ``options`` are the exporter's own (``write(tel, output, **options)`` of the module
-    :data:`FORMATS` names): for ``rosbag`` ``storage`` (mcap | sqlite3), ``topic``, ``frame_id``,
-    ``axes`` (flu | frd).
-    """
-
-    format: str  #: one of :data:`FORMATS`
-    record: str | Path  #: the sizefx/telemetry/1 file to export
-    output: str | Path  #: the file (csv) or folder (a ROS 2 bag) to write
-    force: bool = False  #: replace ``output`` if it exists (never an input; a folder only if it is a bag)
-    options: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self):
-        object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
-
-    def inputs(self) -> dict:
-        return {"RECORD": self.record}
-
-    def outputs(self) -> dict:
-        return {"-o": self.output}
 
 
 @dataclass
@@ -136,15 +110,15 @@ def run(config: ExportConfig, *, progress=None) -> ExportResult:
     """
     from ..stage import preflight
 
-    if config.format not in FORMATS:
-        raise ConfigError(f"export: unknown format '{config.format}'; use one of {', '.join(FORMATS)}")
     module = importlib.import_module(f"{__name__}.{FORMATS[config.format]}")
     folder = getattr(module, "OUTPUT_IS_FOLDER", False)
     preflight(inputs=config.inputs(), outputs={} if folder else config.outputs(), force=config.force)
     if folder:
         module.check_output(config.output, inputs=[config.record], force=config.force)
     tel = read_telemetry(config.record, allow_gaps=True)
-    details = module.write(tel, Path(config.output), force=config.force, inputs=[config.record], **config.options)
+    details = module.write(
+        tel, Path(config.output), force=config.force, inputs=[config.record], **config.writer_options()
+    )
     imu_gaps = [g for g in tel.gaps if g.dataset.startswith("/imu")]
     return ExportResult(
         path=str(config.output),

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import ROS_STORAGES
 from ..errors import ConfigError, OutputError
 from ..frames import ROS_AXES, ros_from_body
 from ..io.files import atomic_folder_output, check_output_folder_replace
@@ -37,7 +38,7 @@ __all__ = ["write", "check_output", "is_bag_folder", "STORAGES", "OUTPUT_IS_FOLD
 #: The output is a folder (the export stage checks it with :func:`check_output`, not as a file).
 OUTPUT_IS_FOLDER = True
 #: Storage plugins of a ROS 2 bag: MCAP (the default since ROS 2 Iron) or sqlite3.
-STORAGES = ("mcap", "sqlite3")
+STORAGES = ROS_STORAGES
 DEFAULT_TOPIC = "/imu/data"
 DEFAULT_FRAME_ID = "imu_link"
 #: Bytes a message takes in the bag, about (an Imu is 300 bytes in CDR, plus the storage's index).

@@ -3,8 +3,8 @@
 Each module exposes ``load(path, **options) -> Telemetry`` that converts axes to
 body FRD, the reference to NED, and units to SI, and records where the data
 came from in ``Telemetry.source`` (:func:`provenance`, written to ``/source``). The stage
-(:class:`ImportConfig` -> :func:`run` -> :class:`ImportResult`, see :mod:`sizefx.stage`)
-declares the IMU gaps it finds in ``/imu/gaps`` (the reader's own definition of a
+(:class:`ImportConfig` -> :func:`run` -> :class:`ImportResult`, see :mod:`sizefx.stage`; each
+format's options declared in :mod:`sizefx.configs.import_`) declares the IMU gaps it finds in ``/imu/gaps`` (the reader's own definition of a
 gap, :func:`sizefx.io.telemetry.find_imu_gaps`), writes the result atomically, reads it
 back through the validating reader and checks its units against physics
 (:mod:`sizefx.sanity`), so an importer can never produce a file the rest of sizefx
@@ -13,21 +13,19 @@ refuses, nor one whose rates are 57 times wrong.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
-from types import MappingProxyType
-from typing import Any
 
 import numpy as np
 
 from .. import __version__
-from ..errors import ConfigError, OutputError, SourceError, TelemetryError
+from ..configs.import_ import FOLDER_FORMATS, ImportConfig
+from ..errors import OutputError, SourceError, TelemetryError
 from ..io.contract import invalid_rows, limit_problem
 from ..io.files import atomic_output, sha256_of
 from ..io.gaps import nominal_period_s
 from ..io.provenance import Provenance
-from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema, site_problem
+from ..io.schema import TELEMETRY_SCHEMA, allowed_units, load_schema
 from ..io.telemetry import find_imu_gaps, read_telemetry, write_telemetry
 from ..rotation import quat_to_mat
 
@@ -61,7 +59,8 @@ IMU_RATE_HZ = (5.0, 35_000.0)
 #: for a reference at up to 500 Hz. The top is the IMU's.
 REFERENCE_RATE_HZ = (0.7, IMU_RATE_HZ[1])
 
-#: format name -> (module in this package, loader function)
+#: format name -> (module in this package, loader function); each format's options are declared in
+#: :data:`sizefx.configs.import_.IMPORT_OPTIONS`
 FORMATS = {
     "broad": ("broad", "load"),
     "psins-imu": ("psins", "load_imu"),
@@ -71,10 +70,6 @@ FORMATS = {
     "rosbag": ("rosbag", "load"),
     "table-log": ("table_log", "load"),
 }
-#: Formats whose SOURCE may be a folder: a ROS 2 bag is one (``metadata.yaml`` and its storage files).
-FOLDER_FORMATS = ("rosbag",)
-#: Importer options that name a file read besides SOURCE -> the command line's option (for the pre-flight).
-INPUT_OPTIONS = {"reference_file": "--reference-file", "imu_record": "--imu"}
 
 #: Largest median angle [deg] between the specific force the accelerometers read and the
 #: "up" direction the reference attitude gives in body axes. At rest they coincide; a
@@ -189,42 +184,6 @@ def _units_context(fmt: str, tel):
     return declared, where, fix
 
 
-@dataclass(frozen=True)
-class ImportConfig:
-    """What ``sizefx import FORMAT SOURCE -o OUTPUT`` is asked to do (see :mod:`sizefx.stage`).
-
-    ``options`` are the importer's own (``load(path, **options)`` of the module :data:`FORMATS`
-    names), as the command line passes them: column names, units, ``site_deg``, ``reference_file``...
-    """
-
-    format: str  #: one of :data:`FORMATS`
-    source: str | Path  #: the file to convert
-    output: str | Path  #: the sizefx/telemetry/1 file to write
-    force: bool = False  #: replace ``output`` if it exists (never an input)
-    #: check the magnitudes against physics (:func:`sizefx.sanity.check_units`); ``--no-units-check`` turns it off
-    check_units: bool = True
-    #: drop IMU rows with NaN, inf or values beyond the physical limits (they become declared gaps)
-    #: instead of refusing the source; ``--drop-invalid-rows``
-    drop_invalid_rows: bool = False
-    options: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self):
-        object.__setattr__(self, "options", MappingProxyType(dict(self.options)))  # read-only, as the rest
-
-    def inputs(self) -> dict:
-        """The files read, by the option that names them. A SOURCE that is a ROS 2 bag folder is
-        its files (``SOURCE metadata.yaml``, ...): each is checked, and none may be an output."""
-        others = {flag: self.options.get(name) for name, flag in INPUT_OPTIONS.items()}
-        if self.format in FOLDER_FORMATS and Path(self.source).is_dir():
-            from ..ros import bag_files
-
-            return {**{f"SOURCE {f.name}": f for f in bag_files(self.source)}, **others}
-        return {"SOURCE": self.source, **others}
-
-    def outputs(self) -> dict:
-        return {"-o": self.output}
-
-
 @dataclass
 class ImportResult:
     """What an import wrote: the record as read back through the validating reader."""
@@ -309,15 +268,9 @@ def run(config: ImportConfig, *, progress=None) -> ImportResult:
     from ..sanity import refuse_wrong_units
     from ..stage import preflight
 
-    site_deg = config.options.get("site_deg")
-    if site_deg is not None:  # the option, before any file is read: a site out of range is the option's fault
-        problem = site_problem(*(float(v) for v in site_deg))
-        if problem:
-            shown = ",".join(f"{float(v):g}" for v in site_deg)
-            raise ConfigError(f"import {config.format}: --site-deg {shown}: {problem}; give a site within the range")
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     fmt, source, out = config.format, config.source, config.output
-    tel = load_source(fmt, source, keep_invalid=config.drop_invalid_rows, **config.options)
+    tel = load_source(fmt, source, keep_invalid=config.drop_invalid_rows, **config.reader_options())
     dropped = _drop_invalid_rows(tel, source) if config.drop_invalid_rows else None
     _check_imu_rate(tel, fmt, source)
     tel.gaps = find_imu_gaps(tel.time_s, tel.accel_time_s, declared=True)  # written to /imu/gaps

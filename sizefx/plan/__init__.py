@@ -39,13 +39,15 @@ The package, from the bottom up:
 - :mod:`.design`: :func:`design_plan`, the two together, the paper's plan beside them;
 - :mod:`.document`: the ``sizefx/plan/1`` document (:func:`plan_document`) and the printed lines;
 - here: the stage, :class:`PlanConfig` -> :func:`run` -> :class:`PlanResult`, as ``sizefx plan``
-  calls it.
+  calls it (the config, the request and the table's limits, their options declared, are
+  :mod:`sizefx.configs.plan`'s).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..configs.plan import PlanConfig
 from ..constants import MAX_PLAN_S
 from ..io.plan_file import PLAN_SCHEMA
 
@@ -94,21 +96,6 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
-class PlanConfig:
-    """``sizefx plan``: the request and the plan file to write (``-o``, ``sizefx/plan/1``)."""
-
-    request: PlanRequest
-    output: str | None = None
-    force: bool = False
-
-    def inputs(self) -> dict:
-        return {}
-
-    def outputs(self) -> dict:
-        return {"-o": self.output}
-
-
 @dataclass
 class PlanResult:
     """The plan designed (:attr:`design`) and the file written (:attr:`written`)."""
@@ -131,7 +118,7 @@ def run(config: PlanConfig, *, progress=None) -> PlanResult:
     from ..io.toml import write_toml
     from ..stage import preflight
 
-    request = config.request.check()
+    request = config.request  # checked when it was made
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     out = PlanResult(design_plan(request, progress=progress))
     if config.output:

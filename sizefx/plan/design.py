@@ -20,7 +20,6 @@ def design_plan(req: PlanRequest, *, progress=None) -> PlanDesign:
     With a wanted delay sigma the sway is designed against the turntable plan (the delay hardly
     depends on which): with a budget, first against the best plan in the whole budget, then the
     turntable plan is designed again in what the sway leaves, and the sway checked on it."""
-    req = req.check()
     t = req.table
     sway = None
     if req.budget_s is not None:

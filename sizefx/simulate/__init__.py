@@ -41,16 +41,15 @@ simulate`` calls it::
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from pathlib import Path
+from collections.abc import Callable
 
 from .. import scenarios
+from ..configs.simulate import NAVIGATION_REFERENCE_RATE_HZ, SimulateConfig
 from ..effects import IDEAL, load_effects
 from ..errors import ConfigError
 from ..motion import Trajectory
 from ..stage import preflight
-from .record import CHUNK_SAMPLES, SimulateResult, _reference_rate, simulate_in_memory, simulate_to_file
+from .record import CHUNK_SAMPLES, SimulateResult, simulate_in_memory, simulate_to_file
 from .synthesizer import GAUSS_NODES, GAUSS_WEIGHTS, ImuSynthesizer
 from .truth import ImuKinematics, kinematics, true_motion
 
@@ -68,17 +67,12 @@ __all__ = [
     "GAUSS_NODES",
     "GAUSS_WEIGHTS",
     "CHUNK_SAMPLES",
+    "NAVIGATION_REFERENCE_RATE_HZ",
 ]
 
 
-#: Reference rate of the navigation-length records (sway, flight) when none is
-#: given: the 1.8 h flight at 1600 Hz would add 900 MB of reference, and 100 Hz
-#: resolves their 1 Hz sway and manoeuvres. The turntable keeps the IMU rate,
-#: which calibration and diagnosis use sample by sample.
-NAVIGATION_REFERENCE_RATE_HZ = 100.0
-
-#: scenario -> (builder, its plan's class): the motions ``sizefx simulate`` knows.
-#: scenario -> (its builder, taking a plan and a site; its plan class, whose defaults make the plan)
+#: scenario -> (its builder, taking a plan and a site; its plan class, whose defaults make the plan):
+#: the motions ``sizefx simulate`` knows
 SCENARIOS: dict[str, tuple[Callable[..., tuple[Trajectory, dict]], type]] = {
     "turntable": (scenarios.turntable, scenarios.TurntablePlan),
     "sway": (scenarios.sway, scenarios.SwayPlan),
@@ -87,65 +81,12 @@ SCENARIOS: dict[str, tuple[Callable[..., tuple[Trajectory, dict]], type]] = {
 }
 
 
-@dataclass(frozen=True)
-class SimulateConfig:
-    """``sizefx simulate SCENARIO -o OUTPUT``: the motion, the effects, the sampling, the output.
-
-    ``plan``: the scenario's plan (:class:`sizefx.scenarios.TurntablePlan`, ``SwayPlan``,
-    ``FlightPlan``, ``TumblePlan``; None: its defaults). ``effects_path``: an effects TOML
-    (``--effects``); ``overrides``: ``--set`` values in the TOML's layout
-    (``{"accel_delay": {"enabled": True}}``); ``ideal`` switches every effect off before both,
-    so ``ideal`` plus ``overrides`` gives a record with exactly the named effects.
-    ``reference_rate_hz`` None: the IMU rate for turntable and tumble,
-    :data:`NAVIGATION_REFERENCE_RATE_HZ` for sway and flight.
-    """
-
-    scenario: str
-    output: str | Path
-    plan: object | None = None
-    site: scenarios.SiteSpec | None = None
-    effects_path: str | None = None
-    overrides: Mapping | None = None
-    ideal: bool = False
-    rate_hz: float = 1600.0
-    form: str = "rates"
-    seed: int = 0
-    reference_rate_hz: float | None = None
-    force: bool = False
-    chunk_samples: int = CHUNK_SAMPLES  #: IMU rows per chunk (memory; the output does not depend on it)
-    #: a sizefx/plan/1 file (``sizefx plan``): its turntable plan (or, for the sway scenario, its
-    #: delay sway), instead of ``plan``
-    plan_path: str | None = None
-    #: refuse a record ``sizefx inspect`` would refuse by its physics check (``--no-units-check``: write it
-    #: anyway, to test the checkers)
-    check_units: bool = True
-
-    def inputs(self) -> dict:
-        return {"--effects": self.effects_path, "--plan": self.plan_path}
-
-    def outputs(self) -> dict:
-        return {"-o": self.output}
-
-
 def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
     """The ``simulate`` stage: build the scenario and the effect model, write ``config.output``.
 
-    Options first (scenario, form, rates), then the files (:func:`sizefx.stage.preflight`),
-    then the work. ``progress(done, total)`` is called after each chunk.
+    The options were checked when the config was made; the files first
+    (:func:`sizefx.stage.preflight`), then the work. ``progress(done, total)`` is called after each chunk.
     """
-    if config.scenario not in SCENARIOS:
-        raise ConfigError(f"scenario '{config.scenario}': use one of {', '.join(SCENARIOS)}")
-    if config.form not in ("rates", "increments"):
-        raise ConfigError(f"--form {config.form}: use rates or increments")
-    reference_rate_hz = config.reference_rate_hz
-    if reference_rate_hz is None and config.scenario in ("sway", "flight"):
-        reference_rate_hz = NAVIGATION_REFERENCE_RATE_HZ
-    _reference_rate(config.rate_hz, reference_rate_hz)
-    if config.plan_path and config.scenario not in ("turntable", "sway"):
-        raise ConfigError(
-            f"--plan {config.plan_path}: a plan file holds a turntable plan and a sway; the "
-            f"{config.scenario} scenario takes its own options"
-        )
     preflight(inputs=config.inputs(), outputs=config.outputs(), force=config.force)
     build, plan_cls = SCENARIOS[config.scenario]
     plan = config.plan
@@ -173,8 +114,8 @@ def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
             plan.check()
         except ConfigError as exc:
             raise ConfigError(f"{config.plan_path}: {exc}") from None
-    traj, info = build(plan or plan_cls(), config.site or scenarios.PAPER_AIRFIELD)
-    fx = load_effects(config.effects_path, overrides=dict(config.overrides or {}), base=IDEAL if config.ideal else None)
+    traj, info = build(plan or plan_cls(), config.site)
+    fx = load_effects(config.effects_path, overrides=config.effect_overrides(), base=IDEAL if config.ideal else None)
     inputs = [p for p in (config.effects_path, config.plan_path) if p]
     return simulate_to_file(
         traj,
@@ -184,7 +125,7 @@ def run(config: SimulateConfig, *, progress=None) -> SimulateResult:
         rate_hz=config.rate_hz,
         form=config.form,
         seed=config.seed,
-        reference_rate_hz=reference_rate_hz,
+        reference_rate_hz=config.scenario_reference_rate_hz(),
         force=config.force,
         chunk_samples=config.chunk_samples,
         inputs=inputs,

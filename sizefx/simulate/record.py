@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..configs.simulate import CHUNK_SAMPLES, reference_rate
 from ..effects import IDEAL, EffectModel, load_effects
 from ..errors import ConfigError
 from ..io.telemetry import Reference, Site, Telemetry, TelemetryWriter
@@ -18,22 +19,6 @@ from .refusals import _refuse_implausible, _refuse_invalid, _Sample
 from .synthesizer import ImuSynthesizer
 
 __all__ = ["simulate_to_file", "simulate_in_memory", "SimulateResult", "CHUNK_SAMPLES"]
-
-#: Default IMU samples per chunk: 2^16 samples keeps the working set of the
-#: vectorised kinematics (about 40 arrays of [3 * 65536, 3]) near 100 MB.
-CHUNK_SAMPLES = 1 << 16
-
-
-def _reference_rate(rate_hz: float, reference_rate_hz: float | None) -> float:
-    """The reference rate, checked: it must divide the IMU rate (default: the IMU rate)."""
-    ref_rate = rate_hz if reference_rate_hz is None else float(reference_rate_hz)
-    stride = rate_hz / ref_rate
-    if abs(stride - round(stride)) > 1e-9 or stride < 1:
-        raise ConfigError(
-            f"--reference-rate-hz {ref_rate:g} must divide the IMU rate {rate_hz:g} Hz "
-            "(e.g. 100, 200, 400, 800 for 1600 Hz)"
-        )
-    return ref_rate
 
 
 @dataclass
@@ -95,7 +80,7 @@ def simulate_to_file(
             f"{out}: {traj.duration_s:g} s at {rate_hz:g} Hz make {syn.n_samples} {form} sample; a record needs at "
             "least 2 (its sample rate is read from them): lengthen the record or raise --rate-hz"
         )
-    ref_rate = _reference_rate(rate_hz, reference_rate_hz)
+    ref_rate = reference_rate(rate_hz, reference_rate_hz)
     stride = rate_hz / ref_rate
     n_ref = int(np.floor(traj.duration_s * ref_rate + 1e-9)) + 1
     st0 = traj.evaluate(np.array([0.0]))
