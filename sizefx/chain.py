@@ -16,6 +16,10 @@ each: per stage its inputs, options, outputs, duration and headline figures. The
 A batch of chains (``sizefx batch run``, :mod:`sizefx.batch.chains`) builds a :class:`ChainConfig`
 per flight (:func:`flight_steps`) and runs it with the same :func:`run`, as a batch stage like the
 others (:class:`ChainConfig` in, a result with ``to_json`` and ``report`` out).
+
+A batch runs chains, so nothing here imports :mod:`sizefx.batch`: what the two share (a campaign
+folder's records, option files, checks and lock; a stage result's headline figures) lives below
+both, in :mod:`sizefx.runs`.
 """
 
 from __future__ import annotations
@@ -33,6 +37,16 @@ from .errors import ConfigError, SizefxError
 from .io.documents import write_json
 from .io.schema import as_json, check_document
 from .options import config_from
+from .runs.figures import headline, table_figures
+from .runs.folder import (
+    LOCK_NAME,
+    RECORD_SUFFIXES,
+    check_option_files,
+    check_out_dir,
+    expand_inputs,
+    folder_lock,
+    make_out_dir,
+)
 
 __all__ = [
     "CHAIN_STAGES",
@@ -130,12 +144,10 @@ def check_stages(stages, out=None, *, flights=None) -> CheckedChain:
     """The chain ``stages`` (as :func:`run` takes it) refused in one line before anything runs or
     is written when it cannot work: the stages (:func:`check_chain`), a stage's options, lever arms
     both from calibrate and from navigate's ``levers``, a model beside lever arms, every file the
-    chain reads (the lever arms and a model read by their readers: :func:`sizefx.batch.inputs.check_option_files`),
+    chain reads (the lever arms and a model read by their readers: :func:`sizefx.runs.folder.check_option_files`),
     a flight without the truth compare needs, the folder ``out`` (default ``run-NAME``, NAME the
     flight's file name, or calibrate's record's). ``flights``: a batch of chains, one per flight
     (files, folders or globs, expanded here); None: one chain, on navigate's ``input``."""
-    from .batch.inputs import check_option_files, check_out_dir, expand_inputs
-
     batch = flights is not None
     command = "sizefx batch run" if batch else "sizefx run"
     pairs = _stages(stages, command=command, batch=batch)
@@ -299,8 +311,6 @@ class ChainResult:
     def summary(self) -> str:
         """The chain in one table: a line per step, its stage (and which run), its time and the figures
         a batch's table prints for that stage (navigation errors, each arm component, distances)."""
-        from .batch.fleet import table_figures
-
         lines = []
         for step in self.steps:
             figures = ", ".join(
@@ -347,8 +357,6 @@ def run(stages, out=None, *, with_plots: bool = False, echo=None) -> ChainResult
 
 def _run_steps(config: ChainConfig, echo) -> ChainResult:
     """The chain's steps in order into ``config.out_dir`` (made if new), its run.json rewritten after each."""
-    from .batch.fleet import headline  # the batch's figures: a chain's steps and a batch's records alike
-
     if config.truth is not None:
         check_truth(config.truth)
     check_inputs(config)
@@ -379,12 +387,9 @@ def _run_steps(config: ChainConfig, echo) -> ChainResult:
 
 @contextlib.contextmanager
 def chain_folder(out_dir):
-    """``out_dir``, made if new and locked (:func:`sizefx.batch.folder.folder_lock`) while a chain writes
+    """``out_dir``, made if new and locked (:func:`sizefx.runs.folder.folder_lock`) while a chain writes
     there. A chain refused (a step's input or option, however late in the chain) leaves no folder of
     its own making behind: bad input leaves nothing."""
-    from .batch.inputs import make_out_dir
-    from .batch.runner import LOCK_NAME, folder_lock
-
     out = Path(out_dir)
     fresh = not out.exists()
     make_out_dir(out)
@@ -406,9 +411,8 @@ def check_inputs(config: ChainConfig) -> None:
     """Every file the chain reads that no step of it writes, checked before the first step writes
     anything: records (``.h5``) as far as their structure (HDF5, root attributes, groups, the IMU
     form: :func:`sizefx.io.contract.open_structure`), lever-arm and model files read in full
-    (:func:`sizefx.batch.inputs.check_option_files`). A step's own deeper checks (the samples) still
+    (:func:`sizefx.runs.folder.check_option_files`). A step's own deeper checks (the samples) still
     come when it reads them; a chain refused then leaves nothing behind (:func:`chain_folder`)."""
-    from .batch.inputs import RECORD_SUFFIXES, check_option_files
     from .io.contract import open_hdf5, open_structure
 
     files = config.inputs()

@@ -32,13 +32,13 @@ import pytest
 from click.testing import CliRunner
 
 from sizefx.batch import BatchJob, run_batch
-from sizefx.batch.inputs import _glob, expand_inputs
 from sizefx.batch.manifest import Manifest, canonical_options
 from sizefx.batch.runner import LOCK_NAME, check_batch_writes
 from sizefx.errors import ConfigError
 from sizefx.io.files import MAX_PID, remove_stale_temporaries_below
 from sizefx.io.schema import check_document
 from sizefx.levers import levers_from_preset, write_levers
+from sizefx.runs.folder import _glob, expand_inputs
 from sizefx.scenarios import TurntablePlan
 from sizefx.simulate import SimulateConfig
 from sizefx.simulate import run as simulate

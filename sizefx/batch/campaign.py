@@ -2,13 +2,13 @@
 
 ``sizefx.batch.run("navigate", "flights/", "nav", options={"levers": "levers.json"})`` is
 ``sizefx batch navigate flights/ --levers levers.json --out nav``, and the command is this call: the
-records listed (:func:`.inputs.expand_inputs`), compare's other solutions and truths paired with
-them by name (:func:`.inputs.pair_inputs`), the folder judged (:func:`.inputs.check_out_dir`), its
-manifest read to resume, each record's config made from the stage's own declarations
-(:func:`sizefx.options.config_from`) with its outputs named after it in the folder
-(:data:`sizefx.configs.batch.BATCH_STAGES`), the files the options name read once and hashed with
-every record, and the jobs run (:func:`.runner.run_batch`). ``run("run", ...)`` is a chain per
-flight (:mod:`.chains`).
+records listed (:func:`sizefx.runs.folder.expand_inputs`), compare's other solutions and truths
+paired with them by name (:func:`.inputs.pair_inputs`), the folder judged
+(:func:`sizefx.runs.folder.check_out_dir`), its manifest read to resume, each record's config made
+from the stage's own declarations (:func:`sizefx.options.config_from`) with its outputs named after
+it in the folder (:data:`sizefx.configs.batch.BATCH_STAGES`), the files the options name read once
+and hashed with every record, and the jobs run (:func:`.runner.run_batch`). ``run("run", ...)`` is a
+chain per flight (:mod:`.chains`).
 """
 
 from __future__ import annotations
@@ -20,8 +20,9 @@ from pathlib import Path
 from ..configs.batch import MAX_WORKERS, MEMORY_MIB_RANGE, BatchStage, batch_options, batch_stage, option_values
 from ..errors import ConfigError
 from ..options import config_from, declared
+from ..runs.folder import check_out_dir, expand_inputs
 from . import runner
-from .inputs import check_out_dir, check_stage_options, expand_inputs, output_names, pair_inputs
+from .inputs import check_stage_options, output_names, pair_inputs
 from .manifest import Manifest, canonical_options
 from .outcome import BatchJob, BatchResult
 

@@ -7,11 +7,12 @@ flights whose inputs, options and arms are unchanged."""
 from __future__ import annotations
 
 from .. import chain as chain_stage
+from ..runs.folder import folder_lock, make_out_dir
 from . import runner
-from .inputs import make_out_dir, output_names
+from .folder import check_batch_writes
+from .inputs import output_names
 from .manifest import Manifest, canonical_options
 from .outcome import BatchJob, BatchResult
-from .runner import check_batch_writes, folder_lock
 
 __all__ = ["run_chains"]
 

@@ -8,7 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from statistics import fmean, stdev
 
-from .fleet import combine_arms, recurring_findings, table_figures
+from ..runs.figures import table_figures
+from .fleet import combine_arms, recurring_findings
 
 __all__ = ["BatchJob", "RecordOutcome", "BatchResult"]
 

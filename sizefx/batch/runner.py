@@ -13,8 +13,9 @@ With a Dask scheduler (``--scheduler tcp://host:8786``, the optional ``distribut
 :func:`.worker._work` runs as a task per record on the cluster's workers, which read the records where
 they see them; a worker lost with a record is replaced and the record run again.
 
-The folder the batch writes into (its lock, the files the batch keeps there, the check that no path
-it writes is an input or written twice) is :mod:`.folder`'s; its names are imported here too.
+The folder the batch writes into (the files the batch keeps there, the check that no path it writes
+is an input or written twice) is :mod:`.folder`'s, its lock (shared with a chain) is
+:mod:`sizefx.runs.folder`'s; their names are imported here too.
 """
 
 from __future__ import annotations
@@ -32,10 +33,10 @@ from pathlib import Path
 
 from ..errors import ConfigError
 from ..io.files import remove_stale_temporaries, remove_stale_temporaries_below
+from ..runs.folder import LOCK_NAME, folder_lock, make_out_dir
 from .digests import DigestCache
 from .fleet import FLEET_PLOT, plot_fleet
-from .folder import LOCK_NAME, OWN_FILES, check_batch_writes, folder_lock
-from .inputs import make_out_dir
+from .folder import OWN_FILES, check_batch_writes
 from .manifest import Manifest, reusable
 from .outcome import BatchJob, BatchResult, RecordOutcome
 from .worker import MEMORY_SHARE, STAGES, _one_line, _start_worker, _work, default_memory_mib

@@ -27,9 +27,9 @@ from ..errors import SizefxError
 from ..io.documents import write_json
 from ..io.files import ABANDONED
 from ..io.schema import as_json
+from ..runs.figures import headline
 from ..stage import helper_threads, use_helper_threads
 from .digests import hash_file
-from .fleet import headline
 from .manifest import reusable
 from .outcome import BatchJob, RecordOutcome
 
