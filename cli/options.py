@@ -9,7 +9,6 @@ from dataclasses import MISSING
 import click
 
 from sizefx.errors import ConfigError
-from sizefx.io.documents import parse_toml
 from sizefx.options import Option, chosen, config_from, declared, parse_list, refusal
 
 
@@ -32,50 +31,6 @@ def span(low=None, high=None, *, low_open: bool = False, high_open: bool = False
 
 #: Seeds are numpy's: non-negative, below 2**63 here.
 SEED = click.IntRange(0, 2**63 - 1)
-
-
-def parse_vector(text: str, name: str, n: int = 3) -> tuple[float, ...]:
-    """``"1,2,3"`` -> (1.0, 2.0, 3.0), or a one-line error naming the option."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise click.BadParameter(f"'{text}' is not {n} comma-separated numbers", param_hint=name) from None
-    if len(values) != n:
-        raise click.BadParameter(f"'{text}' has {len(values)} values, expected {n}", param_hint=name)
-    if not all(math.isfinite(v) for v in values):
-        raise click.BadParameter(f"'{text}' holds a value that is not a finite number", param_hint=name)
-    return values
-
-
-def parse_overrides(items) -> dict:
-    """``("accel_delay.tau_s=0.0005", ...)`` -> ``{"accel_delay": {"tau_s": 0.0005}}`` (values in TOML syntax)."""
-    out: dict = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        section, dot, name = key.strip().partition(".")
-        if not sep or not dot:
-            raise ConfigError(f"--set '{item}': write SECTION.KEY=VALUE, e.g. accel_delay.tau_s=0.0005")
-        try:
-            parsed = parse_toml(f"v = {value.strip()}", f"--set {key.strip()}")["v"]
-        except ConfigError:
-            shown = value if len(value) <= 60 else value[:60] + "..."
-            raise ConfigError(
-                f"--set '{key.strip()}={shown}': not a TOML value (numbers, true/false, "
-                '"text", [1, 2, 3]) of reasonable size'
-            ) from None
-        out.setdefault(section, {})[name] = parsed
-    return out
-
-
-#: --force's help where the command writes one file, given with -o.
-FORCE_HELP = "Replace the -o file if it exists (never an input)."
-
-
-def force_option(f=None, *, text: str = FORCE_HELP):
-    """``--force``, whose help names what this command replaces: ``@force_option`` alone, the -o
-    file; a command with other outputs names them (``@force_option(text=...)``)."""
-    option = click.option("--force", is_flag=True, help=text)
-    return option(f) if f is not None else option
 
 
 def quiet_option(f):
