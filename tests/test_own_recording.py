@@ -277,7 +277,8 @@ def test_diagnose_names_the_two_hidden_effects(walkthrough, truth):
     arm = found[("lever_arm", "accel_y")]
     z = (np.array(arm["parameters"]["r_m"]) - truth["r_m"][1]) / np.array(arm["sigma"]["r_m"])
     assert np.all(np.abs(z) < DIAGNOSE_Z), z
-    assert "accelerometers lag the gyros" in result.stdout and "accelerometer y sits 3.00 mm" in result.stdout
+    # the values are judged by their z-scores above; the printed words name them
+    assert "accelerometers lag the gyros" in result.stdout and "accelerometer y sits" in result.stdout
 
 
 # long tier: the README's own-recording walk, every command end to end (9 s); fast twin: test_readme_walkthrough_has_every_step and each command's own tests (the README's import in tests/test_import_csv.py)
