@@ -8,7 +8,7 @@ import click
 
 from sizefx.configs.export import ExportConfig
 
-from .options import stage_command
+from .options import variant_command
 
 
 @click.group(name="export")
@@ -23,13 +23,7 @@ def export():
 
 def _format(name: str):
     """The command of the format ``name``, registered with the group."""
-
-    def decorator(f):
-        command = stage_command(ExportConfig, fixed={"format": name}, name=name)(f)
-        export.add_command(command)
-        return command
-
-    return decorator
+    return variant_command(export, ExportConfig, {"format": name}, name)
 
 
 def _run(config):

@@ -8,7 +8,7 @@ import click
 
 from sizefx.configs.import_ import ImportConfig
 
-from .options import stage_command
+from .options import variant_command
 
 
 @click.group(name="import")
@@ -23,13 +23,7 @@ def import_():
 
 def _format(name: str):
     """The command of the format ``name``, registered with the group."""
-
-    def decorator(f):
-        command = stage_command(ImportConfig, fixed={"format": name}, name=name)(f)
-        import_.add_command(command)
-        return command
-
-    return decorator
+    return variant_command(import_, ImportConfig, {"format": name}, name)
 
 
 def _run(config):

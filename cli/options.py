@@ -255,3 +255,15 @@ def stage_command(config_class: type, *, fixed: dict | None = None, **attrs):
         return command
 
     return decorator
+
+
+def variant_command(group: click.Group, config_class: type, fixed: dict, name: str):
+    """A decorator: the command ``name`` of ``group`` made from ``config_class`` with the values
+    ``fixed`` (:func:`stage_command`: one command per scenario or format), registered with the group."""
+
+    def decorator(f):
+        command = stage_command(config_class, fixed=fixed, name=name)(f)
+        group.add_command(command)
+        return command
+
+    return decorator

@@ -8,7 +8,7 @@ import click
 
 from sizefx.configs.simulate import PLAN_FILE_SCENARIOS, SimulateConfig
 
-from .options import Progress, quiet_option, stage_command
+from .options import Progress, quiet_option, variant_command
 
 
 @click.group(invoke_without_command=True)
@@ -36,9 +36,7 @@ def _scenario(f):
     with the scenario fixed (and no --plan where a plan file holds no such plan), then --quiet."""
     name = f.__name__
     fixed = {"scenario": name, **({} if name in PLAN_FILE_SCENARIOS else {"plan_path": None})}
-    command = stage_command(SimulateConfig, fixed=fixed, name=name)(quiet_option(f))
-    simulate.add_command(command)
-    return command
+    return variant_command(simulate, SimulateConfig, fixed, name)(quiet_option(f))
 
 
 def _run(config, quiet):
