@@ -260,11 +260,11 @@ def diagnose(
     # the errors reported take the residual's spectrum at each regressor's frequencies (budget.py)
     parts = parts_scatter(pred, nrm, free, offset, spectral=True)
     resolved, alias_cov = _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts, log)
-    # the parameters hidden from the selection that still move its estimates (aliases.hidden_fit):
+    # the parameters the selection hid or left out that still move its estimates (aliases.hidden_fit):
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
-    # plausible ranges as priors; every one adds to the errors what the record cannot say of it
-    # those the record tells apart from the findings but whose plausible range could move one by its
-    # error are fitted beside as well (weak: they widen the errors, they mask no finding)
+    # plausible ranges as priors, or held anywhere in them; the weak ones, which the record tells
+    # apart from the findings but whose range could move one by its error, are fitted beside them
+    # too. Every one adds to the errors what the record cannot say of it; the weak ones mask no finding
     left_out = _with_left_out(_with_aliases(unrevealed, aliased, outside), chosen)
     skip = {a.key for a in resolved.values()}
     hidden = hidden_parameters(nrm, chosen, left_out, grade, skip=skip)
