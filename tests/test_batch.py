@@ -715,6 +715,27 @@ def test_a_record_of_a_handful_of_samples_is_refused_alone_with_its_reason(campa
     assert entries["run0"]["status"] == "ok"
 
 
+def test_a_refused_record_whose_input_was_removed_leaves_the_manifest(campaign, tmp_path):
+    """A refused record has no outputs; once its input is gone, the next run drops its entry. A
+    finished record's entry stays with its outputs in the folder, whatever became of its input."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for k in (0, 1):
+        shutil.copy(campaign / f"run{k}.h5", runs)
+    (runs / "broken.h5").write_text("not HDF5")
+    out = tmp_path / "out"
+    assert _batch("inspect", runs, "--out", out, "--workers", "1").exit_code == 1
+    assert {e["name"]: e["status"] for e in _manifest(out)["records"]} == {
+        "broken": "refused",
+        "run0": "ok",
+        "run1": "ok",
+    }
+    (runs / "broken.h5").unlink()
+    (runs / "run1.h5").unlink()
+    assert _batch("inspect", runs, "--out", out, "--workers", "1").exit_code == 0
+    assert {e["name"]: e["status"] for e in _manifest(out)["records"]} == {"run0": "ok", "run1": "ok"}
+
+
 def test_each_record_says_where_its_time_went(navigated):
     """navigate's own phases add up to its stage time; the entry names its worker and its samples."""
     for entry in _manifest(navigated)["records"]:

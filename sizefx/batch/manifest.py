@@ -188,6 +188,29 @@ class Manifest:
             raise self._fail(exc) from None
         return None if row is None else json.loads(row[0])
 
+    def forget_gone(self) -> list[str]:
+        """Drop the entries of refused or failed records whose input no longer exists, and return
+        their inputs: such a record has no outputs in the folder, and its entry would list a record
+        the batch no longer has. A finished record's entry stays while its outputs are in the folder,
+        whatever became of its input."""
+        assert self._writable and self._db is not None, "open_for_writing first"
+        try:
+            try:  # SQLite reads the status (its JSON functions: built in from 3.38, an extension before)
+                rows = self._db.execute("SELECT input FROM records WHERE json_extract(entry, '$.status') != 'ok'")
+                unfinished = [record for (record,) in rows]
+            except sqlite3.OperationalError:  # without them, a row at a time
+                rows = self._db.execute("SELECT input, entry FROM records")
+                unfinished = [record for record, text in rows if json.loads(text).get("status") != "ok"]
+            gone = [record for record in unfinished if not os.path.lexists(record)]
+            if not gone:
+                return gone
+            with self._db:
+                self._db.execute("BEGIN")
+                self._db.executemany("DELETE FROM records WHERE input = ?", ((g,) for g in gone))
+        except sqlite3.Error as exc:
+            raise self._fail(exc) from None
+        return gone
+
     def record(self, entry: dict, options: dict) -> None:
         """Keep a finished record's ``entry`` (checked against the contract): one row, committed."""
         assert self._writable and self._db is not None, "open_for_writing first"

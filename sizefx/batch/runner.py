@@ -359,6 +359,7 @@ def _run_locked(
 ) -> BatchResult:
     store = (previous if previous is not None else Manifest(out_dir, stage)).open_for_writing(options)
     try:
+        store.forget_gone()  # a refused or failed record whose input was removed since: no longer the batch's
         return _run_stored(
             stage, jobs, out_dir, store, options, workers, progress, client, plots, memory_mib, pool, rehash
         )
