@@ -736,6 +736,25 @@ def test_a_refused_record_whose_input_was_removed_leaves_the_manifest(campaign, 
     assert {e["name"]: e["status"] for e in _manifest(out)["records"]} == {"run0": "ok", "run1": "ok"}
 
 
+def test_an_option_file_is_kept_by_its_resolved_path(campaign, tmp_path, monkeypatch):
+    """--levers given relative: the manifest names the file itself, and a re-run from another folder
+    that names the same file another way finds every record unchanged."""
+    from sizefx.levers import levers_from_preset, write_levers
+
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    shutil.copy(campaign / "run0.h5", runs)
+    write_levers(tmp_path / "lev.json", levers_from_preset("high-precision"))
+    monkeypatch.chdir(tmp_path)
+    assert _batch("compensate", "runs", "--levers", "lev.json", "--out", "out", "--workers", "1").exit_code == 0
+    doc = _manifest(tmp_path / "out")
+    assert doc["options"]["levers"] == str(tmp_path.resolve() / "lev.json")
+    assert doc["records"][0]["paired"]["--levers"]["path"] == str(tmp_path.resolve() / "lev.json")
+    monkeypatch.chdir(runs)
+    result = _batch("compensate", ".", "--levers", "../lev.json", "--out", "../out", "--workers", "1")
+    assert result.exit_code == 0 and "0 ok, 1 unchanged" in result.output, result.output
+
+
 def test_each_record_says_where_its_time_went(navigated):
     """navigate's own phases add up to its stage time; the entry names its worker and its samples."""
     for entry in _manifest(navigated)["records"]:

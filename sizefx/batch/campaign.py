@@ -20,7 +20,7 @@ from pathlib import Path
 from ..configs.batch import MAX_WORKERS, MEMORY_MIB_RANGE, BatchStage, batch_options, batch_stage, option_values
 from ..errors import ConfigError
 from ..options import config_from, declared
-from ..runs.folder import check_out_dir, expand_inputs
+from ..runs.folder import check_out_dir, expand_inputs, resolve_path
 from . import runner
 from .inputs import check_stage_options, output_names, pair_inputs
 from .manifest import Manifest, canonical_options
@@ -109,6 +109,7 @@ def run(
     values = option_values(
         spec.config, options, offered=[*batch_options(stage), *spec.paired], where=f"sizefx batch {stage}"
     )
+    values = _resolved_files(spec, values)
     given_pairs = {param: tuple(_listed(values.pop(param, None))) for param in spec.paired}
     for param, (flag, text) in spec.paired.items():
         if not given_pairs[param] and dict(declared(spec.config))[param].default is MISSING:
@@ -151,6 +152,24 @@ def run(
     finally:  # a refusal before the run: the workers, still starting, are let go
         if pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _resolved_files(spec: BatchStage, values: dict) -> dict:
+    """``values`` with every option that names a file made absolute, as the records' paths are: the
+    manifest then says which file each record was run with wherever the batch is run from, and a
+    re-run from another folder with the same file judges it unchanged. compare's paired files stay
+    as given (folders and globs, matched by name)."""
+    options = dict(declared(spec.config))
+    out = dict(values)
+    for name, value in values.items():
+        option = options.get(name)
+        if option is None or option.kind not in ("file", "folder", "path") or name in spec.paired or not value:
+            continue
+        if option.many:
+            out[name] = tuple(str(resolve_path(v, option.name)) for v in value)
+        else:
+            out[name] = str(resolve_path(value, option.name))
+    return out
 
 
 def _jobs(stage, spec: BatchStage, records, partners, options, stage_options, out: Path, previous, redo, plots):
