@@ -31,7 +31,7 @@ import numpy as np
 
 from ..constants import DEG
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
-from .plausibility import GRADES, RANGES, judge
+from .plausibility import GRADES, RANGES, judge, prior_sigma
 from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION, honest
 from .theta import PARAMS
 
@@ -114,6 +114,12 @@ def _half_range(cand_id: str, count: int, grade: str) -> np.ndarray:
     return np.full(count, ranges[GRADES.index(grade)] * per_unit)
 
 
+def _prior(cand_id: str, count: int, grade: str) -> np.ndarray:
+    """Per parameter [SI]: the prior standard deviation of a part of the grade
+    (:func:`sizefx.diagnose.plausibility.prior_sigma`: its data sheet, else its plausible range)."""
+    return np.full(count, prior_sigma(cand_id, grade))
+
+
 def _shift(nrm, free, alt_idx) -> np.ndarray:
     """[free, alt]: how much the estimates of ``free`` move per unit of the parameters ``alt_idx``
     (not in the model): ``-N_ff^-1 N_fa``."""
@@ -123,20 +129,20 @@ def _shift(nrm, free, alt_idx) -> np.ndarray:
     return -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
 
 
-def _reach(nrm, free, j: int, half: float) -> float:
-    """The largest shift of an estimate of ``free`` that parameter ``j`` anywhere in ``[-half, half]``
-    gives, in the estimate's white standard errors (``N_ff^-1``)."""
+def _reach(nrm, free, j: int, sd: float) -> float:
+    """The largest shift of an estimate of ``free`` that parameter ``j`` one prior standard deviation
+    ``sd`` from its start value gives, in the estimate's white standard errors (``N_ff^-1``)."""
     N = nrm.N.sum(0)
     free = np.asarray(free, dtype=int)
     sig = np.sqrt(np.abs(np.diag(np.linalg.pinv(N[np.ix_(free, free)]))))
     S = _shift(nrm, free, [j])[:, 0]
-    return float(np.max(np.abs(S) * half / np.where(sig > 0, sig, np.inf)))
+    return float(np.max(np.abs(S) * sd / np.where(sig > 0, sig, np.inf)))
 
 
-def _spread(S, half) -> np.ndarray:
-    """``S Sigma S'``: the covariance the shifts ``S`` [k, m] per unit of parameters spread uniformly
-    over ``[-half, half]`` [m] give (a uniform distribution's variance, ``half^2 / 3``)."""
-    return S @ np.diag(np.asarray(half) ** 2 / 3.0) @ S.T
+def _spread(S, sd) -> np.ndarray:
+    """``S Sigma S'``: the covariance the shifts ``S`` [k, m] per unit of parameters with standard
+    deviations ``sd`` [m] give (``Sigma = diag(sd^2)``)."""
+    return S @ np.diag(np.asarray(sd) ** 2) @ S.T
 
 
 def significant_within(x, cov, S, half) -> float:
@@ -153,14 +159,14 @@ def significant_within(x, cov, S, half) -> float:
 
 
 #: A parameter hidden as not excited that could move no finding by this fraction of its white standard
-#: error anywhere in its plausible range is left out of :func:`hidden_parameters`: it would add at
+#: error at one prior standard deviation (:func:`_prior`) is left out of :func:`hidden_parameters`: it would add at
 #: most 1 % to a variance, and its regressor is often numerical noise (an arm's r_z[z] on a sway about
 #: one horizontal axis: 2e-9 s^-2), which no covariance of it can be formed from. Set from that bound,
 #: not from the validation protocol.
 MIN_REACH = 0.1
-#: A parameter the selection left out (not significant, or not excited) that anywhere in its grade's
-#: plausible range moves an estimate of the model by this many of its white standard errors is fitted
-#: beside the model with that range as a prior, however weakly correlated: held at zero it would bias
+#: A parameter the selection left out (not significant, or not excited) that one prior standard
+#: deviation from its start value (:func:`_prior`) moves an estimate of the model by this many of its
+#: white standard errors is fitted beside the model with that prior, however weakly correlated: held at zero it would bias
 #: the estimate by more than its error says (an accelerometer-x scale factor of -12 ppm on a tumble
 #: moved the x arm's z component by 0.19 mm, 4.4 sigma: development seed 35). One standard error: the
 #: size from which a bias changes what a reported error means; not chosen by the validation protocol.
@@ -172,7 +178,7 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> lis
     hidden parameters, reason)) that may still move the estimates of the model ``chosen`` (its
     :class:`~sizefx.diagnose.selection.Chosen` effects), held at their start values by the fit
     (``skip``: candidate keys already counted, the alternatives of resolved aliases; ``grade``: the
-    plausible ranges, :data:`RANGES`):
+    priors, :func:`sizefx.diagnose.plausibility.prior_sigma`):
 
     - those hidden because the record cannot tell them from what it selected (a reason
       "indistinguishable ...");
@@ -191,11 +197,11 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> lis
       as a nuisance's does."""
     out: list = []
     for cand, mine, _, rho in _screen(nrm, chosen, unrevealed, grade, skip):
-        if rho is None:  # indistinguishable: held anywhere in its range
+        if rho is None:  # indistinguishable: held at its start value, its prior in the errors
             out.append((cand, mine, False))
             continue
         # from ALIAS_CORRELATION on, the record cannot tell the parameter from the findings at all:
-        # held anywhere in its range as an indistinguishable one is (fitting it would only invert noise)
+        # held with its prior as an indistinguishable one is (fitting it would only invert noise)
         held = [j for j in mine if rho[j] >= ALIAS_CORRELATION]
         fitted = [j for j in mine if NUISANCE_CORRELATION <= rho[j] < ALIAS_CORRELATION]
         for group, beside in ((fitted, True), (held, False)):
@@ -207,9 +213,10 @@ def hidden_parameters(nrm, chosen, unrevealed: dict, grade: str, skip=()) -> lis
 def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, skip=()) -> list:
     """``[(candidate, [param], True)]``: the parameters of ``unrevealed`` (as for
     :func:`hidden_parameters`) the record tells apart from the findings (canonical correlation under
-    :data:`sizefx.diagnose.selection.NUISANCE_CORRELATION`) but which anywhere in their plausible range
-    would move a finding by its own white standard error or more (:data:`CONSIDER_REACH`), to be fitted
-    beside the model with that range as a prior (:func:`hidden_fit`), furthest reaching first.
+    :data:`sizefx.diagnose.selection.NUISANCE_CORRELATION`) but which one prior standard deviation
+    from their start values would move a finding by its own white standard error or more
+    (:data:`CONSIDER_REACH`), to be fitted beside the model with that prior (:func:`hidden_fit`),
+    furthest reaching first.
 
     One nearly collinear with the model, the ``hidden`` parameters fitted beside it and the weak ones
     taken so far is skipped: two left out together (a bias and a scale factor under constant gravity)
@@ -253,24 +260,25 @@ def _screen(nrm, chosen, unrevealed: dict, grade: str, skip):
             continue
         if not free:
             continue
-        reach = {j: _reach(nrm, free, j, _half_range(cand.id, 1, grade)[0]) for j in mine}
+        reach = {j: _reach(nrm, free, j, _prior(cand.id, 1, grade)[0]) for j in mine}
         mine = [j for j in mine if reach[j] >= MIN_REACH]
         yield cand, mine, reach, {j: canonical_correlation(N, free, [j]) for j in mine}
 
 
 def hidden_fit(nrm, free, hidden: list, grade: str, offset):
-    """The model ``free`` beside the ``hidden`` parameters (:func:`hidden_parameters`), each with its
-    grade's plausible range as a prior (a uniform distribution's variance, ``half^2 / 3``, about its
-    start value): ``(dx [free], dh [fitted], added [free, free])``: the steps of the estimates and of
-    the hidden parameters marked ``fitted``, from the normal equations ``nrm`` (formed at the current
+    """The model ``free`` beside the ``hidden`` parameters (:func:`hidden_parameters`), each with the
+    prior of a part of the grade about its start value (:func:`sizefx.diagnose.plausibility.prior_sigma`:
+    the data-sheet standard deviation, or a spread over the plausible range):
+    ``(dx [free], dh [fitted], added [free, free])``: the steps of the estimates and of the hidden
+    parameters marked ``fitted``, from the normal equations ``nrm`` (formed at the current
     estimate; ``offset``: the start model minus it), and what all the hidden parameters add to the
     covariance of ``free``.
 
     With ``S = -N_ff^-1 N_fh`` the shift of the estimates per unit of the hidden ones and ``P`` the
     priors' precisions:
 
-    - a parameter held at its start value (hidden as indistinguishable) may be anywhere in its
-      range: it adds ``S P^-1 S'``;
+    - a parameter held at its start value (hidden as indistinguishable) may be anywhere its prior
+      allows: it adds ``S P^-1 S'``;
     - a ``fitted`` one is estimated beside ``free`` with its prior: with
       ``C = N_hh - N_hf N_ff^-1 N_fh`` what the record still says of it once ``free`` is fitted,
       ``dh = (C + P)^-1 (b_h - N_hf N_ff^-1 b_f)``, ``dx = S dh``, and it adds ``S (C_r + P)^-1 S'``,
@@ -288,12 +296,12 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     held = [(cand, params) for cand, params, fitted in hidden if not fitted]
     beside = [(cand, params) for cand, params, fitted in hidden if fitted]
     for cand, params in held:
-        added += _spread(_shift(nrm, free, params), _half_range(cand.id, len(params), grade))
+        added += _spread(_shift(nrm, free, params), _prior(cand.id, len(params), grade))
     idx = np.array([j for _, params in beside for j in params], dtype=int)
     if idx.size == 0 or free.size == 0:
         return np.zeros(free.size), np.zeros(idx.size), added
-    half = np.concatenate([_half_range(cand.id, len(params), grade) for cand, params in beside])
-    prior = np.diag(3.0 / half**2)
+    sd = np.concatenate([_prior(cand.id, len(params), grade) for cand, params in beside])
+    prior = np.diag(1.0 / sd**2)
     N, b, _ = nrm.total()
     S = _shift(nrm, free, idx)  # [free, fitted]
     C = N[np.ix_(idx, idx)] + N[np.ix_(idx, free)] @ S
@@ -315,8 +323,8 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
 def masked_by_hidden(x, cov, added, level: float) -> float | None:
     """The p-value of a finding's deviation ``x`` [k] from its start values under its covariance
     ``cov`` [k, k] widened by the hidden parameters' part ``added`` [k, k] (:func:`hidden_fit`) when
-    it is beyond ``level``: with the hidden parameters anywhere in their plausible ranges, the
-    record no longer shows the finding. None when it stays a finding."""
+    it is beyond ``level``: with the hidden parameters where their priors allow, the record no
+    longer shows the finding. None when it stays a finding."""
     from scipy.stats import chi2
 
     x = np.asarray(x, dtype=float)
@@ -326,15 +334,15 @@ def masked_by_hidden(x, cov, added, level: float) -> float | None:
 
 def hidden_reach(nrm, free, active, cov, hidden: list, grade: str) -> list:
     """The hidden candidates (:func:`hidden_parameters`) that could move the finding with parameters
-    ``active`` (covariance ``cov`` [k, k]) by its own standard error or more within their plausible
-    ranges, largest first, as ``candidate key:parameters``."""
+    ``active`` (covariance ``cov`` [k, k]) by its own standard error or more at one prior standard
+    deviation, largest first, as ``candidate key:parameters``."""
     free = np.asarray(free, dtype=int)
     pos = np.searchsorted(free, active)
     sig = np.sqrt(np.abs(np.diag(cov)))
     reach = {}
     for cand, params, _ in hidden:
         S = _shift(nrm, free, params)[pos]
-        size = float(np.max(np.abs(S) * _half_range(cand.id, len(params), grade) / sig[:, None]))
+        size = float(np.max(np.abs(S) * _prior(cand.id, len(params), grade) / sig[:, None]))
         reach[cand.key + ":" + ",".join(PARAMS[j].label for j in params)] = size
     return [k for k, v in sorted(reach.items(), key=lambda kv: -kv[1]) if v >= 1.0]
 
@@ -369,8 +377,8 @@ def not_significant(
         which = ", ".join(hidden_reach(nrm, free, c.active, cov[np.ix_(pos, pos)], hidden, grade))
         if which:
             out[c.cand.key] = (
-                f"could be {which}, which the record does not reveal: within its plausible range it "
-                f"would explain this (p = {p:.2g}); the extended model carries it as {c.cand.key}"
+                f"could be {which}, which the record does not reveal: at sizes a part of the grade "
+                f"shows it would explain this (p = {p:.2g}); the extended model carries it as {c.cand.key}"
             )
         else:
             out[c.cand.key] = (
@@ -402,7 +410,7 @@ def resolve(nrm, free, finding, alt_cand, alt_idx, theta, theta0, grade, rho, co
     x = (theta - theta0)[list(finding.active)]
     if significant_within(x, cov[np.ix_(pos, pos)], S[pos], half) > level:
         return None
-    added_cov = _spread(S, half)
+    added_cov = _spread(S, half / np.sqrt(3.0))  # spread evenly over the range
     added = {PARAMS[j].label: float(np.sqrt(added_cov[p, p]) / PARAMS[j].per_unit) for j, p in zip(finding.active, pos)}
     alt = Alternative(
         alt_cand.key,

@@ -22,9 +22,10 @@ estimates, findings and the nuisance fitted beside them):
   above; a finding resolved from an alias by plausibility (:mod:`.aliases`) carries the error the
   alternative would bring anywhere in its plausible range;
 - **hidden**: the parameters the selection hid but which still move the estimates
-  (:func:`sizefx.diagnose.aliases.hidden_fit`): one hidden as indistinguishable anywhere in its
-  plausible range, one fitted beside the findings (a mount about z on a flight) with what the
-  record cannot say of it; a finding not significant with them in is no finding;
+  (:func:`sizefx.diagnose.aliases.hidden_fit`): one hidden as indistinguishable anywhere its prior
+  allows (:func:`sizefx.diagnose.plausibility.prior_sigma`), one fitted beside the findings (a mount
+  about z on a flight) with what the record cannot say of it; a finding not significant with them
+  in is no finding;
 - **walk**: a random walk of the biases (:mod:`.drift`), measured beside the model: what it adds to
   the estimates' covariance, ``N^-1 H'WZ Q Z'WH N^-1``, large for a parameter whose regressor is as
   slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. The
@@ -82,7 +83,7 @@ class ErrorBudget:
     free: np.ndarray  #: [f] indices into theta
     parts: Parts
     aliases: np.ndarray | None = None  #: [f, f] the plausible range of the alternatives of resolved aliases
-    hidden: np.ndarray | None = None  #: [f, f] the plausible range of hidden parameters that move the estimates
+    hidden: np.ndarray | None = None  #: [f, f] the priors of hidden parameters that move the estimates
     walk: np.ndarray | None = None  #: [f, f] the biases' random walk
     band: np.ndarray | None = None  #: [f, f] the band's and the selection's systematic part
     bands: list | None = None  #: the neighbouring bands and what was selected there

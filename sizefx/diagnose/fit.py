@@ -262,9 +262,9 @@ def diagnose(
     resolved, alias_cov = _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts, log)
     # the parameters the selection hid or left out that still move its estimates (aliases.hidden_fit):
     # those nearly collinear with a finding are fitted beside it, as a nuisance is, with their
-    # plausible ranges as priors, or held anywhere in them; the weak ones, which the record tells
-    # apart from the findings but whose range could move one by its error, are fitted beside them
-    # too. Every one adds to the errors what the record cannot say of it; the weak ones mask no finding
+    # priors (a part of the grade: plausibility.prior_sigma), or held with them; the weak ones, which
+    # the record tells apart from the findings but whose prior could move one by its error, are
+    # fitted beside them too. Every one adds to the errors what the record cannot say of it; the weak ones mask no finding
     left_out = _with_left_out(_with_aliases(unrevealed, aliased, outside), chosen)
     skip = {a.key for a in resolved.values()}
     hidden = hidden_parameters(nrm, chosen, left_out, grade, skip=skip)
@@ -331,8 +331,8 @@ def diagnose(
     alias_keys |= nuisance_keys | {w[0].cand.key for w in weak}
     reported = [c for c in chosen if c.cand.key not in alias_keys]
     # a finding is significant under the error it is reported with, less the weak parameters' part (the
-    # selection tested it beside them), or no finding: a hidden parameter may explain it anywhere in
-    # its plausible range
+    # selection tested it beside them), or no finding: a hidden parameter may explain it where its
+    # prior allows
     masked = not_significant(nrm, free, reported, theta_masking, theta0, budget, hidden, grade, level, masking_cov)
     log += [f"{key} no finding: {why}" for key, why in masked.items()]
     reported = [c for c in reported if c.cand.key not in masked]

@@ -27,6 +27,30 @@ gyro_g_sensitivity     2           50         1 000         deg/h/g (nav 0.1-0.5
 reference_mount        18 000      18 000     18 000        arcsec (a marker body or fixture: 5 deg)
 =====================  ==========  =========  ============  =====================================
 
+Inside those ranges, a parameter the record cannot reveal is not equally likely anywhere: a part
+meets its data sheet. :data:`DATASHEET` holds the data-sheet figure of each grade (data sheets state
+them as one standard deviation), and :func:`prior_sigma` makes it the prior of a parameter that
+diagnose leaves out but must carry in the errors of its findings. Where no data sheet speaks (the
+geometry, the clocks, the level and the mount of a test), the prior spreads evenly over the range
+above.
+
+=====================  ==========  =========  ============  =====================================
+effect                 navigation  tactical   industrial    unit (examples of the grade)
+=====================  ==========  =========  ============  =====================================
+accel_bias             100         1 000      60 000        ug   (HG9900 25, HG1700 1 000)
+accel_scale_factor     300         1 000      10 000        ppm  (HG9900 100, FSAS 300)
+accel_misalignment     30          300        1 800         arcsec
+accel_quadratic        30          100        1 000         ug/g^2
+gyro_bias              0.01        10         18 000        deg/h (HG9900 0.0035, HG1700 1)
+gyro_scale_factor      50          300        10 000        ppm  (HG9900 5, FSAS 300)
+gyro_misalignment      30          300        2 000         arcsec
+gyro_g_sensitivity     0.5         10         360           deg/h/g
+=====================  ==========  =========  ============  =====================================
+
+Each navigation figure is the worst of the grade's data-sheet span in the range table above; the
+tactical figures come from tactical-grade units (Honeywell HG1700, iMAR FSAS), the industrial ones
+from the MEMS span above. None was chosen by a validation run.
+
 The grade is given (``--grade``) or inferred from the gyro and accelerometer white-noise densities
 of the readings themselves, at the top of their band (:func:`noise_density`, :func:`infer_grade`;
 the coarser of the two).
@@ -40,7 +64,17 @@ import numpy as np
 
 from ..constants import ARCSEC, DEG, DEG_PER_H, GRADES, MICRO_G, SQRT_SECONDS_PER_HOUR, STANDARD_GRAVITY_MPS2
 
-__all__ = ["GRADES", "NOISE_BAND", "RANGES", "infer_grade", "judge", "likely_cause", "noise_density"]
+__all__ = [
+    "DATASHEET",
+    "GRADES",
+    "NOISE_BAND",
+    "RANGES",
+    "infer_grade",
+    "judge",
+    "likely_cause",
+    "noise_density",
+    "prior_sigma",
+]
 
 #: Per effect: (SI per report unit, report unit, (navigation, tactical, industrial) in report units).
 RANGES = {
@@ -57,6 +91,18 @@ RANGES = {
     "gyro_misalignment": (ARCSEC, "arcsec", (300.0, 1500.0, 5000.0)),
     "gyro_g_sensitivity": (DEG_PER_H / STANDARD_GRAVITY_MPS2, "deg/h/g", (2.0, 50.0, 1e3)),
     "reference_mount": (ARCSEC, "arcsec", (1.8e4, 1.8e4, 1.8e4)),
+}
+#: Per effect: one standard deviation of a part of each grade (navigation, tactical, industrial), in
+#: the report unit of :data:`RANGES`, from data sheets (the module's second table).
+DATASHEET = {
+    "accel_bias": (100.0, 1e3, 6e4),
+    "accel_scale_factor": (300.0, 1e3, 1e4),
+    "accel_misalignment": (30.0, 300.0, 1800.0),
+    "accel_quadratic": (30.0, 100.0, 1e3),
+    "gyro_bias": (0.01, 10.0, 1.8e4),
+    "gyro_scale_factor": (50.0, 300.0, 1e4),
+    "gyro_misalignment": (30.0, 300.0, 2e3),
+    "gyro_g_sensitivity": (0.5, 10.0, 360.0),
 }
 #: White-noise densities that separate the grades: gyro angle random walk [deg/sqrt(h)] and
 #: accelerometer noise [ug/sqrt(Hz)]; a part at or under the first is navigation grade, under the
@@ -165,6 +211,17 @@ def judge(effect: str, values_si, grade: str) -> str | None:
     if size / per_unit <= limit:
         return None
     return f"{size / per_unit:,.0f} {unit} is outside what a {grade}-grade sensor shows (at most {limit:,.0f} {unit})"
+
+
+def prior_sigma(effect: str, grade: str) -> float:
+    """The prior standard deviation [SI] of one parameter of ``effect`` on a part of ``grade`` about
+    its start value: the data-sheet figure (:data:`DATASHEET`) where data sheets give one, otherwise
+    that of a value spread evenly over the plausible range (:data:`RANGES`, ``limit / sqrt(3)``)."""
+    per_unit, _, limits = RANGES[effect]
+    k = GRADES.index(grade)
+    if effect in DATASHEET:
+        return DATASHEET[effect][k] * per_unit
+    return limits[k] * per_unit / math.sqrt(3.0)
 
 
 def likely_cause(effect: str) -> str:
