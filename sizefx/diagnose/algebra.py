@@ -1,6 +1,8 @@
 """The algebra of one set of normal equations, held as matrices: nothing here knows of rows or blocks.
 
 - :func:`solve` fits a parameter set with the others pinned;
+- :func:`scaled_pinv`: the pseudo-inverse of a normal matrix or covariance whose parameters come
+  in units far apart;
 - :func:`hac_lag`, :func:`long_run_meat`: the long-run (Newey-West) covariance of block scores, the
   meat of :func:`sizefx.diagnose.normal.covariance`'s sandwich;
 - :func:`wald` tests a group of parameters with a covariance (chi-square with as many degrees
@@ -19,7 +21,7 @@ import numpy as np
 
 from .theta import NP
 
-__all__ = ["solve", "hac_lag", "long_run_meat", "wald", "canonical_correlation", "DEGENERATE", "HAC_MAX_RHO"]
+__all__ = ["solve", "scaled_pinv", "hac_lag", "long_run_meat", "wald", "canonical_correlation", "DEGENERATE", "HAC_MAX_RHO"]
 
 #: A regressor that keeps under this share of its energy once others are fitted is degenerate
 #: given them (its residual RMS under 3e-5 of its own): :func:`canonical_correlation`'s NaN.
@@ -41,6 +43,20 @@ def _inverse(Nf):
         return np.linalg.inv(Ns) / np.outer(d, d)
     except np.linalg.LinAlgError:
         return np.linalg.pinv(Ns) / np.outer(d, d)
+
+
+def scaled_pinv(A, rcond: float = 1e-12):
+    """Pseudo-inverse of the symmetric positive semi-definite ``A`` (a normal matrix or a
+    covariance), scaled to a unit diagonal first.
+
+    The parameters' units lie far apart: an arm's variance is of order 1e-7 m^2, a gyro
+    g-sensitivity's 1e-17 (rad/s per m/s^2)^2. A plain pseudo-inverse cuts its singular values
+    relative to the largest, so it would drop every direction of the small-unit parameters as if the
+    record held nothing of them. Scaled, the cut ``rcond`` drops only what is degenerate: directions
+    in which the parameters' correlation matrix is singular to that share."""
+    A = 0.5 * (A + A.T)
+    d = np.sqrt(np.where(np.diag(A) > 0, np.diag(A), 1.0))
+    return np.linalg.pinv(A / np.outer(d, d), rcond=rcond, hermitian=True) / np.outer(d, d)
 
 
 def solve(N, b, yy, free, offset):

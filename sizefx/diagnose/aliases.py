@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constants import DEG
+from .algebra import scaled_pinv
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge, prior_sigma
 from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION, honest
@@ -126,7 +127,7 @@ def _shift(nrm, free, alt_idx) -> np.ndarray:
     N = nrm.N.sum(0)
     free = np.asarray(free, dtype=int)
     alt = np.asarray(alt_idx, dtype=int)
-    return -np.linalg.lstsq(N[np.ix_(free, free)], N[np.ix_(free, alt)], rcond=None)[0]
+    return -scaled_pinv(N[np.ix_(free, free)]) @ N[np.ix_(free, alt)]
 
 
 def _reach(nrm, free, j: int, sd: float) -> float:
@@ -134,7 +135,7 @@ def _reach(nrm, free, j: int, sd: float) -> float:
     ``sd`` from its start value gives, in the estimate's white standard errors (``N_ff^-1``)."""
     N = nrm.N.sum(0)
     free = np.asarray(free, dtype=int)
-    sig = np.sqrt(np.abs(np.diag(np.linalg.pinv(N[np.ix_(free, free)]))))
+    sig = np.sqrt(np.abs(np.diag(scaled_pinv(N[np.ix_(free, free)]))))
     S = _shift(nrm, free, [j])[:, 0]
     return float(np.max(np.abs(S) * sd / np.where(sig > 0, sig, np.inf)))
 
@@ -305,7 +306,7 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     N, b, _ = nrm.total()
     S = _shift(nrm, free, idx)  # [free, fitted]
     C = N[np.ix_(idx, idx)] + N[np.ix_(idx, free)] @ S
-    dh = np.linalg.pinv(0.5 * (C + C.T) + prior) @ (b[idx] + S.T @ b[free])
+    dh = scaled_pinv(C + prior) @ (b[idx] + S.T @ b[free])
     joint = np.concatenate([free, idx])
     order = np.argsort(joint)
     _, white, robust = covariance(nrm, joint[order], offset)
@@ -316,8 +317,8 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     V = 0.5 * V + 0.5 * V.T
     ok = np.isfinite(V).all(axis=0)
     C_r = np.zeros_like(V)
-    C_r[np.ix_(ok, ok)] = np.linalg.pinv(V[np.ix_(ok, ok)], rcond=1e-12, hermitian=True)
-    return S @ dh, dh, added + S @ np.linalg.pinv(C_r + prior) @ S.T
+    C_r[np.ix_(ok, ok)] = scaled_pinv(V[np.ix_(ok, ok)])
+    return S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
 
 
 def masked_by_hidden(x, cov, added, level: float) -> float | None:
@@ -328,7 +329,7 @@ def masked_by_hidden(x, cov, added, level: float) -> float | None:
     from scipy.stats import chi2
 
     x = np.asarray(x, dtype=float)
-    p = float(chi2.sf(x @ np.linalg.pinv(cov + added) @ x, x.size))
+    p = float(chi2.sf(x @ scaled_pinv(cov + added) @ x, x.size))
     return p if p > level else None
 
 

@@ -32,6 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .algebra import scaled_pinv
+
 __all__ = ["Drift", "TERMS", "basis", "prior_variances", "intensity", "walk_covariance", "NO_DRIFT"]
 
 #: Sine terms of the walk's series: 97.5 % of its variance over the record (the module's docstring).
@@ -120,8 +122,7 @@ def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
         A[u, :P] = NU[c][shown].T
         A[u, u] = UU[c]
         r[u] = bU[c]
-    d = np.sqrt(np.where(np.diag(A) > 0, np.diag(A), 1.0))
-    inv = np.linalg.pinv(A / np.outer(d, d), rcond=1e-12, hermitian=True) / np.outer(d, d)
+    inv = scaled_pinv(A)
     x = inv @ r
     lam = prior_variances(span_s)
     for i, c in enumerate(channels):
