@@ -267,3 +267,21 @@ def test_the_dropped_half_of_an_aliased_pair_is_fitted_beside_the_findings():
     # a pair's dropped half that is also a candidate left out beside a finding is counted once
     twice = _with_aliases({}, [(keep, gone, 0.97)], [(keep, sf, (h,), 0.97)])
     assert hidden_parameters(nrm, [keep], twice, "navigation") == [(sf, [h], True)]
+
+
+def test_a_left_out_parameter_has_its_data_sheet_as_prior_and_the_bound_only_where_none_speaks():
+    """A part meets its data sheet: the prior of a left-out parameter is the grade's data-sheet
+    standard deviation, inside the plausibility bound that judges findings; where no data sheet
+    speaks (arms, clocks, level, mount) the bound spread evenly."""
+    from sizefx.diagnose.plausibility import DATASHEET, GRADES, RANGES, prior_sigma
+
+    for effect, (per_unit, _, bounds) in RANGES.items():
+        for k, grade in enumerate(GRADES):
+            if effect in DATASHEET:
+                assert DATASHEET[effect][k] < bounds[k], (effect, grade)
+                assert prior_sigma(effect, grade) == pytest.approx(DATASHEET[effect][k] * per_unit)
+            else:
+                assert prior_sigma(effect, grade) == pytest.approx(bounds[k] * per_unit / np.sqrt(3.0))
+        if effect in DATASHEET:  # a coarser grade's parts are no better
+            assert list(DATASHEET[effect]) == sorted(DATASHEET[effect]), effect
+    assert prior_sigma("accel_bias", "navigation") == pytest.approx(100e-6 * 9.80665)
