@@ -84,6 +84,35 @@ def test_nothing_estimated_is_not_cross_validated():
     assert not d.effects and d.out_of_sample is None
 
 
+def test_a_finding_that_does_not_predict_held_out_folds_is_no_finding(monkeypatch):
+    """Significant in sample is not enough: a finding whose held-out gain is not positive beyond
+    chance goes to not_revealed with both gains in its reason, and the extended model still carries
+    it. Here the held-out test is made to refuse the arm a real record reveals (a false finding that
+    passed the in-sample test would be refused the same way)."""
+    import dataclasses
+
+    import sizefx.diagnose.fit as fit
+
+    real = fit.cross_validate
+
+    def refuses_the_arm(*args, **kwargs):
+        cv = real(*args, **kwargs)
+        effects = [
+            dataclasses.replace(e, generalises=False, p=0.3) if e.key == "lever_arm:accel_y" else e for e in cv.effects
+        ]
+        return dataclasses.replace(cv, effects=effects)
+
+    tel, _ = record({"lever_arm": HIDDEN["lever_arm"]}, duration_s=40.0, seed=8)
+    d = D.diagnose(tel, NOMINAL, grade="navigation")
+    assert ("lever_arm", "accel_y") in {(e.id, e.channel) for e in d.effects}
+    monkeypatch.setattr(fit, "cross_validate", refuses_the_arm)
+    refused = D.diagnose(tel, NOMINAL, grade="navigation")
+    assert ("lever_arm", "accel_y") not in {(e.id, e.channel) for e in refused.effects}
+    why = next(u.reason for u in refused.unrevealed if (u.id, u.channel) == ("lever_arm", "accel_y"))
+    assert "held-out folds, not beyond chance (p = 0.3)" in why and "extended model carries it" in why
+    assert refused.theta[D.LEVER[3:6]] == pytest.approx(d.theta[D.LEVER[3:6]])
+
+
 def test_validate_on_another_record_gains_where_the_effect_is_and_loses_where_it_is_not():
     """The arm of record A carries over to record B of the same IMU (another noise, another tumble),
     and is refused on record C, whose accelerometer y sits where the nominal geometry says."""

@@ -362,23 +362,30 @@ def diagnose(
         residual,
     )
     if out_of_sample is not None:
-        # a finding the grade resolved from an alias must also predict held-out data: the grade rules
-        # the alternative out, not a third cause the two may share
+        # a finding must also predict data it was not fitted to: one whose held-out gain is not
+        # positive beyond chance is no finding (in-sample significance leans on the errors, the held-out
+        # gain does not); a finding the grade resolved from an alias must too, as the grade rules the
+        # alternative out, not a third cause the two may share
         gains = {g.key: g for g in out_of_sample.effects}
         for c in reported:
             alt, g = resolved.get(c.cand.key), gains.get(c.cand.key)
-            if alt is None or g is None or g.generalises:
+            if g is None or g.generalises:
                 continue
             effects = [e for e in effects if (e.id, e.channel) != (c.cand.id, c.cand.channel)]
-            unrev = _named(
-                unrev,
-                c.cand,
-                c.active,
-                f"indistinguishable from {alt.key} on this motion (canonical correlation {alt.rho:.4f}), which alone "
-                f"would be implausible ({alt.reason}); but it does not predict held-out data beyond chance "
-                f"(p = {g.p:.2g}), so something else may explain what the two share; the extended model carries it",
+            held_out = (
+                f"removes {100 * g.gain_in_sample:.2f} % of the weighted residual power in sample but "
+                f"{100 * g.gain_held_out:.2f} % on held-out folds, not beyond chance (p = {g.p:.2g})"
             )
-            log.append(f"{c.cand.key} not kept against {alt.key}: it does not generalise (p = {g.p:.2g})")
+            if alt is None:
+                why = f"significant in sample, but it {held_out}; the extended model carries it"
+            else:
+                why = (
+                    f"indistinguishable from {alt.key} on this motion (canonical correlation {alt.rho:.4f}), which "
+                    f"alone would be implausible ({alt.reason}); but it {held_out}, so something else may explain "
+                    "what the two share; the extended model carries it"
+                )
+            unrev = _named(unrev, c.cand, c.active, why)
+            log.append(f"{c.cand.key} no finding: it does not generalise (p = {g.p:.2g})")
         warnings += _holdout_warnings(out_of_sample)
     return Diagnosis(
         path=str(tel.path),
