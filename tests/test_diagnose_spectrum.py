@@ -91,32 +91,3 @@ def test_block_covariance_of_white_noise_is_diagonal():
     R = block_covariance(x, np.arange(100) * 0.5, 0.5)
     assert np.diag(R) == pytest.approx(np.var(x), rel=0.3)
     assert np.max(np.abs(R - np.diag(np.diag(R)))) < 0.2 * np.var(x)
-
-
-def test_a_walk_modelled_by_the_drift_is_not_counted_twice():
-    """Where the drift model holds a channel's walk (:mod:`sizefx.diagnose.drift`), the block means'
-    spectrum is fitted to what the walk's basis leaves: the spectral sandwich plus the walk's part
-    then match the scatter of the slow regressor's estimate, where the sandwich fitted to the walk
-    too would count it a second time."""
-    from sizefx.diagnose.drift import basis, intensity, walk_covariance
-
-    t, H = _design()
-    span = t[-1] + DT
-    Z = basis(t, 0.0, span)
-    rng = np.random.default_rng(11)
-    inv = np.linalg.inv(H.T @ H)
-    estimates, split, twice = [], [], []
-    for _ in range(200):
-        e = rng.standard_normal(t.size) + np.cumsum(0.05 * rng.standard_normal(t.size))
-        x = inv @ (H.T @ e)
-        noise = _noise_of(t, H, e - H @ x)
-        drift = intensity(H.T @ H, H.T @ e, {0: H.T @ Z}, {0: Z.T @ Z}, {0: Z.T @ e}, [0], 0.0, span)
-        walk = walk_covariance(drift, [0, 1, 2], inv)
-        walk = np.zeros((3, 3)) if walk is None else walk
-        estimates.append(x)
-        split.append(np.diag(inv @ spectral_meat(noise, [0, 1, 2], drift) @ inv + walk))
-        twice.append(np.diag(inv @ spectral_meat(noise, [0, 1, 2]) @ inv + walk))
-    empirical = np.var(estimates, axis=0)
-    # 200 trials: the empirical variance to +-10 %; the walk's intensity is itself an estimate
-    assert 0.7 < np.mean(split, axis=0)[2] / empirical[2] < 1.4
-    assert np.mean(twice, axis=0)[2] > 1.5 * np.mean(split, axis=0)[2]

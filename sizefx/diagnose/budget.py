@@ -28,9 +28,9 @@ estimates, findings and the nuisance fitted beside them):
   in is no finding;
 - **walk**: a random walk of the biases (:mod:`.drift`), measured beside the model: what it adds to
   the estimates' covariance, ``N^-1 H'WZ Q Z'WH N^-1``, large for a parameter whose regressor is as
-  slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. On a
-  channel that walks, the sandwich's spectrum is fitted to what the walk's basis leaves of the
-  residual's block means, so the walk is counted here once;
+  slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. The
+  sandwich holds the part of the walk faster than its lags; the walk's part counts it again, an
+  over-statement bounded by that share;
 - **band**: the choice of band and of the model selected in it (:func:`band_part`).
 
 :meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + hidden + walk + band``
@@ -165,7 +165,7 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     _, white, robust = covariance(nrm, free, offset)
     sandwich = honest(white, robust)
     if spectral and nrm.noise is not None and free.size:
-        sandwich = white @ spectral_meat(nrm.noise, free, nrm.drift) @ white
+        sandwich = white @ spectral_meat(nrm.noise, free) @ white
         sandwich = 0.5 * (sandwich + sandwich.T)
     sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(sandwich)))))
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))

@@ -25,8 +25,7 @@ splits and the block means span the rows). Each parameter takes the noise at the
 its regressor varies: a lever arm's fast regressor is not charged with its channel's slow
 colour, a misalignment on a turntable's long dwells is. The block means' model is fitted over all
 their frequencies, so a slow effect the fit absorbed (the residual is low where the regressors
-are) pulls it little. A walk of the bias is :mod:`.drift`'s: on a channel where it measures one, the
-block means' spectrum is fitted to what the walk's basis leaves of them (:func:`spectral_meat`).
+are) pulls it little; a walk slower than the record is left to :mod:`.drift`.
 """
 
 from __future__ import annotations
@@ -180,14 +179,8 @@ def block_covariance(x, t0, block_s: float) -> np.ndarray:
     return acov[np.minimum(lag, M // 2)]
 
 
-def spectral_meat(noise: BlockNoise, free, drift=None) -> np.ndarray:
-    """``[f, f]``: the variance of the score of the parameters ``free`` (module docstring).
-
-    ``drift``: the walk of each channel's bias (:class:`sizefx.diagnose.drift.Drift`). On a channel
-    that walks, the block means' spectrum is fitted to what the walk's basis leaves of them: the
-    walk's part of the errors is :func:`sizefx.diagnose.drift.walk_covariance`'s, not counted twice."""
-    from .drift import basis
-
+def spectral_meat(noise: BlockNoise, free) -> np.ndarray:
+    """``[f, f]``: the variance of the score of the parameters ``free`` (module docstring)."""
     free = np.asarray(free, dtype=int)
     meat = np.zeros((free.size, free.size))
     n = noise.counts
@@ -196,10 +189,6 @@ def spectral_meat(noise: BlockNoise, free, drift=None) -> np.ndarray:
         G = noise.G[c][np.ix_(inside, free)]
         if not np.any(G):
             continue
-        rbar = noise.rbar[inside, c]
-        if drift is not None and drift.q[c] > 0:
-            Z = basis(noise.t0[inside] + 0.5 * noise.block_s, drift.t0, drift.span_s)
-            rbar = rbar - Z @ np.linalg.lstsq(Z, rbar, rcond=None)[0]
-        R = block_covariance(rbar, noise.t0[inside], noise.block_s)
+        R = block_covariance(noise.rbar[inside, c], noise.t0[inside], noise.block_s)
         meat += G.T @ R @ G + np.einsum("j,jab->ab", noise.u[c], noise.D[c][:, free][:, :, free])
     return meat
