@@ -54,7 +54,7 @@ def scaled_pinv(A, rcond: float = 1e-12):
     relative to the largest, so it would drop every direction of the small-unit parameters as if the
     record held nothing of them. Scaled, the cut ``rcond`` drops only what is degenerate: directions
     in which the parameters' correlation matrix is singular to that share."""
-    A = 0.5 * (A + A.T)
+    A = 0.5 * A + 0.5 * A.T  # halved before the sum: a variance near the float limit must not overflow
     d = np.sqrt(np.where(np.diag(A) > 0, np.diag(A), 1.0))
     return np.linalg.pinv(A / np.outer(d, d), rcond=rcond, hermitian=True) / np.outer(d, d)
 
