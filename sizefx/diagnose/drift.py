@@ -34,10 +34,13 @@ import numpy as np
 
 from .algebra import scaled_pinv
 
-__all__ = ["Drift", "TERMS", "basis", "prior_variances", "intensity", "walk_covariance", "NO_DRIFT"]
+__all__ = ["Drift", "TERMS", "SLOPES", "basis", "prior_variances", "intensity", "walk_covariance", "NO_DRIFT"]
 
 #: Sine terms of the walk's series: 97.5 % of its variance over the record (the module's docstring).
 TERMS = 8
+#: The slopes of the slow noise's spectrum tried per channel (:func:`intensity`): a random walk of
+#: the bias (``f^-2``) and flicker (``f^-1``, a bias instability).
+SLOPES = (2.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,8 @@ class Drift:
     t0: float  #: start of the span [s]
     span_s: float  #: T [s]
     cross: dict = field(default_factory=dict)  #: channel -> [P, TERMS] H'WZ, for the channels that walk
+    #: [6] per channel, the slope of its slow noise's spectrum (:data:`SLOPES`; 2: a walk)
+    slope: np.ndarray = field(default_factory=lambda: np.full(6, 2.0))
 
 
 #: No walk anywhere (the fit as under white noise).
@@ -61,14 +66,18 @@ def basis(t, t0: float, span_s: float) -> np.ndarray:
     return np.sin(np.outer((np.asarray(t, dtype=float) - t0) * (math.pi / max(span_s, 1e-300)), k))
 
 
-def prior_variances(span_s: float) -> np.ndarray:
-    """``[TERMS]``: the coefficients' variances per unit intensity, ``2T / ((k - 1/2) pi)^2`` [s]."""
+def prior_variances(span_s: float, slope: float = 2.0) -> np.ndarray:
+    """``[TERMS]``: the coefficients' variances per unit intensity, ``2T / ((k - 1/2) pi)^2`` [s] for a
+    walk; for slow noise of spectrum ``f^-slope``, in proportion to ``(k - 1/2)^-slope`` (a
+    coefficient's variance is the spectrum at its frequency), equal to the walk's at ``k = 1``, so that
+    the intensity reads as that of the walk with the same slowest term."""
     k = np.arange(1, TERMS + 1) - 0.5
-    return 2.0 * span_s / (k * math.pi) ** 2
+    return 2.0 * span_s / (k * math.pi) ** 2 * (2.0 * k) ** (2.0 - slope)
 
 
-def _ml_intensity(a, V, lam) -> float:
-    """The ``q >= 0`` maximising the likelihood of ``a ~ N(0, V + q diag(lam))``."""
+def _ml_intensity(a, V, lam) -> tuple[float, float]:
+    """The ``q >= 0`` maximising the likelihood of ``a ~ N(0, V + q diag(lam))``, and its negative
+    log-likelihood (twice, less constants)."""
 
     def nll(q):
         C = V + q * np.diag(lam)
@@ -79,12 +88,12 @@ def _ml_intensity(a, V, lam) -> float:
 
     scale = float(np.trace(V) / np.sum(lam))  # the intensity whose walk equals the noise on the basis
     if not scale > 0 or not np.all(np.isfinite(a)):
-        return 0.0
+        return 0.0, math.inf
     grid = scale * np.logspace(-3, 8, 45)
     values = [nll(q) for q in grid]
     best = int(np.argmin(values))
     if nll(0.0) <= values[best]:
-        return 0.0
+        return 0.0, nll(0.0)
     lo, hi = math.log(grid[max(0, best - 1)]), math.log(grid[min(len(grid) - 1, best + 1)])
     for _ in range(40):  # golden section on log q between the grid's neighbours of the best
         m1, m2 = lo + 0.382 * (hi - lo), lo + 0.618 * (hi - lo)
@@ -92,7 +101,8 @@ def _ml_intensity(a, V, lam) -> float:
             hi = m2
         else:
             lo = m1
-    return math.exp(0.5 * (lo + hi))
+    q = math.exp(0.5 * (lo + hi))
+    return q, nll(q)
 
 
 def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
@@ -104,9 +114,12 @@ def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
     not yet selected its own slow signature: neither passes for a walk), and the basis coefficients
     ``a`` of each channel then carry the white noise (covariance: their block of the joint
     inverse) and the walk (``q`` times :func:`prior_variances`); ``q`` is their maximum-likelihood
-    variance component, 0 when the coefficients are no larger than the noise makes them. Coloured
-    noise other than a walk (flicker, a slow Gauss-Markov process) shows as a walk here too, and
-    widens the errors it would otherwise leave too small."""
+    variance component, 0 when the coefficients are no larger than the noise makes them. The slope of
+    their spectrum is chosen per channel by the same likelihood among :data:`SLOPES`: a walk's
+    coefficients fall as ``(k - 1/2)^-2``, flicker's as ``(k - 1/2)^-1``, and flicker read as a walk
+    puts several times its power into the slowest term, which the slowest regressors take up. A slow
+    Gauss-Markov process shows as one of the two, and widens the errors it would otherwise leave too
+    small."""
     q = np.zeros(6)
     if not channels or span_s <= 0:
         return Drift(q, t0, span_s)
@@ -124,11 +137,14 @@ def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
         r[u] = bU[c]
     inv = scaled_pinv(A)
     x = inv @ r
-    lam = prior_variances(span_s)
+    slope = np.full(6, SLOPES[0])
     for i, c in enumerate(channels):
         u = slice(P + i * K, P + (i + 1) * K)
-        q[c] = _ml_intensity(x[u], inv[u, u], lam)
-    return Drift(q, t0, span_s, {c: NU[c] for c in channels if q[c] > 0})
+        fits = [(*_ml_intensity(x[u], inv[u, u], prior_variances(span_s, a)), a) for a in SLOPES]
+        q[c], _, slope[c] = min(fits, key=lambda f: f[1])
+        if q[c] == 0.0:
+            slope[c] = SLOPES[0]
+    return Drift(q, t0, span_s, {c: NU[c] for c in channels if q[c] > 0}, slope)
 
 
 def walk_covariance(drift: Drift, free, inv) -> np.ndarray | None:
@@ -138,9 +154,8 @@ def walk_covariance(drift: Drift, free, inv) -> np.ndarray | None:
     if not drift.cross:
         return None
     free = np.asarray(free, dtype=int)
-    lam = prior_variances(drift.span_s)
     meat = np.zeros((free.size, free.size))
     for c, NU in drift.cross.items():
-        A = NU[free] * np.sqrt(drift.q[c] * lam)[None, :]
+        A = NU[free] * np.sqrt(drift.q[c] * prior_variances(drift.span_s, drift.slope[c]))[None, :]
         meat += A @ A.T
     return inv @ meat @ inv

@@ -94,6 +94,9 @@ class Diagnosis:
     wall_s: float
     #: [6] the walk of each channel's bias, sqrt of its intensity (SI per sqrt(s); :mod:`.drift`), 0 where none
     bias_walk: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    #: [6] the slope of each channel's slow noise (:data:`sizefx.diagnose.drift.SLOPES`): 2 a walk,
+    #: 1 flicker, whose ``bias_walk`` is then the walk with the same slowest term over the record
+    bias_walk_slope: np.ndarray = field(default_factory=lambda: np.full(6, 2.0))
     #: [n, 6] float32 (SI): measured minus predicted per sample, kept for the plots (``keep_series``)
     residual_before: np.ndarray | None = None
     residual_after: np.ndarray | None = None
@@ -405,6 +408,7 @@ def diagnose(
         weights_sigma=state.sigma_c,
         kappa=state.kappa,
         bias_walk=np.sqrt(state.nrm.drift.q),
+        bias_walk_slope=state.nrm.drift.slope,
         passes=state.passes,
         log=log,
         wall_s=time.perf_counter() - started,

@@ -110,6 +110,7 @@ def to_json(d: Diagnosis, start: str, checks: ModelChecks | None = None) -> dict
         "noise_sigma": dict(zip(CHANNELS, d.weights_sigma.tolist())),
         "kappa": dict(zip(CHANNELS, d.kappa.tolist())),
         "bias_walk": dict(zip(CHANNELS, d.bias_walk.tolist())),
+        "bias_walk_slope": dict(zip(CHANNELS, d.bias_walk_slope.tolist())),
         "passes": d.passes,
         "selection_log": d.log,
         "navigation": checks.navigation,
@@ -247,7 +248,7 @@ def format_report(d: Diagnosis, start: str, checks: ModelChecks | None = None) -
     if d.geometry:
         lines += _geometry_lines(d.geometry)
     lines.append(f"band: {d.bandwidth_reason}; {d.grade_reason}")
-    walking = _walk_words(d.bias_walk)
+    walking = _walk_words(d.bias_walk, d.bias_walk_slope)
     if walking:
         lines.append(f"bias walk measured beside the model (it widens the errors of slow parameters): {walking}")
     cons = d.consistency or {}
@@ -388,12 +389,14 @@ def _out_of_sample_lines(o: OutOfSample, windows: dict | None = None) -> list[st
     return lines
 
 
-def _walk_words(walk) -> str:
+def _walk_words(walk, slope) -> str:
     """The channels whose bias walks, in the units a data sheet gives: deg/h/sqrt(h) for a gyro's rate
-    random walk, ug/sqrt(h) for an accelerometer's bias walk."""
+    random walk, ug/sqrt(h) for an accelerometer's bias walk; "(flicker)" where the slow noise's
+    spectrum falls as 1/f (:mod:`sizefx.diagnose.drift`)."""
     words = []
-    for c, w in zip(CHANNELS, walk):
+    for c, w, a in zip(CHANNELS, walk, slope):
         if w > 0:
             k, unit = (DEG_PER_H, "deg/h") if c.startswith("gyro") else (MICRO_G, "ug")
-            words.append(f"{c} {w / (k / 60.0):.3g} {unit}/sqrt(h)")  # per sqrt(h): per 60 sqrt(s)
+            kind = " (flicker)" if a < 2.0 else ""
+            words.append(f"{c} {w / (k / 60.0):.3g} {unit}/sqrt(h){kind}")  # per sqrt(h): per 60 sqrt(s)
     return ", ".join(words)
