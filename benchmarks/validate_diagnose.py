@@ -16,8 +16,9 @@ re-runs both (``--record dev`` and ``--record validation`` write
 both.
 
 Per effect kind (the effect model's sections): the records in which it was hidden, found, missed,
-or reported "not revealed"; over the parameters diagnose reports, the z mean and RMS and the
-coverage of the 68 % and 95 % intervals (``|z| <= 1`` and ``|z| <= 1.96``); and, for the plot, the
+or reported "not revealed"; over the parameters diagnose reports, the z mean and RMS (with the
+range chance alone gives the RMS of that many independent z-scores) and the coverage of the 68 % and
+95 % intervals (``|z| <= 1`` and ``|z| <= 1.96``); and, for the plot, the
 probability integral transform ``Phi(z)`` of each truth under the reported normal error, which is
 uniform when the error bars are right (simulation-based calibration, Talts et al. 2018, with the
 normal posterior's rank in closed form). A finding of an effect kind that was not hidden is a
@@ -294,6 +295,7 @@ def summarise(rows: list[dict]) -> dict:
             entry |= {
                 "mean_z": float(z.mean()),
                 "rms_z": float(np.sqrt(np.mean(z**2))),
+                "rms_z_chance_95": _rms_chance(z.size),
                 "max_abs_z": float(np.abs(z).max()),
                 "coverage_68": float(np.mean(np.abs(z) <= 1.0)),
                 "coverage_95": float(np.mean(np.abs(z) <= 1.959964)),
@@ -353,6 +355,15 @@ def summarise(rows: list[dict]) -> dict:
     }
 
 
+def _rms_chance(n: int) -> list:
+    """The central 95 % range of the RMS of ``n`` independent z-scores when the errors are right
+    (``sqrt(chi2_n / n)``): how far a kind's z RMS strays from 1 by chance alone. A record's
+    parameters are not independent (nine arms share one fit), so the true range is wider."""
+    from scipy.stats import chi2
+
+    return [float(np.sqrt(chi2.ppf(q, n) / n)) for q in (0.025, 0.975)]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--range", choices=RANGES, required=True, help="the seed range (see above)")
@@ -381,11 +392,12 @@ def main(argv=None) -> int:
     summary = summarise(rows)
     print(
         f"{'effect':20s} {'hidden':>6s} {'found':>5s} {'n.rev':>5s} {'miss':>4s} {'false':>5s} {'n':>4s} "
-        f"{'mean z':>7s} {'z RMS':>6s} {'max|z|':>7s} {'68 %':>5s} {'95 %':>5s}"
+        f"{'mean z':>7s} {'z RMS':>6s} {'chance':>9s} {'max|z|':>7s} {'68 %':>5s} {'95 %':>5s}"
     )
     for kind, e in summary["by_effect"].items():
         stats = (
-            f"{e['mean_z']:7.2f} {e['rms_z']:6.2f} {e['max_abs_z']:7.1f} {e['coverage_68']:5.2f} {e['coverage_95']:5.2f}"
+            f"{e['mean_z']:7.2f} {e['rms_z']:6.2f} {e['rms_z_chance_95'][0]:4.2f}-{e['rms_z_chance_95'][1]:4.2f} "
+            f"{e['max_abs_z']:7.1f} {e['coverage_68']:5.2f} {e['coverage_95']:5.2f}"
             if e["parameters"]
             else ""
         )
