@@ -10,7 +10,9 @@ is diagnose's own is only which motion it feeds the model:
   (:func:`sizefx.sensor_model.true_attitude`);
 - the accelerometers' lever terms use the *gyros*, corrected by the model's gyro errors, and
   their Savitzky-Golay derivative over 25 ms, as compensation uses measured rates: a
-  motion-capture reference differentiated twice would bury omegadot in noise.
+  motion-capture reference differentiated twice would bury omegadot in noise. The derivative is a
+  quartic's (:data:`GYRO_DOT_ORDER`), exact in the motion's band, so that the arms estimated are
+  the physical ones.
 
 :class:`Predictor` holds the measured record on its samples and evaluates the model there;
 increments records are compared as interval means (the prediction at each interval's midpoint
@@ -37,6 +39,13 @@ __all__ = ["Predictor", "predict_readings", "GYRO_DOT_WINDOW_S"]
 
 #: Span of the Savitzky-Golay gyro derivative [s]: 41 samples at 1600 Hz, 7 at 286 Hz.
 GYRO_DOT_WINDOW_S = 0.025
+#: Order of its polynomial. A quadratic's derivative falls short of ``i 2 pi f`` by about
+#: ``(2 pi f W)^2 / 10`` (``W`` the half span): 0.25 % at 2 Hz, and an arm's tangential term takes
+#: that up as a longer arm (development seed 9, a heading sway at 200 Hz: r_y[x] 98 um off, z 2.9).
+#: A quartic's shortfall is of order ``(2 pi f W)^4``, under 0.1 % up to 10 Hz (the quadratic's: 4-7 %
+#: there, at 200-1600 Hz); its noise gain is 2.5-3 times the quadratic's, which on the regressor of a
+#: navigation-grade gyro is still nothing.
+GYRO_DOT_ORDER = 4
 #: Memory for the cached reference motion at the time shifts the delays ask for (each pass moves
 #: them a little, and judging an effect evaluates the model without it): as many whole-record
 #: shifts as fit, at 144 bytes per sample each, when at least three do (a 51 000-sample BROAD trial
@@ -246,7 +255,7 @@ class Predictor:
             a = max(0, min(a, self.n - w))
         if lo < w:
             b = min(self.n, max(b, w))
-        return savgol_rows(self.gyro[a:b], a, self.n, lo, hi, self.dt, window=w)
+        return savgol_rows(self.gyro[a:b], a, self.n, lo, hi, self.dt, window=w, order=GYRO_DOT_ORDER)
 
     def gyro_at(self, shift: float, lo: int = 0, hi: int | None = None):
         """Measured rate and its derivative at ``t + shift`` on the samples ``lo:hi`` (cubic spline
