@@ -21,7 +21,16 @@ import numpy as np
 
 from .theta import NP
 
-__all__ = ["solve", "scaled_pinv", "hac_lag", "long_run_meat", "wald", "canonical_correlation", "DEGENERATE", "HAC_MAX_RHO"]
+__all__ = [
+    "solve",
+    "scaled_pinv",
+    "hac_lag",
+    "long_run_meat",
+    "wald",
+    "canonical_correlation",
+    "DEGENERATE",
+    "HAC_MAX_RHO",
+]
 
 #: A regressor that keeps under this share of its energy once others are fitted is degenerate
 #: given them (its residual RMS under 3e-5 of its own): :func:`canonical_correlation`'s NaN.
