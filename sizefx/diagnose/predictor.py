@@ -11,8 +11,9 @@ is diagnose's own is only which motion it feeds the model:
 - the accelerometers' lever terms use the *gyros*, corrected by the model's gyro errors, and
   their Savitzky-Golay derivative over 25 ms, as compensation uses measured rates: a
   motion-capture reference differentiated twice would bury omegadot in noise. The derivative is a
-  quartic's (:data:`GYRO_DOT_ORDER`), exact in the motion's band, so that the arms estimated are
-  the physical ones.
+  quartic's (:data:`GYRO_DOT_ORDER`), within 0.1 % of the true one up to 10 Hz, so that the arms
+  estimated are the physical ones; at a step of angular acceleration (a turntable's start and
+  stop) it departs from the true one, as any smoothed derivative does.
 
 :class:`Predictor` holds the measured record on its samples and evaluates the model there;
 increments records are compared as interval means (the prediction at each interval's midpoint
