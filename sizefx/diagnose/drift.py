@@ -141,9 +141,8 @@ def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
     for i, c in enumerate(channels):
         u = slice(P + i * K, P + (i + 1) * K)
         fits = [(*_ml_intensity(x[u], inv[u, u], prior_variances(span_s, a)), a) for a in SLOPES]
+        # no walk (q = 0) has the same likelihood under either slope: the tie keeps SLOPES[0]
         q[c], _, slope[c] = min(fits, key=lambda f: f[1])
-        if q[c] == 0.0:
-            slope[c] = SLOPES[0]
     return Drift(q, t0, span_s, {c: NU[c] for c in channels if q[c] > 0}, slope)
 
 
