@@ -586,8 +586,8 @@ def test_broad_residual_gain_is_reported(broad_diagnoses):
 # long tier: shares the two BROAD diagnoses above
 @pytest.mark.slow
 def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
-    """Fitted in a band, the fit is redone at the bands a third of an octave either side, with the
-    selection redone there; the spread is part of the errors. Reported per parameter in
+    """Fitted in a band, the fit is redone at the bands a third of an octave either side, the
+    selection going on there from the final model; the spread is part of the errors. Reported per parameter in
     consistency.systematic, added in quadrature (the error is at least that part), and named in the
     printed report."""
     for trial, (_d, report, doc) in broad_diagnoses.items():

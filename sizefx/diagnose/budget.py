@@ -31,7 +31,8 @@ estimates, findings and the nuisance fitted beside them):
   slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. The
   sandwich holds the part of the walk faster than its lags; the walk's part counts it again, an
   over-statement bounded by that share;
-- **band**: the choice of band and of the model selected in it (:func:`band_part`).
+- **band**: the choice of band and of what the selection takes beside the model there
+  (:func:`band_part`).
 
 :meth:`ErrorBudget.covariance` adds them up: ``sandwich * f f' + aliases + hidden + walk + band``
 with ``f`` the parts' factors.
@@ -45,10 +46,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .algebra import long_run_meat
 from .candidates import columns_between
 from .consistency import block_consistency, motion_groups
 from .drift import walk_covariance
-from .normal import CHUNK_SAMPLES, Normal, Rows, covariance, normal_equations, solve
+from .normal import CHUNK_SAMPLES, Normal, Rows, block_scores, covariance, normal_equations, solve
 from .plausibility import judge
 from .predictor import Predictor
 from .records import ReportWarning
@@ -57,11 +59,18 @@ from .selection import honest, select
 from .spectrum import spectral_meat
 from .theta import PARAMS
 
-__all__ = ["ErrorBudget", "Parts", "band_part", "error_budget", "parts_scatter", "BAND_NEIGHBOURS"]
+__all__ = [
+    "ErrorBudget",
+    "Parts",
+    "band_part",
+    "error_budget",
+    "parts_scatter",
+    "BAND_NEIGHBOURS",
+]
 
 #: The measured band is resolved to a third of an octave (:mod:`.bandwidth`'s bands, then rounded
 #: down to a readable value): the fit is redone at the neighbouring bands a third of an octave
-#: below and above, with the selection redone there (:func:`band_part`).
+#: below and above, the selection going on there from the final model (:func:`band_part`).
 BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
 
 
@@ -193,31 +202,41 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     return Parts(white, sandwich, factors, entries, count)
 
 
-def band_part(pred: Predictor, rows_of: Rows, theta, chosen, theta0, sandwich, grade):
-    """The errors' systematic part from the choice of band and of the model selected in it.
+def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0, sandwich, grade):
+    """The errors' systematic part from the choice of band and of what the selection takes beside
+    the model there.
 
     The band is measured to a third of an octave, and which marginal effects the selection takes
     beside the arms (an accelerometer-z bias, scale factor or misalignment beside r_z[z]) can change
     from one band to the next: the standard errors, conditional on the band and the selection, do
     not carry that. At each neighbouring band (:data:`BAND_NEIGHBOURS`) the normal equations are
-    formed at the final estimate ``theta``, the selection is redone there (:func:`select`, then the
-    plausibility judgement) and the selected model solved (one Gauss-Newton step: the arms and
-    delays are linear in the prediction to well below their errors). The shift ``D`` of each
-    parameter from the final estimate (to its start value where the neighbour does not select it)
-    is part noise, as the bands see different data: of ``D^2`` the part beyond the variance of the
-    difference of the two band's estimates of the final model, ``|s_band^2 - s^2|`` (Hausman's
-    variance of a difference of estimates of one parameter from nested data), is systematic. The
+    formed at the final estimate ``theta``, the selection goes on there from the final model (it may
+    take effects beside it, then judged for plausibility as the fit's are; it never drops one) and
+    the model it ends with is solved (one Gauss-Newton step: the arms and delays are linear in the
+    prediction to well below their errors). A neighbour that dropped a finding the measured band
+    holds (a lever arm a narrower band barely sees) would count the whole finding as the band's
+    error: on a development-range flight (seed 13), the x arm dropped at 4.8 Hz put 19 mm into the
+    error of r_y[x], whose sandwich error is 2.3 mm.
+
+    The shift ``D`` of each parameter is part noise, as the bands see different data: of ``D^2``
+    the part beyond the variance of the difference of the two bands' estimates of the final model
+    is systematic. That variance is the long-run sum over the blocks of the differences of their
+    shares of the two estimates' errors (:func:`sizefx.diagnose.normal.block_scores`, the
+    neighbour's blocks cut where ``nrm``'s start): the noise the two bands share cancels block by
+    block, and what is left is the noise between the bands, fast, so that blocks hold it. The
     covariance added is the mean over the neighbours of ``(c D)(c D)'``, ``c`` scaling each
     component so that the diagonal is that systematic part.
 
-    ``chosen``: the model's effects (:class:`sizefx.diagnose.selection.Chosen`); ``sandwich``: their
-    covariance in the measured band. Returns (cov [free, free], bands): (None, None) when the record
-    was fitted in its full band."""
+    ``chosen``: the model's effects (:class:`sizefx.diagnose.selection.Chosen`); ``nrm``: the
+    normal equations in the measured band; ``sandwich``: their covariance there; ``grade``: the
+    plausible ranges. Returns (cov [free, free], bands): (None, None) when the record was fitted in
+    its full band."""
     if rows_of.bandwidth_hz is None:
         return None, None
     free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
     offset = theta0 - theta
     var0 = np.abs(np.diag(sandwich))
+    _, inv0, s0 = block_scores(nrm, free, offset)
     cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)  # span by span
     nyquist = 0.5 / pred.dt
     sys_cov = np.zeros((free.size, free.size))
@@ -229,21 +248,26 @@ def band_part(pred: Predictor, rows_of: Rows, theta, chosen, theta0, sandwich, g
         rows_b = Rows(pred.t, pred.mask, pred.dt, band)
         residual_b = residual_under(pred, rows_b, theta).rows  # the final residual's rows in this band
         sigma_c, kappa, row_w = noise_of(rows_b, residual_b, robust=True)
-        nrm = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w)
-        _, white, robust = covariance(nrm, free, offset)
-        var_b = np.abs(np.diag(honest(white, robust)))
-        selected, _, _ = select(nrm, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)))
-        while True:  # implausible values say the band's model is wrong: drop them as the judging does
+        nrm_b = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w, blocks_of=nrm)
+        _, inv_b, s_b = block_scores(nrm_b, free, offset)
+        if s_b.shape[0] == s0.shape[0]:
+            noise = np.abs(np.diag(long_run_meat(s_b @ inv_b - s0 @ inv0)))
+        else:  # a gap that holds a block in one band only: Hausman's difference, from the same estimator
+            _, white, robust = covariance(nrm_b, free, offset)
+            noise = np.abs(np.diag(honest(white, robust)) - var0)
+        # the selection goes on from the final model: it may take an effect beside it there, never drop one
+        selected, _, _ = select(nrm_b, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)), start=chosen)
+        while True:  # an implausible value it took says the band's model is wrong: dropped as the judging does
             f2 = np.array(sorted({j for c in selected for j in c.active}), dtype=int)
-            x, _, _ = solve(*nrm.total(), f2, offset)
+            x, _, _ = solve(*nrm_b.total(), f2, offset)
             theta_b = theta0.copy()
             theta_b[f2] = theta[f2] + x
-            bad = [c for c in selected if judge(c.cand.id, theta_b[list(c.cand.idx)], grade)]
+            bad = [c for c in selected[len(chosen) :] if judge(c.cand.id, theta_b[list(c.cand.idx)], grade)]
             if not bad:
                 break
             selected = [c for c in selected if c not in bad]
         shift = theta_b[free] - theta[free]
-        excess = np.maximum(shift**2 - np.abs(var_b - var0), 0.0)
+        excess = np.maximum(shift**2 - noise, 0.0)
         c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
         sys_cov += np.outer(c * shift, c * shift)
         bands.append({"bandwidth_hz": float(band), "selected": sorted(ch.cand.key for ch in selected)})
@@ -271,6 +295,6 @@ def error_budget(
     free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
     if parts is None:
         parts = parts_scatter(pred, nrm, free, theta0 - theta)
-    band, bands = band_part(pred, rows_of, theta, chosen, theta0, parts.sandwich, grade)
+    band, bands = band_part(pred, rows_of, nrm, theta, chosen, theta0, parts.sandwich, grade)
     walk = walk_covariance(nrm.drift, free, parts.white) if free.size else None
     return ErrorBudget(free, parts, aliases, hidden, walk, band, bands)

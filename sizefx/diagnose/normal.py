@@ -70,6 +70,7 @@ __all__ = [
     "HAC_MAX_RHO",
     "hac_lag",
     "long_run_meat",
+    "block_scores",
 ]
 
 #: Rows kept for the fit after block averaging: a two-minute record at 1600 Hz is fitted sample
@@ -228,7 +229,9 @@ def huber_weights(u: np.ndarray, k: float = HUBER_K) -> np.ndarray:
     return np.where(a > k, k / np.maximum(a, 1e-300), 1.0)
 
 
-def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bool = False) -> Normal:
+def normal_equations(
+    rows_of: Rows, y, cols, weights, row_weights=None, walk: bool = False, blocks_of: Normal | None = None
+) -> Normal:
     """The weighted normal equations of the residual on the Jacobian columns ``cols``
     (:func:`sizefx.diagnose.candidates.jacobian_columns`), one set per block; ``weights`` [6] per
     channel, ``row_weights`` [m, 6] per row of :class:`Rows` (robust weights; None: all 1).
@@ -242,13 +245,21 @@ def normal_equations(rows_of: Rows, y, cols, weights, row_weights=None, walk: bo
     keep the regressors' sums against the walk's basis (:attr:`Normal.drift`), from which
     :func:`sizefx.diagnose.drift.walk_covariance` gives the error the walk adds to the estimates;
     and keep the block sums :func:`sizefx.diagnose.spectrum.spectral_meat` takes the estimates'
-    covariance from (:attr:`Normal.noise`). The final fit's equations are formed so."""
+    covariance from (:attr:`Normal.noise`). The final fit's equations are formed so.
+
+    ``blocks_of``: cut the blocks where those equations' blocks start (:attr:`Normal.t0`), so that
+    block ``k`` of both holds the same stretch of time (rows before the first start go to the first
+    block): the same record in another band, whose first usable row differs by the filter's margin."""
     keep = rows_of.keep
     rows = np.flatnonzero(keep)
     t = rows_of.t[rows]
     span = float(t[-1] - t[0]) if t.size > 1 else 0.0
     block_s = block_length_s(span)
-    block = np.minimum(np.floor((t - t[0]) / block_s).astype(int), max(0, int(span // block_s) - 1))
+    if blocks_of is not None:
+        block_s = blocks_of.block_s
+        block = np.maximum(np.searchsorted(blocks_of.t0, t, side="right") - 1, 0)
+    else:
+        block = np.minimum(np.floor((t - t[0]) / block_s).astype(int), max(0, int(span // block_s) - 1))
     B = int(block.max()) + 1 if block.size else 1
     edges = np.searchsorted(block, np.arange(B + 1))
     full = np.flatnonzero(np.diff(edges) > 0)  # blocks inside a gap hold no rows: not blocks at all
@@ -381,20 +392,30 @@ def covariance(nrm: Normal, free, offset, blocks=None):
     ``s_b = b_b - N_b x`` of each block at the estimate. ``blocks`` restricts everything to those
     blocks (the consistency check fits groups of blocks alone).
     """
+    x, inv, s = block_scores(nrm, free, offset, blocks)
+    if s.shape[1] == 0:
+        return x, inv, inv
+    at = np.arange(s.shape[0]) if blocks is None else np.asarray(blocks, dtype=int)
+    return x, inv, inv @ long_run_meat(s, at) @ inv
+
+
+def block_scores(nrm: Normal, free, offset, blocks=None):
+    """``(x, N^-1, s)``: the estimates of ``free``, the inverse of their normal matrix and each
+    block's scores ``s_b = b_b - N_b x`` [B, f] at the estimate (as :func:`covariance`); ``s N^-1``
+    is each block's share of the estimate's error."""
     free = np.asarray(free, dtype=int)
     Nb, bb, yyb = (nrm.N, nrm.b, nrm.yy) if blocks is None else (nrm.N[blocks], nrm.b[blocks], nrm.yy[blocks])
     N, b, yy = Nb.sum(0), bb.sum(0), float(yyb.sum())
     x, _, inv = solve(N, b, yy, free, offset)
     if free.size == 0:
-        return x, inv, inv
+        return x, inv, np.zeros((Nb.shape[0], 0))
     pinned, c = _pinned(free, offset)
     s = (
         bb[:, free]
         - np.einsum("bij,j->bi", Nb[:, free][:, :, pinned], c)
         - np.einsum("bij,j->bi", Nb[:, free][:, :, free], x)
     )
-    at = np.arange(s.shape[0]) if blocks is None else np.asarray(blocks, dtype=int)
-    return x, inv, inv @ long_run_meat(s, at) @ inv
+    return x, inv, s
 
 
 def cv_error(nrm: Normal, free, offset):

@@ -97,11 +97,12 @@ def robust_p(nrm: Normal, chosen, offset, which=-1, factors=None) -> float:
     return float(chi2.sf(wald(x - offset[free], cov, pos), len(pos)))
 
 
-def select(nrm: Normal, offset, penalty, alpha: float = FAMILY_ALPHA):
-    """Forward selection (module docstring). Returns (chosen, unrevealed {key: (candidate, hidden
+def select(nrm: Normal, offset, penalty, alpha: float = FAMILY_ALPHA, start=()):
+    """Forward selection (module docstring), from the effects ``start`` (:class:`Chosen`, kept
+    whatever the record says of them) on. Returns (chosen, unrevealed {key: (candidate, hidden
     params, reason)}, log lines)."""
     N, b, yy = nrm.total()
-    chosen: list[Chosen] = []
+    chosen: list[Chosen] = list(start)
     log = []
     level = alpha / len(CANDIDATES)
     _, rss, _ = solve(N, b, yy, _free(chosen), offset)
