@@ -42,6 +42,7 @@ __all__ = [
     "hidden_parameters",
     "weak_parameters",
     "masked_by_hidden",
+    "strongest_hidden",
     "not_significant",
     "hidden_reach",
     "alone",
@@ -319,6 +320,18 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     C_r = np.zeros_like(V)
     C_r[np.ix_(ok, ok)] = scaled_pinv(V[np.ix_(ok, ok)])
     return S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
+
+
+def strongest_hidden(nrm, free, hidden: list, grade: str) -> dict:
+    """``{param: (candidate, hidden param)}`` for each parameter of ``free``: of the ``hidden``
+    parameters (:func:`hidden_parameters`, :func:`weak_parameters`), the one whose prior standard
+    deviation (:func:`sizefx.diagnose.plausibility.prior_sigma`) moves its estimate most."""
+    free = np.asarray(free, dtype=int)
+    pairs = [(cand, j) for cand, params, _ in hidden for j in params]
+    if not pairs or free.size == 0:
+        return {}
+    reach = np.abs(_shift(nrm, free, [j for _, j in pairs])) * np.array([prior_sigma(c.id, grade) for c, _ in pairs])
+    return {int(f): pairs[int(k)] for f, k in zip(free.tolist(), reach.argmax(axis=1))}
 
 
 def masked_by_hidden(x, cov, added, level: float) -> float | None:

@@ -43,7 +43,7 @@ import numpy as np
 from ..io.gaps import nominal_period_s
 from ..io.telemetry import Telemetry
 from ..sensor_model import SensorParams
-from .aliases import hidden_fit, hidden_parameters, not_significant, weak_parameters
+from .aliases import hidden_fit, hidden_parameters, not_significant, strongest_hidden, weak_parameters
 from .arms import split_arms
 from .bandwidth import choose_bandwidth
 from .budget import error_budget, parts_scatter
@@ -53,10 +53,10 @@ from .candidates import CANDIDATES
 from .gauss_newton import MAX_PASSES, REFIT_PASSES, _free, _iterate  # noqa: F401
 from .holdout import OutOfSample, cross_validate
 from .integrity import check_reference, without_bad_rows
-from .judging import MIN_SHARE, _judge, _rejection
+from .judging import MIN_SHARE, _as_reported, _judge, _rejection
 from .naming import name_effect
 from .normal import Rows
-from .not_revealed import _named, _not_revealed, _resolved, _with_aliases, _with_left_out
+from .not_revealed import _named, _not_revealed, _resolved, _undetermined, _with_aliases, _with_left_out
 from .plausibility import infer_grade, noise_density
 from .predictor import Predictor
 from .records import ReportWarning
@@ -337,10 +337,18 @@ def diagnose(
     # selection tested it beside them), or no finding: a hidden parameter may explain it where its
     # prior allows
     masked = not_significant(nrm, free, reported, theta_masking, theta0, budget, hidden, grade, level, masking_cov)
+    # a component whose error is mostly the priors of what the record cannot tell from it is not
+    # measured, and a finding its reader cannot tell from its start value is none (judging._as_reported)
+    undetermined, shown, lent = _as_reported(budget, [c for c in reported if c.cand.key not in masked], theta, theta0)
+    masked |= shown
     log += [f"{key} no finding: {why}" for key, why in masked.items()]
     reported = [c for c in reported if c.cand.key not in masked]
     effects = [
-        name_effect(c, theta, theta0, sig, shares[c.cand.key], alternative=resolved.get(c.cand.key)) for c in reported
+        name_effect(
+            c, theta, theta0, sig, shares[c.cand.key], resolved.get(c.cand.key), undetermined.get(c.cand.key, ())
+        )
+        for c in reported
+        if len(undetermined.get(c.cand.key, ())) < len(c.active)
     ]
     effects.sort(key=lambda e: -e.explained_fraction)
     weights = 1.0 / (state.sigma_c**2 * state.kappa)
@@ -348,6 +356,9 @@ def diagnose(
     for c in chosen:
         if c.cand.key in masked:
             unrev = _named(unrev, c.cand, c.active, masked[c.cand.key])
+    if undetermined:
+        lenders = strongest_hidden(nrm, free, hidden + weak_hidden, grade)
+        unrev = _undetermined(unrev, reported, undetermined, lent, sig, lenders, (nrm, free, theta, weights), log)
     structure = _structure(pred, rows_of, residual, white_rows, theta_out)
     series_after = residual_under(pred, None, theta_out, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)

@@ -11,8 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2
 
-from .budget import Parts, parts_scatter
+from .algebra import wald
+from .budget import UNDETERMINED_SHARE, Parts, parts_scatter
 from .candidates import PRIORITY
 from .gauss_newton import _free, _State
 from .normal import Rows
@@ -20,10 +22,10 @@ from .plausibility import judge, likely_cause
 from .predictor import Predictor
 from .records import Rejection
 from .residual import residual_under, rms
-from .selection import Chosen, aliased_pairs, robust_p
+from .selection import FAMILY_ALPHA, Chosen, aliased_pairs, robust_p
 from .theta import PARAMS
 
-__all__ = ["MIN_SHARE"]
+__all__ = ["MIN_SHARE", "not_significant_as_reported"]
 
 #: Least share of the structure on its channels (the residual power beyond white noise, without the
 #: effect) an accepted effect must explain: below it the effect is a correction of no consequence,
@@ -141,3 +143,51 @@ def _judge(
                     False,
                 )
     return _Verdict(reasons, aliased, shares, parts)
+
+
+def not_significant_as_reported(free, reported, theta, theta0, cov, unmeasured: dict, level: float) -> dict:
+    """``{finding key: reason}``: the findings of ``reported`` whose reported values (``theta``, the
+    parameters fitted beside them in) do not differ from their start values ``theta0`` at ``level``
+    under the error they are reported with (``cov`` [free, free], every part in), over the
+    parameters the record measures (``unmeasured``: key -> those it does not).
+    :func:`sizefx.diagnose.aliases.not_significant`
+    tests the model without the weak parameters; fitted beside it, they move the estimate and widen
+    its error, and a finding within its reported error of zero is no finding to its reader (a
+    development-range flight: an accelerometer delay of -373 +- 390 us, against a truth of 0)."""
+    out = {}
+    for c in reported:
+        params = [j for j in c.active if j not in unmeasured.get(c.cand.key, ())]
+        if not params:
+            continue
+        pos = np.searchsorted(free, params)
+        x = (theta - theta0)[params]
+        p = float(chi2.sf(wald(x, cov[np.ix_(pos, pos)], np.arange(len(params))), len(params)))
+        if p > level:
+            out[c.cand.key] = (
+                f"not significant under the error it is reported with (p = {p:.2g}, every part of the budget "
+                "in); the extended model carries it"
+            )
+    return out
+
+
+def _as_reported(budget, reported, theta, theta0) -> tuple:
+    """The last checks on the findings ``reported``, under the errors of ``budget``
+    (:class:`sizefx.diagnose.budget.ErrorBudget`) at the values ``theta`` they are reported with:
+    ``(undetermined {finding key: parameters}, not shown {finding key: reason}, {parameter: share
+    of its variance the hidden parameters' part makes up})``.
+
+    - a parameter nine tenths or more of whose variance is the hidden parameters' priors
+      (:data:`sizefx.diagnose.budget.UNDETERMINED_SHARE`) is not measured: named in
+      ``not_revealed``, the estimate carried by the extended model; a finding with none of its
+      parameters measured is no finding;
+    - a finding whose measured parameters do not differ from their start values ``theta0`` under
+      the error reported, every part in, at the family's level for it alone
+      (:data:`sizefx.diagnose.selection.FAMILY_ALPHA`: the selection has taken it, and this asks only
+      whether its reader sees it apart from its start value), is no finding
+      (:func:`not_significant_as_reported`)."""
+    free = budget.free
+    lent = dict(zip(free.tolist(), budget.borrowed().tolist()))
+    undetermined = {c.cand.key: [j for j in c.active if lent[j] >= UNDETERMINED_SHARE] for c in reported}
+    undetermined = {k: v for k, v in undetermined.items() if v}
+    shown = not_significant_as_reported(free, reported, theta, theta0, budget.covariance(), undetermined, FAMILY_ALPHA)
+    return {k: v for k, v in undetermined.items() if k not in shown}, shown, lent

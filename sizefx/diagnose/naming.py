@@ -33,7 +33,9 @@ class Effect:
     nominal: dict
     explained_fraction: float
     sentence: str
-    hidden: list = field(default_factory=list)  #: components the record cannot reveal (kept at nominal)
+    #: components the record cannot reveal: kept at nominal, or not measured (their estimates, without
+    #: an error, in ``params``; :data:`sizefx.diagnose.budget.UNDETERMINED_SHARE`)
+    hidden: list = field(default_factory=list)
     #: what the motion cannot tell it from, ruled out by the grade (:class:`sizefx.diagnose.aliases.Alternative`)
     alternative: Any = None
 
@@ -45,15 +47,19 @@ def _fmt(v, s, unit, digits=None):
     return f"{v:.{digits}f} +- {s:.{digits}f} {unit}"
 
 
-def name_effect(c: Chosen, theta, theta0, sig, frac, alternative=None) -> Effect:
+def name_effect(c: Chosen, theta, theta0, sig, frac, alternative=None, undetermined=()) -> Effect:
     """The effect ``c`` at the estimate ``theta`` (start ``theta0``, standard errors ``sig`` by parameter,
     ``frac`` of the residual it explains): parameters in the JSON's names and units, and the sentence;
-    ``alternative``: what the motion cannot tell it from, ruled out by the grade, said after it."""
+    ``alternative``: what the motion cannot tell it from, ruled out by the grade, said after it;
+    ``undetermined``: its parameters the record does not measure (their error mostly other
+    parameters' priors): their estimates stay in the values, without an error, and they are listed
+    with the components not revealed."""
     idx = list(c.cand.idx)
     ps = [PARAMS[j] for j in idx]
     val = [float(theta[j]) for j in idx]
     nom = [float(theta0[j]) for j in idx]
-    sg = [float(sig[j]) if j in sig else None for j in idx]
+    sg = [float(sig[j]) if j in sig and j not in undetermined else None for j in idx]
+    unmeasured = [PARAMS[j].label for j in undetermined]
     axis = c.cand.channel[-1] if c.cand.channel else None
     hidden = [PARAMS[j].label for j in c.hidden]
     eid = c.cand.id
@@ -155,6 +161,8 @@ def name_effect(c: Chosen, theta, theta0, sig, frac, alternative=None) -> Effect
         sentence = f"gyro {axis} responds to specific force: " + ", ".join(parts)
     else:  # pragma: no cover - every candidate id is handled above
         raise AssertionError(eid)
+    if unmeasured:
+        sentence += f" ({', '.join(unmeasured)} not measured by this record: see not revealed)"
     if alternative is not None:
         values = ", ".join(f"{k} = {v:+.4g}" for k, v in alternative.parameters.items())
         added = ", ".join(f"{k} +- {v:.3g}" for k, v in alternative.sigma_added.items())
@@ -163,4 +171,4 @@ def name_effect(c: Chosen, theta, theta0, sig, frac, alternative=None) -> Effect
             f"but that would need {values} {alternative.unit}: {alternative.reason}; the errors include "
             f"what it could be within that range ({added} {alternative.finding_unit})"
         )
-    return Effect(eid, c.cand.channel, params, sigma, nominal, frac, sentence, hidden, alternative)
+    return Effect(eid, c.cand.channel, params, sigma, nominal, frac, sentence, hidden + unmeasured, alternative)

@@ -143,6 +143,42 @@ def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nr
     return unrev
 
 
+def _undetermined(unrev: list, reported, undetermined: dict, lent: dict, sig: dict, lenders: dict, ctx, log) -> list:
+    """``unrev`` with the components of findings the record does not measure named (``undetermined``:
+    finding key -> parameters; ``lent``: parameter -> the share of its variance the priors of
+    parameters the record cannot tell from it make up, :meth:`sizefx.diagnose.budget.ErrorBudget.borrowed`;
+    ``lenders``: parameter -> (candidate, parameter) whose prior moves it most,
+    :func:`sizefx.diagnose.aliases.strongest_hidden`), grouped by that parameter, with the motions
+    that would separate them. ``ctx``: ``(nrm, free, theta, weights)`` for those motions; ``log``
+    takes a line per finding."""
+    nrm, free, theta, weights = ctx
+    normals: dict = {}
+    for c in reported:
+        groups: dict = {}
+        for j in undetermined.get(c.cand.key, ()):
+            groups.setdefault(lenders.get(j), []).append(j)
+        for lender, params in groups.items():
+            errors = "; ".join(
+                f"{PARAMS[j].label} +- {sig[j] / PARAMS[j].per_unit:.3g} {PARAMS[j].unit}, "
+                f"{100 * lent[j]:.0f} % of its variance"
+                for j in params
+            )
+            reason = f"its error comes from the priors of parameters this record cannot tell it from ({errors})"
+            motions: tuple = ()
+            if lender is not None:
+                cand, h = lender
+                reason += f", most of all {cand.key} {PARAMS[h].label}"
+                if not normals:
+                    normals.update(library_normals(theta, weights))
+                rest = np.setdiff1d(free, np.asarray(params, dtype=int))
+                motions = separating_motions(nrm.N.sum(0), nrm.rows, params, [h], rest, normals)
+            reason += ": the record does not measure it; the extended model carries its estimate"
+            unrev = _named(unrev, c.cand, params, reason, motions)
+        if groups:
+            log.append(f"{c.cand.key}: not measured: {', '.join(PARAMS[j].label for j in undetermined[c.cand.key])}")
+    return unrev
+
+
 def _named(unrev: list, cand, params, reason: str, separated_by=()) -> list:
     """``unrev`` with the candidate's parameters ``params`` (indices into theta) named for ``reason``
     (:func:`sizefx.diagnose.records.named`), and the motions that would separate it."""
