@@ -293,12 +293,13 @@ def test_a_component_whose_error_is_another_parameters_prior_is_not_measured():
     nearly all of r_z[z]'s variance is that prior (:meth:`ErrorBudget.borrowed`, from
     :data:`UNDETERMINED_SHARE` on it is not measured), the scale factor is named as what moves it
     most, and the effect is reported with r_z[x] alone, r_z[z] listed with the components not
-    revealed and without an error. A deviation inside the error reported is no finding
+    revealed and without an error, while its value lies within that error of the start value (5
+    errors out, it is measured all the same). A deviation inside the error reported is no finding
     (:func:`not_significant_as_reported`); one of many errors is."""
     from sizefx.diagnose.aliases import hidden_fit, hidden_parameters, strongest_hidden
     from sizefx.diagnose.budget import UNDETERMINED_SHARE, ErrorBudget, Parts
     from sizefx.diagnose.candidates import CANDIDATES
-    from sizefx.diagnose.judging import not_significant_as_reported
+    from sizefx.diagnose.judging import _as_reported, not_significant_as_reported
     from sizefx.diagnose.naming import name_effect
     from sizefx.diagnose.normal import Normal
     from sizefx.diagnose.selection import Chosen
@@ -328,6 +329,11 @@ def test_a_component_whose_error_is_another_parameters_prior_is_not_measured():
     sig = budget.sigma()
     theta[rzx] += 20.0 * sig[rzx]
     theta[rzz] += 0.5 * sig[rzz]
+    undetermined, shown, _ = _as_reported(budget, chosen, theta, theta0)
+    assert undetermined == {arm.key: [rzz]} and not shown
+    far = theta.copy()
+    far[rzz] = theta0[rzz] + 5.0 * sig[rzz]  # out of even that error: measured all the same
+    assert _as_reported(budget, chosen, far, theta0)[0] == {}
     e = name_effect(chosen[0], theta, theta0, sig, 0.5, undetermined=[rzz])
     assert e.hidden == ["r_z[y]", "r_z[z]"]
     assert e.sigma["r_m"][0] == pytest.approx(sig[rzx]) and e.sigma["r_m"][2] is None

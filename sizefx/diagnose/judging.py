@@ -177,9 +177,12 @@ def _as_reported(budget, reported, theta, theta0) -> tuple:
     of its variance the hidden parameters' part makes up})``.
 
     - a parameter nine tenths or more of whose variance is the hidden parameters' priors
-      (:data:`sizefx.diagnose.budget.UNDETERMINED_SHARE`) is not measured: named in
-      ``not_revealed``, the estimate carried by the extended model; a finding with none of its
-      parameters measured is no finding;
+      (:data:`sizefx.diagnose.budget.UNDETERMINED_SHARE`) and whose value lies within that error of
+      its start value (two-sided p above :data:`sizefx.diagnose.selection.FAMILY_ALPHA`) is not
+      measured: named in ``not_revealed``, the estimate carried by the extended model; a finding
+      with none of its parameters measured is no finding. One whose value stands out of such an
+      error is measured all the same: a mount of 30 arcsec at +-0.2 arcsec, all of it a reference
+      delay's prior, beside a record's own 0.008 (``tests/test_reference_mount.py``);
     - a finding whose measured parameters do not differ from their start values ``theta0`` under
       the error reported, every part in, at the family's level for it alone
       (:data:`sizefx.diagnose.selection.FAMILY_ALPHA`: the selection has taken it, and this asks only
@@ -187,7 +190,11 @@ def _as_reported(budget, reported, theta, theta0) -> tuple:
       (:func:`not_significant_as_reported`)."""
     free = budget.free
     lent = dict(zip(free.tolist(), budget.borrowed().tolist()))
-    undetermined = {c.cand.key: [j for j in c.active if lent[j] >= UNDETERMINED_SHARE] for c in reported}
+    sigma = budget.sigma()
+    p = {j: float(chi2.sf(((theta[j] - theta0[j]) / sigma[j]) ** 2, 1)) if sigma[j] > 0 else 1.0 for j in sigma}
+    undetermined = {
+        c.cand.key: [j for j in c.active if lent[j] >= UNDETERMINED_SHARE and p[j] > FAMILY_ALPHA] for c in reported
+    }
     undetermined = {k: v for k, v in undetermined.items() if v}
     shown = not_significant_as_reported(free, reported, theta, theta0, budget.covariance(), undetermined, FAMILY_ALPHA)
     return {k: v for k, v in undetermined.items() if k not in shown}, shown, lent
