@@ -82,10 +82,11 @@ BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
 #: share of its variance or more is the priors of parameters the record cannot tell from it
 #: (:meth:`ErrorBudget.borrowed`) and its value lies within that error of its start value
 #: (:func:`sizefx.diagnose.judging._as_reported`): its error is then over three times what the
-#: record alone gives, and its estimate says more of those priors than of the record (an arm's r_z[z] on a sway about
-#: one horizontal axis, beside the z accelerometer's scale factor held within its data sheet:
-#: +-73 mm against a white error of 0.59 mm). Chosen on the development range: of 641 parameters,
-#: the 31 from 0.9 on had z RMS 0.56 and the 610 under it 0.86 (those from 0.5 to 0.8: 0.95).
+#: record alone gives, and its estimate says more of those priors than of the record (an arm's
+#: r_z[z] on a sway about one horizontal axis, beside the z accelerometer's scale factor held
+#: within its data sheet: +-73 mm against a white error of 0.59 mm). Chosen on the development
+#: range: of 641 parameters, the 31 from 0.9 on had z RMS 0.56 and the 610 under it 0.86 (those
+#: from 0.5 to 0.8: 0.95).
 UNDETERMINED_SHARE = 0.9
 
 

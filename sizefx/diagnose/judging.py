@@ -4,6 +4,8 @@ In order, the later ones only when the earlier pass: plausible for the grade, se
 other selected effects, of consequence (:data:`MIN_SHARE` of the structure on its channels), and
 stable across the record's parts. :func:`sizefx.diagnose.fit.diagnose` refits without what they
 reject until nothing changes, and judges the findings again beside the candidates fitted with them.
+Once the errors are made, the last checks (:func:`_as_reported`): which components the record does
+not measure, and which findings are not significant under the error they are reported with.
 """
 
 from __future__ import annotations
@@ -150,10 +152,11 @@ def not_significant_as_reported(free, reported, theta, theta0, cov, unmeasured: 
     parameters fitted beside them in) do not differ from their start values ``theta0`` at ``level``
     under the error they are reported with (``cov`` [free, free], every part in), over the
     parameters the record measures (``unmeasured``: key -> those it does not).
-    :func:`sizefx.diagnose.aliases.not_significant`
-    tests the model without the weak parameters; fitted beside it, they move the estimate and widen
-    its error, and a finding within its reported error of zero is no finding to its reader (a
-    development-range flight: an accelerometer delay of -373 +- 390 us, against a truth of 0)."""
+
+    :func:`sizefx.diagnose.aliases.not_significant` tests the model without the weak parameters;
+    fitted beside it, they move the estimate and widen its error, and a finding within its reported
+    error of zero is no finding to its reader (a development-range flight: an accelerometer delay
+    of -373 +- 390 us, against a truth of 0)."""
     out = {}
     for c in reported:
         params = [j for j in c.active if j not in unmeasured.get(c.cand.key, ())]
