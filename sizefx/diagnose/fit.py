@@ -56,7 +56,7 @@ from .integrity import check_reference, without_bad_rows
 from .judging import MIN_SHARE, _as_reported, _judge, _rejection
 from .naming import name_effect
 from .normal import Rows
-from .not_revealed import _named, _not_revealed, _resolved, _undetermined, _with_aliases, _with_left_out
+from .not_revealed import _named, _not_revealed, _resolved, _Separation, _undetermined, _with_aliases, _with_left_out
 from .plausibility import infer_grade, noise_density
 from .predictor import Predictor
 from .records import ReportWarning
@@ -352,13 +352,14 @@ def diagnose(
     ]
     effects.sort(key=lambda e: -e.explained_fraction)
     weights = 1.0 / (state.sigma_c**2 * state.kappa)
-    unrev = _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights)
+    separation = _Separation(nrm, free, theta, weights)  # the library's motions formed once, if asked
+    unrev = _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, separation)
     for c in chosen:
         if c.cand.key in masked:
             unrev = _named(unrev, c.cand, c.active, masked[c.cand.key])
     if undetermined:
         lenders = strongest_hidden(nrm, free, hidden + weak_hidden, grade)
-        unrev = _undetermined(unrev, reported, undetermined, lent, sig, lenders, (nrm, free, theta, weights), log)
+        unrev = _undetermined(unrev, reported, undetermined, lent, sig, lenders, separation, log)
     structure = _structure(pred, rows_of, residual, white_rows, theta_out)
     series_after = residual_under(pred, None, theta_out, series=True).series if keep_series else None  # for the plots
     rms_b, rms_a = rms(rows_of, before.rows), rms(rows_of, residual)

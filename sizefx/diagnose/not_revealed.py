@@ -76,27 +76,34 @@ def _resolved(nrm, free, aliased, outside, theta, theta0, grade, level, parts: P
     return resolved, alias_cov
 
 
-def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nrm, theta, weights) -> list:
+class _Separation:
+    """The motions that would separate two groups of parameters of the model ``free``
+    (:func:`sizefx.diagnose.aliases.separating_motions`), the library's normal matrices formed
+    once, on first use, at the model ``theta`` with the record's ``weights``."""
+
+    def __init__(self, nrm, free, theta, weights):
+        self.nrm, self.free, self.theta, self.weights = nrm, free, theta, weights
+        self.N_record = nrm.N.sum(0)
+        self.normals: dict = {}
+
+    def __call__(self, a, b) -> tuple:
+        if not self.normals:
+            self.normals.update(library_normals(self.theta, self.weights))
+        rest = np.setdiff1d(self.free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
+        return separating_motions(self.N_record, self.nrm.rows, list(a), list(b), rest, self.normals)
+
+
+def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, separated_by: _Separation) -> list:
     """What the record cannot reveal, as :class:`~sizefx.diagnose.records.NotRevealed` entries: the
     parameters the motion does not excite (``unrevealed``, from the selection); the pairs it cannot
     tell apart (``aliased``: both selected, the model carrying their sum as the first; ``outside``:
     a selected effect and a candidate left out); the candidates fitted beside a finding
     (``nuisance``) and the findings no longer one beside them (``weak``). Each alias names the
-    motions that would separate it (:func:`sizefx.diagnose.aliases.separating_motions`, the
-    library's normal matrices formed once, at the model ``theta`` with the record's ``weights``)."""
+    motions that would separate it (``separated_by``)."""
     unrev = [
         NotRevealed(cand.id, cand.channel, tuple(PARAMS[j].label for j in hidden), reason)
         for cand, hidden, reason in unrevealed.values()
     ]
-    normals: dict = {}
-    N_record = nrm.N.sum(0)
-
-    def separated_by(a, b):
-        if not normals:
-            normals.update(library_normals(theta, weights))
-        rest = np.setdiff1d(free, np.union1d(np.asarray(a, dtype=int), np.asarray(b, dtype=int)))
-        return separating_motions(N_record, nrm.rows, list(a), list(b), rest, normals)
-
     for keep, gone, rho in aliased:
         motions = separated_by(keep.active, gone.active)
         for me, other in ((keep, gone), (gone, keep)):
@@ -143,16 +150,15 @@ def _not_revealed(unrevealed, aliased, outside, nuisance, weak, chosen, free, nr
     return unrev
 
 
-def _undetermined(unrev: list, reported, undetermined: dict, lent: dict, sig: dict, lenders: dict, ctx, log) -> list:
+def _undetermined(
+    unrev: list, reported, undetermined: dict, lent: dict, sig: dict, lenders: dict, separated_by: _Separation, log
+) -> list:
     """``unrev`` with the components of findings the record does not measure named (``undetermined``:
     finding key -> parameters; ``lent``: parameter -> the share of its variance the priors of
     parameters the record cannot tell from it make up, :meth:`sizefx.diagnose.budget.ErrorBudget.borrowed`;
     ``lenders``: parameter -> (candidate, parameter) whose prior moves it most,
     :func:`sizefx.diagnose.aliases.strongest_hidden`), grouped by that parameter, with the motions
-    that would separate them. ``ctx``: ``(nrm, free, theta, weights)`` for those motions; ``log``
-    takes a line per finding."""
-    nrm, free, theta, weights = ctx
-    normals: dict = {}
+    that would separate them (``separated_by``); ``log`` takes a line per finding."""
     for c in reported:
         groups: dict = {}
         for j in undetermined.get(c.cand.key, ()):
@@ -168,10 +174,7 @@ def _undetermined(unrev: list, reported, undetermined: dict, lent: dict, sig: di
             if lender is not None:
                 cand, h = lender
                 reason += f", most of all {cand.key} {PARAMS[h].label}"
-                if not normals:
-                    normals.update(library_normals(theta, weights))
-                rest = np.setdiff1d(free, np.asarray(params, dtype=int))
-                motions = separating_motions(nrm.N.sum(0), nrm.rows, params, [h], rest, normals)
+                motions = separated_by(params, [h])
             reason += ": the record does not measure it; the extended model carries its estimate"
             unrev = _named(unrev, c.cand, params, reason, motions)
         if groups:
