@@ -23,8 +23,9 @@ figures the docs quote come from seeds no change to diagnose was tried on.
    chi2/dof with the reported errors (target <= 4); trial 16 ("translation", but turning too):
    which lever arms it reports.
 6. Real data, BROAD checks (``broad_checks``, recorded alone: ``--only broad_checks --record
-   broad_checks``): trials 07, 09 and 21 refitted at the bands a third of an octave below and above
-   the measured one (what the errors' systematic part looks at: how far the arms move), and trial
+   broad_checks``): trials 07, 09 and 21 diagnosed afresh at the bands a third of an octave below
+   and above the measured one (how far the arms move; the errors' systematic part refits the final
+   model at the band below), and trial
    21 with its reference position (only the position) delayed by -3..3 ms: how the arms move and
    whether the residual drops.
 7. Real data, PSINS (``psins``, recorded alone: ``--only psins --record psins``): a car's MEMS IMU
@@ -378,6 +379,9 @@ def _delay_position(tel, delay_s):
     return dataclasses.replace(tel, reference=dataclasses.replace(ref, **moved))
 
 
+#: The bands broad_checks diagnoses afresh, as factors of the measured band: a third of an octave
+#: either side (the band's resolution, :data:`sizefx.diagnose.budget.BAND_NEIGHBOURS`' step)
+CHECK_BANDS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
 #: Delays of trial 21's reference position tried by broad_checks [ms]
 POSITION_DELAYS_MS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 
@@ -386,7 +390,6 @@ def broad_checks():
     if not REAL.is_dir():
         print(f"  real data folder {REAL} not found: skipped")
         return None
-    from sizefx.diagnose.budget import BAND_NEIGHBOURS
     from sizefx.importers import run_import
     from sizefx.io.telemetry import read_telemetry
 
@@ -403,7 +406,7 @@ def broad_checks():
             tel = read_telemetry(h5)
             arms = _arms_mm(d)
             o = out[trial] = {"band_hz": d.bandwidth_hz, "arms_mm": arms, "neighbours": []}
-            for fac in BAND_NEIGHBOURS:
+            for fac in CHECK_BANDS:
                 dn = D.diagnose(tel, theta0, bandwidth_hz=d.bandwidth_hz * fac, keep_series=False)
                 an = _arms_mm(dn)
                 shift = {k: an[k] - arms[k] for k in arms}

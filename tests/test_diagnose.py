@@ -586,23 +586,22 @@ def test_broad_residual_gain_is_reported(broad_diagnoses):
 # long tier: shares the two BROAD diagnoses above
 @pytest.mark.slow
 def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
-    """Fitted in a band, the fit is redone at the bands a third of an octave either side, the
-    selection going on there from the final model; the spread is part of the errors. Reported per parameter in
-    consistency.systematic, added in quadrature (the error is at least that part), and named in the
-    printed report."""
+    """Fitted in a band, the fit is redone at the measured band and a third of an octave below, the
+    selection going on there from the final model; the shift beyond chance is part of the errors.
+    Reported per parameter in consistency.systematic, added in quadrature (the error is at least
+    that part), and named in the printed report."""
     for trial, (_d, report, doc) in broad_diagnoses.items():
         systematic = doc["consistency"]["systematic"]
-        assert [b["bandwidth_hz"] for b in systematic["bands"]] == pytest.approx(
-            [BROAD_BANDWIDTH_HZ * 2 ** (-1 / 3), BROAD_BANDWIDTH_HZ * 2 ** (1 / 3)]
-        )
+        assert [b["bandwidth_hz"] for b in systematic["bands"]] == pytest.approx([BROAD_BANDWIDTH_HZ * 2 ** (-1 / 3)])
         assert all(("lever_arm:accel_x" in b["selected"]) for b in systematic["bands"]), systematic["bands"]
         errors = {(e["effect"], e["parameter"]): e["sigma"] for e in doc["consistency"]["standard_errors"]}
         parts = {(q["effect"], q["parameter"]): q["sigma_selection"] for q in systematic["parameters"]}
         assert set(parts) <= set(errors)
-        # a share of some lever arm's error, not a rounding: a fifth of it on trial 07 with the errors
-        # from the noise's spectrum (over 0.3 of it under the floored sandwich, whose errors it then
-        # had to fill up to agree across trials)
-        assert max(parts[k] / errors[k] for k in parts if k[0] == "lever_arm") > 0.1, (trial, parts)
+        # trial 07's x arm moves at the band below beyond chance: the band's part is most of its error
+        # (0.85 of r_x[x]'s); trial 21's arms stay within chance there, and none takes a part
+        shares = [parts[k] / errors[k] for k in parts if k[0] == "lever_arm"]
+        if trial == "07":
+            assert max(shares) > 0.5, (trial, parts)
         assert all(errors[k] >= parts[k] * (1 - 1e-9) for k in parts)
         assert "the band's and the selection's part" in report
 

@@ -48,6 +48,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2
 
 from .algebra import long_run_meat
 from .candidates import columns_between
@@ -58,7 +59,7 @@ from .plausibility import judge
 from .predictor import Predictor
 from .records import ReportWarning
 from .residual import noise_of, residual_under
-from .selection import honest, select
+from .selection import FAMILY_ALPHA, honest, select
 from .spectrum import spectral_meat
 from .theta import PARAMS
 
@@ -69,13 +70,22 @@ __all__ = [
     "error_budget",
     "parts_scatter",
     "BAND_NEIGHBOURS",
+    "SHIFT_CHI2",
+    "systematic_shift",
     "UNDETERMINED_SHARE",
 ]
 
 #: The measured band is resolved to a third of an octave (:mod:`.bandwidth`'s bands, then rounded
-#: down to a readable value): the fit is redone at the neighbouring bands a third of an octave
-#: below and above, the selection going on there from the final model (:func:`band_part`).
-BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0), 2.0 ** (1.0 / 3.0))
+#: down to a readable value): the fit is redone at the band a third of an octave below, the
+#: selection going on there from the final model (:func:`band_part`). Only below: a band too wide
+#: biases the estimates, one too narrow only loses information, so the band below says whether the
+#: estimate leans on frequencies it should not have used, and the band above only what was cut.
+BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0),)
+
+#: A parameter's shift to the band below counts as systematic only beyond chance: its square over
+#: the variance of its noise above the chi-square point (1 degree of freedom) at the selection's
+#: family-wise level, :data:`sizefx.diagnose.selection.FAMILY_ALPHA` (:func:`band_part`).
+SHIFT_CHI2 = float(chi2.ppf(1.0 - FAMILY_ALPHA, 1))
 
 
 #: A component of a finding is not measured by the record, and goes to ``not_revealed``, when this
@@ -228,59 +238,59 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     return Parts(white, sandwich, factors, entries, count)
 
 
-def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0, sandwich, grade):
+def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0, grade):
     """The errors' systematic part from the choice of band and of what the selection takes beside
     the model there.
 
     The band is measured to a third of an octave, and which marginal effects the selection takes
     beside the arms (an accelerometer-z bias, scale factor or misalignment beside r_z[z]) can change
     from one band to the next: the standard errors, conditional on the band and the selection, do
-    not carry that. At each neighbouring band (:data:`BAND_NEIGHBOURS`) the normal equations are
-    formed at the final estimate ``theta``, the selection goes on there from the final model (it may
-    take effects beside it, then judged for plausibility as the fit's are; it never drops one) and
-    the model it ends with is solved (one Gauss-Newton step: the arms and delays are linear in the
-    prediction to well below their errors). A neighbour that dropped a finding the measured band
-    holds (a lever arm a narrower band barely sees) would count the whole finding as the band's
-    error: on a development-range flight (seed 13), the x arm dropped at 4.8 Hz put 19 mm into the
-    error of r_y[x], whose sandwich error is 2.3 mm.
+    not carry that. The final model is refitted at the measured band and at the neighbouring band
+    below (:data:`BAND_NEIGHBOURS`) alike: the normal equations are formed at the final estimate
+    ``theta``, the selection goes on there from the final model (it may take effects beside it, then
+    judged for plausibility as the fit's are; it never drops one) and the model it ends with is
+    solved (one Gauss-Newton step: the arms and delays are linear in the prediction to well below
+    their errors). The shift ``D`` is the difference of the two refits. Taken against the final
+    estimate instead, it held what the fit did beyond the measured band's refit: on
+    development-range flights (seed 7), the parameters fitted beside the findings
+    (:func:`sizefx.diagnose.aliases.hidden_fit`), which the refits hold at their start values, moved
+    an accelerometer bias by 16 mg at both bands alike. A neighbour that dropped a finding the
+    measured band holds would count the whole finding as the band's error (on a development-range
+    flight, seed 13, the x arm dropped at 4.8 Hz put 19 mm into the error of r_y[x], whose sandwich
+    error is 2.3 mm): hence the selection goes on from the final model.
 
-    The shift ``D`` of each parameter is part noise, as the bands see different data: of ``D^2``
-    the part beyond the variance of the difference of the two bands' estimates of the final model
-    is systematic. That variance is the long-run sum over the blocks of the differences of their
-    shares of the two estimates' errors (:func:`sizefx.diagnose.normal.block_scores`, the
-    neighbour's blocks cut where ``nrm``'s start): the noise the two bands share cancels block by
-    block, and what is left is the noise between the bands, fast, so that blocks hold it. The
-    covariance added is the mean over the neighbours of ``(c D)(c D)'``, ``c`` scaling each
-    component so that the diagonal is that systematic part.
+    The band above is not refitted: there the fit takes frequencies the band choice left out
+    (:mod:`.bandwidth`: the reference's noise, or the spline error of an exact reference at a
+    rotor's harmonics), whose bias is what the choice avoids. On development-range flights the arms
+    moved by 3-4 mm there (seed 7, at 6.3 Hz against 5 Hz, the shift's noise 0.05-0.5 mm) while the
+    final estimates were within 0.1 of their errors of the truth.
+
+    Of ``D^2`` the part beyond the variance of the difference of the two refits is systematic. That
+    variance is the long-run sum over the blocks of the differences of their shares of the two
+    estimates' errors (:func:`sizefx.diagnose.normal.block_scores`, the neighbour's blocks cut where
+    ``nrm``'s start): the noise the two bands share cancels block by block, and what is left is the
+    noise between the bands, fast, so that blocks hold it. The covariance added is the mean over
+    the neighbours of ``(c D)(c D)'``, ``c`` scaling each component so that the diagonal is that
+    systematic part.
 
     ``chosen``: the model's effects (:class:`sizefx.diagnose.selection.Chosen`); ``nrm``: the
-    normal equations in the measured band; ``sandwich``: their covariance there; ``grade``: the
+    normal equations in the measured band, whose blocks the refits cut theirs at; ``grade``: the
     plausible ranges. Returns (cov [free, free], bands): (None, None) when the record was fitted in
     its full band."""
     if rows_of.bandwidth_hz is None:
         return None, None
     free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
     offset = theta0 - theta
-    var0 = np.abs(np.diag(sandwich))
-    _, inv0, s0 = block_scores(nrm, free, offset)
     cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)  # span by span
     nyquist = 0.5 / pred.dt
-    sys_cov = np.zeros((free.size, free.size))
-    bands = []
-    for fac in BAND_NEIGHBOURS:
-        band = rows_of.bandwidth_hz * fac
-        if band >= 0.8 * nyquist:
-            continue
+
+    def refit(band):
+        """The final model refitted in ``band``: (its estimate, each block's share of its error)."""
         rows_b = Rows(pred.t, pred.mask, pred.dt, band)
         residual_b = residual_under(pred, rows_b, theta).rows  # the final residual's rows in this band
         sigma_c, kappa, row_w = noise_of(rows_b, residual_b, robust=True)
         nrm_b = normal_equations(rows_b, residual_b, cols, 1.0 / (sigma_c**2 * kappa), row_w, blocks_of=nrm)
         _, inv_b, s_b = block_scores(nrm_b, free, offset)
-        if s_b.shape[0] == s0.shape[0]:
-            noise = np.abs(np.diag(long_run_meat(s_b @ inv_b - s0 @ inv0)))
-        else:  # a gap that holds a block in one band only: Hausman's difference, from the same estimator
-            _, white, robust = covariance(nrm_b, free, offset)
-            noise = np.abs(np.diag(honest(white, robust)) - var0)
         # the selection goes on from the final model: it may take an effect beside it there, never drop one
         selected, _, _ = select(nrm_b, offset, math.log(max(int(rows_b.keep.sum()) * 6, 2)), start=chosen)
         while True:  # an implausible value it took says the band's model is wrong: dropped as the judging does
@@ -292,14 +302,47 @@ def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0
             if not bad:
                 break
             selected = [c for c in selected if c not in bad]
-        shift = theta_b[free] - theta[free]
-        excess = np.maximum(shift**2 - noise, 0.0)
-        c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
-        sys_cov += np.outer(c * shift, c * shift)
+        return theta_b[free], s_b @ inv_b, nrm_b, selected
+
+    neighbours = [rows_of.bandwidth_hz * fac for fac in BAND_NEIGHBOURS]
+    neighbours = [band for band in neighbours if band < 0.8 * nyquist]
+    if not neighbours:
+        return None, None
+    # the reference is the same refit in the measured band: what the fit did beyond it (the parameters
+    # fitted beside the findings, which the refits hold at their start values) is no band's doing
+    est0, share0, nrm0, _ = refit(rows_of.bandwidth_hz)
+    sys_cov = np.zeros((free.size, free.size))
+    bands = []
+    for band in neighbours:
+        est_b, share_b, nrm_b, selected = refit(band)
+        if share_b.shape[0] == share0.shape[0]:
+            noise = np.abs(np.diag(long_run_meat(share_b - share0)))
+        else:  # a gap that holds a block in one band only: Hausman's difference, from the same estimator
+            variances = [np.diag(honest(*covariance(n, free, offset)[1:])) for n in (nrm_b, nrm0)]
+            noise = np.abs(variances[0] - variances[1])
+        part = systematic_shift(est_b - est0, noise)
+        sys_cov += np.outer(part, part)
         bands.append({"bandwidth_hz": float(band), "selected": sorted(ch.cand.key for ch in selected)})
     if not bands:
         return None, None
     return sys_cov / len(bands), bands
+
+
+def systematic_shift(shift, noise) -> np.ndarray:
+    """The part of a shift between two fits that is systematic, per component: ``shift`` scaled to
+    ``sqrt(shift^2 - noise)`` where ``shift^2`` exceeds :data:`SHIFT_CHI2` times ``noise`` (the
+    variance of the shift's noise), 0 elsewhere.
+
+    ``shift^2 - noise`` alone is unbiased but no evidence: for a shift of noise only it is positive
+    a third of the time, and adds about half the noise variance on average; where the neighbouring
+    band says much less than the measured one that is many times the estimate's own variance (the
+    arms of development-range flights: the shift's noise up to fifty times their errors, seed 0).
+    Beyond chance at the family-wise level it is the systematic part: a shift of noise only then
+    adds 0.075 times its variance on average."""
+    shift, noise = np.asarray(shift, dtype=float), np.asarray(noise, dtype=float)
+    excess = np.where(shift**2 > SHIFT_CHI2 * noise, shift**2 - noise, 0.0)
+    c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
+    return c * shift
 
 
 def error_budget(
@@ -321,6 +364,6 @@ def error_budget(
     free = np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
     if parts is None:
         parts = parts_scatter(pred, nrm, free, theta0 - theta)
-    band, bands = band_part(pred, rows_of, nrm, theta, chosen, theta0, parts.sandwich, grade)
+    band, bands = band_part(pred, rows_of, nrm, theta, chosen, theta0, grade)
     walk = walk_covariance(nrm.drift, free, parts.white) if free.size else None
     return ErrorBudget(free, parts, aliases, hidden, walk, band, bands)
