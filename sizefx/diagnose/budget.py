@@ -254,7 +254,7 @@ def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0
     estimate instead, it held what the fit did beyond the measured band's refit: on
     development-range flights (seed 7), the parameters fitted beside the findings
     (:func:`sizefx.diagnose.aliases.hidden_fit`), which the refits hold at their start values, moved
-    an accelerometer bias by 16 mg at both bands alike. A neighbour that dropped a finding the
+    an accelerometer bias by 1.6 mg at both bands alike. A neighbour that dropped a finding the
     measured band holds would count the whole finding as the band's error (on a development-range
     flight, seed 13, the x arm dropped at 4.8 Hz put 19 mm into the error of r_y[x], whose sandwich
     error is 2.3 mm): hence the selection goes on from the final model.
