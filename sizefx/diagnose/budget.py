@@ -263,14 +263,15 @@ def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0
     (:mod:`.bandwidth`: the reference's noise, or the spline error of an exact reference at a
     rotor's harmonics), whose bias is what the choice avoids. On development-range flights the arms
     moved by 3-4 mm there (seed 7, at 6.3 Hz against 5 Hz, the shift's noise 0.05-0.5 mm) while the
-    final estimates were within 0.1 of their errors of the truth.
+    final estimates were within 0.12 of their errors of the truth.
 
-    Of ``D^2`` the part beyond the variance of the difference of the two refits is systematic. That
-    variance is the long-run sum over the blocks of the differences of their shares of the two
-    estimates' errors (:func:`sizefx.diagnose.normal.block_scores`, the neighbour's blocks cut where
-    ``nrm``'s start): the noise the two bands share cancels block by block, and what is left is the
-    noise between the bands, fast, so that blocks hold it. The covariance added is the mean over
-    the neighbours of ``(c D)(c D)'``, ``c`` scaling each component so that the diagonal is that
+    Of ``D^2`` the part beyond the variance of the difference of the two refits is systematic,
+    where ``D`` is beyond chance (:func:`systematic_shift`). That variance is the long-run sum over
+    the blocks of the differences of their shares of the two estimates' errors
+    (:func:`sizefx.diagnose.normal.block_scores`, the neighbour's blocks cut where ``nrm``'s
+    start): the noise the two bands share cancels block by block, and what is left is the noise
+    between the bands, fast, so that blocks hold it. The covariance added is the mean over the
+    neighbours of ``(c D)(c D)'``, ``c`` scaling each component so that the diagonal is that
     systematic part.
 
     ``chosen``: the model's effects (:class:`sizefx.diagnose.selection.Chosen`); ``nrm``: the
@@ -285,7 +286,8 @@ def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0
     nyquist = 0.5 / pred.dt
 
     def refit(band):
-        """The final model refitted in ``band``: (its estimate, each block's share of its error)."""
+        """The final model refitted in ``band``: (its estimate of ``free``, each block's share of
+        that estimate's error [B, f], the normal equations there, the model the selection ended with)."""
         rows_b = Rows(pred.t, pred.mask, pred.dt, band)
         residual_b = residual_under(pred, rows_b, theta).rows  # the final residual's rows in this band
         sigma_c, kappa, row_w = noise_of(rows_b, residual_b, robust=True)
