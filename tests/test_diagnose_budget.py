@@ -63,10 +63,11 @@ def _parts_normal(estimates, info):
 
 def test_parts_that_agree_widen_nothing_and_parts_with_an_effect_each_widen_by_it():
     """Eight parts, each the mean of 10 blocks of unit noise: parts whose estimates scatter as
-    their noise says give a factor near 1 and never below it; parts each shifted by an effect of
-    its own with sigma 3 times a part's error give the DerSimonian-Laird widening, close to
-    sqrt(1 + 9) for the whole record's estimate (each part weighs 1/8, a part's variance is 8 times
-    the record's)."""
+    their noise says widen nothing (the random effect counts only beyond chance: 0.33 % of such
+    records, so at most 2 of 100 here, allowing for chance); parts each shifted by an effect of its
+    own with sigma 3 times a part's error give the DerSimonian-Laird widening, close to sqrt(1 + 9)
+    for the whole record's estimate (each part weighs 1/8, a part's variance is 8 times the
+    record's)."""
     rng = np.random.default_rng(2)
     info = 1.0
     factors_null, factors_effect = [], []
@@ -81,7 +82,7 @@ def test_parts_that_agree_widen_nothing_and_parts_with_an_effect_each_widen_by_i
         nrm, j = _parts_normal(noise + shifts, info)
         _, out = block_consistency(nrm, np.array([j]), np.zeros(D.NP), sigma, sigma)
         factors_effect.append(out[j]["factor"])
-    assert min(factors_null) >= 1.0 and np.median(factors_null) < 1.2
+    assert min(factors_null) >= 1.0 and sum(f > 1.0 for f in factors_null) <= 2, factors_null
     assert 2.4 < np.median(factors_effect) < 3.8, np.median(factors_effect)
 
 

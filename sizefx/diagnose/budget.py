@@ -14,8 +14,8 @@ estimates, findings and the nuisance fitted beside them):
   the white covariance: :func:`sizefx.diagnose.selection.honest`.)
 - **parts**: the record's contiguous parts fitted alone (:mod:`.consistency`): the variance of an
   effect of each part beyond its noise, estimated from their scatter (a random effect,
-  DerSimonian-Laird), widens each error by what it adds to the whole record's estimate
-  (:func:`parts_scatter`). The parts cut by rotation rate and by translation are checks: their
+  DerSimonian-Laird) where they disagree beyond chance, widens each error by what it adds to the
+  whole record's estimate (:func:`parts_scatter`). The parts cut by rotation rate and by translation are checks: their
   disagreement says the model lacks an effect that follows the motion, and is reported as such;
 - **aliases**: the candidates nearly collinear with a finding are fitted beside it
   (:func:`sizefx.diagnose.selection.nuisance_aliases`), so they are in ``free`` and in every part
@@ -106,7 +106,7 @@ class Parts:
 
     white: np.ndarray  #: [f, f] N^-1
     sandwich: np.ndarray  #: [f, f] the block sandwich, never under white
-    factors: dict  #: param -> the widening the random effect of the parts in time gives (>= 1)
+    factors: dict  #: param -> the widening the random effect of the parts in time gives (>= 1; 1 within chance)
     entries: dict  #: param -> the cut that disagrees most, with the pooled figures
     count: int  #: contiguous parts in time
 

@@ -15,8 +15,12 @@ an effect outside the model) have each an effect of their own: a random effect o
 ``tau^2`` (DerSimonian and Laird 1986: ``tau^2 = max(0, (chi2 - dof) / (S1 - S2 / S1))`` with
 ``S1``, ``S2`` the sums of the parts' weights and of their squares). The whole record's estimate
 weighs the parts by their information and carries ``tau^2 S2 / S1^2`` of it: ``factor`` is the
-widening of its standard error that this gives, ``sqrt(1 + tau^2 S2 / S1^2 / sigma^2)``. Beyond the
-chi-square point of :data:`CONSISTENCY_LEVEL` the parameter is flagged as well.
+widening of its standard error that this gives, ``sqrt(1 + tau^2 S2 / S1^2 / sigma^2)``, taken only
+where the parts disagree beyond chance: chi2 beyond its point at :data:`CONSISTENCY_LEVEL` (shared
+by the cuts), where the parameter is flagged too. The estimate ``tau^2`` alone is positive whenever
+chi2 exceeds its degrees of freedom, 43 % of the time for parts that agree (7 degrees of freedom),
+and would widen an honest error's variance by 21 % on average: the "random effect" of pure noise.
+Beyond the point it is positive 0.33 % of the time and adds 0.8 % on average.
 
 The same check runs on parts cut by motion instead of time (:func:`motion_groups`: quartiles of
 rotation rate and of translation); the level is shared by the three cuts (Bonferroni). How the
@@ -64,8 +68,8 @@ def block_consistency(
     nrm: Normal, free, offset, sigma: dict, white_sigma: dict, groups=None, split: str = "time"
 ) -> tuple[int, dict]:
     """The number of parts K, and per parameter of ``free``: ``{"parameter", "effect", "split", "chi2_dof",
-    "dof", "tau", "factor", "inflated"}`` (``tau`` in report units; parameters fewer than two parts
-    determine are left out).
+    "dof", "tau", "factor", "inflated"}`` (``tau`` in report units, 0 and ``factor`` 1 unless
+    ``inflated``; parameters fewer than two parts determine are left out).
 
     ``sigma``, ``white_sigma``: the whole record's honest and white standard errors by parameter.
     ``groups``: the parts as lists of blocks (default :data:`PARTS` contiguous ones); ``split`` names them.
@@ -92,8 +96,10 @@ def block_consistency(
         c2 = float(np.sum(w * (xs[seen, pos] - xbar) ** 2))
         dof = int(seen.sum()) - 1
         # DerSimonian-Laird: the variance tau^2 of an effect of each part beyond its own noise, and
-        # what it adds to the whole record's estimate, whose parts weigh in by their information
-        tau2 = max(0.0, (c2 - dof) / (sw - sw2 / sw))
+        # what it adds to the whole record's estimate, whose parts weigh in by their information;
+        # only beyond chance (module docstring)
+        inflated = bool(c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof))
+        tau2 = max(0.0, (c2 - dof) / (sw - sw2 / sw)) if inflated else 0.0
         out[j] = {
             "parameter": PARAMS[j].label,
             "effect": PARAMS[j].effect,
@@ -102,6 +108,6 @@ def block_consistency(
             "dof": dof,
             "tau": float(np.sqrt(tau2) / PARAMS[j].per_unit),
             "factor": float(np.sqrt(1.0 + tau2 * sw2 / sw**2 / sigma[j] ** 2)) if sigma[j] > 0 else 1.0,
-            "inflated": bool(c2 > chi2.isf(CONSISTENCY_LEVEL / SPLITS, dof)),
+            "inflated": inflated,
         }
     return K, out

@@ -23,7 +23,7 @@
    (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves;
    the same checks then judge the findings beside them again.
 6. **Errors** (:mod:`.budget`): the covariance the residual's spectrum gives (:mod:`.spectrum`), widened by
-   the parts' random effect, plus the resolved aliases', the hidden parameters' (fitted beside the
+   the parts' random effect where they disagree beyond chance, plus the resolved aliases', the hidden parameters' (fitted beside the
    findings where they take them up, :func:`sizefx.diagnose.aliases.hidden_fit`) and the band's
    parts; a finding not significant under that error goes to ``not_revealed`` (:mod:`.not_revealed`
    names what the record cannot reveal, and the motions that would separate each alias).

@@ -257,8 +257,8 @@ def format_report(d: Diagnosis, start: str, checks: ModelChecks | None = None) -
         worst = max(cons["parameters"], key=lambda p: p["chi2_dof"])
         lines.append(
             f"standard errors: the residual's spectrum at each regressor's time scales ({cons['block_s']:.2g} s "
-            "blocks, split down to single rows), widened by the "
-            f"random effect of {cons['parts']} parts of the record (largest chi2/dof {worst['chi2_dof']:.2f}, "
+            "blocks, split down to single rows), widened by the random effect of "
+            f"{cons['parts']} parts of the record where they disagree beyond chance (largest chi2/dof {worst['chi2_dof']:.2f}, "
             f"{worst['effect']} {worst['parameter']})"
             + (f"; {len(flagged)} disagree beyond chance (see the warnings)" if flagged else "")
         )
