@@ -203,6 +203,44 @@ def test_a_hidden_parameter_that_moves_a_finding_widens_its_error_by_its_prior()
     assert weak_parameters(nrm_m, chosen, unexcited, "navigation", []) == []
 
 
+def test_a_parameter_that_moves_a_finding_through_another_fitted_beside_it_is_fitted_too():
+    """A left-out parameter may move a finding little by itself and much through a weak parameter
+    fitted beside the findings: on a flight with rotor vibration an accelerometer delay under its
+    floor moved the arms found by micrometres itself and by a millimetre with the other arm
+    components free (development seed 0). Here the delay's regressor is the difference of the weak
+    arm component's and the finding's, plus its own part: one prior standard deviation of it moves
+    the finding by 0.7 of its white error alone and by 11 of them with the weak one free, and it is
+    taken in the second round."""
+    from sizefx.diagnose.aliases import weak_parameters
+    from sizefx.diagnose.candidates import CANDIDATES
+    from sizefx.diagnose.normal import Normal
+    from sizefx.diagnose.selection import Chosen
+
+    x_arm = next(c for c in CANDIDATES if c.key == "lever_arm:accel_x")
+    z_arm = next(c for c in CANDIDATES if c.key == "lever_arm:accel_z")
+    delay = next(c for c in CANDIDATES if c.id == "accel_delay")
+    f = next(k for k in x_arm.idx if D.PARAMS[k].label == "r_x[z]")
+    k = next(q for q in z_arm.idx if D.PARAMS[q].label == "r_z[y]")
+    j = delay.idx[0]
+    rng = np.random.default_rng(3)
+    u, v, w = rng.normal(size=(3, 400))
+    X = np.zeros((400, D.NP))
+    X[:, f] = u
+    X[:, k] = u + v  # canonical correlation with the finding 0.69: weak, not nearly collinear
+    X[:, j] = v + 0.6 * w + 0.02 * u  # with the finding and the weak one: 0.85, under 0.9
+    N = X.T @ X / 0.01**2
+    nrm = Normal(N[None], np.zeros((1, D.NP)), np.zeros(1), 400, np.ones(D.NP), 1.0, np.zeros(1))
+    chosen = [Chosen(x_arm, (f,), ())]
+    unexcited = {
+        c.key: (c, params, "the motion in this record does not excite it")
+        for c, params in ((z_arm, (k,)), (delay, (j,)))
+    }
+    assert weak_parameters(nrm, chosen, unexcited, "navigation", []) == [(z_arm, [k], True), (delay, [j], True)]
+    # with the weak arm component out of the picture, the delay alone moves the finding too little
+    unexcited.pop(z_arm.key)
+    assert weak_parameters(nrm, chosen, unexcited, "navigation", []) == []
+
+
 def test_a_scale_factor_under_its_floor_that_a_misalignment_takes_up_is_fitted_beside_it():
     """On a flight of coordinated turns the y gyro sees the yaw rate times the tangent of the bank:
     its scale factor's regressor stays under the excitation floor, and the y gyro's misalignment

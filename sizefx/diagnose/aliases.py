@@ -131,13 +131,16 @@ def _shift(nrm, free, alt_idx) -> np.ndarray:
     return -scaled_pinv(N[np.ix_(free, free)]) @ N[np.ix_(free, alt)]
 
 
-def _reach(nrm, free, j: int, sd: float) -> float:
+def _reach(nrm, free, j: int, sd: float, beside=()) -> float:
     """The largest shift of an estimate of ``free`` that parameter ``j`` one prior standard deviation
-    ``sd`` from its start value gives, in the estimate's white standard errors (``N_ff^-1``)."""
+    ``sd`` from its start value gives, in the estimate's white standard errors (``N_ff^-1``), with the
+    parameters ``beside`` (fitted beside ``free``) free to follow: ``j`` also moves ``free`` through
+    them."""
     N = nrm.N.sum(0)
     free = np.asarray(free, dtype=int)
+    joint = np.concatenate([free, [b for b in beside if b != j and b not in free]]).astype(int)
     sig = np.sqrt(np.abs(np.diag(scaled_pinv(N[np.ix_(free, free)]))))
-    S = _shift(nrm, free, [j])[:, 0]
+    S = _shift(nrm, joint, [j])[: free.size, 0]
     return float(np.max(np.abs(S) * sd / np.where(sig > 0, sig, np.inf)))
 
 
@@ -170,8 +173,12 @@ MIN_REACH = 0.1
 #: deviation from its start value (:func:`_prior`) moves an estimate of the model by this many of its
 #: white standard errors is fitted beside the model with that prior, however weakly correlated: held at zero it would bias
 #: the estimate by more than its error says (an accelerometer-x scale factor of -12 ppm on a tumble
-#: moved the x arm's z component by 0.19 mm, 4.4 sigma: development seed 35). One standard error: the
-#: size from which a bias changes what a reported error means; not chosen by the validation protocol.
+#: moved the x arm's z component by 0.19 mm, 4.4 sigma: development seed 35). Through the parameters
+#: fitted beside the model too (:func:`weak_parameters`): on a flight with rotor vibration an
+#: accelerometer delay under its excitation floor moved the arms found by 5 um per 720 us itself and by
+#: 1.0 mm with the other arm components free (development seed 0: r_x[z] at -2.6 sigma). One standard
+#: error: the size from which a bias changes what a reported error means; not chosen by the
+#: validation protocol.
 CONSIDER_REACH = 1.0
 
 
@@ -218,7 +225,10 @@ def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, ski
     :data:`sizefx.diagnose.selection.NUISANCE_CORRELATION`) but which one prior standard deviation
     from their start values would move a finding by its own white standard error or more
     (:data:`CONSIDER_REACH`), to be fitted beside the model with that prior (:func:`hidden_fit`),
-    furthest reaching first.
+    furthest reaching first. The reach is taken with the ``hidden`` parameters fitted beside the
+    model and the weak ones taken so far free to follow (:func:`_reach`), round by round until a
+    round takes none: a parameter may move a finding little by itself and much through another
+    fitted beside it.
 
     One nearly collinear with the model, the ``hidden`` parameters fitted beside it and the weak ones
     taken so far is skipped: two left out together (a bias and a scale factor under constant gravity)
@@ -227,29 +237,36 @@ def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, ski
     The selection tested each finding against these (it can tell them apart), so they widen the
     errors the findings are reported with but do not mask a finding (:func:`not_significant`)."""
     N = nrm.N.sum(0)
-    basis = sorted({j for c in chosen for j in c.active}) + [
-        j for _, params, beside in hidden if beside for j in params
-    ]
-    weak = [
-        (reach[j], cand, j)
-        for cand, mine, reach, rho in _screen(nrm, chosen, unrevealed, grade, skip)
+    findings = sorted({j for c in chosen for j in c.active})
+    basis = findings + [j for _, params, beside in hidden if beside for j in params]
+    left = [
+        (cand, j)
+        for cand, mine, _, rho in _screen(nrm, chosen, unrevealed, grade, skip, beside=basis[len(findings) :])
         if rho is not None
         for j in mine
-        if rho[j] < NUISANCE_CORRELATION and reach[j] >= CONSIDER_REACH
+        if rho[j] < NUISANCE_CORRELATION
     ]
-    out = []
-    for _, cand, j in sorted(weak, key=lambda w: -w[0]):
-        if canonical_correlation(N, basis, [j]) < NUISANCE_CORRELATION:
-            out.append((cand, [j], True))
-            basis.append(j)
+    out: list = []
+    while left:
+        beside = basis[len(findings) :]
+        reach = [_reach(nrm, findings, j, _prior(cand.id, 1, grade)[0], beside) for cand, j in left]
+        ranked = sorted((r, k) for k, r in enumerate(reach) if r >= CONSIDER_REACH)[::-1]
+        if not ranked:
+            break
+        for _, k in ranked:
+            cand, j = left[k]
+            if canonical_correlation(N, basis, [j]) < NUISANCE_CORRELATION:
+                out.append((cand, [j], True))
+                basis.append(j)
+        left = [item for k, item in enumerate(left) if k not in {k for _, k in ranked}]
     return out
 
 
-def _screen(nrm, chosen, unrevealed: dict, grade: str, skip):
+def _screen(nrm, chosen, unrevealed: dict, grade: str, skip, beside=()):
     """Per entry of ``unrevealed`` the model ``chosen`` does not hold already: ``(candidate, its
     parameters, None, None)`` for one hidden as indistinguishable; otherwise ``(candidate, parameters
     that could move a finding by MIN_REACH or more, {param: reach}, {param: canonical correlation with
-    the findings})``."""
+    the findings})``, the reach with the parameters ``beside`` free to follow (:func:`_reach`)."""
     N = nrm.N.sum(0)
     free = sorted({j for c in chosen for j in c.active})
     for cand, params, reason in unrevealed.values():
@@ -262,7 +279,7 @@ def _screen(nrm, chosen, unrevealed: dict, grade: str, skip):
             continue
         if not free:
             continue
-        reach = {j: _reach(nrm, free, j, _prior(cand.id, 1, grade)[0]) for j in mine}
+        reach = {j: _reach(nrm, free, j, _prior(cand.id, 1, grade)[0], beside) for j in mine}
         mine = [j for j in mine if reach[j] >= MIN_REACH]
         yield cand, mine, reach, {j: canonical_correlation(N, free, [j]) for j in mine}
 
