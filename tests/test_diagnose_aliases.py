@@ -380,3 +380,22 @@ def test_a_component_whose_error_is_another_parameters_prior_is_not_measured():
     assert not not_significant_as_reported(free, chosen, theta, theta0, cov, {arm.key: [rzz]}, 1e-3)
     theta[rzx] = theta0[rzx] + 0.5 * sig[rzx]
     assert arm.key in not_significant_as_reported(free, chosen, theta, theta0, cov, {arm.key: [rzz]}, 1e-3)
+
+
+def test_the_hidden_parameters_take_the_white_correlations_with_the_colours_widening():
+    """``aliases._scaled_white``: the white covariance, each variance scaled up to the sandwich's
+    where that is larger. Two parameters whose sandwich variances match the white ones but whose
+    sandwich correlation is 0.9 against a white 0: the white covariance as it is (the sandwich would
+    claim a tenth of the white variance for their difference). A variance the sandwich puts at four
+    times the white one: scaled by four, the white correlation kept; one it puts lower: not scaled
+    down. In the white variances' own scale (1e-20 and 1, as arms and gyro parameters differ)."""
+    from sizefx.diagnose.aliases import _scaled_white
+
+    s = np.array([1e-10, 1.0])
+    white = np.array([[1.0, 0.3], [0.3, 1.0]]) * np.outer(s, s)
+    robust = np.array([[1.0, 0.9], [0.9, 1.0]]) * np.outer(s, s)
+    assert np.allclose(_scaled_white(white, robust), white, rtol=1e-12, atol=0.0)
+    robust = np.array([[4.0, 0.0], [0.0, 0.25]]) * np.outer(s, s)
+    out = _scaled_white(white, robust)
+    assert out[0, 0] == pytest.approx(4.0 * white[0, 0]) and out[1, 1] == pytest.approx(white[1, 1])
+    assert out[0, 1] / np.sqrt(out[0, 0] * out[1, 1]) == pytest.approx(0.3)

@@ -33,7 +33,7 @@ from ..constants import DEG
 from .algebra import scaled_pinv
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge, prior_sigma
-from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION, honest
+from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION
 from .theta import PARAMS
 
 __all__ = [
@@ -301,10 +301,11 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     - a ``fitted`` one is estimated beside ``free`` with its prior: with
       ``C = N_hh - N_hf N_ff^-1 N_fh`` what the record still says of it once ``free`` is fitted,
       ``dh = (C + P)^-1 (b_h - N_hf N_ff^-1 b_f)``, ``dx = S dh``, and it adds ``S (C_r + P)^-1 S'``,
-      ``C_r`` the inverse of its block of the long-run sandwich covariance
-      (:func:`sizefx.diagnose.normal.covariance`) of ``free`` and the fitted ones together: where
-      the residual is coloured (a bias walk) the weighted normal equations promise far more than
-      the record holds.
+      ``C_r`` the inverse of its block of the covariance of ``free`` and the fitted ones together:
+      the white one with each variance scaled up to the long-run sandwich's
+      (:func:`sizefx.diagnose.normal.covariance`) where that is larger (:func:`_scaled_white`):
+      where the residual is coloured (a bias walk) the weighted normal equations promise far more
+      than the record holds.
 
     A mount about z and the gyros' antisymmetric misalignment are one rotation to a record: with
     the z gyro's misalignment towards x hidden, the x gyro's towards z comes out as their sum, and
@@ -329,7 +330,7 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     order = np.argsort(joint)
     _, white, robust = covariance(nrm, joint[order], offset)
     at = np.searchsorted(joint[order], idx)
-    V = honest(white, robust)[np.ix_(at, at)]
+    V = _scaled_white(white, robust)[np.ix_(at, at)]
     # halved before the sum: a weak parameter the record hardly holds has a variance near the float
     # limit; one beyond it says the record holds nothing of it (its prior alone then speaks)
     V = 0.5 * V + 0.5 * V.T
@@ -337,6 +338,26 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     C_r = np.zeros_like(V)
     C_r[np.ix_(ok, ok)] = scaled_pinv(V[np.ix_(ok, ok)])
     return S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
+
+
+def _scaled_white(white, robust) -> np.ndarray:
+    """The white covariance with each variance scaled up to the robust one's where that is larger:
+    the white correlations, the colour's widening per parameter (:func:`hidden_fit`).
+
+    The white correlations are the design's, exact under white noise; the block sandwich's come
+    from about a hundred blocks' scores over twenty and more parameters, and a block of it,
+    inverted, can promise far more than the white normal equations in some combination, even with
+    its diagonal scaled up to the white one (:func:`sizefx.diagnose.selection.honest`). A
+    development-range flight (seed 10): beside the y gyro's misalignment towards z the y gyro's scale
+    factor and nine other parameters were fitted with their priors; their combination moved the
+    misalignment by 1.5 arcsec, and the sandwich's block gave it an error of 0.19 arcsec against 0.57
+    from the white one (the misalignment then at z -4.3). A parameter whose variance is not finite
+    (the record holds nothing of it) keeps its white row, which :func:`hidden_fit` drops."""
+    wd, rd = np.diag(white), np.diag(robust)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(wd > 0, rd / wd, 1.0)
+    d = np.sqrt(np.maximum(1.0, np.where(np.isfinite(ratio), ratio, 1.0)))
+    return white * np.outer(d, d)
 
 
 def strongest_hidden(nrm, free, hidden: list, grade: str) -> dict:
