@@ -351,8 +351,9 @@ def _scaled_white(white, robust) -> np.ndarray:
     development-range flight (seed 10): beside the y gyro's misalignment towards z the y gyro's scale
     factor and nine other parameters were fitted with their priors; their combination moved the
     misalignment by 1.5 arcsec, and the sandwich's block gave it an error of 0.19 arcsec against 0.57
-    from the white one (the misalignment then at z -4.3). A parameter whose variance is not finite
-    (the record holds nothing of it) keeps its white row, which :func:`hidden_fit` drops."""
+    from the white one (the misalignment then at z -4.3). Where the sandwich's variance is not
+    finite or not positive the white one stays as it is; a white variance that is not finite (the
+    record holds nothing of the parameter) stays so, and :func:`hidden_fit` drops it."""
     wd, rd = np.diag(white), np.diag(robust)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.where(wd > 0, rd / wd, 1.0)

@@ -15,8 +15,9 @@ estimates, findings and the nuisance fitted beside them):
 - **parts**: the record's contiguous parts fitted alone (:mod:`.consistency`): the variance of an
   effect of each part beyond its noise, estimated from their scatter (a random effect,
   DerSimonian-Laird) where they disagree beyond chance, widens each error by what it adds to the
-  whole record's estimate (:func:`parts_scatter`). The parts cut by rotation rate and by translation are checks: their
-  disagreement says the model lacks an effect that follows the motion, and is reported as such;
+  whole record's estimate (:func:`parts_scatter`). The parts cut by rotation rate and by
+  translation are checks: their disagreement says the model lacks an effect that follows the
+  motion, and is reported as such;
 - **aliases**: the candidates nearly collinear with a finding are fitted beside it
   (:func:`sizefx.diagnose.selection.nuisance_aliases`), so they are in ``free`` and in every part
   above; a finding resolved from an alias by plausibility (:mod:`.aliases`) carries the error the
