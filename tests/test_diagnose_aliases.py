@@ -383,13 +383,16 @@ def test_a_component_whose_error_is_another_parameters_prior_is_not_measured():
 
 
 def test_the_hidden_parameters_take_the_white_correlations_with_the_colours_widening():
-    """``aliases._scaled_white``: the white covariance, each variance scaled up to the sandwich's
-    where that is larger. Two parameters whose sandwich variances match the white ones but whose
+    """``hidden_fit`` takes ``selection.honest`` with the roles swapped: the white covariance, each
+    variance scaled up to the sandwich's where that is larger. Two parameters whose sandwich variances match the white ones but whose
     sandwich correlation is 0.9 against a white 0: the white covariance as it is (the sandwich would
     claim a tenth of the white variance for their difference). A variance the sandwich puts at four
     times the white one: scaled by four, the white correlation kept; one it puts lower: not scaled
     down. In the white variances' own scale (1e-20 and 1, as arms and gyro parameters differ)."""
-    from sizefx.diagnose.aliases import _scaled_white
+    from sizefx.diagnose.selection import honest
+
+    def _scaled_white(white, robust):
+        return honest(robust, white)
 
     s = np.array([1e-10, 1.0])
     white = np.array([[1.0, 0.3], [0.3, 1.0]]) * np.outer(s, s)

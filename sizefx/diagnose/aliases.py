@@ -33,7 +33,7 @@ from ..constants import DEG
 from .algebra import scaled_pinv
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge, prior_sigma
-from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION
+from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION, honest
 from .theta import PARAMS
 
 __all__ = [
@@ -258,7 +258,8 @@ def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, ski
             if canonical_correlation(N, basis, [j]) < NUISANCE_CORRELATION:
                 out.append((cand, [j], True))
                 basis.append(j)
-        left = [item for k, item in enumerate(left) if k not in {k for _, k in ranked}]
+        taken = {k for _, k in ranked}
+        left = [item for k, item in enumerate(left) if k not in taken]
     return out
 
 
@@ -303,7 +304,7 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
       ``dh = (C + P)^-1 (b_h - N_hf N_ff^-1 b_f)``, ``dx = S dh``, and it adds ``S (C_r + P)^-1 S'``,
       ``C_r`` the inverse of its block of the covariance of ``free`` and the fitted ones together:
       the white one with each variance scaled up to the long-run sandwich's
-      (:func:`sizefx.diagnose.normal.covariance`) where that is larger (:func:`_scaled_white`):
+      (:func:`sizefx.diagnose.normal.covariance`) where that is larger:
       where the residual is coloured (a bias walk) the weighted normal equations promise far more
       than the record holds.
 
@@ -330,7 +331,13 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     order = np.argsort(joint)
     _, white, robust = covariance(nrm, joint[order], offset)
     at = np.searchsorted(joint[order], idx)
-    V = _scaled_white(white, robust)[np.ix_(at, at)]
+    # the white covariance scaled up where the sandwich's diagonal is larger (honest() with the roles
+    # swapped): the design's correlations, the colour's widening per parameter. The sandwich's own
+    # correlations come from about a hundred blocks over twenty and more parameters; inverted, its
+    # block promised more than the white one in some combination: on a development-range flight
+    # (seed 10) the y gyro's scale factor and nine others fitted beside the y gyro's misalignment
+    # towards z moved it by 1.5 arcsec, charged 0.19 arcsec from the sandwich against 0.57 from white
+    V = honest(robust, white)[np.ix_(at, at)]
     # halved before the sum: a weak parameter the record hardly holds has a variance near the float
     # limit; one beyond it says the record holds nothing of it (its prior alone then speaks)
     V = 0.5 * V + 0.5 * V.T
@@ -338,27 +345,6 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     C_r = np.zeros_like(V)
     C_r[np.ix_(ok, ok)] = scaled_pinv(V[np.ix_(ok, ok)])
     return S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
-
-
-def _scaled_white(white, robust) -> np.ndarray:
-    """The white covariance with each variance scaled up to the robust one's where that is larger:
-    the white correlations, the colour's widening per parameter (:func:`hidden_fit`).
-
-    The white correlations are the design's, exact under white noise; the block sandwich's come
-    from about a hundred blocks' scores over twenty and more parameters, and a block of it,
-    inverted, can promise far more than the white normal equations in some combination, even with
-    its diagonal scaled up to the white one (:func:`sizefx.diagnose.selection.honest`). A
-    development-range flight (seed 10): beside the y gyro's misalignment towards z the y gyro's scale
-    factor and nine other parameters were fitted with their priors; their combination moved the
-    misalignment by 1.5 arcsec, and the sandwich's block gave it an error of 0.19 arcsec against 0.57
-    from the white one (the misalignment then at z -4.3). Where the sandwich's variance is not
-    finite or not positive the white one stays as it is; a white variance that is not finite (the
-    record holds nothing of the parameter) stays so, and :func:`hidden_fit` drops it."""
-    wd, rd = np.diag(white), np.diag(robust)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.where(wd > 0, rd / wd, 1.0)
-    d = np.sqrt(np.maximum(1.0, np.where(np.isfinite(ratio), ratio, 1.0)))
-    return white * np.outer(d, d)
 
 
 def strongest_hidden(nrm, free, hidden: list, grade: str) -> dict:

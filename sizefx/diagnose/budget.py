@@ -326,8 +326,6 @@ def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0
         part = systematic_shift(est_b - est0, noise)
         sys_cov += np.outer(part, part)
         bands.append({"bandwidth_hz": float(band), "selected": sorted(ch.cand.key for ch in selected)})
-    if not bands:
-        return None, None
     return sys_cov / len(bands), bands
 
 
