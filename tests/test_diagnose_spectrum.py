@@ -1,10 +1,11 @@
 """The estimates' covariance from the residual's spectrum (``sizefx.diagnose.spectrum``), against
 Monte Carlo: least squares on white noise, and on white noise plus a random walk, with a fast and a
-slow regressor beside a constant."""
+slow regressor beside a constant; with the walk's part (``sizefx.diagnose.drift``), each counted once."""
 
 import numpy as np
 import pytest
 
+from sizefx.diagnose.drift import WALK_BINS, basis, intensity, walk_covariance
 from sizefx.diagnose.spectrum import BlockNoise, block_covariance, fit_spectrum, haar_splits, levels_for, spectral_meat
 
 BLOCKS, PER_BLOCK, DT = 100, 20, 0.01
@@ -91,3 +92,56 @@ def test_block_covariance_of_white_noise_is_diagonal():
     R = block_covariance(x, np.arange(100) * 0.5, 0.5)
     assert np.diag(R) == pytest.approx(np.var(x), rel=0.3)
     assert np.max(np.abs(R - np.diag(np.diag(R)))) < 0.2 * np.var(x)
+
+
+def test_the_colour_under_the_walks_bins_is_left_out():
+    """``above``: the block means' colour under that bin is left to the walk's part, the rest kept.
+    A walk's block means put nearly all their power into the slowest bins: a constant across the
+    blocks loses it all, blocks alternating in sign keep most of theirs (the record's finite span
+    leaks a little of the slow power to every bin); white noise has no colour to leave."""
+    rng = np.random.default_rng(11)
+    t0 = np.arange(100) * 0.5
+    walk = np.cumsum(rng.standard_normal(100)) + 0.3 * rng.standard_normal(100)
+    whole, cut = block_covariance(walk, t0, 0.5), block_covariance(walk, t0, 0.5, above=WALK_BINS)
+    slow, fast = np.ones(100), (-1.0) ** np.arange(100)
+    assert slow @ cut @ slow < 0.01 * (slow @ whole @ slow)
+    assert fast @ cut @ fast > 0.5 * (fast @ whole @ fast)
+    white = rng.standard_normal(100)
+    np.testing.assert_array_equal(block_covariance(white, t0, 0.5, above=WALK_BINS), block_covariance(white, t0, 0.5))
+
+
+# long tier: 300 least-squares fits with the walk measured (6 s); fast twin:
+# test_the_colour_under_the_walks_bins_is_left_out
+@pytest.mark.slow
+def test_the_walks_part_and_the_spectrum_count_a_walk_once():
+    """White noise plus a walk, the step and the 7.3 Hz sine beside a constant: the spectrum's model
+    with the colour under the walk's series left out, plus the walk's part (its intensity measured
+    beside the model), predicts the scatter of 300 fits (+-8 % per variance); the two summed whole
+    count the slow power twice (about 1.6 times the step's scatter)."""
+    t, H = _design()
+    P = H.shape[1]
+    rng = np.random.default_rng(7)
+    inv = np.linalg.inv(H.T @ H)
+    span = float(t[-1] - t[0])
+    Z = basis(t, t[0], span)
+    estimates, once, twice = [], [], []
+    for _ in range(300):
+        e = rng.standard_normal(t.size) + np.cumsum(0.05 * rng.standard_normal(t.size))
+        x = inv @ (H.T @ e)
+        r = e - H @ x
+        estimates.append(x)
+        noise = _noise_of(t, H, r)
+        drift = intensity(H.T @ H, H.T @ r, {0: H.T @ Z}, {0: Z.T @ Z}, {0: Z.T @ r}, [0], t[0], span)
+        walk = walk_covariance(drift, np.arange(P), inv)
+        walk = np.zeros((P, P)) if walk is None else walk
+        above = np.zeros(6)
+        above[0] = WALK_BINS if drift.q[0] > 0 else 0.0
+        once.append(np.diag(inv @ spectral_meat(noise, np.arange(P), above) @ inv + walk))
+        twice.append(np.diag(inv @ spectral_meat(noise, np.arange(P)) @ inv + walk))
+    empirical = np.var(estimates, axis=0)
+    ratio_once, ratio_twice = np.mean(once, axis=0) / empirical, np.mean(twice, axis=0) / empirical
+    # the step: within the draws' scatter and the walk's measure (its intensity from 8 terms of one
+    # record scatters by a factor of two); the fast sine: white, untouched by either
+    assert 0.65 < ratio_once[2] < 1.2
+    assert ratio_twice[2] > 1.35
+    assert 0.85 < ratio_once[1] < 1.2

@@ -29,9 +29,9 @@ estimates, findings and the nuisance fitted beside them):
   in is no finding;
 - **walk**: a random walk of the biases (:mod:`.drift`), measured beside the model: what it adds to
   the estimates' covariance, ``N^-1 H'WZ Q Z'WH N^-1``, large for a parameter whose regressor is as
-  slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. The
-  sandwich holds the part of the walk faster than its lags; the walk's part counts it again, an
-  over-statement bounded by that share;
+  slow as the walk (a misalignment on a turntable's long axis segments), nil for a fast one. On a
+  channel that walks, the sandwich's model of the spectrum leaves out the colour under the walk's
+  series (:data:`sizefx.diagnose.drift.WALK_BINS`), which this part holds: counted once;
 - **band**: the choice of band and of what the selection takes beside the model there
   (:func:`band_part`).
 
@@ -54,7 +54,7 @@ from scipy.stats import chi2
 from .algebra import long_run_meat
 from .candidates import columns_between
 from .consistency import block_consistency, motion_groups
-from .drift import walk_covariance
+from .drift import WALK_BINS, walk_covariance
 from .normal import CHUNK_SAMPLES, Normal, Rows, block_scores, covariance, normal_equations, solve
 from .plausibility import judge
 from .predictor import Predictor
@@ -204,16 +204,21 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     record's parts fitted alone (:mod:`.consistency`: in time, by rotation rate, by translation).
 
     ``spectral``: the "sandwich" is the covariance from the residual's spectrum at each regressor's
-    frequencies (:func:`sizefx.diagnose.spectrum.spectral_meat`), for the errors reported; without
-    it, the long-run block sandwich never under the white covariance
-    (:func:`sizefx.diagnose.selection.honest`), which the selection's tests use."""
+    frequencies (:func:`sizefx.diagnose.spectrum.spectral_meat`), less the colour the walk's part
+    holds, for the errors reported, and the parts are judged against it plus the walk's part: all
+    the noise the errors take. Without it, the long-run block sandwich never under the white
+    covariance (:func:`sizefx.diagnose.selection.honest`), which the selection's tests use."""
     free = np.asarray(free, dtype=int)
     _, white, robust = covariance(nrm, free, offset)
     sandwich = honest(white, robust)
+    noise = sandwich
     if spectral and nrm.noise is not None and free.size:
-        sandwich = white @ spectral_meat(nrm.noise, free) @ white
+        walked = np.where(nrm.drift.q > 0, WALK_BINS, 0.0)  # under these bins the walk's part holds the colour
+        sandwich = white @ spectral_meat(nrm.noise, free, walked) @ white
         sandwich = 0.5 * (sandwich + sandwich.T)
-    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(sandwich)))))
+        walk = walk_covariance(nrm.drift, free, white)
+        noise = sandwich if walk is None else sandwich + walk  # the parts are judged against all the noise
+    sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(noise)))))
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
     count, by_time = block_consistency(nrm, free, offset, sig, sig_white)
     cuts = [by_time]

@@ -34,10 +34,26 @@ import numpy as np
 
 from .algebra import scaled_pinv
 
-__all__ = ["Drift", "TERMS", "SLOPES", "basis", "prior_variances", "intensity", "walk_covariance", "NO_DRIFT"]
+__all__ = [
+    "Drift",
+    "TERMS",
+    "WALK_BINS",
+    "SLOPES",
+    "basis",
+    "prior_variances",
+    "intensity",
+    "walk_covariance",
+    "NO_DRIFT",
+]
 
 #: Sine terms of the walk's series: 97.5 % of its variance over the record (the module's docstring).
 TERMS = 8
+#: The record's periodogram bins (one cycle over the span per bin) that the series holds: its terms
+#: lie at ``(k - 1/2) / 2`` bins, all under ``TERMS / 2``. On a channel that walks, the slow colour
+#: under these bins is the walk's part of the errors, and the model of the residual's spectrum
+#: leaves it out (:func:`sizefx.diagnose.spectrum.spectral_meat`): each slice of the spectrum is
+#: counted once.
+WALK_BINS = TERMS / 2
 #: The slopes of the slow noise's spectrum tried per channel (:func:`intensity`): a random walk of
 #: the bias (``f^-2``) and flicker (``f^-1``, a bias instability).
 SLOPES = (2.0, 1.0)

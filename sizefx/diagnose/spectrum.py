@@ -25,7 +25,9 @@ splits and the block means span the rows). Each parameter takes the noise at the
 its regressor varies: a lever arm's fast regressor is not charged with its channel's slow
 colour, a misalignment on a turntable's long dwells is. The block means' model is fitted over all
 their frequencies, so a slow effect the fit absorbed (the residual is low where the regressors
-are) pulls it little; a walk slower than the record is left to :mod:`.drift`.
+are) pulls it little. On a channel whose bias walks (:mod:`.drift`), the colour under the walk's
+series (:data:`sizefx.diagnose.drift.WALK_BINS`) is the walk's part of the errors and is left out
+here, so that no slice of the spectrum is counted twice.
 """
 
 from __future__ import annotations
@@ -162,25 +164,29 @@ def fit_spectrum(x) -> tuple:
     return best[1], best[2], best[3]
 
 
-def block_covariance(x, t0, block_s: float) -> np.ndarray:
+def block_covariance(x, t0, block_s: float, above: float = 0.0) -> np.ndarray:
     """``[B, B]``: the covariance of the block means ``x [B]`` (blocks starting at ``t0`` [s]) under
     the spectrum :func:`fit_spectrum` fits to them, from its autocovariance on a grid of
-    :data:`EMBED` times the span (lags between blocks across a gap taken from the times)."""
+    :data:`EMBED` times the span (lags between blocks across a gap taken from the times). ``above``:
+    the record's bin under which the coloured part is left out (another model holds it there)."""
     A, C, shape = fit_spectrum(x)
     B = x.size
     M = EMBED * max(B, 2)
     f = np.arange(M // 2 + 1, dtype=float)  # in units of the lowest frequency of the grid
     spec = np.full(f.size, A)
     if C > 0:
-        spec[1:] += C * _shape(shape, f[1:] / EMBED)  # the record's bin k is the grid's EMBED k
+        k = f[1:] / EMBED  # the record's bin k is the grid's EMBED k
+        spec[1:] += np.where(k >= above, C * _shape(shape, k), 0.0)
         spec[0] = spec[1]
     acov = np.fft.irfft(spec, n=M)  # acov[m]: lag of m blocks
     lag = np.abs(np.round((t0[:, None] - t0[None, :]) / block_s)).astype(int)
     return acov[np.minimum(lag, M // 2)]
 
 
-def spectral_meat(noise: BlockNoise, free) -> np.ndarray:
-    """``[f, f]``: the variance of the score of the parameters ``free`` (module docstring)."""
+def spectral_meat(noise: BlockNoise, free, above=None) -> np.ndarray:
+    """``[f, f]``: the variance of the score of the parameters ``free`` (module docstring); ``above``
+    ``[6]``: per channel, the record's bin under which its block means' colour is left out (0, or
+    None for all: none)."""
     free = np.asarray(free, dtype=int)
     meat = np.zeros((free.size, free.size))
     n = noise.counts
@@ -189,6 +195,6 @@ def spectral_meat(noise: BlockNoise, free) -> np.ndarray:
         G = noise.G[c][np.ix_(inside, free)]
         if not np.any(G):
             continue
-        R = block_covariance(noise.rbar[inside, c], noise.t0[inside], noise.block_s)
+        R = block_covariance(noise.rbar[inside, c], noise.t0[inside], noise.block_s, 0.0 if above is None else above[c])
         meat += G.T @ R @ G + np.einsum("j,jab->ab", noise.u[c], noise.D[c][:, free][:, :, free])
     return meat
