@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -137,3 +139,16 @@ def test_the_slope_of_the_slow_noise_tells_flicker_from_a_walk():
     # draws of three (these seeds: 25 of 30 walks, 21 of 30 flicker series)
     assert np.mean(np.array(slopes["walk"]) == 2.0) >= 2 / 3
     assert len(slopes["flicker"]) >= 20 and np.mean(np.array(slopes["flicker"]) == 1.0) >= 2 / 3
+
+
+def test_a_channel_read_as_flicker_adds_no_walks_part():
+    """Flicker is the spectrum's model's (sizefx.diagnose.spectrum): a channel whose slow noise reads
+    as flicker is measured and reported, but adds no walk's part to the errors; one read as a walk does."""
+    _, _, _, N, _, NU, _, _ = _equations(np.random.default_rng(2), 0.02)
+    inv = np.linalg.inv(N)
+    walk = D.Drift(np.array([0.02, 0, 0, 0, 0, 0]), 0.0, 120.0, {0: NU})
+    flicker = dataclasses.replace(walk, slope=np.array([1.0, 2, 2, 2, 2, 2]))
+    assert walk.walking.tolist() == [True, False, False, False, False, False]
+    assert not flicker.walking.any()
+    assert D.walk_covariance(walk, [0, 1, 2], inv) is not None
+    assert D.walk_covariance(flicker, [0, 1, 2], inv) is None

@@ -4,8 +4,9 @@ slow regressor beside a constant; with the walk's part (``sizefx.diagnose.drift`
 
 import numpy as np
 import pytest
+from test_diagnose_drift import _flicker
 
-from sizefx.diagnose.drift import WALK_BINS, basis, intensity, walk_covariance
+from sizefx.diagnose.drift import WALK_BINS, basis, intensity, prior_variances, walk_covariance
 from sizefx.diagnose.spectrum import BlockNoise, block_covariance, fit_spectrum, haar_splits, levels_for, spectral_meat
 
 BLOCKS, PER_BLOCK, DT = 100, 20, 0.01
@@ -145,3 +146,35 @@ def test_the_walks_part_and_the_spectrum_count_a_walk_once():
     assert 0.65 < ratio_once[2] < 1.2
     assert ratio_twice[2] > 1.35
     assert 0.85 < ratio_once[1] < 1.2
+
+
+# long tier: 300 least-squares fits with the slow noise measured (6 s); fast twin:
+# tests/test_diagnose_drift.py::test_a_channel_read_as_flicker_adds_no_walks_part
+@pytest.mark.slow
+def test_flicker_is_the_spectrums_not_the_walks():
+    """White noise plus flicker (1/f from the record's lowest frequency), the design above: over
+    the draws whose slow noise reads as flicker (about 6 in 10), the spectrum's model alone
+    predicts the step's scatter (about 0.85 of it). A walk's part with the flicker slope would by
+    itself predict about 1.5 times that scatter, on top of the spectrum's: flicker counted twice."""
+    t, H = _design()
+    P = H.shape[1]
+    rng = np.random.default_rng(7)
+    inv = np.linalg.inv(H.T @ H)
+    span = float(t[-1] - t[0])
+    Z = basis(t, t[0], span)
+    estimates, spectrum, walks = [], [], []
+    for _ in range(300):
+        e = rng.standard_normal(t.size) + 0.3 * _flicker(rng, t.size)
+        x = inv @ (H.T @ e)
+        r = e - H @ x
+        estimates.append(x)
+        drift = intensity(H.T @ H, H.T @ r, {0: H.T @ Z}, {0: Z.T @ Z}, {0: Z.T @ r}, [0], t[0], span)
+        if drift.q[0] > 0 and not drift.walking[0]:  # read as flicker
+            assert walk_covariance(drift, np.arange(P), inv) is None
+            spectrum.append(np.diag(inv @ spectral_meat(_noise_of(t, H, r), np.arange(P)) @ inv))
+            A = (H.T @ Z) * np.sqrt(drift.q[0] * prior_variances(span, 1.0))[None, :]
+            walks.append(np.diag(inv @ A @ A.T @ inv))
+    empirical = np.var(estimates, axis=0)
+    assert len(spectrum) > 100
+    assert 0.65 < np.mean(spectrum, axis=0)[2] / empirical[2] < 1.25
+    assert np.mean(walks, axis=0)[2] > 1.2 * empirical[2]

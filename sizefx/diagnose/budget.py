@@ -213,7 +213,7 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     sandwich = honest(white, robust)
     noise = sandwich
     if spectral and nrm.noise is not None and free.size:
-        walked = np.where(nrm.drift.q > 0, WALK_BINS, 0.0)  # under these bins the walk's part holds the colour
+        walked = np.where(nrm.drift.walking, WALK_BINS, 0.0)  # under these bins the walk's part holds the colour
         sandwich = white @ spectral_meat(nrm.noise, free, walked) @ white
         sandwich = 0.5 * (sandwich + sandwich.T)
         walk = walk_covariance(nrm.drift, free, white)

@@ -22,7 +22,8 @@ left to the long-run sandwich (:func:`sizefx.diagnose.algebra.long_run_meat`).
   basis coefficients fitted beside every parameter the motion shows, 0 where the residual shows
   no walk beyond its white noise;
 - :func:`walk_covariance`: what the walk adds to the covariance of the weighted least-squares
-  estimates, ``N^-1 H'WZ Q Z'WH N^-1`` (the estimates themselves are those of the model alone).
+  estimates, ``N^-1 H'WZ Q Z'WH N^-1`` (the estimates themselves are those of the model alone),
+  on the channels that walk; flicker's share of the errors is the spectrum's model's.
 """
 
 from __future__ import annotations
@@ -49,10 +50,10 @@ __all__ = [
 #: Sine terms of the walk's series: 97.5 % of its variance over the record (the module's docstring).
 TERMS = 8
 #: The record's periodogram bins (one cycle over the span per bin) that the series holds: its terms
-#: lie at ``(k - 1/2) / 2`` bins, all under ``TERMS / 2``. On a channel that walks, the slow colour
-#: under these bins is the walk's part of the errors, and the model of the residual's spectrum
-#: leaves it out (:func:`sizefx.diagnose.spectrum.spectral_meat`): each slice of the spectrum is
-#: counted once.
+#: lie at ``(k - 1/2) / 2`` bins, all under ``TERMS / 2``. On a channel that walks
+#: (:attr:`Drift.walking`), the slow colour under these bins is the walk's part of the errors, and
+#: the model of the residual's spectrum leaves it out (:func:`sizefx.diagnose.spectrum.spectral_meat`):
+#: each slice of the spectrum is counted once.
 WALK_BINS = TERMS / 2
 #: The slopes of the slow noise's spectrum tried per channel (:func:`intensity`): a random walk of
 #: the bias (``f^-2``) and flicker (``f^-1``, a bias instability).
@@ -70,6 +71,13 @@ class Drift:
     cross: dict = field(default_factory=dict)  #: channel -> [P, TERMS] H'WZ, for the channels that walk
     #: [6] per channel, the slope of its slow noise's spectrum (:data:`SLOPES`; 2: a walk)
     slope: np.ndarray = field(default_factory=lambda: np.full(6, 2.0))
+
+    @property
+    def walking(self) -> np.ndarray:
+        """[6] the channels whose bias walks: slow noise measured, with a walk's slope. Flicker is
+        measured and reported, but the model of the residual's spectrum carries it in the errors
+        (:func:`walk_covariance`)."""
+        return (self.q > 0) & (self.slope >= SLOPES[0])
 
 
 #: No walk anywhere (the fit as under white noise).
@@ -132,10 +140,9 @@ def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
     inverse) and the walk (``q`` times :func:`prior_variances`); ``q`` is their maximum-likelihood
     variance component, 0 when the coefficients are no larger than the noise makes them. The slope of
     their spectrum is chosen per channel by the same likelihood among :data:`SLOPES`: a walk's
-    coefficients fall as ``(k - 1/2)^-2``, flicker's as ``(k - 1/2)^-1``, and flicker read as a walk
-    puts several times its power into the slowest term, which the slowest regressors take up. A slow
-    Gauss-Markov process shows as one of the two, and widens the errors it would otherwise leave too
-    small."""
+    coefficients fall as ``(k - 1/2)^-2``, flicker's as ``(k - 1/2)^-1``. Flicker is reported, and
+    left to the model of the residual's spectrum in the errors (:func:`walk_covariance`). A slow
+    Gauss-Markov process shows as one of the two."""
     q = np.zeros(6)
     if not channels or span_s <= 0:
         return Drift(q, t0, span_s)
@@ -165,12 +172,22 @@ def intensity(N, b, NU, UU, bU, channels, t0: float, span_s: float) -> Drift:
 def walk_covariance(drift: Drift, free, inv) -> np.ndarray | None:
     """``[f, f]``: what the walk adds to the covariance of the estimates of ``free`` (indices into the
     model's parameters), ``inv`` their ``N^-1``: ``inv (sum_c H_c'WZ Q_c Z'WH_c) inv`` with ``Q_c`` the
-    walk's prior on channel ``c``'s coefficients. None where nothing walks."""
-    if not drift.cross:
+    walk's prior on channel ``c``'s coefficients. None where nothing walks.
+
+    A channel whose slow noise is flicker (:attr:`Drift.walking` false) adds nothing: flicker is
+    stationary, the model of the residual's spectrum holds it at every frequency
+    (:mod:`.spectrum`), and its terms on the series of a walk from the record's first sample are
+    neither independent nor of the variances the series gives them. Least squares of a step under
+    white noise and flicker, the draws read as flicker: this part with the flicker slope predicted
+    1.5 times the step's scatter, on top of the spectrum's model's 0.85 of it
+    (``tests/test_diagnose_spectrum.py``)."""
+    walking = [c for c in drift.cross if drift.walking[c]]
+    if not walking:
         return None
     free = np.asarray(free, dtype=int)
     meat = np.zeros((free.size, free.size))
-    for c, NU in drift.cross.items():
+    for c in walking:
+        NU = drift.cross[c]
         A = NU[free] * np.sqrt(drift.q[c] * prior_variances(drift.span_s, drift.slope[c]))[None, :]
         meat += A @ A.T
     return inv @ meat @ inv
