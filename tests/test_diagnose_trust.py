@@ -271,3 +271,22 @@ def test_the_grade_is_inferred_from_the_imus_own_noise_not_the_residual():
     assert np.allclose(noise_density(filtered, np.ones(n, bool), dt_s), density, rtol=0.15)
     assert infer_grade(got * 100)[0] == "industrial"
     assert infer_grade(got / 100)[0] == "navigation"
+
+
+def test_a_slow_motion_does_not_leak_into_the_noise_plateau_at_100_hz():
+    """A tumble-like motion (1 rad/s at 0.05-0.16 Hz) over a navigation gyro's white noise (0.00035
+    deg/sqrt(h)) at 100 Hz, where the plateau is looked for from 5 Hz: the density within 10 %. The
+    window's leakage from the motion, about 1e11 times the noise's power, put four times the noise
+    into the octave above 5 Hz before the spectrum was taken of the first differences."""
+    from sizefx.diagnose.plausibility import noise_density
+
+    rng = np.random.default_rng(4)
+    dt_s, n = 0.01, 12000
+    t = np.arange(n) * dt_s
+    arw = 0.00035 * np.pi / 180 / 60  # rad/sqrt(s)
+    motion = sum(
+        a * np.sin(2 * np.pi * f * t + p) for a, f, p in ((1.0, 0.05, 0.3), (0.6, 0.11, 1.1), (0.4, 0.16, 2.0))
+    )
+    measured = motion[:, None] + rng.normal(size=(n, 6)) * arw / np.sqrt(dt_s)
+    got = noise_density(measured, np.ones(n, bool), dt_s)
+    np.testing.assert_allclose(got, arw, rtol=0.1)
