@@ -111,6 +111,26 @@ def test_the_colour_under_the_walks_bins_is_left_out():
     np.testing.assert_array_equal(block_covariance(white, t0, 0.5, above=WALK_BINS), block_covariance(white, t0, 0.5))
 
 
+def _fits_with_slow_noise(slow, trials: int = 300):
+    """``trials`` least-squares fits of the design above under white noise plus ``slow(rng, n)``:
+    per draw the estimates, the residual's block sums (:func:`_noise_of`) and its slow noise
+    measured beside the model (``sizefx.diagnose.drift.intensity``); with ``N^-1``, the span and
+    the regressors against the walk's basis."""
+    t, H = _design()
+    rng = np.random.default_rng(7)
+    inv = np.linalg.inv(H.T @ H)
+    span = float(t[-1] - t[0])
+    Z = basis(t, t[0], span)
+    draws = []
+    for _ in range(trials):
+        e = rng.standard_normal(t.size) + slow(rng, t.size)
+        x = inv @ (H.T @ e)
+        r = e - H @ x
+        drift = intensity(H.T @ H, H.T @ r, {0: H.T @ Z}, {0: Z.T @ Z}, {0: Z.T @ r}, [0], t[0], span)
+        draws.append((x, _noise_of(t, H, r), drift))
+    return draws, inv, span, H.T @ Z
+
+
 # long tier: 300 least-squares fits with the walk measured (6 s); fast twin:
 # test_the_colour_under_the_walks_bins_is_left_out
 @pytest.mark.slow
@@ -119,27 +139,16 @@ def test_the_walks_part_and_the_spectrum_count_a_walk_once():
     with the colour under the walk's series left out, plus the walk's part (its intensity measured
     beside the model), predicts the scatter of 300 fits (+-8 % per variance); the two summed whole
     count the slow power twice (about 1.6 times the step's scatter)."""
-    t, H = _design()
-    P = H.shape[1]
-    rng = np.random.default_rng(7)
-    inv = np.linalg.inv(H.T @ H)
-    span = float(t[-1] - t[0])
-    Z = basis(t, t[0], span)
-    estimates, once, twice = [], [], []
-    for _ in range(300):
-        e = rng.standard_normal(t.size) + np.cumsum(0.05 * rng.standard_normal(t.size))
-        x = inv @ (H.T @ e)
-        r = e - H @ x
-        estimates.append(x)
-        noise = _noise_of(t, H, r)
-        drift = intensity(H.T @ H, H.T @ r, {0: H.T @ Z}, {0: Z.T @ Z}, {0: Z.T @ r}, [0], t[0], span)
-        walk = walk_covariance(drift, np.arange(P), inv)
-        walk = np.zeros((P, P)) if walk is None else walk
-        above = np.zeros(6)
-        above[0] = WALK_BINS if drift.q[0] > 0 else 0.0
-        once.append(np.diag(inv @ spectral_meat(noise, np.arange(P), above) @ inv + walk))
-        twice.append(np.diag(inv @ spectral_meat(noise, np.arange(P)) @ inv + walk))
-    empirical = np.var(estimates, axis=0)
+    draws, inv, _, _ = _fits_with_slow_noise(lambda rng, n: np.cumsum(0.05 * rng.standard_normal(n)))
+    free = np.arange(inv.shape[0])
+    once, twice = [], []
+    for _, noise, drift in draws:
+        walk = walk_covariance(drift, free, inv)
+        walk = np.zeros_like(inv) if walk is None else walk
+        above = np.where(drift.walking, WALK_BINS, 0.0)  # as the budget takes it
+        once.append(np.diag(inv @ spectral_meat(noise, free, above) @ inv + walk))
+        twice.append(np.diag(inv @ spectral_meat(noise, free) @ inv + walk))
+    empirical = np.var([x for x, _, _ in draws], axis=0)
     ratio_once, ratio_twice = np.mean(once, axis=0) / empirical, np.mean(twice, axis=0) / empirical
     # the step: within the draws' scatter and the walk's measure (its intensity from 8 terms of one
     # record scatters by a factor of two); the fast sine: white, untouched by either
@@ -156,25 +165,16 @@ def test_flicker_is_the_spectrums_not_the_walks():
     the draws whose slow noise reads as flicker (about 6 in 10), the spectrum's model alone
     predicts the step's scatter (about 0.85 of it). A walk's part with the flicker slope would by
     itself predict about 1.5 times that scatter, on top of the spectrum's: flicker counted twice."""
-    t, H = _design()
-    P = H.shape[1]
-    rng = np.random.default_rng(7)
-    inv = np.linalg.inv(H.T @ H)
-    span = float(t[-1] - t[0])
-    Z = basis(t, t[0], span)
-    estimates, spectrum, walks = [], [], []
-    for _ in range(300):
-        e = rng.standard_normal(t.size) + 0.3 * _flicker(rng, t.size)
-        x = inv @ (H.T @ e)
-        r = e - H @ x
-        estimates.append(x)
-        drift = intensity(H.T @ H, H.T @ r, {0: H.T @ Z}, {0: Z.T @ Z}, {0: Z.T @ r}, [0], t[0], span)
+    draws, inv, span, NU = _fits_with_slow_noise(lambda rng, n: 0.3 * _flicker(rng, n))
+    free = np.arange(inv.shape[0])
+    spectrum, walks = [], []
+    for _, noise, drift in draws:
         if drift.q[0] > 0 and not drift.walking[0]:  # read as flicker
-            assert walk_covariance(drift, np.arange(P), inv) is None
-            spectrum.append(np.diag(inv @ spectral_meat(_noise_of(t, H, r), np.arange(P)) @ inv))
-            A = (H.T @ Z) * np.sqrt(drift.q[0] * prior_variances(span, 1.0))[None, :]
+            assert walk_covariance(drift, free, inv) is None
+            spectrum.append(np.diag(inv @ spectral_meat(noise, free) @ inv))
+            A = NU * np.sqrt(drift.q[0] * prior_variances(span, 1.0))[None, :]
             walks.append(np.diag(inv @ A @ A.T @ inv))
-    empirical = np.var(estimates, axis=0)
+    empirical = np.var([x for x, _, _ in draws], axis=0)
     assert len(spectrum) > 100
     assert 0.65 < np.mean(spectrum, axis=0)[2] / empirical[2] < 1.25
     assert np.mean(walks, axis=0)[2] > 1.2 * empirical[2]
