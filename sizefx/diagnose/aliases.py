@@ -239,27 +239,32 @@ def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, ski
     N = nrm.N.sum(0)
     findings = sorted({j for c in chosen for j in c.active})
     basis = findings + [j for _, params, beside in hidden if beside for j in params]
+    # (candidate, parameter, reach with the parameters fitted beside so far), the first round's
+    # reach the screen's own
     left = [
-        (cand, j)
-        for cand, mine, _, rho in _screen(nrm, chosen, unrevealed, grade, skip, beside=basis[len(findings) :])
+        (cand, j, reach[j])
+        for cand, mine, reach, rho in _screen(nrm, chosen, unrevealed, grade, skip, beside=basis[len(findings) :])
         if rho is not None
         for j in mine
         if rho[j] < NUISANCE_CORRELATION
     ]
     out: list = []
     while left:
-        beside = basis[len(findings) :]
-        reach = [_reach(nrm, findings, j, _prior(cand.id, 1, grade)[0], beside) for cand, j in left]
-        ranked = sorted((r, k) for k, r in enumerate(reach) if r >= CONSIDER_REACH)[::-1]
+        ranked = sorted((r, k) for k, (_, _, r) in enumerate(left) if r >= CONSIDER_REACH)[::-1]
         if not ranked:
             break
         for _, k in ranked:
-            cand, j = left[k]
+            cand, j, _ = left[k]
             if canonical_correlation(N, basis, [j]) < NUISANCE_CORRELATION:
                 out.append((cand, [j], True))
                 basis.append(j)
         taken = {k for _, k in ranked}
-        left = [item for k, item in enumerate(left) if k not in taken]
+        beside = basis[len(findings) :]
+        left = [
+            (cand, j, _reach(nrm, findings, j, _prior(cand.id, 1, grade)[0], beside))
+            for k, (cand, j, _) in enumerate(left)
+            if k not in taken
+        ]
     return out
 
 

@@ -106,10 +106,12 @@ class Parts:
     """The record's parts fitted alone (:func:`parts_scatter`)."""
 
     white: np.ndarray  #: [f, f] N^-1
-    sandwich: np.ndarray  #: [f, f] the block sandwich, never under white
+    #: [f, f] from the residual's spectrum (``spectral``), else the long-run block sandwich never under white
+    sandwich: np.ndarray
     factors: dict  #: param -> the widening the random effect of the parts in time gives (>= 1; 1 within chance)
     entries: dict  #: param -> the cut that disagrees most, with the pooled figures
     count: int  #: contiguous parts in time
+    walk: np.ndarray | None = None  #: [f, f] the biases' walk (:func:`sizefx.diagnose.drift.walk_covariance`)
 
 
 @dataclass(frozen=True)
@@ -212,11 +214,11 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
     _, white, robust = covariance(nrm, free, offset)
     sandwich = honest(white, robust)
     noise = sandwich
+    walk = walk_covariance(nrm.drift, free, white) if free.size else None
     if spectral and nrm.noise is not None and free.size:
         walked = np.where(nrm.drift.walking, WALK_BINS, 0.0)  # under these bins the walk's part holds the colour
         sandwich = white @ spectral_meat(nrm.noise, free, walked) @ white
         sandwich = 0.5 * (sandwich + sandwich.T)
-        walk = walk_covariance(nrm.drift, free, white)
         noise = sandwich if walk is None else sandwich + walk  # the parts are judged against all the noise
     sig = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(noise)))))
     sig_white = dict(zip(free.tolist(), np.sqrt(np.abs(np.diag(white)))))
@@ -241,7 +243,7 @@ def parts_scatter(pred: Predictor, nrm: Normal, free, offset, spectral: bool = F
         factors[j] = by_time[j]["factor"] if j in by_time else 1.0
         tau = by_time[j]["tau"] if j in by_time else 0.0
         entries[j] = {**worst, "pooled_chi2_dof": pooled, "pooled_dof": dof, "factor": float(factors[j]), "tau": tau}
-    return Parts(white, sandwich, factors, entries, count)
+    return Parts(white, sandwich, factors, entries, count, walk)
 
 
 def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0, grade):
@@ -371,5 +373,4 @@ def error_budget(
     if parts is None:
         parts = parts_scatter(pred, nrm, free, theta0 - theta)
     band, bands = band_part(pred, rows_of, nrm, theta, chosen, theta0, grade)
-    walk = walk_covariance(nrm.drift, free, parts.white) if free.size else None
-    return ErrorBudget(free, parts, aliases, hidden, walk, band, bands)
+    return ErrorBudget(free, parts, aliases, hidden, parts.walk, band, bands)
