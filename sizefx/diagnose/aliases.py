@@ -306,7 +306,9 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
       allows: it adds ``S P^-1 S'``;
     - a ``fitted`` one is estimated beside ``free`` with its prior: with
       ``C = N_hh - N_hf N_ff^-1 N_fh`` what the record still says of it once ``free`` is fitted,
-      ``dh = (C + P)^-1 (b_h - N_hf N_ff^-1 b_f)``, ``dx = S dh``, and it adds ``S (C_r + P)^-1 S'``,
+      ``dh = (C + P)^-1 (b_h - N_hf N_ff^-1 b_f + P o_h)`` (``o_h`` its offset: the prior is about
+      the start value), ``dx = N_ff^-1 b_f + S dh`` (the joint system's solution, from an estimate
+      of ``free`` fitted at other weights too), and it adds ``S (C_r + P)^-1 S'``,
       ``C_r`` the inverse of its block of the covariance of ``free`` and the fitted ones together:
       the white one with each variance scaled up to the long-run sandwich's
       (:func:`sizefx.diagnose.normal.covariance`) where that is larger:
@@ -331,7 +333,8 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     N, b, _ = nrm.total()
     S = _shift(nrm, free, idx)  # [free, fitted]
     C = N[np.ix_(idx, idx)] + N[np.ix_(idx, free)] @ S
-    dh = scaled_pinv(C + prior) @ (b[idx] + S.T @ b[free])
+    # the priors are about the start values: from an estimate away from them, they pull back (offset)
+    dh = scaled_pinv(C + prior) @ (b[idx] + S.T @ b[free] + prior @ offset[idx])
     joint = np.concatenate([free, idx])
     order = np.argsort(joint)
     _, white, robust = covariance(nrm, joint[order], offset)
@@ -349,7 +352,8 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     ok = np.isfinite(V).all(axis=0)
     C_r = np.zeros_like(V)
     C_r[np.ix_(ok, ok)] = scaled_pinv(V[np.ix_(ok, ok)])
-    return S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
+    own = scaled_pinv(N[np.ix_(free, free)]) @ b[free]  # nil where free was fitted at these weights
+    return own + S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
 
 
 def strongest_hidden(nrm, free, hidden: list, grade: str) -> dict:
