@@ -172,45 +172,6 @@ def test_a_shift_between_bands_within_chance_is_no_systematic_part():
     assert big == pytest.approx([-np.sqrt(99.0), np.sqrt(99.0), 0.0])
 
 
-def test_the_equations_after_a_step_are_those_formed_anew_there():
-    """:func:`sizefx.diagnose.normal.with_residual` (the fit's equations after the step of the
-    parameters fitted beside its model, from the residual's rows alone) gives what
-    :func:`normal_equations` forms anew at the stepped estimate when the regressors do not change
-    over the step (a linear model): the scores, the weighted sums of squares, the walk measured
-    beside the model and the residual's block means and variance scale by scale. Two parameters on
-    accelerometer x (a constant and a slow sine) and one on y, white noise and a walk, Huber-like
-    row weights; 1e-9: the sums are formed in another order, nothing else."""
-    from sizefx.diagnose.normal import Rows, normal_equations, with_residual
-
-    rng = np.random.default_rng(4)
-    dt, n = 0.01, 24_000
-    t = np.arange(n) * dt
-    a, k, m = D.A_BIAS[0], D.A_SF[0], D.A_BIAS[1]
-    slow = np.sin(2 * np.pi * t / 60.0)
-    cols = {q: ((), np.zeros((n, 0))) for q in range(D.NP)}
-    cols |= {a: ((3,), np.ones((n, 1))), k: ((3,), slow[:, None]), m: ((4,), np.ones((n, 1)))}
-    y = np.zeros((n, 6))
-    y[:, 3:5] = rng.normal(size=(n, 2)) + np.cumsum(rng.normal(size=(n, 2)), axis=0) * 0.02
-    rows_of = Rows(t, np.ones(n, dtype=bool), dt, 5.0)
-    weights = np.array([1.0, 1.0, 1.0, 0.8, 1.3, 1.0])
-    rw = rng.uniform(0.5, 1.0, size=rows_of(y).shape)
-    before = normal_equations(rows_of, rows_of(y), cols, weights, rw, walk=True)
-    step = np.zeros(D.NP)
-    step[[a, k, m]] = (0.3, -0.7, 0.2)
-    y2 = y.copy()
-    y2[:, 3] -= step[a] + step[k] * slow
-    y2[:, 4] -= step[m]
-    anew = normal_equations(rows_of, rows_of(y2), cols, weights, rw, walk=True)
-    after = with_residual(before, rows_of, rows_of(y2), step, weights, rw)
-    assert after.b == pytest.approx(anew.b, rel=1e-9, abs=1e-9 * np.abs(anew.b).max())
-    assert after.yy == pytest.approx(anew.yy, rel=1e-9)
-    assert after.drift.q == pytest.approx(anew.drift.q, rel=1e-6, abs=1e-12)
-    assert anew.drift.q[3] > 0  # the walk is there, and measured alike
-    assert after.noise.u == pytest.approx(anew.noise.u, rel=1e-9)
-    assert after.noise.rbar == pytest.approx(anew.noise.rbar, rel=1e-9, abs=1e-12)
-    assert not np.allclose(before.noise.rbar, anew.noise.rbar)  # the step changed what is compared
-
-
 def _tilt_on_a_flight(r0_m: float):
     """A 450 s helicopter flight at 100 Hz (one 180 deg turn at 10 deg/s, rotor vibration) with a
     level tilt of 15 and -10 arcsec, navigation-grade white noise (seed 3), and the rotation centre

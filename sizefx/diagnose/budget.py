@@ -28,7 +28,7 @@ estimates, findings and the nuisance fitted beside them):
   about z on a flight) with what the record cannot say of it; a finding not significant with them
   in is no finding. The noise of the other parts (the spectrum, the walk, the parts' scatter) is
   measured on the residual with those fitted beside the findings at their fitted values, weighted
-  as the fit was (:func:`sizefx.diagnose.normal.with_residual`): what they explain is this
+  as the fit was (:func:`sizefx.diagnose.gauss_newton.normal_beside`): what they explain is this
   part's, and left in the residual it would be counted again, as colour;
 - **walk**: a random walk of the biases (:mod:`.drift`), measured beside the model: what it adds to
   the estimates' covariance, ``N^-1 H'WZ Q Z'WH N^-1``, large for a parameter whose regressor is as

@@ -50,17 +50,17 @@ from .budget import error_budget, parts_scatter
 from .candidates import CANDIDATES
 
 # REFIT_PASSES too stays importable from here
-from .gauss_newton import MAX_PASSES, REFIT_PASSES, _free, _iterate  # noqa: F401
+from .gauss_newton import MAX_PASSES, REFIT_PASSES, _free, _iterate, normal_beside  # noqa: F401
 from .holdout import OutOfSample, cross_validate
 from .integrity import check_reference, without_bad_rows
 from .judging import MIN_SHARE, _as_reported, _judge, _rejection
 from .naming import name_effect
-from .normal import Rows, with_residual
+from .normal import Rows
 from .not_revealed import _named, _not_revealed, _resolved, _Separation, _undetermined, _with_aliases, _with_left_out
 from .plausibility import infer_grade, noise_density
 from .predictor import Predictor
 from .records import ReportWarning
-from .residual import noise_of, per_sample, predicted, residual_under, rms, white
+from .residual import per_sample, predicted, residual_under, rms, white
 from .selection import FAMILY_ALPHA, aliases_outside, nuisance_aliases
 from .structure import unexplained as unexplained_structure
 from .theta import CHANNELS, LEVER, PARAMS
@@ -298,9 +298,7 @@ def diagnose(
         # above was: the sandwich is that estimator's
         beside_offset = theta0 - theta
         beside_offset[[j for _, params in fitted for j in params] + weak_idx] = 0.0  # held where fitted
-        _, _, row_w = noise_of(rows_of, state.residual, robust=True)  # the fit's row weights
-        weights = 1.0 / (state.sigma_c**2 * state.kappa)
-        noise_nrm = with_residual(nrm, rows_of, residual, theta - state.theta, weights, row_w)
+        noise_nrm = normal_beside(pred, rows_of, theta, residual, weighted_by=state.residual)
         parts = parts_scatter(pred, noise_nrm, free, beside_offset, spectral=True)
         for what, group in (("fitted beside the findings", fitted), ("weak, fitted beside the findings", weak_hidden)):
             if group:

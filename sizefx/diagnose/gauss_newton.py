@@ -22,7 +22,7 @@ from .predictor import Predictor
 from .residual import noise_of, residual_under
 from .selection import select
 
-__all__ = ["MAX_PASSES", "REFIT_PASSES"]
+__all__ = ["MAX_PASSES", "REFIT_PASSES", "normal_beside"]
 
 #: Gauss-Newton passes at most; selection and estimates settle in two or three.
 MAX_PASSES = 6
@@ -41,6 +41,18 @@ class _State:
     kappa: np.ndarray
     passes: int
     ms_full: np.ndarray  #: [6] the residual's full-band mean square over the usable samples
+
+
+def normal_beside(pred: Predictor, rows_of: Rows, theta, residual, weighted_by) -> Normal:
+    """The normal equations at ``theta`` of the residual's rows ``residual`` there, with the walk and
+    the block sums the errors take (:func:`sizefx.diagnose.budget.parts_scatter`), weighted per
+    channel and per row as the rows ``weighted_by`` weigh them (:func:`sizefx.diagnose.residual.noise_of`):
+    a state's estimate with the parameters fitted beside its model
+    (:func:`sizefx.diagnose.aliases.hidden_fit`) at their fitted values, weighted as the state's own
+    equations (``weighted_by=state.residual``), from which that step was taken."""
+    sigma_c, kappa, row_w = noise_of(rows_of, weighted_by, robust=True)
+    cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)
+    return normal_equations(rows_of, residual, cols, 1.0 / (sigma_c**2 * kappa), row_w, walk=True)
 
 
 def _free(chosen):

@@ -58,7 +58,6 @@ __all__ = [
     "huber_weights",
     "normal_equations",
     "solve",
-    "with_residual",
     "wald",
     "CHUNK_SAMPLES",
     "FILTER_SETTLE",
@@ -207,8 +206,6 @@ class Normal:
     t0: np.ndarray  #: [B] start time of each block [s]
     drift: Drift = NO_DRIFT  #: the walk of each channel's bias and the regressors' sums against its basis
     noise: BlockNoise | None = None  #: block sums for :func:`sizefx.diagnose.spectrum.spectral_meat`
-    #: channel -> (H'WZ [P, K], Z'WZ [K, K]) of the walk's basis, for :func:`with_residual`
-    walk_sums: dict | None = None
 
     @property
     def blocks(self) -> int:
@@ -384,47 +381,7 @@ def normal_equations(
         t[edges[:-1]] if t.size else np.zeros(B),
         drift,
         noise,
-        {c: (NU[c], UU[c]) for c in walking} if walking else None,
     )
-
-
-def with_residual(nrm: Normal, rows_of: Rows, y, step, weights, row_weights=None) -> Normal:
-    """The equations ``nrm`` (formed by :func:`normal_equations` with ``walk=True``, weights
-    ``weights`` [6] and ``row_weights`` [m, 6]) after a step ``step`` [P] of the model vector whose
-    residual's rows are ``y`` [m, 6], the regressors and the weights held: ``b`` less ``N step``
-    block by block (exact for a model linear over the step), and what the residual itself gives
-    formed anew from ``y``: ``yy``, the walk (:func:`sizefx.diagnose.drift.intensity`) and the
-    residual's block means and variance scale by scale (:class:`BlockNoise`). What
-    :func:`normal_equations` gives at the stepped estimate, up to the regressors' change over the
-    step, for one pass over the residual's rows instead of over the regressors."""
-    rows = np.flatnonzero(rows_of.keep)
-    t = rows_of.t[rows]
-    yb = np.asarray(y)[rows]
-    rw = np.ones_like(yb) if row_weights is None else np.asarray(row_weights)[rows]
-    w = np.asarray(weights)[None, :] * rw
-    block = np.maximum(np.searchsorted(nrm.t0, t, side="right") - 1, 0)
-    edges = np.searchsorted(block, np.arange(nrm.blocks + 1))
-    sums = np.add.reduceat(w * yb**2, edges[:-1], axis=0)  # every block holds rows (normal_equations)
-    b = nrm.b - np.einsum("kpq,q->kp", nrm.N, np.asarray(step, dtype=float))
-    noise = nrm.noise
-    if noise is not None:
-        ysum = np.add.reduceat(yb, edges[:-1], axis=0)
-        u = np.zeros_like(noise.u)
-        for c in range(6):
-            _, us, uc = haar_splits(np.zeros((yb.shape[0], 0)), yb[:, c], edges, noise.u.shape[1])
-            u[c] = np.divide(us, uc, out=np.zeros_like(us), where=uc > 0)
-        noise = BlockNoise(
-            noise.G, noise.D, u, noise.counts, ysum / np.maximum(noise.counts, 1.0)[:, None], noise.t0, noise.block_s
-        )
-    drift = nrm.drift
-    if nrm.walk_sums:
-        t0, span_s = float(t[0]), float(t[-1] - t[0])
-        Z = basis(t, t0, span_s)
-        bU = {c: Z.T @ (w[:, c] * yb[:, c]) for c in nrm.walk_sums}
-        NU = {c: v[0] for c, v in nrm.walk_sums.items()}
-        UU = {c: v[1] for c, v in nrm.walk_sums.items()}
-        drift = intensity(nrm.N.sum(0), b.sum(0), NU, UU, bU, list(nrm.walk_sums), t0, span_s)
-    return Normal(nrm.N, b, sums.sum(1), nrm.rows, nrm.excitation, nrm.block_s, nrm.t0, drift, noise, nrm.walk_sums)
 
 
 def covariance(nrm: Normal, free, offset, blocks=None):
