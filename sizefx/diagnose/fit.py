@@ -283,9 +283,10 @@ def diagnose(
     weak_idx = [j for _, params, _ in weak_hidden for j in params]
     if dh.size:
         fitted = [(c, params) for c, params, beside in hidden if beside]
+        beside_idx = [j for _, params in fitted for j in params] + weak_idx  # dh's layout
         theta = theta.copy()
         theta[free] += dx
-        theta[[j for _, params in fitted for j in params] + weak_idx] += dh
+        theta[beside_idx] += dh
         after = residual_under(pred, rows_of, theta)
         assert after.rows is not None  # made with rows_of
         residual, ms_full = after.rows, after.ms_full
@@ -297,7 +298,7 @@ def diagnose(
         # and the level tilt's error was 9.8 times its white one (z 0.27). Weighted as the step
         # above was: the sandwich is that estimator's
         beside_offset = theta0 - theta
-        beside_offset[[j for _, params in fitted for j in params] + weak_idx] = 0.0  # held where fitted
+        beside_offset[beside_idx] = 0.0  # held where fitted
         noise_nrm = normal_beside(pred, rows_of, theta, residual, weighted_by=state.residual)
         parts = parts_scatter(pred, noise_nrm, free, beside_offset, spectral=True)
         for what, group in (("fitted beside the findings", fitted), ("weak, fitted beside the findings", weak_hidden)):
