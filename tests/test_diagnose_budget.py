@@ -86,6 +86,28 @@ def test_parts_that_agree_widen_nothing_and_parts_with_an_effect_each_widen_by_i
     assert 2.4 < np.median(factors_effect) < 3.8, np.median(factors_effect)
 
 
+def test_the_parts_random_effect_is_the_same_at_any_scale_of_the_parameter():
+    """A parameter the record hardly holds (one nearly collinear with another fitted beside it) has
+    errors near the float limit: the sums of its parts' inverse squared errors underflowed to zero
+    (a division by zero on a development-range record) or overflowed. In units of the whole
+    record's error the random effect, the chi-square and the widening do not depend on the
+    parameter's scale."""
+    rng = np.random.default_rng(4)
+    estimates = rng.normal(size=80) + np.repeat(rng.normal(scale=1.0, size=8), 10)
+    results = []
+    for scale in (1.0, 1e-150, 1e150):
+        nrm, j = _parts_normal(estimates * scale, 1.0 / scale**2)
+        sigma = {j: scale / np.sqrt(80.0)}
+        _, out = block_consistency(nrm, np.array([j]), np.zeros(D.NP), sigma, sigma)
+        results.append(out[j])
+    for r in results[1:]:
+        assert r["chi2_dof"] == pytest.approx(results[0]["chi2_dof"], rel=1e-9)
+        assert r["factor"] == pytest.approx(results[0]["factor"], rel=1e-9)
+        assert r["inflated"] == results[0]["inflated"]
+    assert results[0]["inflated"] and results[0]["factor"] > 2.0
+    assert results[1]["tau"] == pytest.approx(results[0]["tau"] * 1e-150, rel=1e-9)
+
+
 def test_the_noise_between_two_bands_is_the_difference_of_their_blocks():
     """The band part (:func:`sizefx.diagnose.budget.band_part`) counts as systematic only the shift
     between two bands' estimates beyond the noise of their difference, taken as the long-run sum

@@ -87,13 +87,18 @@ def block_consistency(
     for pos, j in enumerate(free.tolist()):
         ratio = sigma[j] / white_sigma[j] if white_sigma[j] > 0 else 1.0
         s = ss[:, pos] * ratio
+        if not 0.0 < sigma[j] < np.inf:
+            continue
         seen = (s > 0) & (s <= _SEEN * np.sqrt(K) * sigma[j])
         if seen.sum() < 2:
             continue
-        w = 1.0 / s[seen] ** 2
+        # in units of the whole record's error: a parameter the record hardly holds has errors near
+        # the float limit, whose inverse squares would underflow to nothing
+        w = (sigma[j] / s[seen]) ** 2
+        x = xs[seen, pos] / sigma[j]
         sw, sw2 = float(np.sum(w)), float(np.sum(w**2))
-        xbar = float(np.sum(w * xs[seen, pos]) / sw)
-        c2 = float(np.sum(w * (xs[seen, pos] - xbar) ** 2))
+        xbar = float(np.sum(w * x) / sw)
+        c2 = float(np.sum(w * (x - xbar) ** 2))
         dof = int(seen.sum()) - 1
         # DerSimonian-Laird: the variance tau^2 of an effect of each part beyond its own noise, and
         # what it adds to the whole record's estimate, whose parts weigh in by their information;
@@ -106,8 +111,8 @@ def block_consistency(
             "split": split,
             "chi2_dof": c2 / dof,
             "dof": dof,
-            "tau": float(np.sqrt(tau2) / PARAMS[j].per_unit),
-            "factor": float(np.sqrt(1.0 + tau2 * sw2 / sw**2 / sigma[j] ** 2)) if sigma[j] > 0 else 1.0,
+            "tau": float(np.sqrt(tau2) * sigma[j] / PARAMS[j].per_unit),
+            "factor": float(np.sqrt(1.0 + tau2 * sw2 / sw**2)),
             "inflated": inflated,
         }
     return K, out
