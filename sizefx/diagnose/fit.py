@@ -20,8 +20,10 @@
    of the structure on its channels is rejected; so is one no longer significant once its errors
    take the random effect of the record's parts in time (a selection must be stable across them). The survivors are refitted with the
    selection fixed, and with the candidates left out that are nearly collinear with one of them
-   (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves;
-   the same checks then judge the findings beside them again.
+   (:func:`sizefx.diagnose.selection.nuisance_aliases`) fitted beside it, no findings themselves,
+   each step taking their priors about their start values (the direction they share with the
+   finding is one the record hardly determines); the same checks then judge the findings beside
+   them again.
 6. **Errors** (:mod:`.budget`): the covariance the residual's spectrum gives (:mod:`.spectrum`), widened by
    the parts' random effect where they disagree beyond chance, plus the resolved aliases', the hidden parameters' (fitted beside the
    findings where they take them up, :func:`sizefx.diagnose.aliases.hidden_fit`) and the band's
@@ -57,7 +59,7 @@ from .judging import MIN_SHARE, _as_reported, _judge, _rejection
 from .naming import name_effect
 from .normal import Rows
 from .not_revealed import _named, _not_revealed, _resolved, _Separation, _undetermined, _with_aliases, _with_left_out
-from .plausibility import infer_grade, noise_density
+from .plausibility import RANGES, infer_grade, noise_density, prior_sigma
 from .predictor import Predictor
 from .records import ReportWarning
 from .residual import per_sample, predicted, residual_under, rms, white
@@ -234,7 +236,12 @@ def diagnose(
             "refit with "
             + ", ".join(f"{n.cand.key} (beside {of}, canonical correlation {rho:.3f})" for n, of, rho in nuisance)
         )
-        state = _iterate(pred, rows_of, theta0, state.theta, log, fixed=findings + [n for n, _, _ in nuisance])
+        # each nuisance with its prior (a part of the grade): fitted beside a finding it is nearly
+        # collinear with, their difference is what the record hardly tells
+        prior = {j: prior_sigma(n.cand.id, grade) for n, _, _ in nuisance if n.cand.id in RANGES for j in n.active}
+        state = _iterate(
+            pred, rows_of, theta0, state.theta, log, fixed=findings + [n for n, _, _ in nuisance], prior=prior
+        )
         mates: dict = {}  # finding -> its most collinear nuisance and their canonical correlation
         for n, of, rho in nuisance:
             if of not in mates or rho > mates[of][1]:

@@ -55,16 +55,36 @@ def normal_beside(pred: Predictor, rows_of: Rows, theta, residual, weighted_by) 
     return normal_equations(rows_of, residual, cols, 1.0 / (sigma_c**2 * kappa), row_w, walk=True)
 
 
+def with_prior(N, b, offset, prior: dict):
+    """The normal equations ``N``, ``b`` (of a step from the current estimate, ``offset`` the start
+    values less it) with a Gaussian prior about the start values, {parameter: standard deviation}:
+    ``N + P`` and ``b + P offset``, ``P`` the prior's inverse variances."""
+    N, b = N.copy(), b.copy()
+    for j, sd in prior.items():
+        N[j, j] += 1.0 / sd**2
+        b[j] += offset[j] / sd**2
+    return N, b
+
+
 def _free(chosen):
     return np.array(sorted({j for c in chosen for j in c.active}), dtype=int)
 
 
-def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None, start=None) -> _State:
+def _iterate(
+    pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, progress=None, start=None, prior=None
+) -> _State:
     """Gauss-Newton from ``theta`` with the selection redone each pass (or ``fixed``), until the
     selection and the estimates settle. Returns the final state with the normal equations at the
     final residual (regressors of the last pass: theta has moved by under 1e-3 sigma since).
     ``start``: the residual's rows at ``theta``, when already known. The residual is held as rows
-    (``_State.residual``), the regressors are formed span by span."""
+    (``_State.residual``), the regressors are formed span by span.
+
+    ``prior``: {parameter index: standard deviation [SI]}, a Gaussian prior about the start value
+    ``theta0`` that the steps take (the estimate is the posterior mode); the state's normal
+    equations, from which the errors come, hold none of it. Nearly collinear parameters fitted
+    together (:func:`sizefx.diagnose.selection.nuisance_aliases`) have a direction the record hardly
+    determines: without their priors a step along it follows the noise as far as it goes, out of
+    the range where the prediction is linear in the parameters, and the fit diverges."""
     residual = residual_under(pred, rows_of, theta).rows if start is None else start
     assert residual is not None  # _residual gives rows with rows_of
     first = residual[rows_of.keep]  # white-noise sigma from first differences to start
@@ -85,6 +105,8 @@ def _iterate(pred: Predictor, rows_of: Rows, theta0, theta, log, *, fixed=None, 
             log.append(f"pass {passes}: " + ("; ".join(steps) if steps else "nothing selected"))
         free = _free(chosen)
         N, b, yy = nrm.total()
+        if prior:
+            N, b = with_prior(N, b, offset, prior)
         x, _, cov = solve(N, b, yy, free, offset)
         new = theta0.copy()
         new[free] = theta[free] + x
