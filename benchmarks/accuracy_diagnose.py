@@ -669,6 +669,13 @@ def main(argv=None):
         "psins": ("PSINS (real): a car's MEMS IMU against a fibre-optic INS, --nominal none:", psins),
         "sway": ("heading sway, 12 min at 200 Hz, accelerometer y 2.4 mm further out:", sway),
     }
+    real = {"broad", "broad_checks", "broad_holdout", "psins"} & set(args.only or sections)
+    if args.record and real and not REAL.is_dir():
+        # a result file whose real-data sections say "skipped" would replace their figures
+        ap.error(
+            f"--record with {', '.join(sorted(real))}: the real data folder {REAL} is missing; "
+            "put shared/ beside the checkout or set SIZEFX_REAL_DATA"
+        )
     out = {}
     for name, (title, fn) in sections.items():
         if args.only and name not in args.only:
