@@ -231,12 +231,8 @@ def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, ski
     fitted beside it.
 
     One nearly collinear with the model, the ``hidden`` parameters fitted beside it and the weak ones
-    taken so far is skipped where it is nearly collinear with those beside the model alone (given
-    the findings): two left out together (a bias and a scale factor under constant gravity) have
-    no joint covariance, and the first taken stands for both. Where only the findings and those
-    beside them together explain it, none stands for it and it is fitted beside them too: skipped,
-    the y accelerometer's scale factor on a roll sway at one frequency read as r_y[z] unseen
-    (development seed 168: z -7.5).
+    taken so far is skipped: two left out together (a bias and a scale factor under constant gravity)
+    have no joint covariance, and the first taken stands for both.
 
     The selection tested each finding against these (it can tell them apart), so they widen the
     errors the findings are reported with but do not mask a finding (:func:`not_significant`)."""
@@ -262,12 +258,6 @@ def weak_parameters(nrm, chosen, unrevealed: dict, grade: str, hidden: list, ski
             if canonical_correlation(N, basis, [j]) < NUISANCE_CORRELATION:
                 out.append((cand, [j], True))
                 basis.append(j)
-            elif not canonical_correlation(N, basis[len(findings) :], [j], findings) >= NUISANCE_CORRELATION:
-                # nearly collinear with the findings and those beside them together, not with those
-                # beside alone: none of them stands for it. Fitted beside them too, but no basis for
-                # the next rounds' reach (taken in, it drew in many more, each with its prior, and
-                # the errors grew by tens of times where the priors are wide)
-                out.append((cand, [j], True))
         taken = {k for _, k in ranked}
         beside = basis[len(findings) :]
         left = [
