@@ -410,9 +410,8 @@ def test_a_step_with_priors_is_the_posterior_mode_and_stays_within_them():
     least-squares solution of the rows and the prior's rows stacked, from an estimate away from the
     start values too. Two regressors equal but for 1e-4 of noise: without the priors the step
     along their difference follows the noise hundreds of prior deviations out; with them, under
-    three."""
-    from sizefx.diagnose.algebra import solve
-    from sizefx.diagnose.gauss_newton import with_prior
+    three. The step beside the parameters fitted with the findings takes the same priors."""
+    from sizefx.diagnose.algebra import solve, with_prior
     from sizefx.diagnose.theta import MOUNT
 
     rng = np.random.default_rng(5)
@@ -434,6 +433,25 @@ def test_a_step_with_priors_is_the_posterior_mode_and_stays_within_them():
     assert np.all(np.abs(x - offset[free]) < 3 * 1.5e-4)
     plain, _, _ = solve(N, b, 0.0, free, offset)
     assert np.max(np.abs(plain)) > 100 * 1.5e-4
+    # the step beside the parameters fitted with the findings (aliases.hidden_fit) takes the same
+    # priors: the joint posterior mode, one fitted beside with its own prior (1e-9: one solve against
+    # another); without them its N_ff^-1 b_f undid the fit's priors along the pair's difference
+    from sizefx.diagnose.aliases import _prior, hidden_fit
+    from sizefx.diagnose.candidates import CANDIDATES
+    from sizefx.diagnose.normal import Normal
+
+    sf = next(c for c in CANDIDATES if c.key == "accel_scale_factor:accel_x")
+    X[:, D.A_SF[0]] = 0.5 * u + rng.normal(size=300)
+    N, b = X.T @ X + np.eye(D.NP) * 1e-12, X.T @ y
+    nrm = Normal(N[None], b[None], np.zeros(1), 300, np.ones(D.NP), 1.0, np.zeros(1))
+    offset[D.A_SF[0]] = 1e-5
+    dx, dh, _ = hidden_fit(nrm, free, [(sf, [D.A_SF[0]], True)], "navigation", offset, prior=prior)
+    joint = np.concatenate([free, [D.A_SF[0]]])
+    sd = np.array([prior[j] for j in free] + [_prior(sf.id, 1, "navigation")[0]])
+    A = N[np.ix_(joint, joint)] + np.diag(1.0 / sd**2)
+    step = np.linalg.solve(A, b[joint] + offset[joint] / sd**2)
+    assert np.allclose(np.concatenate([dx, dh]), step, rtol=1e-9, atol=0.0)
+    assert np.all(np.abs(dx - offset[free]) < 3 * 1.5e-4)
 
 
 @pytest.mark.slow

@@ -23,6 +23,7 @@ from .theta import NP
 
 __all__ = [
     "solve",
+    "with_prior",
     "scaled_pinv",
     "hac_lag",
     "long_run_meat",
@@ -66,6 +67,17 @@ def scaled_pinv(A, rcond: float = 1e-12):
     A = 0.5 * A + 0.5 * A.T  # halved before the sum: a variance near the float limit must not overflow
     d = np.sqrt(np.where(np.diag(A) > 0, np.diag(A), 1.0))
     return np.linalg.pinv(A / np.outer(d, d), rcond=rcond, hermitian=True) / np.outer(d, d)
+
+
+def with_prior(N, b, offset, prior: dict):
+    """The normal equations ``N``, ``b`` (of a step from the current estimate, ``offset`` the start
+    values less it) with a Gaussian prior about the start values, {parameter: standard deviation}:
+    ``N + P`` and ``b + P offset``, ``P`` the prior's inverse variances."""
+    N, b = N.copy(), b.copy()
+    for j, sd in prior.items():
+        N[j, j] += 1.0 / sd**2
+        b[j] += offset[j] / sd**2
+    return N, b
 
 
 def solve(N, b, yy, free, offset):

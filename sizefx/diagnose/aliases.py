@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constants import DEG
-from .algebra import scaled_pinv
+from .algebra import scaled_pinv, with_prior
 from .normal import Rows, canonical_correlation, covariance, normal_equations, solve
 from .plausibility import GRADES, RANGES, judge, prior_sigma
 from .selection import ALIAS_CORRELATION, NUISANCE_CORRELATION, honest
@@ -290,7 +290,7 @@ def _screen(nrm, chosen, unrevealed: dict, grade: str, skip, beside=()):
         yield cand, mine, reach, {j: canonical_correlation(N, free, [j]) for j in mine}
 
 
-def hidden_fit(nrm, free, hidden: list, grade: str, offset):
+def hidden_fit(nrm, free, hidden: list, grade: str, offset, prior=None):
     """The model ``free`` beside the ``hidden`` parameters (:func:`hidden_parameters`), each with the
     prior of a part of the grade about its start value (:func:`sizefx.diagnose.plausibility.prior_sigma`:
     the data-sheet standard deviation, or a spread over the plausible range):
@@ -315,6 +315,12 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
       where the residual is coloured (a bias walk) the weighted normal equations promise far more
       than the record holds.
 
+    ``prior``: {parameter of ``free``: standard deviation}, the priors the fit's steps took (the
+    nuisances fitted beside a nearly collinear finding, :func:`sizefx.diagnose.gauss_newton._iterate`):
+    the step takes them too, so that it stays the posterior mode the fit converged to (without,
+    its ``N_ff^-1 b_f`` undid them along the direction the record hardly determines: thousands of
+    arcseconds of mount on a heading sway); the errors take those parameters free.
+
     A mount about z and the gyros' antisymmetric misalignment are one rotation to a record: with
     the z gyro's misalignment towards x hidden, the x gyro's towards z comes out as their sum, and
     its error, conditional on the hidden one being zero, said nothing of it (a development-range
@@ -329,12 +335,16 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     if idx.size == 0 or free.size == 0:
         return np.zeros(free.size), np.zeros(idx.size), added
     sd = np.concatenate([_prior(cand.id, len(params), grade) for cand, params in beside])
-    prior = np.diag(1.0 / sd**2)
+    P = np.diag(1.0 / sd**2)
     N, b, _ = nrm.total()
     S = _shift(nrm, free, idx)  # [free, fitted]
-    C = N[np.ix_(idx, idx)] + N[np.ix_(idx, free)] @ S
+    # the step: the joint posterior mode, the fit's own priors in (they are on free's parameters only)
+    Ns, bs = with_prior(N, b, offset, prior) if prior else (N, b)
+    inv_s = scaled_pinv(Ns[np.ix_(free, free)])
+    S_s = -inv_s @ Ns[np.ix_(free, idx)]
+    C_s = Ns[np.ix_(idx, idx)] + Ns[np.ix_(idx, free)] @ S_s
     # the priors are about the start values: from an estimate away from them, they pull back (offset)
-    dh = scaled_pinv(C + prior) @ (b[idx] + S.T @ b[free] + prior @ offset[idx])
+    dh = scaled_pinv(C_s + P) @ (bs[idx] + S_s.T @ bs[free] + P @ offset[idx])
     joint = np.concatenate([free, idx])
     order = np.argsort(joint)
     _, white, robust = covariance(nrm, joint[order], offset)
@@ -352,8 +362,8 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset):
     ok = np.isfinite(V).all(axis=0)
     C_r = np.zeros_like(V)
     C_r[np.ix_(ok, ok)] = scaled_pinv(V[np.ix_(ok, ok)])
-    own = scaled_pinv(N[np.ix_(free, free)]) @ b[free]  # nil where free was fitted at these weights
-    return own + S @ dh, dh, added + S @ scaled_pinv(C_r + prior) @ S.T
+    own = inv_s @ bs[free]  # nil where free was fitted at these weights
+    return own + S_s @ dh, dh, added + S @ scaled_pinv(C_r + P) @ S.T
 
 
 def strongest_hidden(nrm, free, hidden: list, grade: str) -> dict:

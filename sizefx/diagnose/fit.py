@@ -231,6 +231,7 @@ def diagnose(
     paired = {c.cand.key for pair in aliased for c in pair[:2]}  # already no findings: their sum is carried
     nuisance = [n for n in nuisance_aliases(state.nrm, state.chosen, skip=rejected_keys) if n[1] not in paired]
     weak: list = []  # findings no longer a finding beside their nuisance: (finding, nuisance, rho, why)
+    prior: dict = {}  # the nuisances' priors, which the steps from here on take
     if nuisance:
         log.append(
             "refit with "
@@ -279,10 +280,12 @@ def diagnose(
     skip = {a.key for a in resolved.values()}
     hidden = hidden_parameters(nrm, chosen, left_out, grade, skip=skip)
     weak_hidden = weak_parameters(nrm, chosen, left_out, grade, hidden, skip=skip)
-    dx, dh, hidden_cov = hidden_fit(nrm, free, hidden + weak_hidden, grade, offset)
+    dx, dh, hidden_cov = hidden_fit(nrm, free, hidden + weak_hidden, grade, offset, prior=prior)
     # the significance test takes the model without the weak ones (estimates and errors), as the
     # selection that tested each finding beside them did
-    dx_masking, _, masking_cov = hidden_fit(nrm, free, hidden, grade, offset) if weak_hidden else (dx, dh, hidden_cov)
+    dx_masking, _, masking_cov = (
+        hidden_fit(nrm, free, hidden, grade, offset, prior=prior) if weak_hidden else (dx, dh, hidden_cov)
+    )
     theta_masking = theta.copy()
     theta_masking[free] += dx_masking
     ms_full = state.ms_full

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .algebra import with_prior
 from .candidates import columns_between
 from .normal import Normal, Rows, normal_equations, solve
 from .predictor import Predictor
@@ -53,17 +54,6 @@ def normal_beside(pred: Predictor, rows_of: Rows, theta, residual, weighted_by) 
     sigma_c, kappa, row_w = noise_of(rows_of, weighted_by, robust=True)
     cols = columns_between(theta, functools.partial(pred.terms_span, theta), pred.t)
     return normal_equations(rows_of, residual, cols, 1.0 / (sigma_c**2 * kappa), row_w, walk=True)
-
-
-def with_prior(N, b, offset, prior: dict):
-    """The normal equations ``N``, ``b`` (of a step from the current estimate, ``offset`` the start
-    values less it) with a Gaussian prior about the start values, {parameter: standard deviation}:
-    ``N + P`` and ``b + P offset``, ``P`` the prior's inverse variances."""
-    N, b = N.copy(), b.copy()
-    for j, sd in prior.items():
-        N[j, j] += 1.0 / sd**2
-        b[j] += offset[j] / sd**2
-    return N, b
 
 
 def _free(chosen):
