@@ -337,11 +337,11 @@ def hidden_fit(nrm, free, hidden: list, grade: str, offset, prior=None):
     sd = np.concatenate([_prior(cand.id, len(params), grade) for cand, params in beside])
     P = np.diag(1.0 / sd**2)
     N, b, _ = nrm.total()
-    S = _shift(nrm, free, idx)  # [free, fitted]
     # the step: the joint posterior mode, the fit's own priors in (they are on free's parameters only)
     Ns, bs = with_prior(N, b, offset, prior) if prior else (N, b)
     inv_s = scaled_pinv(Ns[np.ix_(free, free)])
     S_s = -inv_s @ Ns[np.ix_(free, idx)]
+    S = _shift(nrm, free, idx) if prior else S_s  # [free, fitted], the errors' (the fit's priors out)
     C_s = Ns[np.ix_(idx, idx)] + Ns[np.ix_(idx, free)] @ S_s
     # the priors are about the start values: from an estimate away from them, they pull back (offset)
     dh = scaled_pinv(C_s + P) @ (bs[idx] + S_s.T @ bs[free] + P @ offset[idx])

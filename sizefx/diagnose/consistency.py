@@ -85,10 +85,10 @@ def block_consistency(
     xs = np.array([x for x, _, _ in per_part])  # [K, free] the estimates of each part
     ss = np.array([np.sqrt(np.abs(np.diag(white))) for _, white, _ in per_part])  # [K, free] their white sigmas
     for pos, j in enumerate(free.tolist()):
-        ratio = sigma[j] / white_sigma[j] if white_sigma[j] > 0 else 1.0
-        s = ss[:, pos] * ratio
         if not 0.0 < sigma[j] < np.inf:
             continue
+        ratio = sigma[j] / white_sigma[j] if white_sigma[j] > 0 else 1.0
+        s = ss[:, pos] * ratio
         seen = (s > 0) & (s <= _SEEN * np.sqrt(K) * sigma[j])
         if seen.sum() < 2:
             continue
