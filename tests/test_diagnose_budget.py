@@ -290,3 +290,28 @@ def test_the_tilts_error_does_not_grow_with_a_misfit_the_model_fits_beside_it():
     on, _, _ = _tilt_on_a_flight(0.0)
     off, _, _ = _tilt_on_a_flight(0.025)
     assert off < 2.5 * on, (off, on)
+
+
+def test_the_honest_covariance_is_finite_where_a_robust_variance_is_nil():
+    """:func:`sizefx.diagnose.selection.honest` keeps the block sandwich's correlations at the
+    larger of its and the white variances. Where a parameter's block scores are all nil its robust
+    variance is 0, and scaling its row by ``sqrt(w / r)`` (r clamped at 1e-300) overflowed to inf
+    and, times the nil row, to NaN; it now takes its white variance and no correlation. Elsewhere
+    the result is the row-and-column scaling, to rounding (1e-15)."""
+    import warnings
+
+    from sizefx.diagnose.selection import honest
+
+    white = np.array([[1.0, 0.3, 0.1], [0.3, 2.0, 0.2], [0.1, 0.2, 1e-20]])
+    robust = np.array([[4.0, 0.9, 0.0], [0.9, 0.25, 0.0], [0.0, 0.0, 0.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow is an error here
+        out = honest(white, robust)
+        tiny = honest(white * 1e200, robust * 1e-200)
+    assert np.all(np.isfinite(out)) and np.all(np.isfinite(tiny))
+    assert out[2, 2] == pytest.approx(white[2, 2], rel=1e-15) and not out[2, :2].any() and not out[:2, 2].any()
+    d = np.sqrt(np.maximum(1.0, np.diag(white)[:2] / np.diag(robust)[:2]))
+    assert np.allclose(out[:2, :2], robust[:2, :2] * np.outer(d, d), rtol=1e-15, atol=0.0)
+    # the robust variance a hundred orders under the white one: the white variance, the robust correlation
+    assert np.allclose(np.diag(tiny)[:2], 1e200 * np.diag(white)[:2], rtol=1e-15)
+    assert tiny[0, 1] / np.sqrt(tiny[0, 0]) / np.sqrt(tiny[1, 1]) == pytest.approx(0.9 / np.sqrt(4.0 * 0.25))

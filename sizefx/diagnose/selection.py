@@ -66,8 +66,17 @@ def honest(white, robust):
     better known than white noise would)."""
     if white.size == 0:
         return robust
-    d = np.sqrt(np.maximum(1.0, np.diag(white) / np.maximum(np.diag(robust), 1e-300)))
-    return robust * np.outer(d, d)
+    r, w = np.diag(robust), np.diag(white)
+    # the robust correlations at the larger of the two variances: the robust covariance with row and
+    # column i scaled by sqrt(max(1, w_i / r_i)), formed so that nothing overflows where a robust
+    # variance is nil or near the float limit (the scale went to 1e150 and its square to inf, and a
+    # nil row times it to NaN); a parameter whose blocks' scores are all nil takes its white variance
+    pos = r > 0
+    s_r = np.sqrt(np.where(pos, r, 1.0))
+    corr = np.where(np.outer(pos, pos), robust / np.outer(s_r, s_r), 0.0)
+    np.fill_diagonal(corr, 1.0)
+    s = np.sqrt(np.maximum(np.where(pos, r, 0.0), np.maximum(w, 0.0)))
+    return corr * np.outer(s, s)
 
 
 @dataclass
