@@ -178,18 +178,26 @@ def test_the_selection_at_a_neighbouring_band_goes_on_from_the_final_model():
 
 def test_a_shift_between_bands_within_chance_is_no_systematic_part():
     """:func:`sizefx.diagnose.budget.systematic_shift` counts a shift as systematic only beyond
-    chance (:data:`sizefx.diagnose.budget.SHIFT_CHI2`). Shifts of noise only (unit variance,
-    20 000 draws): the variance added is 0.075 on average (``E[(Z^2 - 1) 1{Z^2 > 6.63}]``; its
-    sampling error here is about 0.006), against 0.48 without the test, and 1 % of them count at
-    all. A shift of ten noise standard deviations keeps ``sqrt(D^2 - V)``, with its sign."""
-    from sizefx.diagnose.budget import SHIFT_CHI2, systematic_shift
+    chance at the family-wise level, shared among the record's parameters
+    (:func:`sizefx.diagnose.budget.shift_chi2`). Shifts of noise only (unit variance): of one
+    parameter (20 000 draws), the variance added is 0.075 on average (``E[(Z^2 - 1) 1{Z^2 > 6.63}]``;
+    its sampling error here is about 0.006), against 0.48 without the test, and 1 % of them count
+    at all; of fifteen parameters (4 000 records), 1 % of the records get a part anywhere (14 % at
+    the one-parameter point). A shift of ten noise standard deviations keeps ``sqrt(D^2 - V)``, with
+    its sign."""
+    from sizefx.diagnose.budget import SHIFT_CHI2, shift_chi2, systematic_shift
 
     rng = np.random.default_rng(5)
     shift = rng.normal(size=20_000)
-    part = systematic_shift(shift, np.ones_like(shift))
+    part = np.array([systematic_shift(x[None], np.ones(1))[0] for x in shift])
+    assert shift_chi2(1) == SHIFT_CHI2
     assert np.mean(part**2) == pytest.approx(0.075, abs=0.02)
     assert np.mean(part != 0) == pytest.approx(0.01, abs=0.003)
     assert np.all(part[np.abs(shift) <= np.sqrt(SHIFT_CHI2)] == 0.0)
+    records = rng.normal(size=(4_000, 15))
+    parts = np.array([systematic_shift(x, np.ones(15)) for x in records])
+    assert np.mean(parts.any(axis=1)) == pytest.approx(0.01, abs=0.004)
+    assert np.mean((records**2 > SHIFT_CHI2).any(axis=1)) > 0.1  # what one parameter's point gave
     big = systematic_shift(np.array([-10.0, 10.0, 0.0]), np.array([1.0, 1.0, 0.0]))
     assert big == pytest.approx([-np.sqrt(99.0), np.sqrt(99.0), 0.0])
 

@@ -75,6 +75,7 @@ __all__ = [
     "parts_scatter",
     "BAND_NEIGHBOURS",
     "SHIFT_CHI2",
+    "shift_chi2",
     "systematic_shift",
     "UNDETERMINED_SHARE",
 ]
@@ -88,8 +89,18 @@ BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0),)
 
 #: A parameter's shift to the band below counts as systematic only beyond chance: its square over
 #: the variance of its noise above the chi-square point (1 degree of freedom) at the selection's
-#: family-wise level, :data:`sizefx.diagnose.selection.FAMILY_ALPHA` (:func:`band_part`).
+#: family-wise level, :data:`sizefx.diagnose.selection.FAMILY_ALPHA`, shared among the record's
+#: parameters (:func:`shift_chi2`; this is the point for one parameter).
 SHIFT_CHI2 = float(chi2.ppf(1.0 - FAMILY_ALPHA, 1))
+
+
+@functools.lru_cache(maxsize=None)
+def shift_chi2(count: int) -> float:
+    """The chi-square point (1 degree of freedom) a shift's square over its noise variance must
+    exceed for one of ``count`` parameters tested together: :data:`sizefx.diagnose.selection.FAMILY_ALPHA`
+    shared among them (Bonferroni), so that shifts of noise only make a systematic part in about
+    that share of records, whatever their number of parameters."""
+    return float(chi2.ppf(1.0 - FAMILY_ALPHA / max(int(count), 1), 1))
 
 
 #: A component of a finding is not measured by the record, and goes to ``not_revealed``, when this
@@ -341,17 +352,23 @@ def band_part(pred: Predictor, rows_of: Rows, nrm: Normal, theta, chosen, theta0
 
 def systematic_shift(shift, noise) -> np.ndarray:
     """The part of a shift between two fits that is systematic, per component: ``shift`` scaled to
-    ``sqrt(shift^2 - noise)`` where ``shift^2`` exceeds :data:`SHIFT_CHI2` times ``noise`` (the
-    variance of the shift's noise), 0 elsewhere.
+    ``sqrt(shift^2 - noise)`` where ``shift^2`` exceeds :func:`shift_chi2` of the number of
+    components times ``noise`` (the variance of the shift's noise), 0 elsewhere.
 
     ``shift^2 - noise`` alone is unbiased but no evidence: for a shift of noise only it is positive
     a third of the time, and adds about half the noise variance on average; where the neighbouring
     band says much less than the measured one that is many times the estimate's own variance (the
     arms of development-range flights: the shift's noise up to fifty times their errors, seed 0).
-    Beyond chance at the family-wise level it is the systematic part: a shift of noise only then
-    adds 0.075 times its variance on average."""
+    Beyond chance at the family-wise level it is the systematic part: a shift of noise only in one
+    component then adds 0.075 times its variance on average. The level is shared among the
+    components: at :data:`SHIFT_CHI2` each, a record of fifteen parameters would draw a systematic
+    part from noise alone once in seven (``1 - 0.99^15``), and where the shift's noise is many times the estimate's
+    error that part swamps it (a development-range flight, seed 99, over 16 noise draws: a reference
+    delay measured to 0.29 us scattered by 0.24 us, and one draw added 3.9 us, a shift of 3.0 times
+    its noise of 1.38 us)."""
     shift, noise = np.asarray(shift, dtype=float), np.asarray(noise, dtype=float)
-    excess = np.where(shift**2 > SHIFT_CHI2 * noise, shift**2 - noise, 0.0)
+    level = shift_chi2(shift.size)
+    excess = np.where(shift**2 > level * noise, shift**2 - noise, 0.0)
     c = np.sqrt(np.divide(excess, shift**2, out=np.zeros_like(excess), where=shift**2 > 0))
     return c * shift
 
