@@ -94,7 +94,7 @@ BAND_NEIGHBOURS = (2.0 ** (-1.0 / 3.0),)
 SHIFT_CHI2 = float(chi2.ppf(1.0 - FAMILY_ALPHA, 1))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def shift_chi2(count: int) -> float:
     """The chi-square point (1 degree of freedom) a shift's square over its noise variance must
     exceed for one of ``count`` parameters tested together: :data:`sizefx.diagnose.selection.FAMILY_ALPHA`
@@ -362,10 +362,10 @@ def systematic_shift(shift, noise) -> np.ndarray:
     Beyond chance at the family-wise level it is the systematic part: a shift of noise only in one
     component then adds 0.075 times its variance on average. The level is shared among the
     components: at :data:`SHIFT_CHI2` each, a record of fifteen parameters would draw a systematic
-    part from noise alone once in seven (``1 - 0.99^15``), and where the shift's noise is many times the estimate's
-    error that part swamps it (a development-range flight, seed 99, over 16 noise draws: a reference
-    delay measured to 0.29 us scattered by 0.24 us, and one draw added 3.9 us, a shift of 3.0 times
-    its noise of 1.38 us)."""
+    part from noise alone once in seven (``1 - 0.99^15``), and where the shift's noise is many
+    times the estimate's error that part swamps it (a development-range flight, seed 99, over 16
+    noise draws: a reference delay measured to 0.29 us scattered by 0.24 us, and one draw added
+    3.9 us, a shift of 3.0 times its noise of 1.38 us)."""
     shift, noise = np.asarray(shift, dtype=float), np.asarray(noise, dtype=float)
     level = shift_chi2(shift.size)
     excess = np.where(shift**2 > level * noise, shift**2 - noise, 0.0)
