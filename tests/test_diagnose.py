@@ -598,11 +598,16 @@ def test_broad_errors_carry_the_bands_and_the_selections_part(broad_diagnoses):
         errors = {(e["effect"], e["parameter"]): e["sigma"] for e in doc["consistency"]["standard_errors"]}
         parts = {(q["effect"], q["parameter"]): q["sigma_selection"] for q in systematic["parameters"]}
         assert set(parts) <= set(errors)
-        # trial 07's x arm moves at the band below beyond chance: the band's part is most of its error
-        # (0.85 of r_x[x]'s); trial 21's arms stay within chance there, and none takes a part
-        shares = [parts[k] / errors[k] for k in parts if k[0] == "lever_arm"]
-        if trial == "07":
-            assert max(shares) > 0.5, (trial, parts)
+        # the part is the shift to the band below beyond chance at the family-wise level for the
+        # record's parameters (budget.shift_chi2): on 21 the y gyro's bias moves by 15.6 times its
+        # noise and takes one; on 07 the largest shifts are 2.9 and 2.7 times theirs among 23
+        # parameters, under the point of 3.52 times, and none takes one (at 1 % for each parameter
+        # alone, 2.58 times, they made 0.85 of r_x[x]'s error). No arm takes a part on either
+        if trial == "21":
+            assert parts[("gyro_bias", "y")] > 0, (trial, parts)
+        else:
+            assert not any(parts.values()), (trial, parts)
+        assert not any(v for k, v in parts.items() if k[0] == "lever_arm"), (trial, parts)
         assert all(errors[k] >= parts[k] * (1 - 1e-9) for k in parts)
         assert "the band's and the selection's part" in report
 
