@@ -75,7 +75,7 @@ def honest(white, robust):
     s_r = np.sqrt(np.where(pos, r, 1.0))
     corr = np.where(np.outer(pos, pos), robust / np.outer(s_r, s_r), 0.0)
     np.fill_diagonal(corr, 1.0)
-    s = np.sqrt(np.maximum(np.where(pos, r, 0.0), np.maximum(w, 0.0)))
+    s = np.sqrt(np.maximum(np.maximum(r, w), 0.0))
     return corr * np.outer(s, s)
 
 
